@@ -1,0 +1,53 @@
+# robotrial: two commands set everything up.
+#   make run   create .venv, install the package and the web build, serve on 127.0.0.1:8000
+#   make test  the same set-up, then every test (unit, integration, browser, corpus)
+
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+WEB_STAMP := src/robotrial/app/static/index.html
+HOST ?= 127.0.0.1
+PORT ?= 8000
+# Offscreen rendering for the simulated cameras; Debian's libosmesa6 (see .ci/run).
+export MUJOCO_GL ?= osmesa
+export PYOPENGL_PLATFORM ?= osmesa
+
+.PHONY: setup run test lint format web clean bench
+
+setup: $(STAMP) $(WEB_STAMP)
+
+$(STAMP): pyproject.toml
+	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q -e '.[dev]'
+	touch $(STAMP)
+
+web/node_modules/.package-lock.json: web/package.json web/package-lock.json
+	cd web && npm ci --no-audit --no-fund
+	touch $@
+
+$(WEB_STAMP): web/node_modules/.package-lock.json $(shell find web/src web/index.html web/vite.config.ts -type f 2>/dev/null) $(STAMP)
+	$(BIN)/python -m robotrial.msgs.typescript web/src/generated/msgs.ts
+	cd web && npm run build
+
+web: $(WEB_STAMP)
+
+run: setup
+	$(BIN)/robotrial serve --host $(HOST) --port $(PORT)
+
+test: setup
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+	$(BIN)/python -m pytest
+
+lint:
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+
+format:
+	$(BIN)/ruff format .
+	$(BIN)/ruff check --fix .
+
+clean:
+	rm -rf $(VENV) web/node_modules src/robotrial/app/static

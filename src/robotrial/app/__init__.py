@@ -1,0 +1,1 @@
+"""The web server: static page, robot and world files, rosbridge endpoint (layer 5)."""

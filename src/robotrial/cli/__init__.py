@@ -1,0 +1,69 @@
+"""The `robotrial` command: parses arguments, calls one subcommand module, prints.
+
+Layer 5. Each subcommand is a module in this package with `HELP` (one line),
+`add_arguments(parser)` and `run(args) -> int`; only the chosen one is imported, so the
+command starts fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+# name -> module in robotrial.cli, in the order `robotrial --help` lists them
+COMMANDS: dict[str, str] = {
+    "serve": "serve",
+    "convert": "convert",
+    "info": "info",
+    "sim": "sim",
+    "plan": "plan",
+    "rosbridge": "rosbridge",
+    "slam": "slam",
+    "nav": "nav",
+    "bench": "bench",
+}
+
+
+def _available() -> dict[str, object]:
+    mods = {}
+    for name, mod in COMMANDS.items():
+        try:
+            mods[name] = importlib.import_module(f"robotrial.cli.{mod}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"robotrial.cli.{mod}":
+                raise
+    return mods
+
+
+def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="robotrial",
+        description="Try a robot in simulation: web app, rosbridge, physics, SLAM, "
+        "navigation and arm planning.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    if selected in COMMANDS:
+        mods = {selected: importlib.import_module(f"robotrial.cli.{COMMANDS[selected]}")}
+    else:
+        mods = _available()
+    for name, mod in mods.items():
+        p = sub.add_parser(name, help=mod.HELP, description=mod.HELP)  # type: ignore[attr-defined]
+        mod.add_arguments(p)  # type: ignore[attr-defined]
+        p.set_defaults(_run=mod.run)  # type: ignore[attr-defined]
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    first = next((a for a in argv if not a.startswith("-")), None)
+    parser = build_parser(first)
+    args = parser.parse_args(argv)
+    if not getattr(args, "_run", None):
+        parser.print_help()
+        return 2
+    return int(args._run(args) or 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

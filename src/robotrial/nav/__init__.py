@@ -1,0 +1,1 @@
+"""Navigation, the move_base role: costmaps, planners, AMCL (layer 3)."""

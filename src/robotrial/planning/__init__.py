@@ -1,0 +1,1 @@
+"""Arm motion planning, the MoveIt role: planners, smoothing, timing (layer 3)."""

@@ -1,0 +1,1 @@
+"""Occupancy-grid SLAM: scan matching and particle-filter mapping (layer 3)."""

@@ -1,0 +1,1 @@
+"""Experiments and reports: headless trials that score the platform (layer 5)."""

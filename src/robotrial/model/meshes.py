@@ -1,0 +1,109 @@
+"""Mesh files to triangles: STL, OBJ, DAE (through pycollada), PLY, OFF and glTF via trimesh.
+
+Layer 1. The URDF loader only resolves where a mesh file is (`Mesh.filename`); the
+triangles are read on first use by `load_mesh`, which caches them per file, so a robot
+whose meshes nobody looks at loads fast.
+"""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from robotrial.geometry import Mesh, MeshData
+from robotrial.model.robot import ModelError
+
+# file suffixes trimesh reads into triangles
+MESH_SUFFIXES: frozenset[str] = frozenset({".stl", ".obj", ".dae", ".ply", ".off", ".glb", ".gltf"})
+
+_cache: dict[tuple[str, int, int], MeshData] = {}
+_lock = threading.Lock()
+
+
+def mesh_format_supported(filename: str | Path) -> bool:
+    """Whether `load_mesh` can read a file with this name (by its suffix)."""
+    return Path(str(filename)).suffix.lower() in MESH_SUFFIXES
+
+
+def read_mesh_file(path: str | Path) -> MeshData:
+    """The triangles of a mesh file, in the file's own units and frame (cached per file).
+
+    A file holding several parts (a DAE or glTF scene) gives one mesh with every part
+    placed by the scene's transforms. ModelError if the file cannot be read or is empty.
+    """
+    p = Path(path)
+    try:
+        st = p.stat()
+    except OSError as exc:
+        raise ModelError(f"mesh file {str(p)!r}: {exc.strerror or exc}") from exc
+    key = (str(p.resolve()), st.st_mtime_ns, st.st_size)
+    with _lock:
+        hit = _cache.get(key)
+    if hit is not None:
+        return hit
+    data = _read(p)
+    with _lock:
+        _cache[key] = data
+    return data
+
+
+def _read(p: Path) -> MeshData:
+    import trimesh
+
+    if not mesh_format_supported(p):
+        raise ModelError(
+            f"mesh file {str(p)!r}: format {p.suffix!r} is not supported "
+            f"(supported: {', '.join(sorted(MESH_SUFFIXES))})"
+        )
+    try:
+        loaded = trimesh.load(str(p), force="mesh", process=False)
+    except Exception as exc:  # trimesh and pycollada raise many kinds
+        raise ModelError(f"mesh file {str(p)!r} cannot be read: {exc}") from exc
+    vertices = np.asarray(getattr(loaded, "vertices", np.zeros((0, 3))), dtype=float)
+    faces = np.asarray(getattr(loaded, "faces", np.zeros((0, 3))), dtype=np.int64)
+    if vertices.size == 0 or faces.size == 0:
+        raise ModelError(f"mesh file {str(p)!r} holds no triangles")
+    if not np.all(np.isfinite(vertices)):
+        raise ModelError(f"mesh file {str(p)!r} has non-finite vertex coordinates")
+    return MeshData(vertices.reshape(-1, 3), faces.reshape(-1, 3))
+
+
+def load_mesh(mesh: Mesh, scaled: bool = True) -> MeshData:
+    """The triangles of a Mesh shape: its `data` if held, else read from `filename`.
+
+    With `scaled` (the default) the vertices are multiplied by `mesh.scale`, giving the
+    shape as it sits in its link; `scaled=False` gives the file's own coordinates.
+    """
+    if mesh.data is not None:
+        raw = mesh.data
+    elif mesh.filename:
+        raw = read_mesh_file(mesh.filename)
+    else:
+        raise ModelError("mesh shape has neither a file name nor triangles")
+    if not scaled or mesh.scale == (1.0, 1.0, 1.0):
+        return raw
+    return MeshData(raw.vertices * np.asarray(mesh.scale), raw.faces)
+
+
+def mesh_bounds(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper corners of the scaled mesh's axis-aligned bounding box."""
+    v = load_mesh(mesh).vertices
+    return v.min(axis=0), v.max(axis=0)
+
+
+def clear_cache() -> None:
+    """Forget every mesh read so far (files are read again on next use)."""
+    with _lock:
+        _cache.clear()
+
+
+__all__ = [
+    "MESH_SUFFIXES",
+    "clear_cache",
+    "load_mesh",
+    "mesh_bounds",
+    "mesh_format_supported",
+    "read_mesh_file",
+]

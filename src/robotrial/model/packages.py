@@ -1,0 +1,170 @@
+"""Where the files a robot description names actually are: `package://`, `file://`, paths.
+
+Layer 1. A URDF names its meshes and textures as `package://NAME/rest`, `file:///abs`,
+absolute or relative paths. ROS finds packages through its install space; robotrial
+finds them through search paths, in this order:
+
+1. the explicit `package_paths` given by the caller,
+2. the folders of the `ROS_PACKAGE_PATH` environment variable (colon separated),
+3. the folders above the description file.
+
+In each search folder a package NAME is the folder itself, a sub-folder, or (up to
+`MAX_DEPTH` levels down) a descendant folder that is named NAME or holds a
+`package.xml` whose `<name>` is NAME. For the folders above the file only the folder
+itself and its direct sub-folders are looked at. When several candidates match, the
+first that holds the requested file wins.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from urllib.parse import unquote
+
+from robotrial.model.robot import ModelError
+
+MAX_DEPTH = 3
+_NAME_RE = re.compile(rb"<name>\s*([^<\s]+)\s*</name>")
+
+
+class ResourceNotFound(ModelError):
+    """A `package://`, `file://` or relative reference that names no existing file."""
+
+    def __init__(self, uri: str, searched: Sequence[str]) -> None:
+        self.uri = uri
+        self.searched = tuple(searched)
+        where = "; ".join(self.searched) if self.searched else "nowhere"
+        super().__init__(f"cannot find {uri!r} (searched: {where})")
+
+
+@lru_cache(maxsize=4096)
+def _package_xml_name(folder: Path) -> str:
+    """The `<name>` in folder/package.xml, or "" when there is none."""
+    try:
+        data = (folder / "package.xml").read_bytes()
+    except OSError:
+        return ""
+    m = _NAME_RE.search(data)
+    return m.group(1).decode("utf-8", "replace") if m else ""
+
+
+def _is_package(folder: Path, name: str) -> bool:
+    return folder.name == name or _package_xml_name(folder) == name
+
+
+def _subdirs(folder: Path) -> list[Path]:
+    try:
+        return sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith("."))
+    except OSError:
+        return []
+
+
+def _walk_packages(root: Path, name: str, depth: int) -> Iterator[Path]:
+    """Folders at or below `root` (up to `depth` levels) that are package `name`."""
+    if _is_package(root, name):
+        yield root
+    if depth <= 0:
+        return
+    for sub in _subdirs(root):
+        yield from _walk_packages(sub, name, depth - 1)
+
+
+def _env_package_paths() -> list[Path]:
+    raw = os.environ.get("ROS_PACKAGE_PATH", "")
+    return [Path(p) for p in raw.split(os.pathsep) if p.strip()]
+
+
+@dataclass(frozen=True)
+class PackageResolver:
+    """Turns the URIs of one description file into absolute paths.
+
+    `base_dir` is the folder of the description file (relative paths start there and
+    its ancestors are searched for packages); `package_paths` are searched first.
+    """
+
+    base_dir: Path | None = None
+    package_paths: tuple[Path, ...] = ()
+    use_environment: bool = True
+    _cache: dict[str, list[Path]] = field(default_factory=dict, compare=False, repr=False)
+
+    @staticmethod
+    def create(
+        base_dir: str | Path | None,
+        package_paths: Sequence[str | Path] = (),
+        use_environment: bool = True,
+    ) -> PackageResolver:
+        base = Path(base_dir).resolve() if base_dir is not None else None
+        paths = tuple(Path(p).expanduser().resolve() for p in package_paths)
+        return PackageResolver(base, paths, use_environment)
+
+    def search_roots(self) -> list[tuple[Path, int]]:
+        """(folder, depth) pairs searched for packages, in order."""
+        roots: list[tuple[Path, int]] = [(p, MAX_DEPTH) for p in self.package_paths]
+        if self.use_environment:
+            roots += [(p, MAX_DEPTH) for p in _env_package_paths()]
+        if self.base_dir is not None:
+            roots += [(a, 1) for a in (self.base_dir, *self.base_dir.parents)]
+        return roots
+
+    def package_candidates(self, name: str) -> list[Path]:
+        """Folders that are package `name`, best first."""
+        if name in self._cache:
+            return self._cache[name]
+        found: list[Path] = []
+        for root, depth in self.search_roots():
+            if not root.is_dir():
+                continue
+            for p in _walk_packages(root, name, depth):
+                if p not in found:
+                    found.append(p)
+        self._cache[name] = found
+        return found
+
+    def resolve(self, uri: str) -> Path:
+        """The absolute path of an existing file named by `uri`; ResourceNotFound if none."""
+        uri = uri.strip()
+        if uri.startswith("package://"):
+            rest = uri[len("package://") :].lstrip("/")
+            name, _, sub = rest.partition("/")
+            if not name or not sub:
+                raise ResourceNotFound(uri, ["(malformed: expected package://NAME/path)"])
+            candidates = self.package_candidates(name)
+            for pkg in candidates:
+                path = pkg / unquote(sub)
+                if path.is_file():
+                    return path.resolve()
+            searched = [str(p / sub) for p in candidates]
+            if not candidates:
+                searched = [
+                    f"package {name!r} not found in {root}" for root, _ in self.search_roots()
+                ]
+            raise ResourceNotFound(uri, searched)
+        if uri.startswith("file://"):
+            path = Path(unquote(uri[len("file://") :]))
+            if not path.is_absolute() and self.base_dir is not None:
+                path = self.base_dir / path
+        elif "://" in uri:
+            raise ResourceNotFound(uri, ["(unsupported scheme; use package://, file:// or a path)"])
+        else:
+            path = Path(uri).expanduser()
+            if not path.is_absolute():
+                if self.base_dir is None:
+                    raise ResourceNotFound(uri, ["(relative path with no base folder)"])
+                path = self.base_dir / path
+        if path.is_file():
+            return path.resolve()
+        raise ResourceNotFound(uri, [str(path)])
+
+
+def resolve_uri(
+    uri: str, base_dir: str | Path | None = None, package_paths: Sequence[str | Path] = ()
+) -> Path:
+    """One-shot resolution of `uri` (see PackageResolver)."""
+    return PackageResolver.create(base_dir, package_paths).resolve(uri)
+
+
+__all__ = ["PackageResolver", "ResourceNotFound", "resolve_uri"]

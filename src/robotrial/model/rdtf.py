@@ -1,0 +1,740 @@
+"""RDTF: a robot as glTF 2.0 binary with physics, the format the browser loads.
+
+Layer 1 (descriptions). `write_rdtf` turns a RobotModel into a `.glb`; `read_rdtf`
+turns one back, keeping every field. docs/rdtf.md is the specification. In short:
+
+- one node per link, named as the link, nested as the kinematic tree; a child link's
+  local transform is its joint origin; the root link's node is the scene's root;
+- visuals are child nodes `LINK/visual/I` holding triangle meshes and PBR materials;
+- collision shapes are child nodes `LINK/collision/I` carrying a
+  `KHR_physics_rigid_bodies` collider (box, sphere, cylinder from
+  `KHR_implicit_shapes`, meshes through a node outside the scene);
+- a link with mass carries a `KHR_physics_rigid_bodies` motion (mass, centre of mass,
+  principal inertia);
+- the root-level `RDTF_robot` extension holds the whole model in float64 JSON (joints,
+  sensors, spheres, metadata, materials, exact inertials and origins, mesh files), so
+  reading never depends on float32 accessors except for mesh vertices.
+
+Coordinates are the robot's own (metres, z up); a y-up viewer rotates the scene.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pygltflib
+import trimesh
+from scipy.spatial.transform import Rotation
+
+from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Shape, Sphere
+from robotrial.model.meshes import load_mesh
+from robotrial.model.robot import (
+    Collision,
+    CollisionSphere,
+    Inertial,
+    Joint,
+    JointDynamics,
+    JointLimit,
+    Link,
+    Material,
+    Mimic,
+    ModelError,
+    RobotModel,
+    Sensor,
+    Visual,
+)
+
+RDTF_EXTENSION = "RDTF_robot"
+RDTF_VERSION = 1
+PHYSICS_EXTENSION = "KHR_physics_rigid_bodies"
+SHAPES_EXTENSION = "KHR_implicit_shapes"
+DEFAULT_RGBA = (0.7, 0.7, 0.7, 1.0)
+CYLINDER_SEGMENTS = 32
+SPHERE_SUBDIVISIONS = 2
+# glTF cylinders run along y; URDF cylinders along z. Rotating +90 deg about x maps y to z.
+Y_TO_Z = Pose((0.0, 0.0, 0.0), (math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)))
+
+
+# --- JSON encoding of model fields (float64, exact) ----------------------------------
+
+
+def _num(x: float) -> float | str:
+    """A float for JSON; non-finite values become the strings "inf", "-inf", "nan"."""
+    x = float(x)
+    if math.isfinite(x):
+        return x
+    return "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")
+
+
+def _unnum(v: Any) -> float:
+    return float(v)
+
+
+def _nums(values) -> list[float | str]:
+    return [_num(v) for v in values]
+
+
+def _exact_pose(xyz, quat) -> Pose:
+    """A Pose holding exactly these float64 values (no re-normalisation)."""
+    p = Pose(xyz, quat)
+    object.__setattr__(p, "xyz", tuple(float(v) for v in xyz))
+    object.__setattr__(p, "quat", tuple(float(v) for v in quat))
+    return p
+
+
+def _pose_json(p: Pose) -> dict:
+    return {"xyz": _nums(p.xyz), "quat": _nums(p.quat)}
+
+
+def _pose_from(d: Mapping, where: str) -> Pose:
+    try:
+        xyz = [_unnum(v) for v in d["xyz"]]
+        quat = [_unnum(v) for v in d["quat"]]
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ModelError(f"{where}: a pose needs xyz (3 numbers) and quat (4 numbers)") from exc
+    if len(xyz) != 3 or len(quat) != 4:
+        raise ModelError(f"{where}: a pose needs xyz (3 numbers) and quat (4 numbers)")
+    return _exact_pose(xyz, quat)
+
+
+def _plain(value: Any, where: str) -> Any:
+    """Metadata and sensor parameters as JSON values; tuples become lists."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v, f"{where}.{k}") for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value)]
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist(), where)
+    if isinstance(value, np.generic):
+        return _plain(value.item(), where)
+    if isinstance(value, bool) or value is None or isinstance(value, int | str):
+        return value
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ModelError(f"{where}: {value} cannot be stored in RDTF (JSON has no inf/nan)")
+        return value
+    raise ModelError(f"{where}: a {type(value).__name__} cannot be stored in RDTF")
+
+
+# --- mesh data ----------------------------------------------------------------------
+
+
+def _primitive_mesh(shape: Shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Display triangles (vertices, normals, faces) for a box, cylinder or sphere."""
+    if isinstance(shape, Box):
+        tm = trimesh.creation.box(extents=shape.size)
+        tm = tm.copy()
+        tm.unmerge_vertices()
+    elif isinstance(shape, Cylinder):
+        tm = trimesh.creation.cylinder(
+            radius=shape.radius, height=shape.length, sections=CYLINDER_SEGMENTS
+        ).smooth_shaded
+    elif isinstance(shape, Sphere):
+        tm = trimesh.creation.icosphere(subdivisions=SPHERE_SUBDIVISIONS, radius=shape.radius)
+    else:
+        raise TypeError(shape)
+    return np.asarray(tm.vertices), np.asarray(tm.vertex_normals), np.asarray(tm.faces)
+
+
+def _vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Area-weighted unit vertex normals; vertices with no area get +z."""
+    n = np.zeros_like(vertices)
+    if len(faces):
+        tri = vertices[faces]
+        fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        for k in range(3):
+            np.add.at(n, faces[:, k], fn)
+    length = np.linalg.norm(n, axis=1)
+    bad = ~(length > 1e-20)
+    n[bad] = (0.0, 0.0, 1.0)
+    length[bad] = 1.0
+    return n / length[:, None]
+
+
+class _Builder:
+    """Collects buffer views, accessors, meshes and materials for one glTF file."""
+
+    def __init__(self) -> None:
+        self.gltf = pygltflib.GLTF2(asset=pygltflib.Asset(version="2.0", generator="robotrial"))
+        self.blob = bytearray()
+        self.material_index: dict[tuple, int] = {}
+
+    def _view(self, data: bytes, target: int) -> int:
+        while len(self.blob) % 4:
+            self.blob.append(0)
+        self.gltf.bufferViews.append(
+            pygltflib.BufferView(
+                buffer=0, byteOffset=len(self.blob), byteLength=len(data), target=target
+            )
+        )
+        self.blob.extend(data)
+        return len(self.gltf.bufferViews) - 1
+
+    def _vec3_accessor(self, values: np.ndarray, with_bounds: bool) -> int:
+        arr = np.ascontiguousarray(values, dtype=np.float32)
+        view = self._view(arr.tobytes(), pygltflib.ARRAY_BUFFER)
+        acc = pygltflib.Accessor(
+            bufferView=view,
+            componentType=pygltflib.FLOAT,
+            count=len(arr),
+            type=pygltflib.VEC3,
+        )
+        if with_bounds:
+            acc.min = [float(v) for v in arr.min(axis=0)]
+            acc.max = [float(v) for v in arr.max(axis=0)]
+        self.gltf.accessors.append(acc)
+        return len(self.gltf.accessors) - 1
+
+    def _index_accessor(self, faces: np.ndarray) -> int:
+        arr = np.ascontiguousarray(faces, dtype=np.uint32).reshape(-1)
+        view = self._view(arr.tobytes(), pygltflib.ELEMENT_ARRAY_BUFFER)
+        self.gltf.accessors.append(
+            pygltflib.Accessor(
+                bufferView=view,
+                componentType=pygltflib.UNSIGNED_INT,
+                count=len(arr),
+                type=pygltflib.SCALAR,
+            )
+        )
+        return len(self.gltf.accessors) - 1
+
+    def material(self, name: str, rgba) -> int:
+        key = (name, tuple(float(c) for c in rgba))
+        if key not in self.material_index:
+            r, g, b, a = (min(max(float(c), 0.0), 1.0) for c in rgba)
+            self.gltf.materials.append(
+                pygltflib.Material(
+                    name=name or "default",
+                    pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(
+                        baseColorFactor=[r, g, b, a], metallicFactor=0.0, roughnessFactor=0.7
+                    ),
+                    alphaMode=pygltflib.BLEND if a < 1.0 else pygltflib.OPAQUE,
+                    doubleSided=False,
+                )
+            )
+            self.material_index[key] = len(self.gltf.materials) - 1
+        return self.material_index[key]
+
+    def mesh(
+        self,
+        name: str,
+        vertices: np.ndarray,
+        faces: np.ndarray,
+        material: int | None,
+        normals: np.ndarray | None = None,
+    ) -> int | None:
+        """A glTF mesh with one triangle primitive; None when there are no triangles."""
+        vertices = np.asarray(vertices, dtype=float)
+        faces = np.asarray(faces, dtype=np.int64)
+        if len(vertices) == 0 or len(faces) == 0:
+            return None
+        if normals is None:
+            normals = _vertex_normals(vertices, faces)
+        pos = self._vec3_accessor(vertices, with_bounds=True)
+        nrm = self._vec3_accessor(normals, with_bounds=False)
+        idx = self._index_accessor(faces)
+        prim = pygltflib.Primitive(
+            attributes=pygltflib.Attributes(POSITION=pos, NORMAL=nrm),
+            indices=idx,
+            mode=pygltflib.TRIANGLES,
+        )
+        if material is not None:
+            prim.material = material
+        self.gltf.meshes.append(pygltflib.Mesh(name=name, primitives=[prim]))
+        return len(self.gltf.meshes) - 1
+
+    def node(self, name: str, pose: Pose = Pose(), **fields: Any) -> int:
+        node = pygltflib.Node(name=name, **fields)
+        if any(v != 0.0 for v in pose.xyz):
+            node.translation = [float(v) for v in pose.xyz]
+        if pose.quat != (0.0, 0.0, 0.0, 1.0):
+            node.rotation = [float(v) for v in pose.quat]
+        self.gltf.nodes.append(node)
+        return len(self.gltf.nodes) - 1
+
+    def finish(self, extensions_used: list[str]) -> bytes:
+        while len(self.blob) % 4:
+            self.blob.append(0)
+        if self.blob:
+            self.gltf.buffers.append(pygltflib.Buffer(byteLength=len(self.blob)))
+            self.gltf.set_binary_blob(bytes(self.blob))
+        self.gltf.extensionsUsed = extensions_used
+        return b"".join(self.gltf.save_to_bytes())
+
+
+# --- writing ------------------------------------------------------------------------
+
+
+def _motion(inertial: Inertial) -> dict:
+    """KHR_physics_rigid_bodies motion: mass, centre of mass, principal inertia in link frame."""
+    rot = inertial.origin.rotation()
+    tensor = rot @ inertial.tensor() @ rot.T
+    moments, axes = np.linalg.eigh(tensor)
+    if np.linalg.det(axes) < 0:
+        axes[:, 0] = -axes[:, 0]
+    q = Rotation.from_matrix(axes).as_quat()
+    # zero would mean "infinite" to a physics engine; a point mass gets a tiny inertia
+    moments = np.maximum(moments, 1e-12)
+    return {
+        "mass": float(inertial.mass),
+        "centerOfMass": [float(v) for v in inertial.origin.xyz],
+        "inertiaDiagonal": [float(v) for v in moments],
+        "inertiaOrientation": [float(v) for v in q / np.linalg.norm(q)],
+    }
+
+
+def _shape_json(shape: Shape) -> dict:
+    if isinstance(shape, Box):
+        return {"type": "box", "size": _nums(shape.size)}
+    if isinstance(shape, Cylinder):
+        return {"type": "cylinder", "radius": _num(shape.radius), "length": _num(shape.length)}
+    if isinstance(shape, Sphere):
+        return {"type": "sphere", "radius": _num(shape.radius)}
+    if isinstance(shape, Mesh):
+        return {"type": "mesh", "filename": shape.filename, "scale": _nums(shape.scale)}
+    raise ModelError(f"unknown shape {shape!r}")
+
+
+class _RobotWriter:
+    def __init__(self, model: RobotModel) -> None:
+        self.model = model
+        self.b = _Builder()
+        self.shapes: list[dict] = []
+        self.mesh_cache: dict[int, tuple[int | None, MeshData]] = {}
+        self.extra_nodes: list[int] = []
+
+    def _mesh_data(self, shape: Mesh, where: str) -> MeshData:
+        if shape.data is not None:
+            return shape.data
+        if not shape.filename:
+            raise ModelError(f"{where}: mesh has neither a file nor triangles")
+        return load_mesh(shape, scaled=False)
+
+    def _file_mesh(self, shape: Mesh, where: str, material: int | None) -> tuple[int | None, dict]:
+        """The glTF mesh for a mesh shape (shared when the same triangles recur)."""
+        data = self._mesh_data(shape, where)
+        key = (id(data), material)
+        if key not in self.mesh_cache:
+            index = self.b.mesh(where, data.vertices, data.faces, material)
+            self.mesh_cache[key] = (index, data)
+        index, _ = self.mesh_cache[key]
+        geom = _shape_json(shape)
+        geom["mesh"] = index
+        if index is None:
+            geom["vertices"] = [_nums(v) for v in data.vertices]
+            geom["faces"] = data.faces.tolist()
+        return index, geom
+
+    def _visual(self, link: Link, i: int, visual: Visual) -> tuple[int, dict]:
+        name = f"{link.name}/visual/{i}"
+        mat = self.model.materials.get(visual.material)
+        rgba = mat.rgba if mat is not None else DEFAULT_RGBA
+        material = self.b.material(visual.material, rgba)
+        shape = visual.geometry
+        fields: dict[str, Any] = {}
+        if isinstance(shape, Mesh):
+            index, geom = self._file_mesh(shape, name, material)
+            if shape.scale != (1.0, 1.0, 1.0):
+                fields["scale"] = [float(v) for v in shape.scale]
+        else:
+            v, n, f = _primitive_mesh(shape)
+            index = self.b.mesh(name, v, f, material, normals=n)
+            geom = _shape_json(shape)
+        pose = visual.origin
+        if index is not None:
+            fields["mesh"] = index
+        node = self.b.node(name, pose, **fields)
+        record = {
+            "name": visual.name,
+            "node": node,
+            "origin": _pose_json(visual.origin),
+            "material": visual.material,
+            "geometry": geom,
+        }
+        return node, record
+
+    def _shape_index(self, shape: dict) -> int:
+        self.shapes.append(shape)
+        return len(self.shapes) - 1
+
+    def _collision(self, link: Link, i: int, col: Collision) -> tuple[int, dict]:
+        name = f"{link.name}/collision/{i}"
+        shape = col.geometry
+        pose = col.origin
+        fields: dict[str, Any] = {}
+        if isinstance(shape, Box):
+            geometry = {
+                "shape": self._shape_index({"type": "box", "box": {"size": list(shape.size)}})
+            }
+            geom = _shape_json(shape)
+        elif isinstance(shape, Sphere):
+            geometry = {
+                "shape": self._shape_index({"type": "sphere", "sphere": {"radius": shape.radius}})
+            }
+            geom = _shape_json(shape)
+        elif isinstance(shape, Cylinder):
+            cyl = {"height": shape.length, "radiusTop": shape.radius, "radiusBottom": shape.radius}
+            geometry = {"shape": self._shape_index({"type": "cylinder", "cylinder": cyl})}
+            pose = pose @ Y_TO_Z
+            geom = _shape_json(shape)
+        else:
+            index, geom = self._file_mesh(shape, name, None)
+            geometry = None
+            if index is not None:
+                scale = [float(v) for v in shape.scale] if shape.scale != (1.0, 1.0, 1.0) else None
+                holder = self.b.node(f"{name}/mesh", mesh=index, scale=scale)
+                self.extra_nodes.append(holder)
+                geometry = {"node": holder, "convexHull": False}
+        if geometry is not None and _valid_shape(self.shapes, geometry):
+            fields["extensions"] = {PHYSICS_EXTENSION: {"collider": {"geometry": geometry}}}
+        node = self.b.node(name, pose, **fields)
+        record = {
+            "name": col.name,
+            "node": node,
+            "origin": _pose_json(col.origin),
+            "geometry": geom,
+        }
+        return node, record
+
+    def _link(self, link: Link, records: list[dict]) -> int:
+        kids: list[int] = []
+        visuals = []
+        for i, v in enumerate(link.visuals):
+            node, rec = self._visual(link, i, v)
+            kids.append(node)
+            visuals.append(rec)
+        collisions = []
+        for i, c in enumerate(link.collisions):
+            node, rec = self._collision(link, i, c)
+            kids.append(node)
+            collisions.append(rec)
+        parent = self.model.parent_joint(link.name)
+        fields: dict[str, Any] = {}
+        if link.inertial is not None and link.inertial.mass > 0:
+            fields["extensions"] = {PHYSICS_EXTENSION: {"motion": _motion(link.inertial)}}
+        node = self.b.node(link.name, parent.origin if parent else Pose(), **fields)
+        record: dict[str, Any] = {
+            "name": link.name,
+            "node": node,
+            "inertial": _inertial_json(link.inertial),
+            "visuals": visuals,
+            "collisions": collisions,
+        }
+        records.append(record)
+        for j in self.model.child_joints(link.name):
+            kids.append(self._link(self.model.link(j.child), records))
+        if kids:
+            self.b.gltf.nodes[node].children = kids
+        return node
+
+    def write(self) -> bytes:
+        m = self.model
+        if not m.links:
+            raise ModelError(f"robot {m.name!r} has no links; nothing to write")
+        records: list[dict] = []
+        root = self._link(m.link(m.root), records)
+        by_name = {r["name"]: r for r in records}
+        link_nodes = {r["name"]: r["node"] for r in records}
+        self.b.gltf.scenes = [pygltflib.Scene(name=m.name, nodes=[root])]
+        self.b.gltf.scene = 0
+        robot = {
+            "version": RDTF_VERSION,
+            "name": m.name,
+            "root": m.root,
+            "tcp": m.tcp,
+            "end_effector": m.end_effector,
+            "source": m.source,
+            "repairs": list(m.repairs),
+            "links": [by_name[lk.name] for lk in m.links],
+            "joints": [_joint_json(j, link_nodes[j.child]) for j in m.joints],
+            "actuated_joints": m.joint_names,
+            "sensors": [_sensor_json(s) for s in m.sensors],
+            "spheres": [
+                {"link": s.link, "center": _nums(s.center), "radius": _num(s.radius)}
+                for s in m.spheres
+            ],
+            "materials": [
+                {
+                    "name": mat.name,
+                    "key": key,
+                    "rgba": _nums(mat.rgba),
+                    "texture": mat.texture,
+                }
+                for key, mat in m.materials.items()
+            ],
+            "metadata": _plain(dict(m.metadata), "metadata"),
+        }
+        used = [RDTF_EXTENSION]
+        ext: dict[str, Any] = {RDTF_EXTENSION: robot}
+        if any(PHYSICS_EXTENSION in (n.extensions or {}) for n in self.b.gltf.nodes):
+            used.append(PHYSICS_EXTENSION)
+        if self.shapes:
+            ext[SHAPES_EXTENSION] = {"shapes": self.shapes}
+            used.append(SHAPES_EXTENSION)
+        self.b.gltf.extensions = ext
+        return self.b.finish(sorted(used))
+
+
+def _valid_shape(shapes: list[dict], geometry: dict) -> bool:
+    """KHR_implicit_shapes forbids degenerate shapes; those stay only in RDTF_robot."""
+    if "shape" not in geometry:
+        return True
+    s = shapes[geometry["shape"]]
+    params = s[s["type"]]
+    values = [v for k, v in params.items() if k != "radiusBottom"]
+    flat = [x for v in values for x in (v if isinstance(v, list) else [v])]
+    return all(math.isfinite(x) and x > 0 for x in flat)
+
+
+def _inertial_json(inertial: Inertial | None) -> dict | None:
+    if inertial is None:
+        return None
+    return {
+        "mass": _num(inertial.mass),
+        "origin": _pose_json(inertial.origin),
+        "ixx": _num(inertial.ixx),
+        "ixy": _num(inertial.ixy),
+        "ixz": _num(inertial.ixz),
+        "iyy": _num(inertial.iyy),
+        "iyz": _num(inertial.iyz),
+        "izz": _num(inertial.izz),
+    }
+
+
+def _joint_json(j: Joint, node: int) -> dict:
+    return {
+        "name": j.name,
+        "type": j.type,
+        "parent": j.parent,
+        "child": j.child,
+        "node": node,
+        "origin": _pose_json(j.origin),
+        "axis": _nums(j.axis),
+        "limit": None
+        if j.limit is None
+        else {
+            "lower": _num(j.limit.lower),
+            "upper": _num(j.limit.upper),
+            "effort": _num(j.limit.effort),
+            "velocity": _num(j.limit.velocity),
+        },
+        "dynamics": None
+        if j.dynamics is None
+        else {"damping": _num(j.dynamics.damping), "friction": _num(j.dynamics.friction)},
+        "mimic": None
+        if j.mimic is None
+        else {
+            "joint": j.mimic.joint,
+            "multiplier": _num(j.mimic.multiplier),
+            "offset": _num(j.mimic.offset),
+        },
+    }
+
+
+def _sensor_json(s: Sensor) -> dict:
+    return {
+        "name": s.name,
+        "type": s.type,
+        "link": s.link,
+        "origin": _pose_json(s.origin),
+        "rate_hz": _num(s.rate_hz),
+        "params": _plain(dict(s.params), f"sensor {s.name}.params"),
+    }
+
+
+def write_rdtf(model: RobotModel, path: str | Path | None = None) -> bytes:
+    """The RDTF (.glb) bytes of `model`; also written to `path` when one is given."""
+    data = _RobotWriter(model).write()
+    if path is not None:
+        Path(path).write_bytes(data)
+    return data
+
+
+# --- reading ------------------------------------------------------------------------
+
+
+class _Reader:
+    def __init__(self, gltf: pygltflib.GLTF2, where: str) -> None:
+        self.gltf = gltf
+        self.where = where
+        self.blob = gltf.binary_blob() or b""
+        self.mesh_cache: dict[int, MeshData] = {}
+
+    def _accessor(self, index: int) -> np.ndarray:
+        acc = self.gltf.accessors[index]
+        view = self.gltf.bufferViews[acc.bufferView]
+        dtype = {
+            pygltflib.FLOAT: np.float32,
+            pygltflib.UNSIGNED_INT: np.uint32,
+            pygltflib.UNSIGNED_SHORT: np.uint16,
+            pygltflib.UNSIGNED_BYTE: np.uint8,
+        }[acc.componentType]
+        width = {pygltflib.SCALAR: 1, pygltflib.VEC3: 3}[acc.type]
+        start = (view.byteOffset or 0) + (acc.byteOffset or 0)
+        arr = np.frombuffer(self.blob, dtype=dtype, count=acc.count * width, offset=start)
+        return arr.reshape(acc.count, width) if width > 1 else arr
+
+    def mesh_data(self, index: int) -> MeshData:
+        if index not in self.mesh_cache:
+            try:
+                prim = self.gltf.meshes[index].primitives[0]
+                vertices = self._accessor(prim.attributes.POSITION).astype(float)
+                faces = self._accessor(prim.indices).astype(np.int64).reshape(-1, 3)
+            except (IndexError, KeyError, TypeError, ValueError) as exc:
+                raise ModelError(f"{self.where}: mesh {index} cannot be read ({exc})") from None
+            self.mesh_cache[index] = MeshData(vertices, faces)
+        return self.mesh_cache[index]
+
+    def shape(self, d: Mapping, where: str) -> Shape:
+        kind = d.get("type")
+        try:
+            if kind == "box":
+                return Box(tuple(_unnum(v) for v in d["size"]))
+            if kind == "cylinder":
+                return Cylinder(_unnum(d["radius"]), _unnum(d["length"]))
+            if kind == "sphere":
+                return Sphere(_unnum(d["radius"]))
+            if kind == "mesh":
+                if d.get("mesh") is not None:
+                    data = self.mesh_data(int(d["mesh"]))
+                else:
+                    data = MeshData(
+                        np.array([[_unnum(x) for x in v] for v in d.get("vertices", [])]).reshape(
+                            -1, 3
+                        ),
+                        np.array(d.get("faces", []), dtype=np.int64).reshape(-1, 3),
+                    )
+                return Mesh(str(d.get("filename", "")), tuple(_unnum(v) for v in d["scale"]), data)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ModelError(f"{self.where}: {where}: bad {kind} geometry ({exc})") from None
+        raise ModelError(f"{self.where}: {where}: unknown geometry type {kind!r}")
+
+    def link(self, d: Mapping) -> Link:
+        name = str(d["name"])
+        inertial = None
+        if d.get("inertial") is not None:
+            i = d["inertial"]
+            inertial = Inertial(
+                mass=_unnum(i["mass"]),
+                origin=_pose_from(i["origin"], f"{self.where}: link {name} inertial"),
+                **{k: _unnum(i[k]) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
+            )
+        visuals = tuple(
+            Visual(
+                geometry=self.shape(v["geometry"], f"link {name} visual {k}"),
+                origin=_pose_from(v["origin"], f"{self.where}: link {name} visual {k}"),
+                material=str(v.get("material", "")),
+                name=str(v.get("name", "")),
+            )
+            for k, v in enumerate(d.get("visuals", []))
+        )
+        collisions = tuple(
+            Collision(
+                geometry=self.shape(c["geometry"], f"link {name} collision {k}"),
+                origin=_pose_from(c["origin"], f"{self.where}: link {name} collision {k}"),
+                name=str(c.get("name", "")),
+            )
+            for k, c in enumerate(d.get("collisions", []))
+        )
+        return Link(name, inertial, visuals, collisions)
+
+
+def _joint_from(d: Mapping, where: str) -> Joint:
+    lim, dyn, mim = d.get("limit"), d.get("dynamics"), d.get("mimic")
+    return Joint(
+        name=str(d["name"]),
+        type=str(d["type"]),  # type: ignore[arg-type]
+        parent=str(d["parent"]),
+        child=str(d["child"]),
+        origin=_pose_from(d["origin"], f"{where}: joint {d['name']}"),
+        axis=tuple(_unnum(v) for v in d["axis"]),  # type: ignore[arg-type]
+        limit=None
+        if lim is None
+        else JointLimit(*(_unnum(lim[k]) for k in ("lower", "upper", "effort", "velocity"))),
+        dynamics=None
+        if dyn is None
+        else JointDynamics(_unnum(dyn["damping"]), _unnum(dyn["friction"])),
+        mimic=None
+        if mim is None
+        else Mimic(str(mim["joint"]), _unnum(mim["multiplier"]), _unnum(mim["offset"])),
+    )
+
+
+def _sensor_from(d: Mapping, where: str) -> Sensor:
+    return Sensor(
+        name=str(d["name"]),
+        type=str(d["type"]),  # type: ignore[arg-type]
+        link=str(d["link"]),
+        origin=_pose_from(d["origin"], f"{where}: sensor {d['name']}"),
+        rate_hz=_unnum(d["rate_hz"]),
+        params=dict(d.get("params", {})),
+    )
+
+
+def rdtf_from_bytes(data: bytes, where: str = "RDTF") -> RobotModel:
+    """A RobotModel from RDTF (.glb) bytes; `where` names the source in errors."""
+    try:
+        gltf = pygltflib.GLTF2.load_from_bytes(data)
+    except Exception as exc:
+        raise ModelError(f"{where}: not a glTF binary file ({exc})") from None
+    robot = (gltf.extensions or {}).get(RDTF_EXTENSION)
+    if not isinstance(robot, Mapping):
+        raise ModelError(
+            f"{where}: a plain glTF file, not RDTF: it has no {RDTF_EXTENSION} extension"
+        )
+    version = robot.get("version")
+    if version != RDTF_VERSION:
+        raise ModelError(f"{where}: RDTF version {version!r}; this reader knows {RDTF_VERSION}")
+    reader = _Reader(gltf, where)
+    try:
+        links = tuple(reader.link(d) for d in robot["links"])
+        joints = tuple(_joint_from(d, where) for d in robot["joints"])
+        sensors = tuple(_sensor_from(d, where) for d in robot.get("sensors", []))
+        spheres = tuple(
+            CollisionSphere(
+                str(s["link"]),
+                tuple(_unnum(v) for v in s["center"]),  # type: ignore[arg-type]
+                _unnum(s["radius"]),
+            )
+            for s in robot.get("spheres", [])
+        )
+        materials = {
+            str(m["key"]): Material(
+                str(m["name"]),
+                tuple(_unnum(v) for v in m["rgba"]),  # type: ignore[arg-type]
+                str(m.get("texture", "")),
+            )
+            for m in robot.get("materials", [])
+        }
+        return RobotModel(
+            name=str(robot["name"]),
+            links=links,
+            joints=joints,
+            materials=materials,
+            sensors=sensors,
+            spheres=spheres,
+            tcp=str(robot.get("tcp", "")),
+            metadata=dict(robot.get("metadata", {})),
+            source=str(robot.get("source", "")),
+            repairs=tuple(str(r) for r in robot.get("repairs", [])),
+        )
+    except (KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, ModelError):
+            raise
+        raise ModelError(
+            f"{where}: {RDTF_EXTENSION} is incomplete or malformed ({exc!r})"
+        ) from None
+
+
+def read_rdtf(path: str | Path) -> RobotModel:
+    """A RobotModel from an RDTF (.glb) file written by `write_rdtf`."""
+    p = Path(path)
+    try:
+        data = p.read_bytes()
+    except OSError as exc:
+        raise ModelError(f"{p}: cannot read RDTF file ({exc.strerror})") from None
+    return rdtf_from_bytes(data, str(p))

@@ -1,0 +1,304 @@
+"""RDTF: RobotModel -> .glb -> RobotModel keeps every field, and the Khronos glTF
+validator accepts every file written (built-in robots, hand-built models, worlds)."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pygltflib
+import pytest
+import trimesh
+
+from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Sphere
+from robotrial.model import library, load_robot
+from robotrial.model.meshes import load_mesh
+from robotrial.model.rdtf import RDTF_EXTENSION, rdtf_from_bytes, read_rdtf, write_rdtf
+from robotrial.model.robot import (
+    Collision,
+    CollisionSphere,
+    Inertial,
+    Joint,
+    JointDynamics,
+    JointLimit,
+    Link,
+    Material,
+    Mimic,
+    ModelError,
+    RobotModel,
+    Sensor,
+    Visual,
+)
+
+ROOT = Path(__file__).resolve().parents[2]
+VALIDATOR = ROOT / "tools" / "validate_gltf.mjs"
+
+
+def validate(paths: list[Path]) -> dict[str, dict]:
+    """Run the Khronos validator (tools/validate_gltf.mjs) once on all files."""
+    node = shutil.which("node")
+    assert node, "node is needed for the glTF validator (make setup installs it)"
+    assert (ROOT / "tools" / "node_modules" / "gltf-validator").is_dir(), (
+        "gltf-validator missing: run `make setup` (cd tools && npm ci)"
+    )
+    out = subprocess.run(
+        [node, str(VALIDATOR), *map(str, paths)], capture_output=True, text=True, check=True
+    )
+    return {r["file"]: r for r in json.loads(out.stdout)}
+
+
+def errors_of(report: dict) -> list[str]:
+    return [
+        f"{m['code']} {m['pointer']}: {m['message']}"
+        for m in report["messages"]
+        if m["severity"] == "error"
+    ]
+
+
+def resolved(model: RobotModel) -> RobotModel:
+    """The model with every lazily loaded mesh's triangles in place (an RDTF holds them)."""
+
+    def fill(shape):
+        if isinstance(shape, Mesh) and shape.data is None:
+            return Mesh(shape.filename, shape.scale, load_mesh(shape, scaled=False))
+        return shape
+
+    links = tuple(
+        Link(
+            lk.name,
+            lk.inertial,
+            tuple(Visual(fill(v.geometry), v.origin, v.material, v.name) for v in lk.visuals),
+            tuple(Collision(fill(c.geometry), c.origin, c.name) for c in lk.collisions),
+        )
+        for lk in model.links
+    )
+    return model.with_changes(links=links)
+
+
+def assert_same_model(a: RobotModel, b: RobotModel) -> None:
+    """Field-by-field equality with messages that say where they differ. Poses, joints
+    and inertials must match exactly; mesh vertices within 1e-6 (MeshData equality)."""
+    a = resolved(a)
+    assert a.name == b.name
+    assert [lk.name for lk in a.links] == [lk.name for lk in b.links]
+    for la, lb in zip(a.links, b.links, strict=True):
+        assert la.inertial == lb.inertial, f"link {la.name} inertial"
+        assert len(la.visuals) == len(lb.visuals), f"link {la.name} visuals"
+        for k, (va, vb) in enumerate(zip(la.visuals, lb.visuals, strict=True)):
+            assert va == vb, f"link {la.name} visual {k}"
+        assert len(la.collisions) == len(lb.collisions), f"link {la.name} collisions"
+        for k, (ca, cb) in enumerate(zip(la.collisions, lb.collisions, strict=True)):
+            assert ca == cb, f"link {la.name} collision {k}"
+        assert la == lb
+    for ja, jb in zip(a.joints, b.joints, strict=True):
+        assert ja == jb, f"joint {ja.name}"
+    assert len(a.joints) == len(b.joints)
+    assert dict(a.materials) == dict(b.materials)
+    assert a.sensors == b.sensors
+    assert a.spheres == b.spheres
+    assert a.tcp == b.tcp
+    assert json.loads(json.dumps(dict(a.metadata))) == dict(b.metadata)
+    assert a.source == b.source
+    assert a.repairs == b.repairs
+
+
+def hand_built(tmp_path: Path) -> RobotModel:
+    """A robot using every RobotModel feature: all shapes, mesh files and in-memory
+    meshes, rotated origins, mimic joints, sensors, spheres, metadata, repairs."""
+    stl = tmp_path / "part.stl"
+    trimesh.creation.annulus(r_min=0.01, r_max=0.03, height=0.05).export(stl)
+    part = Mesh(str(stl), (0.5, 0.5, 2.0))
+    tetra = MeshData(
+        np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]], dtype=float) + 0.123456789,
+        np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]),
+    )
+    odd = Pose.from_xyz_rpy((0.1, -0.2, 0.3), (0.3, -1.1, 2.9))
+    links = (
+        Link(
+            "base",
+            Inertial(2.5, Pose((0.01, 0.0, 0.05)), 0.1, 0.001, -0.002, 0.2, 0.003, 0.3),
+            (Visual(Box((0.2, 0.3, 0.1)), Pose((0, 0, 0.05)), "grey", "body"),),
+            (Collision(Box((0.2, 0.3, 0.1)), Pose((0, 0, 0.05)), "body"),),
+        ),
+        Link(
+            "upper",
+            Inertial(1.0 / 3.0, odd, 1e-3, 0.0, 0.0, 2e-3, 0.0, 3e-3),
+            (
+                Visual(Cylinder(0.04, 0.3), odd, "blue"),
+                Visual(part, Pose.from_xyz_rpy((0, 0, 0.2), (math.pi / 2, 0, 0)), "red"),
+                Visual(Mesh("", (1.0, 1.0, 1.0), tetra), Pose(), ""),
+            ),
+            (
+                Collision(Cylinder(0.04, 0.3), odd),
+                Collision(part, Pose((0, 0, 0.2))),
+                Collision(Sphere(0.05), Pose((0.0, 0.0, 0.3))),
+            ),
+        ),
+        Link("finger_a", Inertial(0.01), (Visual(Sphere(0.01), material="red"),)),
+        Link("finger_b", None),
+        Link("tcp"),
+    )
+    joints = (
+        Joint(
+            "shoulder",
+            "revolute",
+            "base",
+            "upper",
+            Pose.from_xyz_rpy((0, 0, 0.1), (0, 0, 0.7)),
+            (0.0, 0.6, 0.8),
+            JointLimit(-2.9, 2.9, 12.5, 3.14159),
+            JointDynamics(0.05, 0.01),
+        ),
+        Joint(
+            "finger_a",
+            "prismatic",
+            "upper",
+            "finger_a",
+            Pose((0.0, 0.01, 0.31)),
+            (0.0, 1.0, 0.0),
+            JointLimit(0.0, 0.02, 5.0, 0.1),
+        ),
+        Joint(
+            "finger_b",
+            "prismatic",
+            "upper",
+            "finger_b",
+            Pose((0.0, -0.01, 0.31)),
+            (0.0, -1.0, 0.0),
+            JointLimit(0.0, 0.02, 5.0, 0.1),
+            mimic=Mimic("finger_a", -1.0, 0.001),
+        ),
+        Joint("wrist_spin", "continuous", "upper", "tcp", odd, (0.0, 0.0, 1.0)),
+    )
+    return RobotModel(
+        name="hand_built",
+        links=links,
+        joints=joints,
+        materials={
+            "grey": Material("grey", (0.5, 0.5, 0.5, 1.0)),
+            "blue": Material("blue", (0.1, 0.2, 0.9, 0.5)),
+            "red": Material("red", (0.9, 0.1, 0.1, 1.0), "textures/red.png"),
+        },
+        sensors=(
+            Sensor(
+                "lidar",
+                "lidar",
+                "base",
+                Pose((0.0, 0.0, 0.2)),
+                10.0,
+                {"rings": 16, "vertical_min": -0.26, "range_max": 100.0, "model": "VLP-16"},
+            ),
+            Sensor("cam", "camera", "tcp", odd, 30.0, {"width": 640, "fov": 0.9}),
+        ),
+        spheres=(CollisionSphere("upper", (0.0, 0.0, 0.1), 0.05),),
+        tcp="tcp",
+        metadata={
+            "groups": {"arm": ["shoulder"]},
+            "gripper": {"joints": ["finger_a"], "open": 0.02, "closed": 0.0, "link": "upper"},
+            "drive": {"type": "skid_steer", "max_speed": 1.0},
+        },
+        source="/somewhere/hand_built.urdf",
+        repairs=("link finger_a: inertia was zero; set to a small sphere",),
+    )
+
+
+def test_hand_built_model_round_trips_exactly(tmp_path):
+    model = hand_built(tmp_path)
+    out = tmp_path / "hand.glb"
+    data = write_rdtf(model, out)
+    assert out.read_bytes() == data
+    back = read_rdtf(out)
+    assert_same_model(model, back)
+    # written twice, the same bytes (a file can be diffed and cached)
+    assert write_rdtf(back) == write_rdtf(resolved(model))
+
+
+def test_node_tree_follows_the_kinematic_tree(tmp_path):
+    model = hand_built(tmp_path)
+    gltf = pygltflib.GLTF2.load_from_bytes(write_rdtf(model))
+    nodes = gltf.nodes
+    by_name = {n.name: i for i, n in enumerate(nodes)}
+    scene = gltf.scenes[gltf.scene]
+    assert [nodes[i].name for i in scene.nodes] == ["base"]
+    for j in model.joints:
+        parent, child = nodes[by_name[j.parent]], nodes[by_name[j.child]]
+        assert by_name[j.child] in parent.children
+        t = child.translation or [0.0, 0.0, 0.0]
+        r = child.rotation or [0.0, 0.0, 0.0, 1.0]
+        assert np.allclose(Pose(t, r).matrix(), j.origin.matrix(), atol=1e-12)
+    upper = nodes[by_name["upper"]]
+    assert {nodes[c].name for c in upper.children} >= {
+        "upper/visual/0",
+        "upper/visual/1",
+        "upper/visual/2",
+        "upper/collision/0",
+    }
+    assert nodes[by_name["upper/visual/1"]].scale == [0.5, 0.5, 2.0]
+    ext = gltf.extensions[RDTF_EXTENSION]
+    assert ext["name"] == "hand_built" and ext["tcp"] == "tcp"
+    j = next(j for j in ext["joints"] if j["name"] == "finger_b")
+    assert j["mimic"] == {"joint": "finger_a", "multiplier": -1.0, "offset": 0.001}
+    assert set(gltf.extensionsUsed) == {
+        RDTF_EXTENSION,
+        "KHR_physics_rigid_bodies",
+        "KHR_implicit_shapes",
+    }
+
+
+def test_physics_extensions_describe_mass_and_colliders(tmp_path):
+    model = hand_built(tmp_path)
+    gltf = pygltflib.GLTF2.load_from_bytes(write_rdtf(model))
+    by_name = {n.name: n for n in gltf.nodes}
+    motion = by_name["base"].extensions["KHR_physics_rigid_bodies"]["motion"]
+    assert motion["mass"] == 2.5
+    assert motion["centerOfMass"] == [0.01, 0.0, 0.05]
+    # the principal moments rebuild the URDF inertia tensor
+    rot = pygltflib_quat_matrix(motion["inertiaOrientation"])
+    tensor = rot @ np.diag(motion["inertiaDiagonal"]) @ rot.T
+    assert np.allclose(tensor, model.link("base").inertial.tensor(), atol=1e-12)
+    shapes = gltf.extensions["KHR_implicit_shapes"]["shapes"]
+    collider = by_name["upper/collision/0"].extensions["KHR_physics_rigid_bodies"]["collider"]
+    shape = shapes[collider["geometry"]["shape"]]
+    assert shape["type"] == "cylinder"
+    assert shape["cylinder"] == {"height": 0.3, "radiusTop": 0.04, "radiusBottom": 0.04}
+    mesh_col = by_name["upper/collision/1"].extensions["KHR_physics_rigid_bodies"]["collider"]
+    holder = gltf.nodes[mesh_col["geometry"]["node"]]
+    assert holder.mesh is not None and holder.scale == [0.5, 0.5, 2.0]
+
+
+def pygltflib_quat_matrix(q) -> np.ndarray:
+    return Pose((0, 0, 0), q).rotation()
+
+
+def test_builtin_robots_round_trip_and_validate(tmp_path):
+    names = library.robot_names()
+    assert names, "no built-in robots found"
+    paths = []
+    for name in names:
+        model = load_robot(name)
+        path = tmp_path / f"{name}.glb"
+        write_rdtf(model, path)
+        assert_same_model(model, read_rdtf(path))
+        paths.append(path)
+    hand = tmp_path / "hand.glb"
+    write_rdtf(hand_built(tmp_path), hand)
+    paths.append(hand)
+    reports = validate(paths)
+    for p in paths:
+        assert errors_of(reports[str(p)]) == [], p.name
+
+
+def test_reading_bad_files_names_the_problem(tmp_path):
+    junk = tmp_path / "junk.glb"
+    junk.write_bytes(b"not a glb at all")
+    with pytest.raises(ModelError, match=r"junk\.glb: not a glTF binary"):
+        read_rdtf(junk)
+    plain = pygltflib.GLTF2(asset=pygltflib.Asset(version="2.0"), scenes=[pygltflib.Scene()])
+    with pytest.raises(ModelError, match="no RDTF_robot extension"):
+        rdtf_from_bytes(b"".join(plain.save_to_bytes()), "plain.glb")
+    with pytest.raises(ModelError, match=r"missing\.glb: cannot read"):
+        read_rdtf(tmp_path / "missing.glb")

@@ -12,12 +12,14 @@ Real-world files are messy. What is safe to fix is fixed, recorded in
 
 from __future__ import annotations
 
+import io
 import math
 import re
 import threading
 import warnings
 from collections.abc import Mapping, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, redirect_stderr
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -127,7 +129,7 @@ def expand_xacro(
 
     p = Path(path).resolve()
     resolver = PackageResolver.create(p.parent, package_paths)
-    with _xacro_find(resolver), _xacro_lock:
+    with _xacro_lock, _xacro_find(resolver):
         try:
             doc = xacro.process_file(str(p), mappings=dict(xacro_args or {}))
         except Exception as exc:  # xacro raises XacroException, NameError, KeyError ...
@@ -147,7 +149,9 @@ def _xacro_message(exc: Exception) -> str:
 
 @contextmanager
 def _xacro_find(resolver: PackageResolver):
-    """Let xacro's `$(find NAME)` use our package search instead of a ROS install."""
+    """Let xacro find packages through our search paths instead of a ROS install:
+    `$(find NAME)`, and `package://` / `file://` file names in `<xacro:include>`."""
+    import xacro
     from xacro import substitution_args
 
     def find(name: str) -> str:
@@ -157,12 +161,26 @@ def _xacro_find(resolver: PackageResolver):
             raise ModelError(f"$(find {name}): package not found (searched: {searched})")
         return str(candidates[0])
 
-    original = substitution_args._eval_find
+    original_find = substitution_args._eval_find
+    original_abs = xacro.abs_filename_spec
+
+    def abs_filename(spec: str) -> str:
+        if spec.startswith(("package://", "file://")):
+            return str(resolver.resolve(spec))
+        return original_abs(spec)
+
     substitution_args._eval_find = find
+    xacro.abs_filename_spec = abs_filename
+    chatter = io.StringIO()
     try:
-        yield
+        with redirect_stderr(chatter):
+            yield
     finally:
-        substitution_args._eval_find = original
+        substitution_args._eval_find = original_find
+        xacro.abs_filename_spec = original_abs
+        text = " ".join(chatter.getvalue().split())
+        if text:
+            warnings.warn(f"xacro: {text}", UserWarning, stacklevel=4)
 
 
 def _expand_xacro_text(
@@ -173,7 +191,7 @@ def _expand_xacro_text(
     import xacro
 
     resolver = PackageResolver.create(base_dir, package_paths)
-    with _xacro_find(resolver), _xacro_lock:
+    with _xacro_lock, _xacro_find(resolver):
         try:
             xacro.init_stacks(source)
             doc = xml.dom.minidom.parseString(data)
@@ -240,6 +258,7 @@ class _Reader:
         self.repairs: list[str] = []
         self.materials: dict[str, Material] = {}
         self.material_lines: dict[str, int] = {}
+        self.zero_mass: set[str] = set()
 
     # --- messages ---------------------------------------------------------------------
 
@@ -327,9 +346,8 @@ class _Reader:
         joints = [self.joint(el, link_lines) for el in _children(root, "joint")]
         joint_els = {j.name: el for j, el in zip(joints, _children(root, "joint"), strict=True)}
         self.check_tree(root, link_lines, joints, joint_els)
-        moving = self.moving_links(joints)
-        links = [self.link(el, moving) for el in link_els]
-        self.check_mimics(joints, joint_els)
+        links = self.add_missing_masses([self.link(el) for el in link_els], joints)
+        joints = self.check_mimics(joints, joint_els)
         ext = self.robotrial(root, {lk.name for lk in links}, {j.name for j in joints})
         try:
             return RobotModel(
@@ -406,10 +424,41 @@ class _Reader:
                 f"links {cyc} form a cycle not connected to the root {roots[0]!r}",
             )
 
-    @staticmethod
-    def moving_links(joints: Sequence[Joint]) -> set[str]:
-        """Links whose parent joint has a degree of freedom."""
-        return {j.child for j in joints if j.type != "fixed"}
+    def add_missing_masses(self, links: Sequence[Link], joints: Sequence[Joint]) -> list[Link]:
+        """Give a small mass to each moving link that carries no mass, nor does anything
+        below it (a physics engine cannot accelerate a massless body; MuJoCo refuses it)."""
+        children: dict[str, list[str]] = {}
+        for j in joints:
+            children.setdefault(j.parent, []).append(j.child)
+        own = {lk.name: (lk.inertial.mass if lk.inertial else 0.0) for lk in links}
+        subtree: dict[str, float] = {}
+
+        def mass_below(name: str) -> float:
+            if name not in subtree:
+                stack, total, seen = [name], 0.0, set()
+                while stack:
+                    n = stack.pop()
+                    if n in seen:
+                        continue
+                    seen.add(n)
+                    total += own[n]
+                    stack.extend(children.get(n, []))
+                subtree[name] = total
+            return subtree[name]
+
+        moving = {j.child for j in joints if j.type != "fixed"}
+        out = []
+        for lk in links:
+            if lk.name in moving and mass_below(lk.name) <= 0:
+                guess = self.guess_inertial(lk.visuals, lk.collisions)
+                said = "has zero mass" if lk.name in self.zero_mass else "has no <inertial>"
+                self.repair(
+                    f"link {lk.name!r} moves but {said} (nor does anything attached below it); "
+                    f"gave it {guess.mass:.4g} kg with the inertia of its bounding box"
+                )
+                lk = Link(lk.name, guess, lk.visuals, lk.collisions)
+            out.append(lk)
+        return out
 
     # --- materials --------------------------------------------------------------------
 
@@ -471,7 +520,7 @@ class _Reader:
 
     # --- links ------------------------------------------------------------------------
 
-    def link(self, el: etree._Element, moving: set[str]) -> Link:
+    def link(self, el: etree._Element) -> Link:
         name = self.name(el, "<link>")
         visuals: list[Visual] = []
         for i, v in enumerate(_children(el, "visual")):
@@ -494,7 +543,7 @@ class _Reader:
             collisions.append(
                 Collision(geometry=geom, origin=self.origin(c), name=(c.get("name") or "").strip())
             )
-        inertial = self.inertial(el, name, name in moving, visuals, collisions)
+        inertial = self.inertial(el, name, visuals, collisions)
         return Link(name, inertial, tuple(visuals), tuple(collisions))
 
     def geometry(self, el: etree._Element, link: str, kind: str, index: int) -> Shape | None:
@@ -575,34 +624,27 @@ class _Reader:
         self,
         el: etree._Element,
         link: str,
-        moves: bool,
         visuals: Sequence[Visual],
         collisions: Sequence[Collision],
     ) -> Inertial | None:
+        """The link's <inertial>; None for none or zero mass (a massless frame)."""
         ie = _child(el, "inertial")
         if ie is None:
-            if not moves:
-                return None
-            guess = self.guess_inertial(visuals, collisions)
-            self.repair(
-                f"link {link!r} moves but has no <inertial>; gave it {guess.mass:.4g} kg "
-                "with the inertia of its bounding box"
-            )
-            return guess
+            return None
         origin = self.origin(ie)
         m = _child(ie, "mass")
         mass = self.number(m, "value") if m is not None else 0.0
         ine = _child(ie, "inertia")
         keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
         vals = {k: self.number(ine, k, 0.0) if ine is not None else 0.0 for k in keys}
-        if mass <= 0:
-            if not moves and mass == 0:
-                self.repair(f"link {link!r} has zero mass and does not move; treated as massless")
-                return None
+        if mass == 0:
+            self.zero_mass.add(link)
+            return None
+        if mass < 0:
             guess = self.guess_inertial(visuals, collisions)
             self.repair(
-                f"link {link!r} has mass {mass:g} kg; set to {guess.mass:.4g} kg with the "
-                "inertia of its bounding box"
+                f"link {link!r} (line {m.sourceline}): negative mass {mass:g} kg; set to "
+                f"{guess.mass:.4g} kg with the inertia of its bounding box"
             )
             return guess
         inertial = Inertial(mass, origin, **vals)
@@ -612,15 +654,20 @@ class _Reader:
         """The inertial with its tensor fixed if it is not positive definite or breaks the
         triangle inequality of principal moments (which MuJoCo rejects)."""
         tensor = inertial.tensor()
-        fixed = nearest_valid_inertia(tensor)
+        fixed = nearest_valid_inertia(tensor, inertial.mass)
         if fixed is None:
             return inertial
-        diag = tuple(float(x) for x in np.diag(tensor))
+        before = np.linalg.eigvalsh((tensor + tensor.T) / 2)
+        after = np.linalg.eigvalsh(fixed)
+        why = (
+            "is not positive definite"
+            if before[0] <= 0
+            else "breaks the triangle inequality (a moment exceeds the sum of the others)"
+        )
         self.repair(
-            f"link {link!r} (line {line}): inertia with diagonal {diag} is not physical "
-            "(not positive definite, or a principal moment exceeds the sum of the other "
-            f"two); set to the nearest valid one, diagonal "
-            f"{tuple(round(float(x), 9) for x in np.diag(fixed))}"
+            f"link {link!r} (line {line}): inertia with principal moments {_fmt(before)} "
+            f"{why}; set to the nearest valid one, principal moments {_fmt(after)} "
+            "about the same axes"
         )
         return Inertial(
             inertial.mass,
@@ -752,19 +799,29 @@ class _Reader:
 
     def check_mimics(
         self, joints: Sequence[Joint], joint_els: Mapping[str, etree._Element]
-    ) -> None:
+    ) -> list[Joint]:
+        """Joints with each <mimic> checked; a mimic of a missing joint is dropped."""
         by_name = {j.name: j for j in joints}
+        out = []
         for j in joints:
-            if j.mimic is None:
-                continue
-            el = _child(joint_els[j.name], "mimic")
-            target = by_name.get(j.mimic.joint)
-            if target is None:
-                raise self.error(
-                    el, f"joint {j.name!r} mimics joint {j.mimic.joint!r}, which does not exist"
-                )
-            if target.name == j.name:
-                raise self.error(el, f"joint {j.name!r} mimics itself")
+            if j.mimic is not None:
+                el = _child(joint_els[j.name], "mimic")
+                if j.mimic.joint == j.name:
+                    raise self.error(el, f"joint {j.name!r} mimics itself")
+                target = by_name.get(j.mimic.joint)
+                if target is None:
+                    self.repair(
+                        f"joint {j.name!r} (line {el.sourceline}) mimics joint "
+                        f"{j.mimic.joint!r}, which does not exist; the mimic was dropped "
+                        "and the joint is driven on its own"
+                    )
+                    j = replace(j, mimic=None)
+                elif target.type not in ("revolute", "continuous", "prismatic"):
+                    raise self.error(
+                        el, f"joint {j.name!r} mimics {target.type} joint {target.name!r}"
+                    )
+            out.append(j)
+        return out
 
     # --- the <robotrial> element --------------------------------------------------------
 
@@ -921,21 +978,23 @@ def box_inertia(mass: float, size: Sequence[float]) -> tuple[float, float, float
     return k * (y * y + z * z), k * (x * x + z * z), k * (x * x + y * y)
 
 
-def nearest_valid_inertia(tensor: np.ndarray) -> np.ndarray | None:
+def nearest_valid_inertia(tensor: np.ndarray, mass: float = 0.0) -> np.ndarray | None:
     """None if `tensor` is a physical inertia; else the nearest one that is.
 
     Physical: symmetric positive definite, and each principal moment at most the sum
     of the other two. The fix keeps the principal axes, raises moments below a floor
-    and, when the triangle inequality fails, moves the largest moment down and the two
-    others up by the same amount until it holds with equality.
+    (that of `mass` spread over a millimetre, at least INERTIA_FLOOR) and, when the
+    triangle inequality fails, moves the largest moment down and the two others up by
+    the same amount until it holds with equality.
     """
-    t = (np.asarray(tensor, dtype=float) + np.asarray(tensor, dtype=float).T) / 2
+    t = np.asarray(tensor, dtype=float)
+    t = (t + t.T) / 2
     w, v = np.linalg.eigh(t)
-    scale = max(float(np.max(np.abs(w))), 0.0)
-    floor = max(INERTIA_FLOOR, 1e-9 * scale)
+    scale = float(np.max(np.abs(w)))
+    floor = max(INERTIA_FLOOR, 1e-9 * scale, mass * 1e-6)
     a, b, c = w  # ascending
     tol = 1e-9 * max(scale, INERTIA_FLOOR)
-    if a >= floor and a + b >= c - tol:
+    if a >= floor - tol and a + b >= c - tol:
         return None
     m = np.maximum(w, floor)
     if m[0] + m[1] < m[2]:
@@ -943,6 +1002,10 @@ def nearest_valid_inertia(tensor: np.ndarray) -> np.ndarray | None:
         m = np.array([m[0] + d, m[1] + d, m[2] - d])
     fixed = v @ np.diag(m) @ v.T
     return (fixed + fixed.T) / 2
+
+
+def _fmt(values: Sequence[float]) -> str:
+    return "(" + ", ".join(f"{float(x):.4g}" for x in values) + ")"
 
 
 __all__ = [

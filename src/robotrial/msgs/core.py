@@ -21,6 +21,7 @@ from __future__ import annotations
 import base64
 import binascii
 import dataclasses
+import inspect
 import math
 import re
 import time as _time
@@ -290,7 +291,7 @@ def message(
         if not issubclass(cls, Message):
             raise TypeError(f"{cls.__name__}: a message class must subclass Message")
         hints = get_type_hints(cls, include_extras=True)
-        own = cls.__dict__.get("__annotations__", {})
+        own = inspect.get_annotations(cls)
         specs: list[FieldSpec] = []
         consts: list[tuple[str, str, Any]] = []
         for name in own:

@@ -334,7 +334,13 @@ class _Reader:
             self.material_lines[mat.name] = m.sourceline or 0
         link_els = _children(root, "link")
         if not link_els:
-            raise self.error(root, "the robot has no <link>")
+            hint = (
+                " (a xacro file that only defines macros describes no robot by itself; "
+                "load the file that calls them)"
+                if self.expanded
+                else ""
+            )
+            raise self.error(root, f"the robot has no <link>{hint}")
         link_lines: dict[str, etree._Element] = {}
         for el in link_els:
             ln = self.name(el, "<link>")

@@ -1,0 +1,175 @@
+"""The exact collision check: MuJoCo on the real collision shapes (layer 2).
+
+Spheres are fast and conservative; this is the referee. It compiles the robot (with the
+held object as one more link), the world and the request's obstacles to MJCF, sets the
+joints, runs MuJoCo's collision detection and keeps the contacts the sphere model would
+also count: robot pairs it has enabled, and moving links (or the held object) against
+anything static. `path_valid` checks a path densely.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+
+import numpy as np
+
+from robotrial.collision.model import OBJECT, CollisionChecker
+from robotrial.geometry import Pose, Shape
+from robotrial.model.mjcf import to_mjcf
+from robotrial.model.robot import Collision, Joint, Link
+from robotrial.model.world import Obstacle, World
+
+HELD_LINK = "held_object"
+
+
+class ExactChecker:
+    """MuJoCo collision queries that mirror a `CollisionChecker`'s rules.
+
+    `obstacles` are (name, shape, pose) added to `world` for this check only.
+    """
+
+    def __init__(
+        self,
+        checker: CollisionChecker,
+        world: World | None = None,
+        obstacles: Sequence[tuple[str, Shape, Pose]] = (),
+        held: tuple[Shape, Pose, str] | None = None,
+        tolerance: float = 1e-6,
+    ) -> None:
+        import mujoco
+
+        self.checker = checker
+        kin = checker.kin
+        robot = kin.model
+        if held is not None:
+            shape, pose_in_link, link = held
+            robot = robot.with_changes(
+                links=(*robot.links, Link(HELD_LINK, collisions=(Collision(shape),))),
+                joints=(
+                    *robot.joints,
+                    Joint(f"{HELD_LINK}_mount", "fixed", link, HELD_LINK, pose_in_link),
+                ),
+            )
+        extra = tuple(Obstacle(name, shape, pose) for name, shape, pose in obstacles)
+        if world is None:
+            world = World(name="planning", obstacles=extra)
+        else:
+            world = World(
+                name=world.name,
+                floor=world.floor,
+                walls=world.walls,
+                obstacles=world.obstacles + extra,
+                spawns={"default": Pose()},
+            )
+        self.doc = to_mjcf(
+            robot,
+            world,
+            spawn=Pose(),
+            actuators="none",
+            self_collision=True,
+            visuals=False,
+        )
+        self.model = self.doc.compile()
+        self.data = mujoco.MjData(self.model)
+        self.tolerance = tolerance
+        m = self.model
+        body_names = [
+            mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, i) or "" for i in range(m.nbody)
+        ]
+        links = {lk.name for lk in kin.model.links}
+        # what each MuJoCo body is to the sphere model: a robot body name, or "" (static)
+        self._role = [OBJECT if n == HELD_LINK else (n if n in links else "") for n in body_names]
+        moving = {n for n, k in kin.link_index.items() if kin.moving[k]}
+        self._moving = [r == OBJECT or r in moving for r in self._role]
+        names = [b.name for b in checker.bodies]
+        self._enabled = {(names[i], names[j]) for i, j in checker.pairs}
+        self._enabled |= {(b, a) for a, b in self._enabled}
+        # counts[b1, b2]: a contact between these MuJoCo bodies is a collision
+        nb = m.nbody
+        self._counts = np.zeros((nb, nb), dtype=bool)
+        for i in range(nb):
+            for j in range(nb):
+                ri, rj = self._role[i], self._role[j]
+                if ri and rj:
+                    self._counts[i, j] = (ri, rj) in self._enabled
+                else:
+                    self._counts[i, j] = self._moving[i] or self._moving[j]
+        # qpos = base + per joint: mult * q[src] + offset
+        self._qpos0 = np.zeros(m.nq)
+        adr, src, mult, off = [], [], [], []
+        values = kin.full_q(np.zeros(kin.d))
+        index = {n: i for i, n in enumerate(kin.joint_names)}
+        for j in kin.model.joints:
+            jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+            if jid < 0 or j.type not in ("revolute", "continuous", "prismatic"):
+                continue
+            a = int(m.jnt_qposadr[jid])
+            master, k, c = j.name, 1.0, 0.0
+            if j.mimic is not None:
+                master, k, c = j.mimic.joint, j.mimic.multiplier, j.mimic.offset
+            if master in index:
+                adr.append(a)
+                src.append(index[master])
+                mult.append(k)
+                off.append(c)
+            else:
+                self._qpos0[a] = k * values.get(master, 0.0) + c
+        self._adr = np.array(adr, dtype=np.int64)
+        self._src = np.array(src, dtype=np.int64)
+        self._mult = np.array(mult)
+        self._off = np.array(off)
+        self._geom_body = np.asarray(m.geom_bodyid)
+
+    def _set(self, q: np.ndarray) -> None:
+        import mujoco
+
+        qpos = self._qpos0.copy()
+        qpos[self._adr] = self._mult * q[self._src] + self._off
+        self.data.qpos[:] = qpos
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_collision(self.model, self.data)
+
+    def _hits(self) -> np.ndarray:
+        n = self.data.ncon
+        if n == 0:
+            return np.zeros((0, 2), dtype=np.int64)
+        dist = self.data.contact.dist[:n]
+        geoms = self.data.contact.geom[:n]
+        b = self._geom_body[geoms]
+        keep = (dist < -self.tolerance) & self._counts[b[:, 0], b[:, 1]]
+        return geoms[keep]
+
+    def contacts(self, q: np.ndarray) -> list[tuple[str, str, float]]:
+        """Contacts that count at `q`: (robot body, other body or geom name)."""
+        import mujoco
+
+        self._set(np.asarray(q, dtype=float))
+        out = []
+        for g1, g2 in self._hits():
+            r1, r2 = self._role[self._geom_body[g1]], self._role[self._geom_body[g2]]
+            if not r1:
+                r1, r2, g2 = r2, r1, g1
+            other = r2 or (mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_GEOM, g2) or "world")
+            out.append((r1, other))
+        return out
+
+    def valid(self, q: np.ndarray) -> bool:
+        self._set(np.asarray(q, dtype=float))
+        return len(self._hits()) == 0
+
+    def path_valid(self, path: np.ndarray, step: float | None = None) -> tuple[bool, int]:
+        """Check a path densely (every `step` rad; default: the sphere model's resolution
+        halved). Returns (valid, index of the first colliding sample or -1)."""
+        path = np.atleast_2d(np.asarray(path, dtype=float))
+        res = self.checker.resolution / 2 if step is None else np.full(path.shape[1], step)
+        k = 0
+        for a, b in itertools.pairwise(path):
+            n = max(int(np.ceil(np.max(np.abs(b - a) / res))), 1)
+            for t in np.arange(n) / n:
+                if not self.valid(a + t * (b - a)):
+                    return False, k
+                k += 1
+        if len(path) and not self.valid(path[-1]):
+            return False, k
+        return True, -1

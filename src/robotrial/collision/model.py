@@ -1,0 +1,393 @@
+"""The planner's collision model: robot spheres, self-collision pairs, environment shapes.
+
+Layer 2. `RobotSpheres` is what a robot contributes once (its link spheres, which link
+pairs can ever collide, the joint-space check resolution); `Environment` holds the
+obstacles of one request as boxes, cylinders and spheres with any orientation;
+`CollisionChecker` joins them, with an optional object held in the hand and a padding,
+and answers the planners' batched questions `valid(qs)` and `motion_valid(a, b)`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robotrial.collision import kernels
+from robotrial.collision.spheres import link_spheres, shape_spheres
+from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
+from robotrial.kinematics.chain import PRISMATIC, Kinematics
+from robotrial.model.robot import CollisionSphere
+
+OBJECT = "object"  # the body name of the object held in the hand
+
+
+@dataclass(frozen=True)
+class Body:
+    """A named rigid set of spheres on link `link` (centres in that link's frame)."""
+
+    name: str
+    link: str
+    centres: np.ndarray
+    radii: np.ndarray
+
+
+class RobotSpheres:
+    """A robot's side of the collision model, computed once per robot and joint group.
+
+    Link pairs are disabled the way an SRDF does it: pairs that no planning joint
+    separates or that one planning joint joins (adjacent), pairs in contact at the zero
+    configuration, and pairs that never touch in `samples` random configurations.
+    """
+
+    def __init__(
+        self,
+        kin: Kinematics,
+        spheres: Sequence[CollisionSphere] | None = None,
+        samples: int = 3000,
+        seed: int = 0,
+        step: float = 0.01,
+    ) -> None:
+        self.kin = kin
+        sph = list(spheres) if spheres is not None else link_spheres(kin.model)
+        by_link: dict[str, list[CollisionSphere]] = {}
+        for s in sph:
+            by_link.setdefault(s.link, []).append(s)
+        self.bodies: list[Body] = [
+            Body(
+                name,
+                name,
+                np.array([s.center for s in by_link[name]], dtype=float),
+                np.array([s.radius for s in by_link[name]], dtype=float),
+            )
+            for name in kin.link_names
+            if name in by_link
+        ]
+        self.disabled, self.reasons = self._disable_pairs(samples, seed)
+        self.resolution = self._resolution(step, seed)
+
+    def _rigid_group(self) -> np.ndarray:
+        """Index of the rigid group of each link: links no planning joint separates."""
+        kin = self.kin
+        group = np.arange(len(kin.link_names))
+        for k in range(1, len(kin.link_names)):
+            if kin.src[k] < 0:
+                group[k] = group[kin.parent[k]]
+        return group
+
+    def _sample_contacts(self, qs: np.ndarray) -> np.ndarray:
+        """(N, B, B) bool: body i touches body j at each configuration."""
+        poses = self.kin.fk(qs)
+        n, nb = len(qs), len(self.bodies)
+        out = np.zeros((n, nb, nb), dtype=bool)
+        world = []
+        for b in self.bodies:
+            m = poses[:, self.kin.link_index[b.link]]
+            world.append(np.einsum("nij,sj->nsi", m[:, :3, :3], b.centres) + m[:, None, :3, 3])
+        for i in range(nb):
+            for j in range(i + 1, nb):
+                diff = world[i][:, :, None, :] - world[j][:, None, :, :]
+                dist = np.linalg.norm(diff, axis=-1)
+                lim = self.bodies[i].radii[:, None] + self.bodies[j].radii[None, :]
+                out[:, i, j] = out[:, j, i] = np.any(dist <= lim, axis=(1, 2))
+        return out
+
+    def _disable_pairs(self, samples: int, seed: int) -> tuple[set[tuple[str, str]], dict]:
+        kin = self.kin
+        group = self._rigid_group()
+        names = [b.name for b in self.bodies]
+        gl = [group[kin.link_index[b.link]] for b in self.bodies]
+        reasons: dict[tuple[str, str], str] = {}
+        for i in range(len(names)):
+            for j in range(i + 1, len(names)):
+                gi, gj = gl[i], gl[j]
+                if gi == gj:
+                    reasons[(names[i], names[j])] = "rigid"
+                elif kin.parent[gj] >= 0 and group[kin.parent[gj]] == gi:
+                    reasons[(names[i], names[j])] = "adjacent"
+                elif kin.parent[gi] >= 0 and group[kin.parent[gi]] == gj:
+                    reasons[(names[i], names[j])] = "adjacent"
+        rng = np.random.default_rng(seed)
+        zero = np.clip(np.zeros(kin.d), kin.lower, kin.upper)[None]
+        touch_zero = self._sample_contacts(zero)[0]
+        seen = np.zeros((len(names), len(names)), dtype=bool)
+        for _ in range(max(samples // 500, 1)):
+            seen |= np.any(self._sample_contacts(kin.random(rng, 500)), axis=0)
+        for i in range(len(names)):
+            for j in range(i + 1, len(names)):
+                key = (names[i], names[j])
+                if key in reasons:
+                    continue
+                if touch_zero[i, j]:
+                    reasons[key] = "default"
+                elif not seen[i, j]:
+                    reasons[key] = "never"
+        return set(reasons), reasons
+
+    def _resolution(self, step: float, seed: int) -> np.ndarray:
+        """Joint steps (rad or m) such that one joint moving one step moves no sphere
+        surface point farther than `step` metres."""
+        kin = self.kin
+        rng = np.random.default_rng(seed)
+        qs = kin.random(rng, 200)
+        poses = kin.fk(qs)
+        lever = np.full(kin.d, 1e-3)
+        for k in range(len(kin.link_names)):
+            s = kin.src[k]
+            if s < 0:
+                continue
+            if kin.jtype[k] == PRISMATIC:
+                lever[s] = max(lever[s], abs(kin.mult[k]))
+                continue
+            for b in self.bodies:
+                lb = kin.link_index[b.link]
+                if not kin.ancestors[lb, k]:
+                    continue
+                m = poses[:, lb]
+                world = np.einsum("nij,sj->nsi", m[:, :3, :3], b.centres) + m[:, None, :3, 3]
+                r = np.linalg.norm(world - poses[:, k, None, :3, 3], axis=-1) + b.radii
+                lever[s] = max(lever[s], float(r.max()) * abs(kin.mult[k]))
+        return step / lever
+
+
+@dataclass
+class Environment:
+    """Obstacles as primitive arrays: boxes, cylinders (along their z) and spheres, each
+    with a name for explanations. Meshes enter as their oriented bounding box."""
+
+    names: list[str] = field(default_factory=list)
+    kinds: list[str] = field(default_factory=list)
+    poses: list[np.ndarray] = field(default_factory=list)
+    dims: list[np.ndarray] = field(default_factory=list)
+
+    def add(self, name: str, shape: Shape, pose: Pose | np.ndarray) -> None:
+        m = pose.matrix() if isinstance(pose, Pose) else np.asarray(pose, dtype=float)
+        if isinstance(shape, Box):
+            size = np.asarray(shape.size, dtype=float)
+            if np.any(size < 0):
+                raise ValueError(f"obstacle {name!r}: box size {tuple(size)} has a negative edge")
+            self._append(name, "box", m, size / 2)
+        elif isinstance(shape, Cylinder):
+            self._append(name, "cylinder", m, np.array([shape.radius, shape.length / 2, 0.0]))
+        elif isinstance(shape, Sphere):
+            self._append(name, "sphere", m, np.array([shape.radius, 0.0, 0.0]))
+        elif isinstance(shape, Mesh):
+            import trimesh
+
+            if shape.data is not None:
+                tm = trimesh.Trimesh(shape.data.vertices, shape.data.faces, process=False)
+            else:
+                tm = trimesh.load(shape.filename, force="mesh")
+            tm.apply_scale(np.asarray(shape.scale))
+            obb = tm.bounding_box_oriented
+            self._append(
+                name, "box", m @ obb.primitive.transform, np.asarray(obb.primitive.extents) / 2
+            )
+        else:
+            raise TypeError(f"obstacle {name!r}: unsupported shape {shape!r}")
+
+    def _append(self, name: str, kind: str, m: np.ndarray, dims: np.ndarray) -> None:
+        self.names.append(name)
+        self.kinds.append(kind)
+        self.poses.append(m)
+        self.dims.append(dims)
+
+    def arrays(self) -> tuple:
+        """The tuple the kernels take: box inverse poses and half extents, cylinder
+        inverse poses, radii and half lengths, sphere centres and radii."""
+
+        def pick(kind: str) -> list[int]:
+            return [i for i, k in enumerate(self.kinds) if k == kind]
+
+        bi, ci, si = pick("box"), pick("cylinder"), pick("sphere")
+        inv = [np.linalg.inv(m) for m in self.poses]
+        return (
+            np.array([inv[i] for i in bi]).reshape(-1, 4, 4),
+            np.array([self.dims[i] for i in bi]).reshape(-1, 3),
+            np.array([inv[i] for i in ci]).reshape(-1, 4, 4),
+            np.array([self.dims[i][0] for i in ci], dtype=float),
+            np.array([self.dims[i][1] for i in ci], dtype=float),
+            np.array([self.poses[i][:3, 3] for i in si]).reshape(-1, 3),
+            np.array([self.dims[i][0] for i in si], dtype=float),
+        )
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+
+@dataclass(frozen=True)
+class HeldObject:
+    """An object carried by the hand: its shape and its pose in the attach link's frame."""
+
+    shape: Shape
+    pose_in_link: np.ndarray
+    link: str
+
+
+class CollisionChecker:
+    """Batched, compiled validity checks for one robot in one environment.
+
+    `valid(qs)` takes (N, d) planning configurations; `motion_valid(a, b)` checks the
+    straight joint-space segment at the robot's resolution. `padding` (m) inflates the
+    robot's spheres against the environment.
+    """
+
+    def __init__(
+        self,
+        robot: RobotSpheres,
+        env: Environment | None = None,
+        padding: float = 0.0,
+        held: HeldObject | None = None,
+        held_touch_at: np.ndarray | None = None,
+    ) -> None:
+        self.robot = robot
+        self.kin = robot.kin
+        self.env = env if env is not None else Environment()
+        self.padding = float(padding)
+        self.resolution = robot.resolution
+        bodies = list(robot.bodies)
+        disabled = set(robot.disabled)
+        if held is not None:
+            centres, radii = shape_spheres(held.shape)
+            m = held.pose_in_link
+            bodies.append(Body(OBJECT, held.link, centres @ m[:3, :3].T + m[:3, 3], radii))
+        self.bodies = bodies
+        self._pack()
+        self.touch_links: list[str] = []
+        if held is not None:
+            group = robot._rigid_group()
+            hk = group[self.kin.link_index[held.link]]
+            q0 = held_touch_at if held_touch_at is not None else np.zeros(self.kin.d)
+            touching = self.contacts(q0, pairs=[(b.name, OBJECT) for b in robot.bodies])
+            for b in robot.bodies:
+                if group[self.kin.link_index[b.link]] == hk or (b.name, OBJECT) in touching:
+                    disabled.add((b.name, OBJECT))
+                    self.touch_links.append(b.name)
+        self.disabled = disabled
+        names = [b.name for b in bodies]
+        self.pairs = np.array(
+            [
+                (i, j)
+                for i in range(len(names))
+                for j in range(i + 1, len(names))
+                if (names[i], names[j]) not in disabled
+            ],
+            dtype=np.int64,
+        ).reshape(-1, 2)
+        self.env_bodies = np.array(
+            [i for i, b in enumerate(bodies) if self.kin.moving[self.kin.link_index[b.link]]],
+            dtype=np.int64,
+        )
+        self._env = self.env.arrays()
+
+    def _pack(self) -> None:
+        link_index = self.kin.link_index
+        starts, ends, link, local, radius, body_link, bound_local, bound_r = ([] for _ in range(8))
+        n = 0
+        for b in self.bodies:
+            li = link_index[b.link]
+            starts.append(n)
+            n += len(b.radii)
+            ends.append(n)
+            link.extend([li] * len(b.radii))
+            local.append(b.centres)
+            radius.append(b.radii)
+            c = 0.5 * (b.centres.min(axis=0) + b.centres.max(axis=0))
+            body_link.append(li)
+            bound_local.append(c)
+            bound_r.append(float(np.max(np.linalg.norm(b.centres - c, axis=1) + b.radii)))
+        self._bodies = (
+            np.array(link, dtype=np.int64),
+            np.ascontiguousarray(np.vstack(local)),
+            np.concatenate(radius),
+            np.array(starts, dtype=np.int64),
+            np.array(ends, dtype=np.int64),
+            np.array(body_link, dtype=np.int64),
+            np.array(bound_local).reshape(-1, 3),
+            np.array(bound_r),
+        )
+
+    @property
+    def d(self) -> int:
+        return self.kin.d
+
+    @property
+    def lower(self) -> np.ndarray:
+        return self.kin.lower
+
+    @property
+    def upper(self) -> np.ndarray:
+        return self.kin.upper
+
+    def valid(self, qs: np.ndarray) -> np.ndarray:
+        """(N,) bool: which configurations of (N, d) are free."""
+        q = np.ascontiguousarray(np.atleast_2d(np.asarray(qs, dtype=float)))
+        return kernels.valid_batch(
+            q, self.kin._args(), self._bodies, self.env_bodies, self.pairs, self.padding, self._env
+        )
+
+    def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(N,) bool: which straight segments a[i] -> b[i] are free (a[i] assumed free)."""
+        return kernels.motions_valid(
+            np.ascontiguousarray(np.atleast_2d(a), dtype=float),
+            np.ascontiguousarray(np.atleast_2d(b), dtype=float),
+            self.resolution,
+            self.kin._args(),
+            self._bodies,
+            self.env_bodies,
+            self.pairs,
+            self.padding,
+            self._env,
+        )
+
+    def motion_valid(self, a: np.ndarray, b: np.ndarray) -> bool:
+        return bool(self.motions_valid(a, b)[0])
+
+    def contacts(
+        self, q: np.ndarray, pairs: Iterable[tuple[str, str]] | None = None
+    ) -> set[tuple[str, str]]:
+        """Which bodies touch which (robot link, other link or obstacle name) at `q`.
+
+        With `pairs`, only those robot pairs are tested (and no obstacles); otherwise
+        every enabled self pair and every obstacle. Used to explain a failure.
+        """
+        poses = self.kin.fk(np.asarray(q, dtype=float))
+        world = {}
+        for b in self.bodies:
+            m = poses[self.kin.link_index[b.link]]
+            world[b.name] = (b.centres @ m[:3, :3].T + m[:3, 3], b.radii, b.link)
+        out: set[tuple[str, str]] = set()
+        if pairs is None:
+            names = [b.name for b in self.bodies]
+            pair_list = [(names[i], names[j]) for i, j in self.pairs]
+        else:
+            pair_list = [p for p in pairs if p[0] in world and p[1] in world]
+        for a, b in pair_list:
+            ca, ra, _ = world[a]
+            cb, rb, _ = world[b]
+            dist = np.linalg.norm(ca[:, None] - cb[None], axis=-1)
+            if np.any(dist <= ra[:, None] + rb[None]):
+                out.add((a, b))
+        if pairs is not None:
+            return out
+        env_names = {self.bodies[i].name for i in self.env_bodies}
+        for name in env_names:
+            c, r, _ = world[name]
+            for k, kind in enumerate(self.env.kinds):
+                if _touches(c, r + self.padding, kind, self.env.poses[k], self.env.dims[k]):
+                    out.add((name, self.env.names[k]))
+        return out
+
+
+def _touches(c: np.ndarray, r: np.ndarray, kind: str, pose: np.ndarray, dims: np.ndarray) -> bool:
+    inv = np.linalg.inv(pose)
+    local = c @ inv[:3, :3].T + inv[:3, 3]
+    if kind == "box":
+        gap = np.maximum(np.abs(local) - dims, 0.0)
+        return bool(np.any(np.linalg.norm(gap, axis=1) <= r))
+    if kind == "cylinder":
+        dr = np.maximum(np.linalg.norm(local[:, :2], axis=1) - dims[0], 0.0)
+        dz = np.maximum(np.abs(local[:, 2]) - dims[1], 0.0)
+        return bool(np.any(np.hypot(dr, dz) <= r))
+    return bool(np.any(np.linalg.norm(local, axis=1) <= r + dims[0]))

@@ -1,0 +1,237 @@
+"""Inverse kinematics: damped least squares from many seeds inside the joint limits (layer 2).
+
+Position-only or full pose. The current joints are the first seed, random
+configurations the rest; every seed runs a compiled damped-least-squares loop that
+clips to the limits, and the converged solution nearest the current joints wins. When
+no seed converges the result says how far the best attempt stayed from the target.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numba as nb
+import numpy as np
+
+from robotrial.kinematics.chain import Kinematics, fk_single, jacobian_from_poses
+
+ROT_WEIGHT = 0.2  # metres per radian: balances orientation against position error
+
+
+@nb.njit(cache=True)
+def _rotation_error(r_target: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Rotation vector (world frame) that takes `r` to `r_target`."""
+    e = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            e[i, j] = r_target[i, 0] * r[j, 0] + r_target[i, 1] * r[j, 1] + r_target[i, 2] * r[j, 2]
+    tr = e[0, 0] + e[1, 1] + e[2, 2]
+    # quaternion of e (Shepperd), then 2 * atan2(|v|, w) * v / |v|
+    if tr > 0.0:
+        s = np.sqrt(tr + 1.0) * 2.0
+        w = 0.25 * s
+        x = (e[2, 1] - e[1, 2]) / s
+        y = (e[0, 2] - e[2, 0]) / s
+        z = (e[1, 0] - e[0, 1]) / s
+    elif e[0, 0] > e[1, 1] and e[0, 0] > e[2, 2]:
+        s = np.sqrt(1.0 + e[0, 0] - e[1, 1] - e[2, 2]) * 2.0
+        w = (e[2, 1] - e[1, 2]) / s
+        x = 0.25 * s
+        y = (e[0, 1] + e[1, 0]) / s
+        z = (e[0, 2] + e[2, 0]) / s
+    elif e[1, 1] > e[2, 2]:
+        s = np.sqrt(1.0 + e[1, 1] - e[0, 0] - e[2, 2]) * 2.0
+        w = (e[0, 2] - e[2, 0]) / s
+        x = (e[0, 1] + e[1, 0]) / s
+        y = 0.25 * s
+        z = (e[1, 2] + e[2, 1]) / s
+    else:
+        s = np.sqrt(1.0 + e[2, 2] - e[0, 0] - e[1, 1]) * 2.0
+        w = (e[1, 0] - e[0, 1]) / s
+        x = (e[0, 2] + e[2, 0]) / s
+        y = (e[1, 2] + e[2, 1]) / s
+        z = 0.25 * s
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    n = np.sqrt(x * x + y * y + z * z)
+    out = np.zeros(3)
+    if n > 1e-12:
+        angle = 2.0 * np.arctan2(n, w)
+        out[0], out[1], out[2] = angle * x / n, angle * y / n, angle * z / n
+    return out
+
+
+@nb.njit(cache=True)
+def _pose_error(q, target, r_target, with_rotation, kin_arrays, tip, poses, err):
+    """Fill `err` with the (weighted) pose error at `q`; returns its squared norm."""
+    parent, origin, jtype, axis, src, mult, offset, const = kin_arrays
+    fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
+    for i in range(3):
+        err[i] = target[i, 3] - poses[tip, i, 3]
+    if with_rotation:
+        er = _rotation_error(r_target, np.ascontiguousarray(poses[tip, :3, :3]))
+        for i in range(3):
+            err[3 + i] = ROT_WEIGHT * er[i]
+    return err @ err
+
+
+@nb.njit(cache=True)
+def _dls(
+    seeds,
+    target,
+    with_rotation,
+    lower,
+    upper,
+    kin_arrays,
+    ancestors,
+    tip,
+    max_iter,
+    tol_pos,
+    tol_rot,
+    max_step,
+):
+    """Levenberg-Marquardt damped least squares from every seed, clipped to the limits.
+
+    Returns (q, position error, orientation error, converged) per seed.
+    """
+    parent, _origin, jtype, axis, src, mult, _offset, _const = kin_arrays
+    n, d = seeds.shape
+    qs = seeds.copy()
+    perr = np.full(n, np.inf)
+    rerr = np.full(n, np.inf)
+    ok = np.zeros(n, dtype=np.bool_)
+    poses = np.empty((parent.shape[0], 4, 4))
+    rows = 6 if with_rotation else 3
+    err = np.zeros(rows)
+    err_new = np.zeros(rows)
+    r_target = np.ascontiguousarray(target[:3, :3])
+    q_new = np.empty(d)
+    for b in range(n):
+        q = qs[b]
+        lam = 0.01
+        e2 = _pose_error(q, target, r_target, with_rotation, kin_arrays, tip, poses, err)
+        for _ in range(max_iter):
+            pe = np.sqrt(err[0] ** 2 + err[1] ** 2 + err[2] ** 2)
+            re = np.sqrt(e2 - pe * pe) / ROT_WEIGHT if with_rotation and e2 > pe * pe else 0.0
+            perr[b], rerr[b] = pe, re
+            if pe < tol_pos and re < tol_rot:
+                ok[b] = True
+                break
+            p = poses[tip, :3, 3].copy()
+            jac = jacobian_from_poses(poses, tip, p, ancestors, jtype, axis, src, mult, d)[:rows]
+            if with_rotation:
+                jac[3:] *= ROT_WEIGHT
+            a = jac @ jac.T
+            for i in range(rows):
+                a[i, i] += lam
+            dq = jac.T @ np.linalg.solve(a, err)
+            step = np.max(np.abs(dq))
+            if step > max_step:
+                dq *= max_step / step
+            for i in range(d):
+                q_new[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
+            e2_new = _pose_error(
+                q_new, target, r_target, with_rotation, kin_arrays, tip, poses, err_new
+            )
+            if e2_new < e2:
+                q[:] = q_new
+                err[:] = err_new
+                e2 = e2_new
+                lam = max(lam * 0.3, 1e-6)
+            else:
+                lam = min(lam * 5.0, 1e3)
+                _pose_error(q, target, r_target, with_rotation, kin_arrays, tip, poses, err)
+                if lam >= 1e3:
+                    break
+        qs[b] = q
+    return qs, perr, rerr, ok
+
+
+@dataclass
+class IKResult:
+    """The answer of `solve_ik`: `q` is the converged solution nearest the current joints
+    (or the best attempt when `success` is False); errors in m and rad."""
+
+    success: bool
+    q: np.ndarray
+    position_error: float
+    orientation_error: float
+    solutions: list[np.ndarray] = field(default_factory=list)
+    seeds_tried: int = 0
+
+
+def solve_ik(
+    kin: Kinematics,
+    target: np.ndarray,
+    current: np.ndarray,
+    orientation: bool = True,
+    rng: np.random.Generator | None = None,
+    restarts: int = 64,
+    batch: int = 8,
+    wanted: int = 4,
+    accept: Callable[[np.ndarray], np.ndarray] | None = None,
+    tol_pos: float = 1e-4,
+    tol_rot: float = 1e-3,
+) -> IKResult:
+    """Joint values that put the end effector at `target` (4x4 pose, or (3,) position).
+
+    Seeds run in batches (the current joints first) until `wanted` distinct solutions
+    are found or `restarts` seeds are spent. `accept(qs) -> bool mask` filters
+    solutions (for example, collision-free ones). Solutions are sorted by their distance
+    to `current`; the first is returned.
+    """
+    rng = rng if rng is not None else np.random.default_rng()
+    current = np.clip(kin.check_q(current), kin.lower, kin.upper)
+    t = np.eye(4)
+    tgt = np.asarray(target, dtype=float)
+    if tgt.shape == (3,):
+        t[:3, 3] = tgt
+        orientation = False
+    elif tgt.shape == (4, 4):
+        t = tgt
+    else:
+        raise ValueError(f"IK target must be a 4x4 pose or an xyz position, got shape {tgt.shape}")
+    sols: list[np.ndarray] = []
+    best_q, best_err, best_rot = current, np.inf, np.inf
+    tried = 0
+    while tried < restarts and len(sols) < wanted:
+        k = min(batch, restarts - tried)
+        seeds = kin.random(rng, k)
+        if tried == 0:
+            seeds[0] = current
+        qs, perr, rerr, ok = _dls(
+            seeds,
+            t,
+            orientation,
+            kin.lower,
+            kin.upper,
+            kin._args(),
+            kin.ancestors,
+            kin.tip,
+            150,
+            tol_pos,
+            tol_rot,
+            0.4,
+        )
+        tried += k
+        score = perr + 0.1 * rerr
+        i = int(np.argmin(score))
+        if score[i] < best_err + 0.1 * best_rot:
+            best_q, best_err, best_rot = qs[i], float(perr[i]), float(rerr[i])
+        good = qs[ok]
+        if accept is not None and len(good):
+            good = good[np.asarray(accept(good), dtype=bool)]
+        for q in good:
+            if all(np.max(np.abs(q - s)) > 1e-3 for s in sols):
+                sols.append(q)
+    if not sols:
+        return IKResult(False, best_q, best_err, best_rot, [], tried)
+    sols.sort(key=lambda s: float(np.linalg.norm(s - current)))
+    q = sols[0]
+    pose = kin.link_pose(q)
+    perr = float(np.linalg.norm(pose[:3, 3] - t[:3, 3]))
+    rerr = 0.0
+    if orientation:
+        rerr = float(np.linalg.norm(_rotation_error(t[:3, :3], pose[:3, :3].copy())))
+    return IKResult(True, q, perr, rerr, sols, tried)

@@ -659,3 +659,47 @@ def test_info_bad_input_is_one_line(tmp_path: Path, capsys) -> None:
     assert f"{path}:3" in err and "<joint name='j'>" in err
     assert cli_main(["info", "no_such_robot"]) == 1
     assert "unknown robot 'no_such_robot'" in capsys.readouterr().err
+
+
+# --- mesh files -----------------------------------------------------------------------------
+
+
+def box_dae(tmp_path: Path, name: str, unit: str = "", broken_material: bool = False) -> Path:
+    text = trimesh.exchange.dae.export_collada(trimesh.creation.box(extents=(1, 2, 3))).decode()
+    if unit:
+        text = text.replace("<asset>", f'<asset><unit name="mm" meter="{unit}"/>', 1)
+    if broken_material:
+        text = re.sub(r'(<instance_material symbol="[^"]*" target=")#[^"]*"', r'\1#gone"', text)
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def extents(mesh: Mesh) -> np.ndarray:
+    v = load_mesh(mesh).vertices
+    return v.max(axis=0) - v.min(axis=0)
+
+
+def test_mesh_formats_and_collada_units(tmp_path: Path) -> None:
+    box = trimesh.creation.box(extents=(1, 2, 3))
+    box.export(tmp_path / "b.obj")
+    box.export(tmp_path / "b.stl")
+    np.testing.assert_allclose(extents(Mesh(str(tmp_path / "b.obj"))), (1, 2, 3))
+    np.testing.assert_allclose(extents(Mesh(str(tmp_path / "b.stl"), (1, 1, 2))), (1, 2, 6))
+    np.testing.assert_allclose(extents(Mesh(str(box_dae(tmp_path, "m.dae")))), (1, 2, 3))
+    mm = Mesh(str(box_dae(tmp_path, "mm.dae", unit="0.001")))
+    np.testing.assert_allclose(extents(mm), (0.001, 0.002, 0.003))
+    # pycollada drops a geometry whose material is missing; the triangles still load
+    broken = Mesh(str(box_dae(tmp_path, "broken.dae", broken_material=True)))
+    np.testing.assert_allclose(extents(broken), (1, 2, 3))
+
+
+def test_unreadable_meshes_are_model_errors(tmp_path: Path) -> None:
+    (tmp_path / "a.mesh").write_text("ogre")
+    with pytest.raises(ModelError, match=r"format '\.mesh' is not supported"):
+        load_mesh(Mesh(str(tmp_path / "a.mesh")))
+    (tmp_path / "empty.obj").write_text("# nothing\n")
+    with pytest.raises(ModelError, match="holds no triangles"):
+        load_mesh(Mesh(str(tmp_path / "empty.obj")))
+    with pytest.raises(ModelError, match=r"missing\.stl"):
+        load_mesh(Mesh(str(tmp_path / "missing.stl")))

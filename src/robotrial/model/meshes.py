@@ -7,6 +7,8 @@ whose meshes nobody looks at loads fast.
 
 from __future__ import annotations
 
+import io
+import re
 import threading
 from pathlib import Path
 
@@ -50,24 +52,61 @@ def read_mesh_file(path: str | Path) -> MeshData:
 
 
 def _read(p: Path) -> MeshData:
-    import trimesh
-
     if not mesh_format_supported(p):
         raise ModelError(
             f"mesh file {str(p)!r}: format {p.suffix!r} is not supported "
             f"(supported: {', '.join(sorted(MESH_SUFFIXES))})"
         )
     try:
-        loaded = trimesh.load(str(p), force="mesh", process=False)
+        data = p.read_bytes()
+    except OSError as exc:
+        raise ModelError(f"mesh file {str(p)!r}: {exc.strerror or exc}") from exc
+    suffix = p.suffix.lower()
+    vertices, faces = _triangles(data, suffix, p)
+    if suffix == ".dae":
+        if len(faces) == 0:
+            # a broken material reference makes pycollada drop the whole geometry
+            # instance; materials do not matter for triangles, so read without them
+            vertices, faces = _triangles(_DAE_BIND_MATERIAL.sub(b"", data), suffix, p)
+        vertices = vertices * _dae_unit(data)
+    if len(vertices) == 0 or len(faces) == 0:
+        raise ModelError(f"mesh file {str(p)!r} holds no triangles")
+    if not np.all(np.isfinite(vertices)):
+        raise ModelError(f"mesh file {str(p)!r} has non-finite vertex coordinates")
+    return MeshData(vertices, faces)
+
+
+_DAE_BIND_MATERIAL = re.compile(rb"<bind_material>.*?</bind_material>", re.S)
+_DAE_UNIT = re.compile(rb"<unit\b[^>]*\bmeter\s*=\s*[\"']([^\"']+)[\"']")
+
+
+def _dae_unit(data: bytes) -> float:
+    """Metres per unit of a COLLADA file (its <asset><unit meter=...>), 1 if not given."""
+    head = data[: data.find(b"</asset>") + 1 or 8192]
+    m = _DAE_UNIT.search(head)
+    try:
+        unit = float(m.group(1)) if m else 1.0
+    except ValueError:
+        return 1.0
+    return unit if np.isfinite(unit) and unit > 0 else 1.0
+
+
+def _triangles(data: bytes, suffix: str, p: Path) -> tuple[np.ndarray, np.ndarray]:
+    import trimesh
+
+    try:
+        loaded = trimesh.load(
+            io.BytesIO(data),
+            file_type=suffix.lstrip("."),
+            force="mesh",
+            process=False,
+            resolver=trimesh.resolvers.FilePathResolver(str(p)),
+        )
     except Exception as exc:  # trimesh and pycollada raise many kinds
         raise ModelError(f"mesh file {str(p)!r} cannot be read: {exc}") from exc
     vertices = np.asarray(getattr(loaded, "vertices", np.zeros((0, 3))), dtype=float)
     faces = np.asarray(getattr(loaded, "faces", np.zeros((0, 3))), dtype=np.int64)
-    if vertices.size == 0 or faces.size == 0:
-        raise ModelError(f"mesh file {str(p)!r} holds no triangles")
-    if not np.all(np.isfinite(vertices)):
-        raise ModelError(f"mesh file {str(p)!r} has non-finite vertex coordinates")
-    return MeshData(vertices.reshape(-1, 3), faces.reshape(-1, 3))
+    return vertices.reshape(-1, 3), faces.reshape(-1, 3)
 
 
 def load_mesh(mesh: Mesh, scaled: bool = True) -> MeshData:

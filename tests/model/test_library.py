@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import ndimage
 
 from robotrial.geometry import Box, Cylinder, Pose, Sphere
@@ -327,6 +329,33 @@ def test_rotated_box_rasterizes_to_its_rotated_rectangle() -> None:
         assert not grid.occupied[(np.abs(u) > 1.0 + res) | (np.abs(v) > 0.25 + res)].any()
     assert exact.occupied.sum() * res**2 == pytest.approx(2.0 * 0.5, rel=0.03)
     assert cover.occupied.sum() > exact.occupied.sum()
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    yaw=st.floats(-np.pi, np.pi),
+    length=st.floats(0.05, 3.0),
+    width=st.floats(0.05, 3.0),
+    x=st.floats(-2.0, 2.0),
+    y=st.floats(-2.0, 2.0),
+)
+def test_any_yawed_box_marks_exactly_the_cells_it_covers(yaw, length, width, x, y) -> None:
+    world = _one_box_world(Pose.from_xy_yaw(x, y, yaw, 0.5), size=(length, width, 1.0))
+    res = 0.05
+    exact = world_occupancy(world, resolution=res, conservative=False)
+    cover = world_occupancy(world, resolution=res, bounds=((-4, -4), (4, 4)))
+    cx, cy = cover.cell_centers()
+    u = np.abs((cx - x) * np.cos(yaw) + (cy - y) * np.sin(yaw))
+    v = np.abs(-(cx - x) * np.sin(yaw) + (cy - y) * np.cos(yaw))
+    assert cover.occupied[(u < length / 2 - 1e-6) & (v < width / 2 - 1e-6)].all()
+    reach = res / np.sqrt(2)  # a cell touches the box only if its centre is this close
+    assert not cover.occupied[(u > length / 2 + reach) | (v > width / 2 + reach)].any()
+    ex, ey = exact.cell_centers()
+    u = np.abs((ex - x) * np.cos(yaw) + (ey - y) * np.sin(yaw))
+    v = np.abs(-(ex - x) * np.sin(yaw) + (ey - y) * np.cos(yaw))
+    inside = (u < length / 2) & (v < width / 2)
+    margin = (np.abs(u - length / 2) < 1e-6) | (np.abs(v - width / 2) < 1e-6)
+    assert np.array_equal(exact.occupied[~margin], inside[~margin])
 
 
 def test_height_band_cuts_bodies_and_tilted_shapes() -> None:

@@ -15,13 +15,18 @@ export PYOPENGL_PLATFORM ?= osmesa
 
 .PHONY: setup run test lint format web clean bench
 
-setup: $(STAMP) $(WEB_STAMP) tools/node_modules/.package-lock.json
+setup: $(STAMP) $(WEB_STAMP) tools/node_modules/.package-lock.json tests/ros/node/node_modules/.package-lock.json
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
 	touch $(STAMP)
+
+# roslib (roslibjs) for the Node interop test in tests/ros
+tests/ros/node/node_modules/.package-lock.json: tests/ros/node/package.json tests/ros/node/package-lock.json
+	cd tests/ros/node && npm ci --no-audit --no-fund
+	touch $@
 
 web/node_modules/.package-lock.json: web/package.json web/package-lock.json
 	cd web && npm ci --no-audit --no-fund

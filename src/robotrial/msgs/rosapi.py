@@ -69,10 +69,14 @@ ServiceRequestDetails = _srv("ServiceRequestDetails", {"type": string}, {"typede
 ServiceResponseDetails = _srv(
     "ServiceResponseDetails", {"type": string}, {"typedefs": list[TypeDef]}
 )
-GetParam = _srv("GetParam", {"name": string, "default_value": string}, {"value": string})
-SetParam = _srv("SetParam", {"name": string, "value": string}, {})
+# ROS 2 rosapi adds `successful` and `reason` to the parameter answers; roslibjs reads them.
+_OUTCOME = {"successful": bool_, "reason": string}
+GetParam = _srv(
+    "GetParam", {"name": string, "default_value": string}, {"value": string, **_OUTCOME}
+)
+SetParam = _srv("SetParam", {"name": string, "value": string}, _OUTCOME)
 HasParam = _srv("HasParam", {"name": string}, {"exists": bool_})
-DeleteParam = _srv("DeleteParam", {"name": string}, {})
+DeleteParam = _srv("DeleteParam", {"name": string}, _OUTCOME)
 GetParamNames = _srv("GetParamNames", {}, {"names": list[string]})
 GetTime = _srv("GetTime", {}, {"time": Time})
 GetROSVersion = _srv("GetROSVersion", {}, {"version": int8, "distro": string})

@@ -84,6 +84,13 @@ def _nonneg(op: dict, key: str, default: float) -> float:
     return value
 
 
+def _name(op: dict, key: str) -> str:
+    """A required topic or service name; relative names (roslibjs's `rosapi/get_param`)
+    are taken from the root."""
+    name = _req(op, key, str)
+    return name if name.startswith("/") else "/" + name
+
+
 def _plain_id(oid: Any) -> Any:
     return oid if isinstance(oid, str | int | float) and not isinstance(oid, bool) else str(oid)
 
@@ -93,6 +100,7 @@ class ClientSubscription:
     """One client's subscription to one topic (several subscribe ids may share it)."""
 
     topic: str
+    wire_name: str  # the topic as the client spelled it, echoed in publish operations
     dialect: Dialect
     compression: str
     fragment_size: int
@@ -267,7 +275,7 @@ class Session:
             self.status("error", f"{name}: internal error: {exc}", oid)
 
     def _advertise(self, op: dict) -> None:
-        topic = _req(op, "topic", str)
+        topic = _name(op, "topic")
         type_name = _req(op, "type", str)
         latched = _opt(op, "latch", bool, False)
         pub = self.publishers.get(topic)
@@ -280,7 +288,7 @@ class Session:
         )
 
     def _unadvertise(self, op: dict) -> None:
-        topic = _req(op, "topic", str)
+        topic = _name(op, "topic")
         pub = self.publishers.pop(topic, None)
         if pub is None:
             self.status("warning", f"unadvertise: {topic} was not advertised", op.get("id"))
@@ -288,7 +296,7 @@ class Session:
         pub.close()
 
     def _publish(self, op: dict) -> None:
-        topic = _req(op, "topic", str)
+        topic = _name(op, "topic")
         msg = _opt(op, "msg", dict, {})
         pub = self.publishers.get(topic)
         if pub is None:
@@ -299,7 +307,8 @@ class Session:
         pub.publish(msg)
 
     def _subscribe(self, op: dict) -> None:
-        topic = _req(op, "topic", str)
+        topic = _name(op, "topic")
+        wire_name = op["topic"]
         type_name = _opt(op, "type", str, "")
         throttle_ms = _nonneg(op, "throttle_rate", 0)
         queue_length = int(_nonneg(op, "queue_length", 0))
@@ -318,6 +327,7 @@ class Session:
                 )
             sub = ClientSubscription(
                 topic,
+                wire_name,
                 dialect,
                 compression,
                 fragment_size,
@@ -348,7 +358,7 @@ class Session:
             sub.queue = collections.deque(sub.queue, maxlen=new_bound)
 
     def _unsubscribe(self, op: dict) -> None:
-        topic = _req(op, "topic", str)
+        topic = _name(op, "topic")
         sub = self.subscriptions.get(topic)
         sid = op.get("id")
         if sub is None:
@@ -367,7 +377,7 @@ class Session:
         sub.queue.clear()
 
     def _call_service(self, op: dict) -> None:
-        service = _req(op, "service", str)
+        service = _name(op, "service")
         args = op.get("args")
         if args is not None and not isinstance(args, dict | list):
             raise ProtocolError("'args' must be an object or an array")
@@ -382,7 +392,16 @@ class Session:
         if len(self.calls) >= self.limits.max_calls_in_flight:
             raise ProtocolError(f"more than {self.limits.max_calls_in_flight} calls in flight")
         task = self.loop.create_task(
-            self._call(service, args, op.get("id"), timeout, dialect, compression, fragment_size)
+            self._call(
+                service,
+                op["service"],
+                args,
+                op.get("id"),
+                timeout,
+                dialect,
+                compression,
+                fragment_size,
+            )
         )
         self.calls.add(task)
         task.add_done_callback(self.calls.discard)
@@ -390,6 +409,7 @@ class Session:
     async def _call(
         self,
         service: str,
+        wire_name: str,
         args: Any,
         oid: Any,
         timeout: float | None,
@@ -397,7 +417,7 @@ class Session:
         compression: str,
         fragment_size: int,
     ) -> None:
-        out: dict[str, Any] = {"op": "service_response", "service": service}
+        out: dict[str, Any] = {"op": "service_response", "service": wire_name}
         if oid is not None:
             out["id"] = _plain_id(oid)
         try:
@@ -431,16 +451,21 @@ class Session:
         return dict(zip(names, args, strict=False))
 
     def _advertise_service(self, op: dict) -> None:
-        service = _req(op, "service", str)
+        service = _name(op, "service")
         type_name = _req(op, "type", str)
         if service in self.services:
             raise ProtocolError(f"{service} is already advertised by this client")
         dialect = type_dialect(type_name) or self.server.dialect
         self.services[service] = self.bus.advertise_service(
-            service, type_name, self._remote_handler(service, dialect), node=self.name
+            service,
+            type_name,
+            self._remote_handler(service, op["service"], dialect),
+            node=self.name,
         )
 
-    def _remote_handler(self, service: str, dialect: Dialect) -> Callable[[Any], Awaitable[Any]]:
+    def _remote_handler(
+        self, service: str, wire_name: str, dialect: Dialect
+    ) -> Callable[[Any], Awaitable[Any]]:
         async def call_client(request: Any) -> Any:
             if self.closed:
                 raise BusError(f"the client offering {service} has disconnected")
@@ -448,7 +473,7 @@ class Session:
             fut: asyncio.Future = self.loop.create_future()
             self.pending[cid] = (service, fut)
             args = request.to_dict(dialect) if isinstance(request, Message) else request
-            self.send_op({"op": "call_service", "id": cid, "service": service, "args": args})
+            self.send_op({"op": "call_service", "id": cid, "service": wire_name, "args": args})
             try:
                 return await fut
             finally:
@@ -457,13 +482,13 @@ class Session:
         return call_client
 
     def _unadvertise_service(self, op: dict) -> None:
-        service = _req(op, "service", str)
+        service = _name(op, "service")
         server = self.services.pop(service, None)
         if server is None:
             self.status("warning", f"unadvertise_service: {service} is not ours", op.get("id"))
             return
         server.close()
-        self._fail_pending(service, f"{service} was withdrawn by its provider")
+        self._fail_pending(server.name, f"{service} was withdrawn by its provider")
 
     def _service_response(self, op: dict) -> None:
         cid = _req(op, "id", (str, int))
@@ -579,7 +604,7 @@ class Session:
                         continue
                 msg = sub.queue.popleft()
                 sub.last_sent = now
-                frame = self.server.encode_publish(sub.topic, msg, sub.dialect, sub.compression)
+                frame = self.server.encode_publish(sub.wire_name, msg, sub.dialect, sub.compression)
                 if isinstance(frame, str) and sub.fragment_size:
                     fid = f"publish:{sub.topic}:{self.server.next_id()}"
                     for piece in encoding.fragments(frame, sub.fragment_size, fid):

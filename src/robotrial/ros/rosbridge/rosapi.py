@@ -197,8 +197,11 @@ class Rosapi(Node):
 
     def get_param(self, req: Any) -> Any:
         if req.name in self.bus.params:
-            return api.GetParam.Response(value=json.dumps(self.bus.params[req.name]))
-        return api.GetParam.Response(value=req.default_value)
+            value = json.dumps(self.bus.params[req.name])
+            return api.GetParam.Response(value=value, successful=True)
+        if req.default_value:
+            return api.GetParam.Response(value=req.default_value, successful=True)
+        return api.GetParam.Response(reason=f"parameter {req.name} is not set")
 
     def set_param(self, req: Any) -> Any:
         try:
@@ -206,14 +209,16 @@ class Rosapi(Node):
         except json.JSONDecodeError:
             value = req.value
         self.bus.params[req.name] = value
-        return api.SetParam.Response()
+        return api.SetParam.Response(successful=True)
 
     def has_param(self, req: Any) -> Any:
         return api.HasParam.Response(exists=req.name in self.bus.params)
 
     def delete_param(self, req: Any) -> Any:
-        self.bus.params.pop(req.name, None)
-        return api.DeleteParam.Response()
+        if req.name not in self.bus.params:
+            return api.DeleteParam.Response(reason=f"parameter {req.name} is not set")
+        del self.bus.params[req.name]
+        return api.DeleteParam.Response(successful=True)
 
     def get_param_names(self, req: Any) -> Any:
         return api.GetParamNames.Response(names=sorted(self.bus.params))

@@ -1,15 +1,18 @@
 """Corpus: every URDF (and stand-alone xacro) shipped by example-robot-data loads, or
-fails with a ModelError that says why; at least 95 % load."""
+fails with a ModelError that says why; at least 95 % load, and their collision meshes read."""
 
 from __future__ import annotations
 
 import warnings
+from functools import cache
 from importlib.metadata import PackageNotFoundError, distribution
 from pathlib import Path
 
 import pytest
 
-from robotrial.model.robot import ModelError
+from robotrial.geometry import Mesh
+from robotrial.model.meshes import read_mesh_file
+from robotrial.model.robot import ModelError, RobotModel
 from robotrial.model.urdf import load_urdf
 
 
@@ -24,32 +27,59 @@ def corpus_root() -> Path:
     return root
 
 
-def corpus_files() -> list[Path]:
+@cache
+def load_corpus() -> tuple[dict[Path, RobotModel], dict[Path, str]]:
+    """Every *.urdf and *.xacro of the corpus: the models that load, the refusals."""
     root = corpus_root()
-    return sorted(root.rglob("*.urdf")) + sorted(root.rglob("*.xacro"))
-
-
-def test_example_robot_data_corpus_loads() -> None:
-    root = corpus_root()
-    files = corpus_files()
-    assert len(files) >= 60, f"only {len(files)} description files under {root}"
-    loaded, failed = [], []
+    files = sorted(root.rglob("*.urdf")) + sorted(root.rglob("*.xacro"))
+    loaded: dict[Path, RobotModel] = {}
+    refused: dict[Path, str] = {}
     for path in files:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                model = load_urdf(path)
+                loaded[path] = load_urdf(path)
             except ModelError as exc:
-                # a refusal must say where and why
-                assert str(path) in str(exc), str(exc)
-                failed.append(f"{path.relative_to(root)}: {exc}")
-                continue
+                refused[path] = str(exc)
+    return loaded, refused
+
+
+def test_example_robot_data_corpus_loads() -> None:
+    root = corpus_root()
+    loaded, refused = load_corpus()
+    total = len(loaded) + len(refused)
+    assert total >= 60, f"only {total} description files under {root}"
+    for path, msg in refused.items():
+        assert str(path) in msg, msg  # a refusal says which file, and why
+    for model in loaded.values():
         assert model.links and model.root
         for r in model.repairs:
-            assert r.strip() and ("link" in r or "joint" in r or "xacro" in r), r
-        loaded.append(path)
-    share = len(loaded) / len(files)
-    print(f"\nexample-robot-data: {len(loaded)} of {len(files)} files load ({share:.1%})")
-    for f in failed:
-        print(f"  refused: {f}")
-    assert share >= 0.95, "\n".join(failed)
+            assert "link" in r or "joint" in r or "xacro" in r, r
+    share = len(loaded) / total
+    print(f"\nexample-robot-data: {len(loaded)} of {total} files load ({share:.1%})")
+    for path, msg in refused.items():
+        print(f"  refused {path.relative_to(root)}: {msg}")
+    assert share >= 0.95, "\n".join(refused.values())
+
+
+def test_example_robot_data_collision_meshes_read() -> None:
+    """Every collision mesh (STL, DAE, OBJ) of the corpus robots reads into triangles."""
+    loaded, _ = load_corpus()
+    files = {
+        c.geometry.filename
+        for model in loaded.values()
+        for link in model.links
+        for c in link.collisions
+        if isinstance(c.geometry, Mesh)
+    }
+    assert len(files) >= 300
+    bad = []
+    for f in sorted(files):
+        try:
+            data = read_mesh_file(f)
+        except ModelError as exc:
+            bad.append(str(exc))
+            continue
+        assert len(data.faces) > 0 and data.faces.max() < len(data.vertices)
+    print(f"\nexample-robot-data: {len(files) - len(bad)} of {len(files)} collision meshes read")
+    assert not bad, "\n".join(bad)

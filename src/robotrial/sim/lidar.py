@@ -1,0 +1,331 @@
+"""Simulated 3D LiDAR (VLP-16 class) with mujoco.mj_multiRay, and its 2D scan (layer 2).
+
+`LidarPattern` is the fixed set of beam directions of a spinning multi-ring LiDAR;
+`Lidar` casts them from a MuJoCo site; `laserscan_from_points` turns a point cloud into a
+planar scan the way ROS's pointcloud_to_laserscan does (a height band, the nearest point
+per angle bin).
+"""
+
+from __future__ import annotations
+
+import itertools
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numba
+import numpy as np
+
+
+@dataclass(frozen=True)
+class LidarPattern:
+    """Beam layout: `rings` elevations evenly from `vertical_min` to `vertical_max` (rad),
+    azimuths every `horizontal_resolution` (rad) over a full turn; ranges in metres."""
+
+    rings: int = 16
+    vertical_min: float = np.deg2rad(-15.0)
+    vertical_max: float = np.deg2rad(15.0)
+    horizontal_resolution: float = np.deg2rad(0.4)
+    range_min: float = 0.4
+    range_max: float = 100.0
+    noise: float = 0.0
+
+    def __post_init__(self) -> None:
+        if int(self.rings) < 1:
+            raise ValueError(f"lidar: rings must be at least 1, got {self.rings}")
+        if not 0 < self.horizontal_resolution <= np.pi:
+            raise ValueError(
+                f"lidar: horizontal_resolution must be in (0, pi] rad, "
+                f"got {self.horizontal_resolution}"
+            )
+        if self.vertical_max < self.vertical_min:
+            raise ValueError("lidar: vertical_max is below vertical_min")
+        if not 0 <= self.range_min < self.range_max:
+            raise ValueError(
+                f"lidar: need 0 <= range_min < range_max, got {self.range_min}, {self.range_max}"
+            )
+        if self.noise < 0:
+            raise ValueError(f"lidar: noise must be >= 0, got {self.noise}")
+
+    @staticmethod
+    def from_params(params: dict[str, Any]) -> LidarPattern:
+        """From a Sensor's params (docs: EXTENSION.md lidar params); missing keys keep the
+        VLP-16 defaults."""
+        known = {f for f in LidarPattern.__dataclass_fields__}
+        kw = {k: float(v) for k, v in params.items() if k in known}
+        if "rings" in kw:
+            kw["rings"] = int(kw["rings"])
+        return LidarPattern(**kw)
+
+    @property
+    def elevations(self) -> np.ndarray:
+        if self.rings == 1:
+            return np.array([0.5 * (self.vertical_min + self.vertical_max)])
+        return np.linspace(self.vertical_min, self.vertical_max, self.rings)
+
+    @property
+    def azimuths(self) -> np.ndarray:
+        n = round(2 * np.pi / self.horizontal_resolution)
+        return np.arange(n) * (2 * np.pi / n) - np.pi
+
+    def directions(self) -> np.ndarray:
+        """(rings * columns, 3) unit vectors in the sensor frame, ring-major."""
+        el, az = np.meshgrid(self.elevations, self.azimuths, indexing="ij")
+        return np.stack(
+            [np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=-1
+        ).reshape(-1, 3)
+
+
+@dataclass
+class PointCloud:
+    """One LiDAR sweep in the sensor frame: (N, 3) float32 points of valid returns, their
+    ring index and range; `frame` names the sensor frame, `stamp` the sim time (s)."""
+
+    stamp: float
+    frame: str
+    points: np.ndarray
+    ring: np.ndarray
+    range: np.ndarray
+
+
+@dataclass
+class Scan:
+    """A planar scan like sensor_msgs/LaserScan: `ranges` (inf where nothing was seen)."""
+
+    stamp: float
+    frame: str
+    angle_min: float
+    angle_max: float
+    angle_increment: float
+    range_min: float
+    range_max: float
+    ranges: np.ndarray
+    scan_time: float = 0.0
+
+
+class RayScene:
+    """Some geoms of a model (the environment) copied into a small MuJoCo model of their
+    own, to cast rays against.
+
+    mj_multiRay visits every geom of a model for every ray, so casting against a copy that
+    holds only the walls, obstacles and objects (not the robot's visual and collision
+    geoms) is several times faster. Geoms of moving bodies ride on mocap bodies that
+    `sync` puts where the simulation has them.
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray) -> None:
+        spec = mujoco.MjSpec()
+        self.bodies: list[int] = []
+        mocap: dict[int, Any] = {}
+        for g in np.asarray(geoms, dtype=int):
+            b = int(model.geom_bodyid[g])
+            moving = b != 0 and model.body_weldid[b] != 0
+            if moving and b not in mocap:
+                mocap[b] = spec.worldbody.add_body(mocap=True)
+                self.bodies.append(b)
+            parent = mocap[b] if moving else spec.worldbody
+            gtype = mujoco.mjtGeom(int(model.geom_type[g]))
+            if moving:
+                pos, quat = model.geom_pos[g].copy(), model.geom_quat[g].copy()
+            else:
+                pos = data.geom_xpos[g].copy()
+                quat = np.zeros(4)
+                mujoco.mju_mat2Quat(quat, data.geom_xmat[g])
+            kw: dict[str, Any] = {
+                "type": gtype,
+                "size": model.geom_size[g].copy(),
+                "pos": pos,
+                "quat": quat,
+            }
+            if gtype == mujoco.mjtGeom.mjGEOM_MESH:
+                mid = int(model.geom_dataid[g])
+                va, vn = model.mesh_vertadr[mid], model.mesh_vertnum[mid]
+                fa, fn = model.mesh_faceadr[mid], model.mesh_facenum[mid]
+                name = f"mesh{mid}"
+                if spec.mesh(name) is None:
+                    spec.add_mesh(
+                        name=name,
+                        uservert=model.mesh_vert[va : va + vn].reshape(-1).tolist(),
+                        userface=model.mesh_face[fa : fa + fn].reshape(-1).tolist(),
+                    )
+                kw["meshname"] = name
+            parent.add_geom(**kw)
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.sync(data)
+
+    def sync(self, data: mujoco.MjData) -> None:
+        """Move the copies of moving geoms to their bodies' current poses."""
+        if not self.bodies:
+            mujoco.mj_kinematics(self.model, self.data)
+            return
+        for i, b in enumerate(self.bodies):
+            self.data.mocap_pos[i] = data.xpos[b]
+            self.data.mocap_quat[i] = data.xquat[b]
+        mujoco.mj_kinematics(self.model, self.data)
+
+
+class Lidar:
+    """Casts a LidarPattern from a MuJoCo site with mj_multiRay.
+
+    `geomgroup` selects which geom groups the beams see (MuJoCo's visibility groups);
+    `exclude_body` is the body the sensor sits on; or `scene` gives a RayScene to cast
+    against instead of the whole model. `threads` > 1 splits the beams across threads
+    (mj_multiRay releases the GIL; it pays only on an idle multi-core machine).
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        site: str,
+        pattern: LidarPattern,
+        frame: str = "",
+        geomgroup: np.ndarray | None = None,
+        exclude_body: int | None = None,
+        threads: int = 1,
+        scene: RayScene | None = None,
+    ) -> None:
+        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
+        if sid < 0:
+            raise ValueError(f"lidar: no site {site!r} in the MuJoCo model")
+        self.model = model
+        self.site = sid
+        self.pattern = pattern
+        self.frame = frame or site
+        self.directions = pattern.directions()
+        self.n = len(self.directions)
+        self.geomgroup = None if geomgroup is None else np.asarray(geomgroup, dtype=np.uint8)
+        self.exclude_body = int(model.site_bodyid[sid]) if exclude_body is None else exclude_body
+        self._dist = np.zeros(self.n)
+        self._geom = np.zeros(self.n, dtype=np.int32)
+        self._world_vec = np.zeros((self.n, 3))
+        self.threads = max(1, int(threads))
+        self.scene = scene
+        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        bounds = np.linspace(0, self.n, self.threads + 1).astype(int)
+        self._parts = list(itertools.pairwise(bounds.tolist()))
+
+    def _cast(self, data: mujoco.MjData, pnt: np.ndarray, lo: int, hi: int) -> None:
+        scene = self.scene
+        mujoco.mj_multiRay(
+            self.model if scene is None else scene.model,
+            data if scene is None else scene.data,
+            pnt,
+            self._world_vec[lo:hi].reshape(-1),
+            self.geomgroup if scene is None else None,
+            True,
+            self.exclude_body if scene is None else -1,
+            self._geom[lo:hi],
+            self._dist[lo:hi],
+            None,
+            hi - lo,
+            self.pattern.range_max,
+        )
+
+    def ranges(self, data: mujoco.MjData, rng: np.random.Generator | None = None) -> np.ndarray:
+        """Distance along every beam (ring-major; inf = no return within range)."""
+        pnt = data.site_xpos[self.site].copy()
+        rot = data.site_xmat[self.site].reshape(3, 3)
+        np.matmul(self.directions, rot.T, out=self._world_vec)
+        if self.scene is not None:
+            self.scene.sync(data)
+        if self._pool is None:
+            self._cast(data, pnt, 0, self.n)
+        else:
+            list(self._pool.map(lambda p: self._cast(data, pnt, *p), self._parts))
+        r = self._dist.copy()
+        if self.pattern.noise > 0 and rng is not None:
+            r += rng.normal(0.0, self.pattern.noise, self.n)
+        bad = (self._geom < 0) | (r < self.pattern.range_min) | (r > self.pattern.range_max)
+        r[bad] = np.inf
+        return r
+
+    def sweep(
+        self, data: mujoco.MjData, rng: np.random.Generator | None = None, stamp: float = 0.0
+    ) -> PointCloud:
+        """One full sweep as a point cloud of the valid returns in the sensor frame."""
+        r = self.ranges(data, rng)
+        ok = np.isfinite(r)
+        pts = (self.directions[ok] * r[ok, None]).astype(np.float32)
+        cols = self.n // self.pattern.rings
+        ring = (np.nonzero(ok)[0] // cols).astype(np.uint16)
+        return PointCloud(stamp, self.frame, pts, ring, r[ok].astype(np.float32))
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+
+@numba.njit(cache=True)
+def _bin_min(angles, ranges, angle_min, inc, wrap, out):
+    nbins = out.shape[0]
+    for i in range(angles.shape[0]):
+        k = int(np.floor((angles[i] - angle_min) / inc + 0.5))
+        if wrap and k == nbins:
+            k = 0
+        if 0 <= k < nbins and ranges[i] < out[k]:
+            out[k] = ranges[i]
+
+
+@dataclass(frozen=True)
+class ScanConfig:
+    """pointcloud_to_laserscan settings: the height band (m, in the target frame), the
+    angular window and step (rad) and the range limits (m)."""
+
+    min_height: float = -0.2
+    max_height: float = 0.5
+    angle_min: float = -np.pi
+    angle_max: float = np.pi
+    angle_increment: float = np.deg2rad(0.4)
+    range_min: float = 0.4
+    range_max: float = 30.0
+
+    def __post_init__(self) -> None:
+        if self.max_height < self.min_height:
+            raise ValueError("scan: max_height is below min_height")
+        if not self.angle_increment > 0:
+            raise ValueError(f"scan: angle_increment must be positive, got {self.angle_increment}")
+        if self.angle_max <= self.angle_min:
+            raise ValueError("scan: angle_max must be above angle_min")
+        if not 0 <= self.range_min < self.range_max:
+            raise ValueError("scan: need 0 <= range_min < range_max")
+
+
+def laserscan_from_points(
+    points: np.ndarray,
+    config: ScanConfig = ScanConfig(),
+    transform: np.ndarray | None = None,
+    stamp: float = 0.0,
+    frame: str = "",
+) -> Scan:
+    """Flatten (N, 3) points into a planar scan: keep points whose z (after `transform`,
+    a 4x4 into the scan frame) lies in the height band, then the nearest per angle bin."""
+    p = np.asarray(points, dtype=np.float64)
+    if transform is not None:
+        p = p @ transform[:3, :3].T + transform[:3, 3]
+    full_turn = config.angle_max - config.angle_min >= 2 * np.pi - 1e-9
+    nbins = round((config.angle_max - config.angle_min) / config.angle_increment)
+    if not full_turn:
+        nbins += 1
+    keep = (p[:, 2] >= config.min_height) & (p[:, 2] <= config.max_height)
+    p = p[keep]
+    rng = np.hypot(p[:, 0], p[:, 1])
+    ok = (rng >= config.range_min) & (rng <= config.range_max)
+    p, rng = p[ok], rng[ok]
+    ang = np.arctan2(p[:, 1], p[:, 0])
+    if full_turn:
+        ang = np.where(ang < config.angle_min, ang + 2 * np.pi, ang)
+    out = np.full(nbins, np.inf)
+    _bin_min(ang, rng, config.angle_min, config.angle_increment, full_turn, out)
+    return Scan(
+        stamp=stamp,
+        frame=frame,
+        angle_min=config.angle_min,
+        angle_max=config.angle_min + (nbins - 1) * config.angle_increment,
+        angle_increment=config.angle_increment,
+        range_min=config.range_min,
+        range_max=config.range_max,
+        ranges=out.astype(np.float32),
+    )

@@ -1,0 +1,466 @@
+"""Simulation: a robot in a world with its controllers and sensors, on one clock (layer 2).
+
+This is what a trial drives in a tight loop (and what the sim node puts on the bus):
+command the base and the arm, `advance` the clock, and get the sensor readings that fell
+due, each stamped with simulated time. Streams and their default rates:
+
+| stream | kind | default rate |
+| --- | --- | --- |
+| each lidar sensor (e.g. `velodyne`) | `points` (PointCloud) | the sensor's rate (10 Hz) |
+| `scan` (2D, from the first lidar) | `scan` (Scan) | the lidar's rate |
+| each camera / depth camera | `image` (ImageReading); depth adds `NAME/points` | sensor rate |
+| each imu | `imu` (ImuReading) | sensor rate |
+| `odom` | `odom` (OdometryReading, odom -> base) | 50 Hz |
+| `ground_truth` | `odom` (OdometryReading, world -> base) | 50 Hz |
+| `joint_states` | `joint_states` (JointStateReading) | 50 Hz |
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from robotrial.geometry import Pose
+from robotrial.kinematics.reference import link_poses
+from robotrial.model.robot import RobotModel
+from robotrial.model.world import World
+from robotrial.sim.build import RAY_GROUP, compile_world
+from robotrial.sim.controllers import (
+    BaseController,
+    DriveLimits,
+    Gripper,
+    JointController,
+    JointReference,
+)
+from robotrial.sim.lidar import Lidar, LidarPattern, RayScene, ScanConfig, laserscan_from_points
+from robotrial.sim.odometry import OdometryNoise, WheelOdometry
+from robotrial.sim.sensors import Camera, Imu, JointStates, OdometryReading, depth_to_points
+from robotrial.sim.tf import TfTree, chain_to_root
+from robotrial.sim.world import SimWorld
+
+DEFAULT_RATES = {"odom": 50.0, "ground_truth": 50.0, "joint_states": 50.0}
+
+
+@dataclass(frozen=True)
+class StreamSettings:
+    """Overrides for one stream: rate (Hz), TF frame, noise (the sensor's unit), or off."""
+
+    rate_hz: float | None = None
+    frame: str | None = None
+    noise: float | None = None
+    enabled: bool = True
+
+    def __post_init__(self) -> None:
+        if self.rate_hz is not None and not self.rate_hz > 0:
+            raise ValueError(f"stream rate must be positive, got {self.rate_hz} Hz")
+        if self.noise is not None and self.noise < 0:
+            raise ValueError(f"stream noise must be >= 0, got {self.noise}")
+
+
+@dataclass
+class Reading:
+    """One sample of a stream: its name, kind and data (a dataclass from sim.lidar or
+    sim.sensors)."""
+
+    stream: str
+    kind: str
+    data: Any
+
+
+@dataclass
+class _Stream:
+    name: str
+    kind: str
+    period: float
+    read: Callable[[float], list[Reading]]
+    next_due: float = 0.0
+
+
+@dataclass
+class SimOptions:
+    """How the simulation runs: control rate (Hz), which streams, noise models, threads."""
+
+    control_rate: float = 100.0
+    streams: Mapping[str, StreamSettings] = field(default_factory=dict)
+    odometry_noise: OdometryNoise = field(default_factory=OdometryNoise)
+    scan: ScanConfig | None = None
+    cameras: bool = True
+    lidar_threads: int = 1
+    lidar_sees_robot: bool = False
+
+
+def _wheel_sides(robot: RobotModel, wheels: list[str]) -> dict[str, float]:
+    poses = link_poses(robot, {})
+    return {w: float(poses[robot.joint(w).child][1, 3]) for w in wheels}
+
+
+class Simulation:
+    """A robot in a world: controllers, sensors, odometry, TF, all on the sim clock."""
+
+    def __init__(
+        self, world: SimWorld, robot: RobotModel, options: SimOptions | None = None
+    ) -> None:
+        self.world = world
+        self.robot = robot
+        self.options = opts = options or SimOptions()
+        model = world.model
+        if not opts.control_rate > 0:
+            raise ValueError(f"control rate must be positive, got {opts.control_rate}")
+        self.substeps = max(1, round(1.0 / (opts.control_rate * world.dt)))
+        self.control_dt = self.substeps * world.dt
+
+        drive = dict(robot.metadata.get("drive", {}) or {})
+        groups = dict(robot.metadata.get("groups", {}) or {})
+        actuated = [j.name for j in robot.actuated_joints]
+        wheels = [w for w in groups.get("base", []) if w in actuated]
+        if not wheels:
+            wheels = [j for j in actuated if "wheel" in j and robot.joint(j).type == "continuous"]
+        self.base: BaseController | None = None
+        if world.planar:
+            self.base = BaseController(
+                model,
+                DriveLimits.from_metadata(drive),
+                wheels=_wheel_sides(robot, wheels),
+                wheel_radius=float(drive.get("wheel_radius", 0.165)),
+                time_constant=max(5 * world.dt, 2 * self.control_dt),
+            )
+        else:
+            wheels = []
+        self.arm_joints = [j for j in actuated if j not in wheels]
+        effort = [
+            (robot.joint(j).limit.effort if robot.joint(j).limit else 0.0) for j in self.arm_joints
+        ]
+        self.joints = (
+            JointController(model, self.arm_joints, effort=effort) if self.arm_joints else None
+        )
+        if self.joints is not None:
+            self.joints.hold(world.data)
+        grip = robot.metadata.get("gripper")
+        self.gripper: Gripper | None = None
+        if grip:
+            hand = str(grip.get("link") or robot.end_effector)
+            self.gripper = Gripper(
+                model,
+                hand,
+                fingers=[f for f in grip.get("joints", []) if f in self.arm_joints],
+                open_value=float(grip.get("open", 0.0)),
+                closed_value=float(grip.get("closed", 0.0)),
+                joints=self.joints,
+            )
+        self.state_reader = JointStates(model, actuated) if actuated else None
+
+        known = self._stream_names()
+        unknown = sorted(set(opts.streams) - set(known))
+        if unknown:
+            raise ValueError(f"sim: unknown streams {unknown}; this robot has {sorted(known)}")
+        frames = {
+            k: v.frame
+            for k, v in opts.streams.items()
+            if v.frame and k in {s.name for s in robot.sensors}
+        }
+        self.tf = TfTree(robot, frames)
+        self.base_frame = robot.root
+        self.odometry = WheelOdometry(opts.odometry_noise, seed=world.seed + 1)
+        self.streams: list[_Stream] = []
+        self.closers: list[Callable[[], None]] = []
+        self._build_streams()
+        self.latest: dict[str, Reading] = {}
+
+    # --- construction ------------------------------------------------------------------
+
+    @staticmethod
+    def create(
+        world: World | str,
+        robot: RobotModel | str,
+        seed: int = 0,
+        spawn: Pose | str = "default",
+        base: str = "planar",
+        options: SimOptions | None = None,
+    ) -> Simulation:
+        """Build from a world and a robot (objects, built-in names or files)."""
+        from robotrial.model import load_robot, load_world
+
+        w = load_world(world) if isinstance(world, str) else world
+        r = load_robot(robot) if isinstance(robot, str) else robot
+        pose = w.spawn(spawn) if isinstance(spawn, str) else spawn
+        model = compile_world(w, r, base=base, spawn=pose)
+        sw = SimWorld(model, seed=seed, base_body=r.root)
+        if base != "fixed":
+            sw.spawn(pose)
+        return Simulation(sw, r, options)
+
+    def _stream_names(self) -> list[str]:
+        names = list(DEFAULT_RATES)
+        for s in self.robot.sensors:
+            names.append(s.name)
+            if s.type == "depth_camera":
+                names.append(f"{s.name}/points")
+        if any(s.type == "lidar" for s in self.robot.sensors):
+            names.append("scan")
+        return names
+
+    def _settings(self, name: str) -> StreamSettings:
+        return self.options.streams.get(name, StreamSettings())
+
+    def _add(
+        self, name: str, kind: str, rate: float, read: Callable[[float], list[Reading]]
+    ) -> None:
+        st = self._settings(name)
+        if not st.enabled:
+            return
+        hz = st.rate_hz or rate
+        if not hz > 0:
+            raise ValueError(f"stream {name!r}: rate must be positive, got {hz} Hz")
+        self.streams.append(_Stream(name, kind, 1.0 / hz, read))
+
+    def _build_streams(self) -> None:
+        w, opts = self.world, self.options
+        self._scene: RayScene | None = None
+        model = w.model
+        if self.state_reader is not None:
+            self._add(
+                "joint_states", "joint_states", DEFAULT_RATES["joint_states"], self._read_joints
+            )
+        if w.planar or model.body_jntadr[w.base_body] >= 0:
+            self._add("odom", "odom", DEFAULT_RATES["odom"], self._read_odom)
+            self._add("ground_truth", "odom", DEFAULT_RATES["ground_truth"], self._read_truth)
+        first_lidar = True
+        for s in self.robot.sensors:
+            st = self._settings(s.name)
+            if not st.enabled:
+                continue
+            frame = self.tf.sensor_frames[s.name]
+            params = dict(s.params)
+            if st.noise is not None:
+                params["noise"] = st.noise
+            if s.type == "lidar":
+                pattern = LidarPattern.from_params(params)
+                scene = None
+                if not opts.lidar_sees_robot:
+                    if self._scene is None:
+                        env = np.nonzero(model.geom_group == RAY_GROUP)[0]
+                        self._scene = RayScene(model, w.data, env)
+                    scene = self._scene
+                lidar = Lidar(
+                    model, s.name, pattern, frame, threads=opts.lidar_threads, scene=scene
+                )
+                self.closers.append(lidar.close)
+                scan_cfg = opts.scan or ScanConfig(
+                    angle_increment=pattern.horizontal_resolution,
+                    range_min=pattern.range_min,
+                    range_max=min(pattern.range_max, 30.0),
+                )
+                want_scan = first_lidar and self._settings("scan").enabled
+                self._add(
+                    s.name,
+                    "points",
+                    s.rate_hz,
+                    self._lidar_reader(s.name, lidar, scan_cfg if want_scan else None),
+                )
+                first_lidar = False
+            elif s.type in ("camera", "depth_camera"):
+                if not opts.cameras:
+                    continue
+                depth = s.type == "depth_camera"
+                cam = Camera(
+                    model,
+                    s.name,
+                    width=int(params.get("width", 320)),
+                    height=int(params.get("height", 240)),
+                    depth=depth,
+                    frame=frame,
+                    noise=float(params.get("noise", 0.0)),
+                    near=float(params.get("near", 0.05)),
+                    far=float(params.get("far", 10.0)),
+                )
+                self.closers.append(cam.close)
+                self._add(s.name, "image", s.rate_hz, self._camera_reader(s.name, cam, depth))
+            elif s.type == "imu":
+                imu = Imu(
+                    model,
+                    s.name,
+                    frame,
+                    noise_gyro=float(params.get("noise_gyro", params.get("noise", 0.0))),
+                    noise_accel=float(params.get("noise_accel", params.get("noise", 0.0))),
+                )
+                self._add(
+                    s.name,
+                    "imu",
+                    s.rate_hz,
+                    lambda t, imu=imu, n=s.name: [
+                        Reading(n, "imu", imu.read(self.world.data, self.world.rng, t))
+                    ],
+                )
+
+    def _lidar_reader(self, name: str, lidar: Lidar, scan: ScanConfig | None):
+        def read(t: float) -> list[Reading]:
+            cloud = lidar.sweep(self.world.data, self.world.rng, t)
+            out = [Reading(name, "points", cloud)]
+            if scan is not None:
+                sc = laserscan_from_points(cloud.points, scan, stamp=t, frame=cloud.frame)
+                sc.scan_time = 1.0 / max(1e-9, self._settings(name).rate_hz or 10.0)
+                out.append(Reading("scan", "scan", sc))
+            return out
+
+        return read
+
+    def _camera_reader(self, name: str, cam: Camera, depth: bool):
+        def read(t: float) -> list[Reading]:
+            img = cam.read(self.world.data, self.world.rng, t)
+            out = [Reading(name, "image", img)]
+            if depth and self._settings(f"{name}/points").enabled:
+                out.append(
+                    Reading(f"{name}/points", "points_xyz", (t, img.frame, depth_to_points(img, 2)))
+                )
+            return out
+
+        return read
+
+    def _read_joints(self, t: float) -> list[Reading]:
+        assert self.state_reader is not None
+        return [Reading("joint_states", "joint_states", self.state_reader.read(self.world.data, t))]
+
+    def _read_odom(self, t: float) -> list[Reading]:
+        st = self.odometry.state
+        r = OdometryReading(t, "odom", self.base_frame, st.x, st.y, 0.0, st.yaw, st.v, st.vy, st.w)
+        return [Reading("odom", "odom", r)]
+
+    def _read_truth(self, t: float) -> list[Reading]:
+        x, y, yaw = self.world.base_pose2d()
+        bid = self.world.base_body
+        z = float(self.world.data.xpos[bid][2]) if bid >= 0 else 0.0
+        vel = np.zeros(6)
+        if bid >= 0:
+            mujoco.mj_objectVelocity(
+                self.world.model, self.world.data, mujoco.mjtObj.mjOBJ_BODY, bid, vel, 1
+            )
+        r = OdometryReading(
+            t, "world", self.base_frame, x, y, z, yaw, float(vel[3]), float(vel[4]), float(vel[2])
+        )
+        return [Reading("ground_truth", "odom", r)]
+
+    # --- commands ----------------------------------------------------------------------
+
+    def drive(self, v: float, w: float) -> None:
+        """Command the base: forward speed (m/s) and yaw rate (rad/s), like /cmd_vel."""
+        if self.base is None:
+            raise ValueError(f"robot {self.robot.name!r} has no mobile base to drive")
+        self.base.set_command(v, w)
+
+    def follow(self, reference: JointReference) -> None:
+        """Track a joint trajectory starting now."""
+        if self.joints is None:
+            raise ValueError(f"robot {self.robot.name!r} has no joints to control")
+        self.joints.follow(reference, self.world.time)
+
+    def set_joint_targets(self, values: Mapping[str, float]) -> None:
+        if self.joints is None:
+            raise ValueError(f"robot {self.robot.name!r} has no joints to control")
+        self.joints.set_targets(dict(values))
+
+    def grasp(self) -> str | None:
+        """Close the gripper; returns the name of the object now held, if any."""
+        if self.gripper is None:
+            raise ValueError(f"robot {self.robot.name!r} has no gripper")
+        return self.gripper.close(self.world.data)
+
+    def release(self) -> None:
+        if self.gripper is None:
+            raise ValueError(f"robot {self.robot.name!r} has no gripper")
+        self.gripper.open(self.world.data)
+
+    # --- the loop ----------------------------------------------------------------------
+
+    def joint_values(self) -> dict[str, float]:
+        if self.state_reader is None:
+            return {}
+        q = self.world.data.qpos[self.state_reader.qadr]
+        return dict(zip(self.state_reader.names, q.tolist(), strict=True))
+
+    def control_step(self) -> list[Reading]:
+        """One control period: controllers, physics substeps, odometry, due sensors."""
+        w = self.world
+        data = w.data
+        data.qfrc_applied[:] = 0.0
+        if self.joints is not None:
+            self.joints.apply(data, w.time, self.control_dt)
+        if self.base is not None:
+            self.base.apply(data, self.control_dt)
+        w.step(self.substeps)
+        if self.gripper is not None:
+            self.gripper.carry(data)
+        t = w.time
+        if self.base is not None:
+            x, y, yaw = w.base_pose2d()
+            self.odometry.update(x, y, yaw, self.control_dt)
+        out: list[Reading] = []
+        for s in self.streams:
+            if t + 1e-9 >= s.next_due:
+                s.next_due = max(s.next_due + s.period, t)
+                got = s.read(t)
+                for r in got:
+                    self.latest[r.stream] = r
+                out.extend(got)
+        return out
+
+    def start(self) -> list[Reading]:
+        """Sample every stream at the current time (the first readings of a run)."""
+        if self.base is not None:
+            x, y, yaw = self.world.base_pose2d()
+            self.odometry.update(x, y, yaw, 0.0)
+        t = self.world.time
+        out: list[Reading] = []
+        for s in self.streams:
+            s.next_due = t + s.period
+            got = s.read(t)
+            for r in got:
+                self.latest[r.stream] = r
+            out.extend(got)
+        return out
+
+    def advance(
+        self, duration: float, on_reading: Callable[[Reading], None] | None = None
+    ) -> list[Reading]:
+        """Run for `duration` simulated seconds; readings go to `on_reading` (if given,
+        none are returned) or come back as a list."""
+        if duration < 0:
+            raise ValueError(f"cannot advance by a negative duration ({duration} s)")
+        steps = round(duration / self.control_dt)
+        out: list[Reading] = []
+        for _ in range(steps):
+            got = self.control_step()
+            if on_reading is None:
+                out.extend(got)
+            else:
+                for r in got:
+                    on_reading(r)
+        return out
+
+    def reset(self, seed: int | None = None) -> None:
+        """Back to the spawn state: clock 0, odometry at the origin, controllers holding."""
+        self.world.reset(seed)
+        self.odometry = WheelOdometry(self.options.odometry_noise, seed=self.world.seed + 1)
+        if self.joints is not None:
+            self.joints.hold(self.world.data)
+        if self.base is not None:
+            self.base.command = (0.0, 0.0)
+            self.base.velocity = (0.0, 0.0)
+        for s in self.streams:
+            s.next_due = 0.0
+        self.latest.clear()
+
+    def frame_pose(self, frame: str) -> np.ndarray:
+        """True world 4x4 pose of a TF frame (a link or a sensor frame)."""
+        bid = self.world.base_body
+        base = self.world.body_pose(bid) if bid >= 0 else np.eye(4)
+        transforms = self.tf.static + self.tf.dynamic(self.joint_values())
+        return base @ chain_to_root(transforms, frame, self.robot.root)
+
+    def close(self) -> None:
+        for c in self.closers:
+            c()
+        self.closers.clear()

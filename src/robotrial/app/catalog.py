@@ -1,0 +1,181 @@
+"""What the web server offers: the built-in robots and worlds, their kinds, the default
+pairings, and their browser files (RDTF for robots, scene glTF for worlds), built once
+and cached. Layer 5: calls the description layer, knows nothing of HTTP.
+
+A name from a request is only ever compared with the built-in lists; it never becomes
+part of a file path.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal
+
+from robotrial.geometry import Pose
+from robotrial.model import library
+from robotrial.model.robot import RobotModel
+from robotrial.model.world import World
+
+Kind = Literal["arm", "mobile"]
+
+# The world a robot of each kind opens in when none is asked for (if it exists).
+PREFERRED_WORLD: dict[Kind, str] = {"arm": "desk", "mobile": "room_a"}
+
+
+class UnknownName(LookupError):
+    """A robot or world name that is not built in."""
+
+
+@dataclass(frozen=True)
+class Asset:
+    """A built file: its bytes and a strong ETag (a hash of the bytes)."""
+
+    data: bytes
+    etag: str
+
+
+def robot_kind(model: RobotModel) -> Kind:
+    """A robot with a drive (a wheeled base) is mobile; anything else is an arm."""
+    return "mobile" if model.metadata.get("drive") else "arm"
+
+
+def world_kind(world: World) -> Kind:
+    """A world with walls is a room for mobile robots; one without is a tabletop scene."""
+    return "mobile" if world.walls else "arm"
+
+
+def _default_spawn(world: World) -> Pose:
+    """The spawn pose named "default", else the first one, else the origin."""
+    if "default" in world.spawns or not world.spawns:
+        return world.spawn("default")
+    return next(iter(world.spawns.values()))
+
+
+class Catalog:
+    """The built-in robots and worlds, with cached browser files.
+
+    Thread-safe: the server calls it from its worker threads; each file is built at
+    most once even when several requests ask for it at the same time.
+    """
+
+    def __init__(self, robot: str = library.DEFAULT_ROBOT, world: str = library.DEFAULT_WORLD):
+        self._lock = threading.Lock()
+        self._building: dict[str, threading.Lock] = {}
+        self._assets: dict[str, Asset] = {}
+        self.default_robot = self.check_robot(robot)
+        self.default_world = self.check_world(world)
+
+    # --- names ---------------------------------------------------------------------
+
+    @staticmethod
+    def robot_names() -> list[str]:
+        return library.robot_names()
+
+    @staticmethod
+    def world_names() -> list[str]:
+        return library.world_names()
+
+    def check_robot(self, name: str) -> str:
+        """`name` if it is a built-in robot, else UnknownName listing the ones there are."""
+        names = self.robot_names()
+        if name not in names:
+            raise UnknownName(f"unknown robot {name!r}; built-in robots are {', '.join(names)}")
+        return name
+
+    def check_world(self, name: str) -> str:
+        names = self.world_names()
+        if name not in names:
+            raise UnknownName(f"unknown world {name!r}; built-in worlds are {', '.join(names)}")
+        return name
+
+    # --- descriptions ----------------------------------------------------------------
+
+    def robot(self, name: str) -> RobotModel:
+        return library.load_builtin_robot(self.check_robot(name))
+
+    def world(self, name: str) -> World:
+        return library.load_builtin_world(self.check_world(name))
+
+    def default_pair(self) -> dict[str, str]:
+        return {"robot": self.default_robot, "world": self.default_world}
+
+    def world_for(self, kind: Kind) -> str:
+        """The world a robot of `kind` opens in: the server's default world if it suits,
+        else the preferred one, else the first that suits, else the default world."""
+        worlds = {w["name"]: w["kind"] for w in self.worlds()}
+        if worlds.get(self.default_world) == kind:
+            return self.default_world
+        if worlds.get(PREFERRED_WORLD[kind]) == kind:
+            return PREFERRED_WORLD[kind]
+        return next((n for n, k in worlds.items() if k == kind), self.default_world)
+
+    def robots(self) -> list[dict]:
+        """One entry per built-in robot: name, kind, joint count and the world it opens in."""
+        out = []
+        for name in self.robot_names():
+            model = self.robot(name)
+            kind = robot_kind(model)
+            out.append(
+                {
+                    "name": name,
+                    "kind": kind,
+                    "joints": len(model.actuated_joints),
+                    "world": self.world_for(kind),
+                }
+            )
+        return out
+
+    def worlds(self) -> list[dict]:
+        """One entry per built-in world: name, kind, description and the robot's spawn pose."""
+        out = []
+        for name in self.world_names():
+            world = self.world(name)
+            spawn = _default_spawn(world)
+            out.append(
+                {
+                    "name": name,
+                    "kind": world_kind(world),
+                    "description": world.description,
+                    "spawn": {"xyz": list(spawn.xyz), "quat": list(spawn.quat)},
+                }
+            )
+        return out
+
+    # --- files -----------------------------------------------------------------------
+
+    def robot_glb(self, name: str) -> Asset:
+        """The robot as RDTF (glTF binary)."""
+        model = self.robot(name)
+        from robotrial.model.rdtf import write_rdtf
+
+        return self._cached(f"robot/{name}", lambda: write_rdtf(model, None))
+
+    def world_glb(self, name: str) -> Asset:
+        """The world as a glTF binary scene."""
+        world = self.world(name)
+        from robotrial.model.scene_gltf import write_scene_gltf
+
+        return self._cached(f"world/{name}", lambda: write_scene_gltf(world, None))
+
+    def warm(self) -> None:
+        """Build the default robot's and world's files now, so the first page is quick."""
+        self.robot_glb(self.default_robot)
+        self.world_glb(self.default_world)
+
+    def _cached(self, key: str, build: Callable[[], bytes]) -> Asset:
+        with self._lock:
+            if key in self._assets:
+                return self._assets[key]
+            gate = self._building.setdefault(key, threading.Lock())
+        with gate:
+            with self._lock:
+                if key in self._assets:
+                    return self._assets[key]
+            data = build()
+            asset = Asset(data, '"' + hashlib.sha256(data).hexdigest()[:32] + '"')
+            with self._lock:
+                self._assets[key] = asset
+            return asset

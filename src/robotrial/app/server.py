@@ -1,0 +1,218 @@
+"""The web server (layer 5): the built page, the robot and world files, the catalog of
+built-ins, and the place where the rosbridge WebSocket joins.
+
+`create_app()` returns a FastAPI app; `robotrial serve` runs it with uvicorn. The page
+is the Vite build of web/ in this package's `static/` folder. Every name in a URL is
+checked against the built-in lists before anything is built; no part of a URL ever
+becomes a file path except through StaticFiles, which stays inside its folder.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from fastapi import FastAPI, Request
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
+from fastapi.staticfiles import StaticFiles
+from pydantic import BaseModel
+
+from robotrial.app.catalog import Asset, Catalog, UnknownName
+from robotrial.model import library
+from robotrial.model.robot import ModelError
+
+if TYPE_CHECKING:
+    from robotrial.ros.bus import Bus
+
+STATIC_DIR = Path(__file__).parent / "static"
+ROSBRIDGE_PATH = "/rosbridge"
+GLB_MEDIA_TYPE = "model/gltf-binary"
+
+log = logging.getLogger(__name__)
+
+MISSING_BUILD_PAGE = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>robotrial: page not built</title></head>
+<body style="font-family: system-ui, sans-serif; max-width: 40em; margin: 4em auto">
+<h1>The robotrial page has not been built</h1>
+<p>The server is running, but the web page is missing from <code>{static}</code>.</p>
+<p>Build it with <code>make web</code> (or <code>cd web &amp;&amp; npm ci &amp;&amp;
+npm run build</code>), then reload. The API works meanwhile: see <a href="/docs">/docs</a>.</p>
+</body></html>
+"""
+
+
+class Pair(BaseModel):
+    robot: str
+    world: str
+
+
+class Config(BaseModel):
+    """What the page needs to start."""
+
+    robot: str
+    world: str
+    rosbridge: str
+    rosbridge_enabled: bool
+
+
+class RobotEntry(BaseModel):
+    name: str
+    kind: str
+    joints: int
+    world: str
+
+
+class RobotList(BaseModel):
+    default: Pair
+    robots: list[RobotEntry]
+
+
+class SpawnPose(BaseModel):
+    xyz: list[float]
+    quat: list[float]
+
+
+class WorldEntry(BaseModel):
+    name: str
+    kind: str
+    description: str
+    spawn: SpawnPose
+
+
+class WorldList(BaseModel):
+    default: Pair
+    worlds: list[WorldEntry]
+
+
+NOT_FOUND: dict[int | str, dict[str, Any]] = {404: {"description": "no such built-in name"}}
+
+
+def mount_rosbridge(app: FastAPI, bus: Bus) -> None:
+    """Add the rosbridge v2 WebSocket route at ROSBRIDGE_PATH, serving `bus`.
+
+    This is where the rosbridge server joins the web app; it lives in layer 4
+    (`robotrial.ros.rosbridge`), the app only mounts it.
+    """
+    from robotrial.ros.rosbridge import add_rosbridge_route
+
+    add_rosbridge_route(app, bus, path=ROSBRIDGE_PATH)
+
+
+def create_app(
+    robot: str = library.DEFAULT_ROBOT,
+    world: str = library.DEFAULT_WORLD,
+    *,
+    bus: Bus | None = None,
+    static_dir: Path = STATIC_DIR,
+    warm: bool = True,
+) -> FastAPI:
+    """The web app, opening on `robot` in `world`.
+
+    `bus`: the in-process topic/service bus to serve over rosbridge at `/rosbridge`
+    (none: no rosbridge route). `warm`: build the default robot's and world's files in
+    the background at start-up, so the first page load does not wait for them.
+    Raises ModelError if `robot` or `world` is not built in.
+    """
+    try:
+        catalog = Catalog(robot, world)
+    except UnknownName as exc:
+        raise ModelError(str(exc)) from None
+
+    @asynccontextmanager
+    async def lifespan(_: FastAPI) -> AsyncIterator[None]:
+        if warm:
+            threading.Thread(target=_warm, args=(catalog,), daemon=True).start()
+        yield
+
+    app = FastAPI(
+        title="robotrial",
+        summary="Try a robot in simulation: the page, robot and world files, rosbridge.",
+        version="0.1.0",
+        lifespan=lifespan,
+    )
+    app.state.catalog = catalog
+
+    @app.exception_handler(UnknownName)
+    async def unknown_name(_: Request, exc: UnknownName) -> JSONResponse:
+        return JSONResponse({"detail": str(exc.args[0])}, status_code=404)
+
+    @app.exception_handler(ModelError)
+    async def broken_model(_: Request, exc: ModelError) -> JSONResponse:
+        return JSONResponse({"detail": f"could not build the file: {exc}"}, status_code=500)
+
+    @app.get("/", response_class=HTMLResponse, include_in_schema=False)
+    def page() -> Response:
+        index = static_dir / "index.html"
+        if not index.is_file():
+            return HTMLResponse(MISSING_BUILD_PAGE.format(static=static_dir), status_code=503)
+        return FileResponse(index, media_type="text/html", headers={"Cache-Control": "no-cache"})
+
+    @app.get("/api/config", response_model=Config, tags=["page"])
+    def config() -> Config:
+        """The robot and world the page opens on, and where rosbridge listens."""
+        return Config(
+            robot=catalog.default_robot,
+            world=catalog.default_world,
+            rosbridge=ROSBRIDGE_PATH,
+            rosbridge_enabled=bus is not None,
+        )
+
+    @app.get("/api/robots", response_model=RobotList, tags=["robots"])
+    def robots() -> RobotList:
+        """The built-in robots: name, kind (arm or mobile), joint count, the world each
+        opens in, and the server's default robot and world."""
+        return RobotList(default=Pair(**catalog.default_pair()), robots=catalog.robots())
+
+    @app.get("/api/worlds", response_model=WorldList, tags=["worlds"])
+    def worlds() -> WorldList:
+        """The built-in worlds: name, kind (arm: a tabletop scene; mobile: a room),
+        description and the robot's spawn pose, and the default robot and world."""
+        return WorldList(default=Pair(**catalog.default_pair()), worlds=catalog.worlds())
+
+    @app.get(
+        "/api/robots/{name}.glb",
+        tags=["robots"],
+        responses={200: {"content": {GLB_MEDIA_TYPE: {}}}, **NOT_FOUND},
+        response_class=Response,
+    )
+    def robot_file(name: str, request: Request) -> Response:
+        """The robot as RDTF: glTF binary with the RDTF_robot extension (docs/rdtf.md)."""
+        return _glb(catalog.robot_glb(name), request)
+
+    @app.get(
+        "/api/worlds/{name}.glb",
+        tags=["worlds"],
+        responses={200: {"content": {GLB_MEDIA_TYPE: {}}}, **NOT_FOUND},
+        response_class=Response,
+    )
+    def world_file(name: str, request: Request) -> Response:
+        """The world as a glTF binary scene (floor, walls, obstacles, objects, lights)."""
+        return _glb(catalog.world_glb(name), request)
+
+    app.mount(
+        "/assets",
+        StaticFiles(directory=static_dir / "assets", check_dir=False),
+        name="assets",
+    )
+    if bus is not None:
+        mount_rosbridge(app, bus)
+    return app
+
+
+def _glb(asset: Asset, request: Request) -> Response:
+    """A built file; 304 when the browser already holds these bytes."""
+    headers = {"ETag": asset.etag, "Cache-Control": "no-cache"}
+    if request.headers.get("if-none-match") == asset.etag:
+        return Response(status_code=304, headers=headers)
+    return Response(asset.data, media_type=GLB_MEDIA_TYPE, headers=headers)
+
+
+def _warm(catalog: Catalog) -> None:
+    try:
+        catalog.warm()
+    except Exception as exc:  # the request that needs the file reports the error
+        log.warning("could not prepare the default robot and world: %s", exc)

@@ -1,0 +1,47 @@
+"""`robotrial serve`: the web page and its files on a local port (uvicorn)."""
+
+from __future__ import annotations
+
+import argparse
+
+from robotrial.model.library import DEFAULT_ROBOT, DEFAULT_WORLD
+
+HELP = "serve the web page: a robot in a world, in the browser"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="address to listen on (default 127.0.0.1: this computer only; "
+        "0.0.0.0 opens it to the network)",
+    )
+    parser.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")
+    parser.add_argument(
+        "--robot", default=DEFAULT_ROBOT, help=f"robot the page opens on (default {DEFAULT_ROBOT})"
+    )
+    parser.add_argument(
+        "--world", default=DEFAULT_WORLD, help=f"world the page opens on (default {DEFAULT_WORLD})"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    import uvicorn
+
+    from robotrial.app.server import create_app
+    from robotrial.cli.output import console
+    from robotrial.model.robot import ModelError
+
+    try:
+        app = create_app(args.robot, args.world)
+    except ModelError as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        return 2
+    shown = "127.0.0.1" if args.host in ("0.0.0.0", "::") else args.host
+    host = f"[{shown}]" if ":" in shown else shown
+    print(
+        f"robotrial: open http://{host}:{args.port}/ ({args.robot} in {args.world}); Ctrl+C stops",
+        flush=True,
+    )
+    uvicorn.run(app, host=args.host, port=args.port, log_level="warning")
+    return 0

@@ -1,0 +1,29 @@
+// A world (room, desk scene) loaded from the server's scene glTF: static geometry the
+// robot stands in. The robot's place in it is the world's spawn pose.
+
+import { Group, Light, type Object3D } from "three";
+import { GLTFLoader } from "three/examples/jsm/loaders/GLTFLoader.js";
+import type { Spawn } from "./api";
+import { enableShadows } from "./scene";
+
+/** Fetch and parse a world's glTF scene, ready to cast and receive shadows. */
+export async function loadWorld(url: string): Promise<Object3D> {
+  const gltf = await new GLTFLoader().loadAsync(url);
+  const world = gltf.scene;
+  // The viewer lights every scene the same way (a sun with shadows and a soft sky).
+  world.traverse((o) => {
+    if (o instanceof Light) o.visible = false;
+  });
+  enableShadows(world);
+  return world;
+}
+
+/** A group holding `robot` at the world's spawn pose. */
+export function placeAt(robot: Object3D, spawn: Spawn): Group {
+  const placed = new Group();
+  placed.name = "robot";
+  placed.position.set(...spawn.xyz);
+  placed.quaternion.set(...spawn.quat);
+  placed.add(robot);
+  return placed;
+}

@@ -36,7 +36,7 @@ tools/node_modules/.package-lock.json: tools/package.json tools/package-lock.jso
 	cd tools && npm ci --no-audit --no-fund
 	touch $@
 
-$(WEB_STAMP): web/node_modules/.package-lock.json $(shell find web/src web/index.html web/vite.config.ts -type f 2>/dev/null) $(STAMP)
+$(WEB_STAMP): web/node_modules/.package-lock.json $(shell find web/src web/index.html web/vite.config.ts web/tsconfig.json -type f 2>/dev/null) $(STAMP)
 	$(BIN)/python -m robotrial.msgs.typescript web/src/generated/msgs.ts
 	cd web && npm run build
 

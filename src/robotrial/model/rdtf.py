@@ -20,7 +20,10 @@ Coordinates are the robot's own (metres, z up); a y-up viewer rotates the scene.
 
 from __future__ import annotations
 
+import json
 import math
+import struct
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -146,8 +149,10 @@ def _vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     if len(faces):
         tri = vertices[faces]
         fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        for k in range(3):
-            np.add.at(n, faces[:, k], fn)
+        corners = faces.reshape(-1)
+        for axis in range(3):
+            weights = np.repeat(fn[:, axis], 3)
+            n[:, axis] = np.bincount(corners, weights, minlength=len(vertices))
     length = np.linalg.norm(n, axis=1)
     bad = ~(length > 1e-20)
     n[bad] = (0.0, 0.0, 1.0)
@@ -162,6 +167,7 @@ class _Builder:
         self.gltf = pygltflib.GLTF2(asset=pygltflib.Asset(version="2.0", generator="robotrial"))
         self.blob = bytearray()
         self.material_index: dict[tuple, int] = {}
+        self.mesh_index: dict[tuple, int] = {}
 
     def _view(self, data: bytes, target: int) -> int:
         while len(self.blob) % 4:
@@ -189,13 +195,14 @@ class _Builder:
         self.gltf.accessors.append(acc)
         return len(self.gltf.accessors) - 1
 
-    def _index_accessor(self, faces: np.ndarray) -> int:
-        arr = np.ascontiguousarray(faces, dtype=np.uint32).reshape(-1)
+    def _index_accessor(self, faces: np.ndarray, vertex_count: int) -> int:
+        small = vertex_count <= 65535
+        arr = np.ascontiguousarray(faces, dtype=np.uint16 if small else np.uint32).reshape(-1)
         view = self._view(arr.tobytes(), pygltflib.ELEMENT_ARRAY_BUFFER)
         self.gltf.accessors.append(
             pygltflib.Accessor(
                 bufferView=view,
-                componentType=pygltflib.UNSIGNED_INT,
+                componentType=pygltflib.UNSIGNED_SHORT if small else pygltflib.UNSIGNED_INT,
                 count=len(arr),
                 type=pygltflib.SCALAR,
             )
@@ -219,33 +226,38 @@ class _Builder:
             self.material_index[key] = len(self.gltf.materials) - 1
         return self.material_index[key]
 
-    def mesh(
-        self,
-        name: str,
-        vertices: np.ndarray,
-        faces: np.ndarray,
-        material: int | None,
-        normals: np.ndarray | None = None,
-    ) -> int | None:
-        """A glTF mesh with one triangle primitive; None when there are no triangles."""
+    def triangles(
+        self, vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None
+    ) -> tuple[int, int, int] | None:
+        """Accessors (POSITION, NORMAL, indices) for a triangle mesh; None if it is empty.
+        Vertices and faces are stored as given, so they read back unchanged."""
         vertices = np.asarray(vertices, dtype=float)
         faces = np.asarray(faces, dtype=np.int64)
         if len(vertices) == 0 or len(faces) == 0:
             return None
         if normals is None:
             normals = _vertex_normals(vertices, faces)
-        pos = self._vec3_accessor(vertices, with_bounds=True)
-        nrm = self._vec3_accessor(normals, with_bounds=False)
-        idx = self._index_accessor(faces)
-        prim = pygltflib.Primitive(
-            attributes=pygltflib.Attributes(POSITION=pos, NORMAL=nrm),
-            indices=idx,
-            mode=pygltflib.TRIANGLES,
+        return (
+            self._vec3_accessor(vertices, with_bounds=True),
+            self._vec3_accessor(normals, with_bounds=False),
+            self._index_accessor(faces, len(vertices)),
         )
-        if material is not None:
-            prim.material = material
-        self.gltf.meshes.append(pygltflib.Mesh(name=name, primitives=[prim]))
-        return len(self.gltf.meshes) - 1
+
+    def mesh(self, name: str, accessors: tuple[int, int, int], material: int | None) -> int:
+        """A glTF mesh with one triangle primitive over `accessors` (shareable)."""
+        key = (accessors, material)
+        if key not in self.mesh_index:
+            pos, nrm, idx = accessors
+            prim = pygltflib.Primitive(
+                attributes=pygltflib.Attributes(POSITION=pos, NORMAL=nrm),
+                indices=idx,
+                mode=pygltflib.TRIANGLES,
+            )
+            if material is not None:
+                prim.material = material
+            self.gltf.meshes.append(pygltflib.Mesh(name=name, primitives=[prim]))
+            self.mesh_index[key] = len(self.gltf.meshes) - 1
+        return self.mesh_index[key]
 
     def node(self, name: str, pose: Pose = Pose(), **fields: Any) -> int:
         node = pygltflib.Node(name=name, **fields)
@@ -257,13 +269,18 @@ class _Builder:
         return len(self.gltf.nodes) - 1
 
     def finish(self, extensions_used: list[str]) -> bytes:
-        while len(self.blob) % 4:
-            self.blob.append(0)
-        if self.blob:
-            self.gltf.buffers.append(pygltflib.Buffer(byteLength=len(self.blob)))
-            self.gltf.set_binary_blob(bytes(self.blob))
+        """The GLB container: header, JSON chunk, and a BIN chunk when there is data."""
         self.gltf.extensionsUsed = extensions_used
-        return b"".join(self.gltf.save_to_bytes())
+        if self.blob:
+            self.gltf.buffers = [pygltflib.Buffer(byteLength=len(self.blob))]
+        doc = self.gltf.gltf_to_json(separators=(",", ":"), indent=None).encode("utf-8")
+        doc += b" " * (-len(doc) % 4)
+        chunks = [struct.pack("<II", len(doc), 0x4E4F534A), doc]
+        if self.blob:
+            binary = bytes(self.blob) + b"\0" * (-len(self.blob) % 4)
+            chunks += [struct.pack("<II", len(binary), 0x004E4942), binary]
+        body = b"".join(chunks)
+        return struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body
 
 
 # --- writing ------------------------------------------------------------------------
@@ -304,7 +321,7 @@ class _RobotWriter:
         self.model = model
         self.b = _Builder()
         self.shapes: list[dict] = []
-        self.mesh_cache: dict[int, tuple[int | None, MeshData]] = {}
+        self.triangles: dict[int, tuple[tuple[int, int, int] | None, MeshData]] = {}
         self.extra_nodes: list[int] = []
 
     def _mesh_data(self, shape: Mesh, where: str) -> MeshData:
@@ -315,18 +332,27 @@ class _RobotWriter:
         return load_mesh(shape, scaled=False)
 
     def _file_mesh(self, shape: Mesh, where: str, material: int | None) -> tuple[int | None, dict]:
-        """The glTF mesh for a mesh shape (shared when the same triangles recur)."""
-        data = self._mesh_data(shape, where)
-        key = (id(data), material)
-        if key not in self.mesh_cache:
-            index = self.b.mesh(where, data.vertices, data.faces, material)
-            self.mesh_cache[key] = (index, data)
-        index, _ = self.mesh_cache[key]
+        """The glTF mesh for a mesh shape; the same triangles are stored once."""
         geom = _shape_json(shape)
-        geom["mesh"] = index
-        if index is None:
+        try:
+            data = self._mesh_data(shape, where)
+        except ModelError as exc:
+            # an unreadable file: its name and scale are kept, there is nothing to draw
+            warnings.warn(f"{where}: {exc}; written without triangles", stacklevel=4)
+            geom["mesh"] = None
+            return None, geom
+        if id(data) not in self.triangles:
+            self.triangles[id(data)] = (self.b.triangles(data.vertices, data.faces), data)
+        accessors, _ = self.triangles[id(data)]
+        if accessors is None:
+            geom["mesh"] = None
             geom["vertices"] = [_nums(v) for v in data.vertices]
             geom["faces"] = data.faces.tolist()
+            return None, geom
+        if material is None:  # a collider: any mesh over these triangles will do
+            material = next((m for a, m in self.b.mesh_index if a == accessors), None)
+        index = self.b.mesh(where, accessors, material)
+        geom["mesh"] = index
         return index, geom
 
     def _visual(self, link: Link, i: int, visual: Visual) -> tuple[int, dict]:
@@ -342,7 +368,8 @@ class _RobotWriter:
                 fields["scale"] = [float(v) for v in shape.scale]
         else:
             v, n, f = _primitive_mesh(shape)
-            index = self.b.mesh(name, v, f, material, normals=n)
+            accessors = self.b.triangles(v, f, n)
+            index = None if accessors is None else self.b.mesh(name, accessors, material)
             geom = _shape_json(shape)
         pose = visual.origin
         if index is not None:
@@ -557,36 +584,74 @@ def write_rdtf(model: RobotModel, path: str | Path | None = None) -> bytes:
 # --- reading ------------------------------------------------------------------------
 
 
-class _Reader:
-    def __init__(self, gltf: pygltflib.GLTF2, where: str) -> None:
-        self.gltf = gltf
-        self.where = where
-        self.blob = gltf.binary_blob() or b""
-        self.mesh_cache: dict[int, MeshData] = {}
+_COMPONENT_DTYPES = {
+    pygltflib.FLOAT: np.float32,
+    pygltflib.UNSIGNED_INT: np.uint32,
+    pygltflib.UNSIGNED_SHORT: np.uint16,
+    pygltflib.UNSIGNED_BYTE: np.uint8,
+}
+_TYPE_WIDTHS = {pygltflib.SCALAR: 1, pygltflib.VEC2: 2, pygltflib.VEC3: 3, pygltflib.VEC4: 4}
 
-    def _accessor(self, index: int) -> np.ndarray:
-        acc = self.gltf.accessors[index]
-        view = self.gltf.bufferViews[acc.bufferView]
-        dtype = {
-            pygltflib.FLOAT: np.float32,
-            pygltflib.UNSIGNED_INT: np.uint32,
-            pygltflib.UNSIGNED_SHORT: np.uint16,
-            pygltflib.UNSIGNED_BYTE: np.uint8,
-        }[acc.componentType]
-        width = {pygltflib.SCALAR: 1, pygltflib.VEC3: 3}[acc.type]
-        start = (view.byteOffset or 0) + (acc.byteOffset or 0)
-        arr = np.frombuffer(self.blob, dtype=dtype, count=acc.count * width, offset=start)
-        return arr.reshape(acc.count, width) if width > 1 else arr
+
+def parse_glb(data: bytes, where: str = "glTF") -> tuple[dict, bytes]:
+    """The JSON document and the binary chunk of a glTF binary (.glb) file."""
+    if len(data) < 20 or data[:4] != b"glTF":
+        raise ModelError(f"{where}: not a glTF binary file (it does not start with 'glTF')")
+    version, length = struct.unpack_from("<II", data, 4)
+    if version != 2 or length > len(data):
+        raise ModelError(f"{where}: not a glTF 2.0 binary file (version {version})")
+    doc, blob, offset = None, b"", 12
+    while offset + 8 <= length:
+        size, kind = struct.unpack_from("<II", data, offset)
+        chunk = data[offset + 8 : offset + 8 + size]
+        if kind == 0x4E4F534A:
+            try:
+                doc = json.loads(chunk)
+            except ValueError as exc:
+                raise ModelError(f"{where}: the JSON chunk is not valid JSON ({exc})") from None
+        elif kind == 0x004E4942:
+            blob = chunk
+        offset += 8 + size
+    if not isinstance(doc, dict):
+        raise ModelError(f"{where}: not a glTF binary file (no JSON chunk)")
+    return doc, blob
+
+
+def accessor_array(doc: Mapping, blob: bytes, index: int) -> np.ndarray:
+    """The values of accessor `index` as an (count,) or (count, width) array."""
+    acc = doc["accessors"][index]
+    view = doc["bufferViews"][acc["bufferView"]]
+    width = _TYPE_WIDTHS[acc["type"]]
+    dtype = np.dtype(_COMPONENT_DTYPES[acc["componentType"]])
+    start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+    stride = view.get("byteStride", 0)
+    count = acc["count"]
+    if stride and stride != width * dtype.itemsize:
+        raw = np.frombuffer(blob, np.uint8, count=stride * count, offset=start).reshape(count, -1)
+        arr = raw[:, : width * dtype.itemsize].copy().view(dtype)
+    else:
+        arr = np.frombuffer(blob, dtype=dtype, count=count * width, offset=start)
+    return arr.reshape(count, width) if width > 1 else arr.reshape(count)
+
+
+class _Reader:
+    def __init__(self, doc: Mapping, blob: bytes, where: str) -> None:
+        self.doc = doc
+        self.blob = blob
+        self.where = where
+        self.mesh_cache: dict[int, MeshData] = {}
 
     def mesh_data(self, index: int) -> MeshData:
         if index not in self.mesh_cache:
             try:
-                prim = self.gltf.meshes[index].primitives[0]
-                vertices = self._accessor(prim.attributes.POSITION).astype(float)
-                faces = self._accessor(prim.indices).astype(np.int64).reshape(-1, 3)
+                prim = self.doc["meshes"][index]["primitives"][0]
+                vertices = accessor_array(self.doc, self.blob, prim["attributes"]["POSITION"])
+                faces = accessor_array(self.doc, self.blob, prim["indices"])
             except (IndexError, KeyError, TypeError, ValueError) as exc:
-                raise ModelError(f"{self.where}: mesh {index} cannot be read ({exc})") from None
-            self.mesh_cache[index] = MeshData(vertices, faces)
+                raise ModelError(f"{self.where}: mesh {index} cannot be read ({exc!r})") from None
+            self.mesh_cache[index] = MeshData(
+                vertices.astype(float), faces.astype(np.int64).reshape(-1, 3)
+            )
         return self.mesh_cache[index]
 
     def shape(self, d: Mapping, where: str) -> Shape:
@@ -601,6 +666,8 @@ class _Reader:
             if kind == "mesh":
                 if d.get("mesh") is not None:
                     data = self.mesh_data(int(d["mesh"]))
+                elif "vertices" not in d:  # the file was unreadable when written
+                    data = None
                 else:
                     data = MeshData(
                         np.array([[_unnum(x) for x in v] for v in d.get("vertices", [])]).reshape(
@@ -677,11 +744,12 @@ def _sensor_from(d: Mapping, where: str) -> Sensor:
 
 def rdtf_from_bytes(data: bytes, where: str = "RDTF") -> RobotModel:
     """A RobotModel from RDTF (.glb) bytes; `where` names the source in errors."""
-    try:
-        gltf = pygltflib.GLTF2.load_from_bytes(data)
-    except Exception as exc:
-        raise ModelError(f"{where}: not a glTF binary file ({exc})") from None
-    robot = (gltf.extensions or {}).get(RDTF_EXTENSION)
+    doc, blob = parse_glb(data, where)
+    return _model_from_gltf(doc, blob, where)
+
+
+def _model_from_gltf(doc: Mapping, blob: bytes, where: str) -> RobotModel:
+    robot = (doc.get("extensions") or {}).get(RDTF_EXTENSION)
     if not isinstance(robot, Mapping):
         raise ModelError(
             f"{where}: a plain glTF file, not RDTF: it has no {RDTF_EXTENSION} extension"
@@ -689,7 +757,7 @@ def rdtf_from_bytes(data: bytes, where: str = "RDTF") -> RobotModel:
     version = robot.get("version")
     if version != RDTF_VERSION:
         raise ModelError(f"{where}: RDTF version {version!r}; this reader knows {RDTF_VERSION}")
-    reader = _Reader(gltf, where)
+    reader = _Reader(doc, blob, where)
     try:
         links = tuple(reader.link(d) for d in robot["links"])
         joints = tuple(_joint_from(d, where) for d in robot["joints"])
@@ -737,4 +805,85 @@ def read_rdtf(path: str | Path) -> RobotModel:
         data = p.read_bytes()
     except OSError as exc:
         raise ModelError(f"{p}: cannot read RDTF file ({exc.strerror})") from None
+    if p.suffix.lower() == ".gltf" and data[:4] != b"glTF":
+        # the JSON form (written by other tools from our .glb): buffers by URI
+        try:
+            gltf = pygltflib.GLTF2.load(str(p))
+            gltf.convert_buffers(pygltflib.BufferFormat.BINARYBLOB)
+            doc = json.loads(gltf.gltf_to_json())
+        except Exception as exc:
+            raise ModelError(f"{p}: not a readable glTF file ({exc})") from None
+        return _model_from_gltf(doc, gltf.binary_blob() or b"", str(p))
     return rdtf_from_bytes(data, str(p))
+
+
+# --- comparing ----------------------------------------------------------------------
+
+
+def _with_triangles(shape: Shape) -> Shape:
+    """A mesh shape with its file's triangles loaded, as an RDTF holds it."""
+    if isinstance(shape, Mesh) and shape.data is None and shape.filename:
+        try:
+            return Mesh(shape.filename, shape.scale, load_mesh(shape, scaled=False))
+        except ModelError:
+            return shape
+    return shape
+
+
+def model_differences(original: RobotModel, other: RobotModel) -> list[str]:
+    """Every field in which `other` differs from `original`, in words; [] if none.
+
+    This is the round-trip contract of RDTF: poses, joints and inertials compare
+    exactly; mesh triangles compare as MeshData (vertices within 1e-6); a mesh held
+    lazily (`data` None) in `original` compares by its file's triangles; metadata and
+    sensor parameters compare as JSON (tuples equal lists).
+    """
+    out: list[str] = []
+
+    def check(what: str, a: Any, b: Any) -> None:
+        if a != b:
+            out.append(f"{what}: {a!r} != {b!r}"[:400])
+
+    def as_json(value: Any, where: str) -> Any:
+        try:
+            return _plain(value, where)
+        except ModelError:
+            return value
+
+    check("name", original.name, other.name)
+    check("link names", [lk.name for lk in original.links], [lk.name for lk in other.links])
+    for la, lb in zip(original.links, other.links, strict=False):
+        check(f"link {la.name} inertial", la.inertial, lb.inertial)
+        check(f"link {la.name} visual count", len(la.visuals), len(lb.visuals))
+        for k, (va, vb) in enumerate(zip(la.visuals, lb.visuals, strict=False)):
+            va = Visual(_with_triangles(va.geometry), va.origin, va.material, va.name)
+            for f in ("geometry", "origin", "material", "name"):
+                check(f"link {la.name} visual {k} {f}", getattr(va, f), getattr(vb, f))
+        check(f"link {la.name} collision count", len(la.collisions), len(lb.collisions))
+        for k, (ca, cb) in enumerate(zip(la.collisions, lb.collisions, strict=False)):
+            ca = Collision(_with_triangles(ca.geometry), ca.origin, ca.name)
+            for f in ("geometry", "origin", "name"):
+                check(f"link {la.name} collision {k} {f}", getattr(ca, f), getattr(cb, f))
+    check("joint names", [j.name for j in original.joints], [j.name for j in other.joints])
+    for ja, jb in zip(original.joints, other.joints, strict=False):
+        check(f"joint {ja.name}", ja, jb)
+    check("materials", dict(original.materials), dict(other.materials))
+    check("sensor names", [x.name for x in original.sensors], [x.name for x in other.sensors])
+    for sa, sb in zip(original.sensors, other.sensors, strict=False):
+        for f in ("type", "link", "origin", "rate_hz"):
+            check(f"sensor {sa.name} {f}", getattr(sa, f), getattr(sb, f))
+        check(
+            f"sensor {sa.name} params",
+            as_json(dict(sa.params), "params"),
+            as_json(dict(sb.params), "params"),
+        )
+    check("spheres", original.spheres, other.spheres)
+    check("tcp", original.tcp, other.tcp)
+    check(
+        "metadata",
+        as_json(dict(original.metadata), "metadata"),
+        as_json(dict(other.metadata), "metadata"),
+    )
+    check("source", original.source, other.source)
+    check("repairs", original.repairs, other.repairs)
+    return out

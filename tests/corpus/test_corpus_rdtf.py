@@ -1,0 +1,79 @@
+"""Corpus: every example-robot-data URDF that loads converts to RDTF that the Khronos
+glTF validator accepts with no errors, and reads back equal to the loaded model."""
+
+from __future__ import annotations
+
+import importlib.metadata
+import json
+import shutil
+import subprocess
+import warnings
+from pathlib import Path
+
+import pytest
+
+from robotrial.model.rdtf import model_differences, read_rdtf, write_rdtf
+from robotrial.model.robot import ModelError
+from robotrial.model.urdf import load_urdf
+
+ROOT = Path(__file__).resolve().parents[2]
+VALIDATOR = ROOT / "tools" / "validate_gltf.mjs"
+
+
+def example_robot_data_urdfs() -> list[Path]:
+    """The URDF files shipped by the installed example-robot-data package."""
+    dist = importlib.metadata.distribution("example-robot-data")
+    files = [Path(str(dist.locate_file(f))) for f in dist.files or [] if str(f).endswith(".urdf")]
+    return sorted(files)
+
+
+def validate(paths: list[Path]) -> dict[str, dict]:
+    """Run the Khronos validator (tools/validate_gltf.mjs) once over all the files."""
+    node = shutil.which("node")
+    assert node, "node is needed for the glTF validator"
+    assert (ROOT / "tools" / "node_modules" / "gltf-validator").is_dir(), (
+        "gltf-validator missing: run `make setup` (cd tools && npm ci)"
+    )
+    out = subprocess.run(
+        [node, str(VALIDATOR), *map(str, paths)], capture_output=True, text=True, check=True
+    )
+    return {r["file"]: r for r in json.loads(out.stdout)}
+
+
+@pytest.mark.slow
+def test_every_loadable_urdf_converts_validates_and_round_trips(tmp_path):
+    urdfs = example_robot_data_urdfs()
+    assert len(urdfs) > 30, "example-robot-data ships more URDFs than found"
+    written: dict[Path, Path] = {}
+    not_loaded: list[str] = []
+    broken: list[str] = []
+    for urdf in urdfs:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                model = load_urdf(urdf)
+            except ModelError as exc:
+                not_loaded.append(f"{urdf.name}: {str(exc)[:120]}")
+                continue
+            out = tmp_path / f"{urdf.parent.parent.name}__{urdf.stem}.glb"
+            write_rdtf(model, out)
+        differences = model_differences(model, read_rdtf(out))
+        if differences:
+            broken.append(f"{urdf.name}: {differences[:3]}")
+        written[urdf] = out
+    reports = validate(list(written.values()))
+    invalid = []
+    for urdf, out in written.items():
+        errors = [m for m in reports[str(out)]["messages"] if m["severity"] == "error"]
+        if errors:
+            invalid.append(f"{urdf.name}: {errors[:3]}")
+    print(
+        f"\nexample-robot-data: {len(urdfs)} URDFs, {len(written)} loaded and converted, "
+        f"{len(written) - len(invalid)} valid glTF, {len(written) - len(broken)} round-trip "
+        f"exactly; not loadable: {len(not_loaded)}"
+    )
+    for line in not_loaded:
+        print("  not loaded:", line)
+    assert not broken, "round trip lost fields:\n" + "\n".join(broken)
+    assert not invalid, "validator errors:\n" + "\n".join(invalid)
+    assert len(written) >= 0.9 * len(urdfs)

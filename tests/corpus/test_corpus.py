@@ -1,0 +1,108 @@
+"""Corpus: every URDF that example-robot-data ships converts to MJCF and simulates.
+
+Each file either converts (the MJCF compiles in MuJoCo and one second of simulation with
+the base fixed and the motors off stays finite and stable) or fails with a ModelError
+that names the cause. At least 95% must convert. Counts are printed and written to
+test-artifacts/corpus_mjcf.json.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import json
+import time
+import warnings
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from robotrial.model import load_robot
+from robotrial.model.mjcf import to_mjcf
+from robotrial.model.robot import ModelError
+
+SIM_SECONDS = 1.0
+MIN_CONVERTED = 0.95
+
+
+def corpus_root() -> Path:
+    """The `robots` folder of the installed example-robot-data package."""
+    dist = importlib.metadata.distribution("example-robot-data")
+    for f in dist.files or []:
+        if str(f).endswith(".urdf"):
+            path = Path(f.locate()).resolve()
+            return next(p for p in path.parents if p.name == "robots")
+    raise RuntimeError("example-robot-data is installed but ships no URDF")
+
+
+@dataclass
+class Outcome:
+    file: str
+    converted: bool
+    error: str = ""
+    bodies: int = 0
+    meshes: int = 0
+    notes: int = 0
+    seconds: float = 0.0
+    unexpected: bool = False  # an exception other than ModelError: a bug, not a bad file
+
+
+def simulate(model: mujoco.MjModel, seconds: float) -> str:
+    """Step with zero controls; '' if the state stayed finite and stable, else why not."""
+    data = mujoco.MjData(model)
+    mujoco.mj_step(model, data, round(seconds / model.opt.timestep))
+    bad = data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
+    if bad or not np.all(np.isfinite(data.qpos)) or not np.all(np.isfinite(data.qvel)):
+        return f"simulation diverged (bad accelerations {bad} times, t={data.time:.3f} s)"
+    return ""
+
+
+def convert(urdf: Path, root: Path) -> Outcome:
+    start = time.perf_counter()
+    name = str(urdf.relative_to(root))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # repairs are reported by the loader's own tests
+            robot = load_robot(urdf)
+        doc = to_mjcf(robot, base="fixed", actuators="motor")
+        model = doc.compile()
+    except ModelError as exc:
+        return Outcome(name, False, str(exc), seconds=time.perf_counter() - start)
+    except Exception as exc:
+        error = f"{type(exc).__name__}: {exc}"
+        return Outcome(name, False, error, seconds=time.perf_counter() - start, unexpected=True)
+    problem = simulate(model, SIM_SECONDS)
+    return Outcome(
+        name,
+        not problem,
+        problem,
+        bodies=model.nbody,
+        meshes=model.nmesh,
+        notes=len(doc.notes),
+        seconds=time.perf_counter() - start,
+    )
+
+
+def test_every_example_robot_data_urdf_converts_or_names_its_fault(
+    artifacts: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    root = corpus_root()
+    urdfs = sorted(root.rglob("*.urdf"))
+    assert len(urdfs) >= 50, f"expected the example-robot-data corpus under {root}"
+    outcomes = [convert(u, root) for u in urdfs]
+    done = [o for o in outcomes if o.converted]
+    failed = [o for o in outcomes if not o.converted]
+    (artifacts / "corpus_mjcf.json").write_text(json.dumps([asdict(o) for o in outcomes], indent=1))
+    with capsys.disabled():
+        print(
+            f"\nMJCF corpus: {len(done)}/{len(outcomes)} converted and simulated "
+            f"{SIM_SECONDS:g} s; {len(failed)} refused"
+        )
+        for o in failed:
+            print(f"  {o.file}: {o.error[:200]}")
+    assert not [o for o in failed if o.unexpected], "conversion crashed instead of refusing"
+    for o in failed:
+        assert o.error.strip(), f"{o.file} failed without saying why"
+    assert len(done) >= MIN_CONVERTED * len(outcomes), [o.file for o in failed]

@@ -703,3 +703,28 @@ def test_unreadable_meshes_are_model_errors(tmp_path: Path) -> None:
         load_mesh(Mesh(str(tmp_path / "empty.obj")))
     with pytest.raises(ModelError, match=r"missing\.stl"):
         load_mesh(Mesh(str(tmp_path / "missing.stl")))
+
+
+def signed_volume(data) -> float:
+    a, b, c = (data.vertices[data.faces[:, i]] for i in range(3))
+    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+
+def test_mirroring_scale_keeps_the_mesh_outside_out(cube_stl: Path) -> None:
+    plain = load_mesh(Mesh(str(cube_stl)))
+    mirrored = load_mesh(Mesh(str(cube_stl), (1.0, -1.0, 1.0)))
+    assert signed_volume(plain) == pytest.approx(0.006)
+    assert signed_volume(mirrored) == pytest.approx(0.006)
+
+
+def test_info_passes_xacro_arguments(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "one.urdf.xacro"
+    path.write_text(
+        '<robot name="one" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<link name="$(arg base)"/></robot>'
+    )
+    assert cli_main(["info", str(path), "--xacro-arg", "base:=chassis", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["root"] == "chassis"
+    assert cli_main(["info", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert "xacro expansion failed" in err and "base" in err

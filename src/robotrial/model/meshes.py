@@ -113,7 +113,9 @@ def load_mesh(mesh: Mesh, scaled: bool = True) -> MeshData:
     """The triangles of a Mesh shape: its `data` if held, else read from `filename`.
 
     With `scaled` (the default) the vertices are multiplied by `mesh.scale`, giving the
-    shape as it sits in its link; `scaled=False` gives the file's own coordinates.
+    shape as it sits in its link (a mirroring scale also reverses the triangles'
+    winding, so normals still point out); `scaled=False` gives the file's own
+    coordinates.
     """
     if mesh.data is not None:
         raw = mesh.data
@@ -123,7 +125,10 @@ def load_mesh(mesh: Mesh, scaled: bool = True) -> MeshData:
         raise ModelError("mesh shape has neither a file name nor triangles")
     if not scaled or mesh.scale == (1.0, 1.0, 1.0):
         return raw
-    return MeshData(raw.vertices * np.asarray(mesh.scale), raw.faces)
+    scale = np.asarray(mesh.scale)
+    # a mirroring scale turns the triangles inside out; reverse them to keep normals outward
+    faces = raw.faces[:, ::-1] if np.prod(scale) < 0 else raw.faces
+    return MeshData(raw.vertices * scale, faces)
 
 
 def mesh_bounds(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,77 @@
+"""The built-in mobile manipulator in the trial rooms: scan and depth against the room."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from robotrial.geometry import Pose
+from robotrial.sim.simulation import SimOptions, Simulation, StreamSettings
+from robotrial.sim.tf import chain_to_root
+
+ROOM_A = (0.0, 0.0, 7.78, 7.62)  # the free interior: x0, y0, x1, y1
+
+
+def room_distance(origin, angles):
+    x0, y0, x1, y1 = ROOM_A
+    c, s = np.cos(angles), np.sin(angles)
+    with np.errstate(divide="ignore"):
+        tx = np.where(c > 0, (x1 - origin[0]) / c, (x0 - origin[0]) / c)
+        ty = np.where(s > 0, (y1 - origin[1]) / s, (y0 - origin[1]) / s)
+    return np.minimum(np.abs(tx), np.abs(ty))
+
+
+@pytest.fixture(scope="module")
+def mm_sim():
+    opts = SimOptions(
+        cameras=True,
+        streams={
+            "velodyne": StreamSettings(noise=0.0),
+            "depth_camera": StreamSettings(noise=0.0),
+            "hand_camera": StreamSettings(enabled=False),
+        },
+    )
+    sim = Simulation.create(
+        "room_a", "mobile_manipulator", spawn=Pose.from_xy_yaw(3.0, 3.5, 0.0), options=opts
+    )
+    sim.start()
+    yield sim
+    sim.close()
+
+
+def test_scan_in_room_a_matches_the_walls(mm_sim):
+    scan = mm_sim.latest["scan"].data
+    pose = mm_sim.frame_pose(scan.frame)
+    yaw = np.arctan2(pose[1, 0], pose[0, 0])
+    angles = scan.angle_min + np.arange(len(scan.ranges)) * scan.angle_increment
+    want = room_distance(pose[:2, 3], angles + yaw)
+    seen = np.isfinite(scan.ranges)
+    assert seen.mean() > 0.99
+    assert np.max(np.abs(scan.ranges[seen] - want[seen])) < 0.01
+
+
+def test_depth_camera_sees_the_wall_ahead(mm_sim):
+    img = mm_sim.latest["depth_camera"].data
+    assert img.encoding == "32FC1" and img.pixels.shape == (480, 640)
+    cam = mm_sim.frame_pose(img.frame)  # optical frame: z forward
+    axis = cam[:3, 2]
+    assert axis[0] > 0.9
+    want = (ROOM_A[2] - cam[0, 3]) / axis[0]
+    # the arm stands in the middle of the view; the wall fills the row at the sides
+    side = img.pixels[239:241, 40:80]
+    assert np.allclose(side, want, atol=0.01)
+    rgb = mm_sim.latest["front_camera"].data
+    assert rgb.encoding == "rgb8" and rgb.pixels.shape == (480, 640, 3)
+    assert rgb.pixels.std() > 5  # a scene, not a blank frame
+
+
+def test_sensor_frames_match_the_mjcf_sites(mm_sim):
+    w = mm_sim.world
+    transforms = mm_sim.tf.static + mm_sim.tf.dynamic(mm_sim.joint_values())
+    for s in mm_sim.robot.sensors:
+        frame = mm_sim.tf.sensor_frames[s.name]
+        chain_to_root(transforms, frame, mm_sim.robot.root)
+        sid = mujoco.mj_name2id(w.model, mujoco.mjtObj.mjOBJ_SITE, s.name)
+        pose = mm_sim.frame_pose(frame)
+        assert np.allclose(pose[:3, 3], w.data.site_xpos[sid], atol=1e-6), s.name

@@ -64,7 +64,7 @@ def test_every_loadable_urdf_converts_validates_and_round_trips(tmp_path):
     reports = validate(list(written.values()))
     invalid = []
     for urdf, out in written.items():
-        errors = [m for m in reports[str(out)]["messages"] if m["severity"] == "error"]
+        errors = [m for m in reports[str(out)]["messages"] if m["severity"] in ("error", "warning")]
         if errors:
             invalid.append(f"{urdf.name}: {errors[:3]}")
     print(
@@ -75,5 +75,5 @@ def test_every_loadable_urdf_converts_validates_and_round_trips(tmp_path):
     for line in not_loaded:
         print("  not loaded:", line)
     assert not broken, "round trip lost fields:\n" + "\n".join(broken)
-    assert not invalid, "validator errors:\n" + "\n".join(invalid)
+    assert not invalid, "validator errors or warnings:\n" + "\n".join(invalid)
     assert len(written) >= 0.9 * len(urdfs)

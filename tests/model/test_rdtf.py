@@ -15,7 +15,7 @@ import pytest
 import trimesh
 
 from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Sphere
-from robotrial.model import library, load_robot
+from robotrial.model import library, load_robot, load_world
 from robotrial.model.rdtf import (
     RDTF_EXTENSION,
     model_differences,
@@ -38,6 +38,8 @@ from robotrial.model.robot import (
     Sensor,
     Visual,
 )
+from robotrial.model.scene_gltf import write_world_glb
+from robotrial.model.world import Floor, Light, Obstacle, World
 
 ROOT = Path(__file__).resolve().parents[2]
 VALIDATOR = ROOT / "tools" / "validate_gltf.mjs"
@@ -57,10 +59,11 @@ def validate(paths: list[Path]) -> dict[str, dict]:
 
 
 def errors_of(report: dict) -> list[str]:
+    """The validator's errors and warnings (infos are expected: unknown extensions)."""
     return [
-        f"{m['code']} {m['pointer']}: {m['message']}"
+        f"{m['severity']} {m['code']} {m['pointer']}: {m['message']}"
         for m in report["messages"]
-        if m["severity"] == "error"
+        if m["severity"] in ("error", "warning")
     ]
 
 
@@ -239,7 +242,7 @@ def pygltflib_quat_matrix(q) -> np.ndarray:
     return Pose((0, 0, 0), q).rotation()
 
 
-def test_builtin_robots_round_trip_and_validate(tmp_path):
+def test_builtin_robots_and_worlds_validate_and_robots_round_trip(tmp_path):
     names = library.robot_names()
     assert names, "no built-in robots found"
     paths = []
@@ -252,6 +255,11 @@ def test_builtin_robots_round_trip_and_validate(tmp_path):
     hand = tmp_path / "hand.glb"
     write_rdtf(hand_built(tmp_path), hand)
     paths.append(hand)
+    for name in [*library.world_names(), "lit"]:
+        world = lit_world() if name == "lit" else load_world(name)
+        path = tmp_path / f"world_{name}.glb"
+        write_world_glb(world, path)
+        paths.append(path)
     reports = validate(paths)
     for p in paths:
         assert errors_of(reports[str(p)]) == [], p.name
@@ -267,3 +275,63 @@ def test_reading_bad_files_names_the_problem(tmp_path):
         rdtf_from_bytes(b"".join(plain.save_to_bytes()), "plain.glb")
     with pytest.raises(ModelError, match=r"missing\.glb: cannot read"):
         read_rdtf(tmp_path / "missing.glb")
+
+
+def lit_world() -> World:
+    """A small world with every kind of body and both kinds of light."""
+    return World(
+        name="lit",
+        floor=Floor(size=(4.0, 3.0), center=(1.0, 0.5), rgba=(0.8, 0.8, 0.8, 1.0)),
+        walls=(Obstacle("north", Box((4.0, 0.1, 1.0)), Pose((1.0, 2.0, 0.5)), kind="wall"),),
+        obstacles=(
+            Obstacle("pillar", Cylinder(0.2, 1.5), Pose.from_xy_yaw(0.5, 0.5, 0.3, 0.75)),
+            Obstacle("ball", Sphere(0.3), Pose((2.0, 0.0, 0.3)), rgba=(1.0, 0.0, 0.0, 0.5)),
+        ),
+        objects=(Obstacle("cup", Box((0.08, 0.08, 0.1)), Pose((1.0, 1.0, 0.05)), mass=0.2),),
+        lights=(
+            Light("sun", "directional", direction=(0.3, -0.2, -1.0), intensity=2.0),
+            Light("lamp", "point", Pose((1.0, 1.0, 2.5)), color=(1.0, 0.9, 0.8)),
+        ),
+        spawns={"default": Pose.from_xy_yaw(0.5, 0.5, 1.0)},
+    )
+
+
+def world_node_corners(path: Path) -> dict[str, np.ndarray]:
+    """World-space bounding boxes of every drawn node, by glTF node name (read with
+    trimesh, an independent glTF reader, so node transforms are checked too)."""
+    scene = trimesh.load(str(path), force="scene")
+    out = {}
+    for node in scene.graph.nodes_geometry:
+        transform, geom = scene.graph[node]
+        out[node] = trimesh.transform_points(scene.geometry[geom].vertices, transform)
+    return out
+
+
+def test_world_glb_places_every_body_and_light(tmp_path):
+    world = lit_world()
+    path = tmp_path / "lit.glb"
+    write_world_glb(world, path)
+    gltf = pygltflib.GLTF2.load(str(path))
+    names = {n.name: n for n in gltf.nodes}
+    for name in ("floor", "wall/north", "obstacle/pillar", "obstacle/ball", "object/cup"):
+        assert name in names
+    assert names["object/cup"].extensions["KHR_physics_rigid_bodies"]["motion"]["mass"] == 0.2
+    assert names["obstacle/pillar"].extras["shape"] == "cylinder"
+    lights = gltf.extensions["KHR_lights_punctual"]["lights"]
+    assert [li["type"] for li in lights] == ["directional", "point"]
+    sun = names["light/sun"]
+    # a directional light shines along its node's -z: that must be the world direction
+    shine = Pose((0, 0, 0), sun.rotation).rotation() @ [0.0, 0.0, -1.0]
+    assert np.allclose(shine, np.array([0.3, -0.2, -1.0]) / np.linalg.norm([0.3, -0.2, -1.0]))
+    corners = world_node_corners(path)
+    wall = corners["wall/north"]
+    assert np.allclose(wall.min(axis=0), [-1.0, 1.95, 0.0], atol=1e-6)
+    assert np.allclose(wall.max(axis=0), [3.0, 2.05, 1.0], atol=1e-6)
+    pillar = corners["obstacle/pillar"]
+    assert np.allclose(pillar[:, 2].min(), 0.0, atol=1e-6)
+    assert np.allclose(pillar[:, 2].max(), 1.5, atol=1e-6)
+    floor = corners["floor"]
+    assert np.allclose(floor.min(axis=0), [-1.0, -1.0, 0.0]) and np.allclose(
+        floor.max(axis=0), [3.0, 2.0, 0.0]
+    )
+    assert gltf.extras["world"]["spawns"]["default"]["xyz"] == [0.5, 0.5, 0.0]

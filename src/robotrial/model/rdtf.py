@@ -126,7 +126,7 @@ def _plain(value: Any, where: str) -> Any:
 # --- mesh data ----------------------------------------------------------------------
 
 
-def _primitive_mesh(shape: Shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def primitive_triangles(shape: Shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Display triangles (vertices, normals, faces) for a box, cylinder or sphere."""
     if isinstance(shape, Box):
         tm = trimesh.creation.box(extents=shape.size)
@@ -160,7 +160,7 @@ def _vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return n / length[:, None]
 
 
-class _Builder:
+class GltfBuilder:
     """Collects buffer views, accessors, meshes and materials for one glTF file."""
 
     def __init__(self) -> None:
@@ -319,7 +319,7 @@ def _shape_json(shape: Shape) -> dict:
 class _RobotWriter:
     def __init__(self, model: RobotModel) -> None:
         self.model = model
-        self.b = _Builder()
+        self.b = GltfBuilder()
         self.shapes: list[dict] = []
         self.triangles: dict[int, tuple[tuple[int, int, int] | None, MeshData]] = {}
         self.extra_nodes: list[int] = []
@@ -367,7 +367,7 @@ class _RobotWriter:
             if shape.scale != (1.0, 1.0, 1.0):
                 fields["scale"] = [float(v) for v in shape.scale]
         else:
-            v, n, f = _primitive_mesh(shape)
+            v, n, f = primitive_triangles(shape)
             accessors = self.b.triangles(v, f, n)
             index = None if accessors is None else self.b.mesh(name, accessors, material)
             geom = _shape_json(shape)

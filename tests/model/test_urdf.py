@@ -728,3 +728,28 @@ def test_info_passes_xacro_arguments(tmp_path: Path, capsys) -> None:
     assert cli_main(["info", str(path)]) == 1
     err = capsys.readouterr().err
     assert "xacro expansion failed" in err and "base" in err
+
+
+def test_repeated_materials() -> None:
+    same = robot(
+        '<material name="k"><color rgba="0 0 0 1"/></material>\n'
+        '<material name="k"><color rgba="0 0 0 1"/></material>\n<link name="a"/>'
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", URDFRepairWarning)
+        assert urdf_from_string(same).materials["k"].rgba == (0.0, 0.0, 0.0, 1.0)
+    other = same.replace(
+        '<color rgba="0 0 0 1"/></material>\n<link', '<color rgba="1 1 1 1"/></material>\n<link'
+    )
+    m = repaired(other, "material 'k' (line 4) is defined again with other values")
+    assert m.materials["k"].rgba == (0.0, 0.0, 0.0, 1.0)
+    refused(robot('<material><color rgba="0 0 0 1"/></material><link name="a"/>'), "has no name")
+
+
+def test_revolute_with_zero_range_is_opened() -> None:
+    text = two_links(
+        '<joint name="j" type="revolute"><parent link="base"/><child link="arm"/>'
+        '<limit lower="0" upper="0" effort="0" velocity="0"/></joint>'
+    )
+    lim = repaired(text, "joint 'j' (line 5): revolute joint with range [0, 0]").joint("j").limit
+    assert (lim.lower, lim.upper) == (-math.pi, math.pi)

@@ -80,7 +80,7 @@ def load_urdf(
     """
     p = Path(path)
     if not p.is_file():
-        raise ModelError(f"{p}: no such file")
+        raise ModelError(f"{p}: {'not a file' if p.exists() else 'no such file'}")
     if p.suffix.lower() in XACRO_SUFFIXES:
         text = expand_xacro(p, package_paths, xacro_args)
         return urdf_from_string(text, str(p), p.parent, package_paths, expanded_from_xacro=True)
@@ -323,15 +323,18 @@ class _Reader:
             name = Path(self.source).name.split(".")[0] or "robot"
             self.repair(f"<robot> has no name; named it {name!r} after the file")
         for m in _children(root, "material"):
+            self.name(m, "a top-level <material>")
             mat = self.material(m, owner="robot")
-            if mat.name in self.materials:
-                raise self.error(
-                    m,
-                    f"material {mat.name!r} is defined twice "
-                    f"(first at line {self.material_lines[mat.name]})",
+            first = self.materials.get(mat.name)
+            if first is None:
+                self.materials[mat.name] = mat
+                self.material_lines[mat.name] = m.sourceline or 0
+            elif first != mat:
+                self.repair(
+                    f"material {mat.name!r} (line {m.sourceline}) is defined again with "
+                    f"other values; the first definition (line "
+                    f"{self.material_lines[mat.name]}) is kept"
                 )
-            self.materials[mat.name] = mat
-            self.material_lines[mat.name] = m.sourceline or 0
         link_els = _children(root, "link")
         if not link_els:
             hint = (
@@ -795,6 +798,12 @@ class _Reader:
                 f"using {fixed}"
             )
             effort, velocity = fixed
+        if jtype == "revolute" and lower == upper == 0:
+            self.repair(
+                f"joint {name!r} (line {le.sourceline}): revolute joint with range [0, 0] "
+                "(what exporters write for 'no limit'); limited to [-pi, pi]"
+            )
+            lower, upper = -math.pi, math.pi
         if jtype in ("revolute", "prismatic") and lower > upper:
             self.repair(
                 f"joint {name!r} (line {le.sourceline}): lower limit {lower} > upper {upper}; "
@@ -1000,11 +1009,12 @@ def nearest_valid_inertia(tensor: np.ndarray, mass: float = 0.0) -> np.ndarray |
     floor = max(INERTIA_FLOOR, 1e-9 * scale, mass * 1e-6)
     a, b, c = w  # ascending
     tol = 1e-9 * max(scale, INERTIA_FLOOR)
-    if a >= floor - tol and a + b >= c - tol:
+    if a > 0 and a >= floor * (1 - 1e-6) and a + b >= c - tol:
         return None
     m = np.maximum(w, floor)
     if m[0] + m[1] < m[2]:
-        d = (m[2] - m[0] - m[1]) / 3.0
+        # a hair past equality, so rounding cannot break the inequality again
+        d = (m[2] - m[0] - m[1]) / 3.0 + 1e-9 * m[2]
         m = np.array([m[0] + d, m[1] + d, m[2] - d])
     fixed = v @ np.diag(m) @ v.T
     return (fixed + fixed.T) / 2

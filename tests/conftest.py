@@ -52,3 +52,9 @@ def chromium() -> str:
     if not Path(path).exists():
         pytest.fail(f"Chromium not found at {CHROMIUM}: install Debian's chromium (see .ci/run)")
     return path
+
+
+@pytest.fixture(scope="session")
+def chromium_args() -> list[str]:
+    """CHROMIUM_ARGS for `launch(args=...)`, as a fixture: test modules cannot import conftest."""
+    return list(CHROMIUM_ARGS)

@@ -156,9 +156,9 @@ class Catalog:
     def world_glb(self, name: str) -> Asset:
         """The world as a glTF binary scene."""
         world = self.world(name)
-        from robotrial.model.scene_gltf import write_scene_gltf
+        from robotrial.model.scene_gltf import write_world_glb
 
-        return self._cached(f"world/{name}", lambda: write_scene_gltf(world, None))
+        return self._cached(f"world/{name}", lambda: write_world_glb(world))
 
     def warm(self) -> None:
         """Build the default robot's and world's files now, so the first page is quick."""

@@ -178,6 +178,6 @@ class BoxRoom:
     mjcf = MJCF
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def boxroom() -> type[BoxRoom]:
     return BoxRoom

@@ -1,0 +1,300 @@
+"""Recording messages to MCAP (ROS 2 CDR, opens in Foxglove and Lichtblick) or ROS 1 .bag
+(layer 4).
+
+`Recorder` writes robotrial.msgs messages; `BusRecorder` subscribes to topics of a bus
+and records what they carry (like `ros2 bag record`). Serialization goes through the
+`rosbags` type stores (ROS 2 Humble CDR, ROS 1 Noetic); the MCAP schemas are the full
+`.msg` definitions of robotrial.msgs, in the `ros2msg` encoding that ROS 2 tools write.
+"""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mcap.writer import CompressionType
+from mcap.writer import Writer as McapWriter
+from rosbags.interfaces import Nodetype
+from rosbags.rosbag1 import Writer as Bag1Writer
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from robotrial.msgs import Message, lookup_message
+from robotrial.msgs.core import definition, dependencies, full_definition
+from robotrial.msgs.names import LATCHED_TOPICS
+from robotrial.ros.bus import Bus, Node
+
+FORMATS = ("mcap", "bag")
+_STORES: dict[str, Any] = {}
+_STORE_LOCK = threading.Lock()
+
+
+def format_of(path: str | Path) -> str:
+    """ "mcap" or "bag" from the file name; a clear error for anything else."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".mcap":
+        return "mcap"
+    if suffix == ".bag":
+        return "bag"
+    raise ValueError(f"{path}: a recording is a .mcap (ROS 2) or .bag (ROS 1) file")
+
+
+def typestore(dialect: str):
+    """The rosbags type store of a dialect ("ros2": Humble, "ros1": Noetic)."""
+    with _STORE_LOCK:
+        if dialect not in _STORES:
+            _STORES[dialect] = get_typestore(
+                Stores.ROS2_HUMBLE if dialect == "ros2" else Stores.ROS1_NOETIC
+            )
+        return _STORES[dialect]
+
+
+def ensure_type(store, cls: type[Message], dialect: str) -> None:
+    """Register `cls` (and what it contains) in the store if the store lacks it."""
+    missing = [c for c in dependencies(cls) if c.__ros_type__ not in store.types]
+    if not missing:
+        return
+    types: dict = {}
+    for c in missing:
+        types.update(get_types_from_msg(definition(c, dialect), c.__ros_type__))
+    with _STORE_LOCK:
+        store.register(types)
+
+
+_DTYPES = {
+    "bool": np.bool_,
+    "byte": np.uint8,
+    "char": np.uint8,
+    "int8": np.int8,
+    "uint8": np.uint8,
+    "int16": np.int16,
+    "uint16": np.uint16,
+    "int32": np.int32,
+    "uint32": np.uint32,
+    "int64": np.int64,
+    "uint64": np.uint64,
+    "float32": np.float32,
+    "float64": np.float64,
+}
+
+
+def _default(store, desc) -> Any:
+    kind, detail = desc
+    if kind == Nodetype.BASE:
+        return "" if detail[0] == "string" else (False if detail[0] == "bool" else 0)
+    if kind == Nodetype.NAME:
+        return _build(store, detail, None)
+    (sub_kind, sub_detail), length = detail
+    if sub_kind == Nodetype.BASE and sub_detail[0] != "string":
+        return np.zeros(length if kind == Nodetype.ARRAY else 0, dtype=_DTYPES[sub_detail[0]])
+    return [
+        _default(store, (sub_kind, sub_detail))
+        for _ in range(length if kind == Nodetype.ARRAY else 0)
+    ]
+
+
+def _convert(store, value: Any, desc) -> Any:
+    kind, detail = desc
+    if kind == Nodetype.BASE:
+        return value
+    if kind == Nodetype.NAME:
+        return _build(store, detail, value)
+    (sub_kind, sub_detail), _ = detail
+    if sub_kind == Nodetype.BASE and sub_detail[0] != "string":
+        dtype = _DTYPES[sub_detail[0]]
+        if isinstance(value, bytes | bytearray | memoryview):
+            return np.frombuffer(value, dtype=np.uint8).astype(dtype, copy=False)
+        return np.asarray(value, dtype=dtype)
+    return [_convert(store, v, (sub_kind, sub_detail)) for v in value]
+
+
+def _build(store, typename: str, msg: Message | None) -> Any:
+    """The rosbags object of `typename` with the fields of our `msg` (None: defaults)."""
+    cls = store.types[typename]
+    _, fields = store.fielddefs[typename]
+    aliases = getattr(msg, "__aliases__", {}) if msg is not None else {}
+    kwargs = {}
+    for name, desc in fields:
+        ours = aliases.get(name, name)
+        if msg is not None and hasattr(msg, ours):
+            kwargs[name] = _convert(store, getattr(msg, ours), desc)
+        else:
+            kwargs[name] = _default(store, desc)
+    return cls(**kwargs)
+
+
+def serialize(msg: Message, dialect: str = "ros2") -> bytes:
+    """CDR (ros2) or ROS 1 bytes of a message."""
+    store = typestore(dialect)
+    cls = type(msg)
+    ensure_type(store, cls, dialect)
+    obj = _build(store, cls.__ros_type__, msg)
+    if dialect == "ros2":
+        return bytes(store.serialize_cdr(obj, cls.__ros_type__))
+    return bytes(store.serialize_ros1(obj, cls.__ros_type__))
+
+
+def _field_back(value: Any, spec) -> Any:
+    if spec.msg is not None:
+        if spec.array is not None:
+            return [from_rosbags(v, spec.msg) for v in value]
+        return from_rosbags(value, spec.msg)
+    if spec.is_bytes:
+        return np.asarray(value, dtype=np.uint8).tobytes()
+    if spec.array is not None:
+        if isinstance(value, np.ndarray):
+            return value.tolist()
+        return list(value)
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def from_rosbags(obj: Any, cls: type[Message]) -> Message:
+    """Our message from a rosbags object of the same type (either dialect)."""
+    kwargs = {}
+    rename = cls.__ros1__.rename
+    for spec in cls.__fields_spec__:
+        name = spec.name if hasattr(obj, spec.name) else rename.get(spec.name, spec.name)
+        if hasattr(obj, name):
+            kwargs[spec.name] = _field_back(getattr(obj, name), spec)
+    return cls(**kwargs)
+
+
+def deserialize(data: bytes, type_name: str, dialect: str = "ros2") -> Message:
+    cls = lookup_message(type_name)
+    if cls is None:
+        raise ValueError(f"recording: message type {type_name!r} is not in robotrial.msgs")
+    store = typestore(dialect)
+    ensure_type(store, cls, dialect)
+    if dialect == "ros2":
+        obj = store.deserialize_cdr(data, cls.__ros_type__)
+    else:
+        obj = store.deserialize_ros1(data, cls.__ros_type__)
+    return from_rosbags(obj, cls)
+
+
+def message_stamp(msg: Message) -> float | None:
+    """The header stamp of a message (of the first transform for TF), if it has one."""
+    header = getattr(msg, "header", None)
+    if header is None:
+        transforms = getattr(msg, "transforms", None)
+        if transforms:
+            header = transforms[0].header
+    if header is None:
+        return None
+    return header.stamp.sec + header.stamp.nanosec * 1e-9
+
+
+class Recorder:
+    """Writes messages to `path` (.mcap or .bag). Use as a context manager or `close()`.
+
+    `write(topic, msg, stamp)`: `stamp` (s) is the log time; without it the message's
+    header stamp, else the last time written. A topic keeps the type of its first message.
+    """
+
+    def __init__(self, path: str | Path, compression: bool = True) -> None:
+        self.path = Path(path)
+        self.format = format_of(self.path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.counts: dict[str, int] = {}
+        self._types: dict[str, str] = {}
+        self._channels: dict[str, Any] = {}
+        self._last = 0.0
+        self._lock = threading.Lock()
+        self._closed = False
+        if self.format == "mcap":
+            self._file = open(self.path, "wb")
+            self._mcap = McapWriter(
+                self._file,
+                compression=CompressionType.ZSTD if compression else CompressionType.NONE,
+            )
+            self._mcap.start(profile="ros2", library="robotrial")
+            self._schemas: dict[str, int] = {}
+        else:
+            if self.path.exists():
+                self.path.unlink()
+            self._bag = Bag1Writer(self.path)
+            if compression:
+                self._bag.set_compression(Bag1Writer.CompressionFormat.LZ4)
+            self._bag.open()
+
+    def _channel(self, topic: str, cls: type[Message]) -> Any:
+        name = cls.__ros_type__
+        known = self._types.get(topic)
+        if known is not None:
+            if known != name:
+                raise ValueError(f"recording: topic {topic} carries {known}, not {name}")
+            return self._channels[topic]
+        if self.format == "mcap":
+            if name not in self._schemas:
+                self._schemas[name] = self._mcap.register_schema(
+                    name=name, encoding="ros2msg", data=full_definition(cls).encode()
+                )
+            ch = self._mcap.register_channel(
+                topic=topic, message_encoding="cdr", schema_id=self._schemas[name]
+            )
+        else:
+            store = typestore("ros1")
+            ensure_type(store, cls, "ros1")
+            ch = self._bag.add_connection(
+                topic, name, typestore=store, latching=1 if topic in LATCHED_TOPICS else 0
+            )
+        self._types[topic] = name
+        self._channels[topic] = ch
+        return ch
+
+    def write(self, topic: str, msg: Message, stamp: float | None = None) -> None:
+        if not isinstance(msg, Message):
+            raise TypeError(
+                f"recording {topic}: expected a robotrial.msgs message, got {type(msg)}"
+            )
+        t = stamp if stamp is not None else message_stamp(msg)
+        with self._lock:
+            if self._closed:
+                raise ValueError(f"recording {self.path} is closed")
+            t = self._last if t is None else t
+            self._last = max(self._last, t)
+            ns = round(t * 1e9)
+            ch = self._channel(topic, type(msg))
+            if self.format == "mcap":
+                self._mcap.add_message(
+                    channel_id=ch, log_time=ns, publish_time=ns, data=serialize(msg, "ros2")
+                )
+            else:
+                self._bag.write(ch, ns, serialize(msg, "ros1"))
+            self.counts[topic] = self.counts.get(topic, 0) + 1
+
+    def close(self) -> None:
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            if self.format == "mcap":
+                self._mcap.finish()
+                self._file.close()
+            else:
+                self._bag.close()
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class BusRecorder(Node):
+    """Records topics of a bus into a Recorder (every message, in arrival order)."""
+
+    def __init__(
+        self, bus: Bus, recorder: Recorder, topics: list[str], name: str = "/recorder"
+    ) -> None:
+        super().__init__(bus, bus.unique_node_name(name))
+        self.recorder = recorder
+        for topic in topics:
+            self.create_subscription(topic, None, lambda msg, t=topic: self._on(t, msg))
+
+    def _on(self, topic: str, msg: Any) -> None:
+        if isinstance(msg, Message):
+            self.recorder.write(topic, msg)

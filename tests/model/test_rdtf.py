@@ -238,6 +238,49 @@ def test_physics_extensions_describe_mass_and_colliders(tmp_path):
     assert holder.mesh is not None and holder.scale == [0.5, 0.5, 2.0]
 
 
+def test_physics_joints_constrain_the_joint_axis(tmp_path):
+    model = hand_built(tmp_path)
+    gltf = pygltflib.GLTF2.load_from_bytes(write_rdtf(model))
+    nodes = gltf.nodes
+    index = {n.name: i for i, n in enumerate(nodes)}
+
+    def local(i: int) -> np.ndarray:
+        n = nodes[i]
+        return Pose(n.translation or (0, 0, 0), n.rotation or (0, 0, 0, 1)).matrix()
+
+    parent_of = {c: i for i, n in enumerate(nodes) for c in (n.children or [])}
+
+    def world(i: int) -> np.ndarray:
+        m = local(i)
+        while i in parent_of:
+            i = parent_of[i]
+            m = local(i) @ m
+        return m
+
+    joints = gltf.extensions["KHR_physics_rigid_bodies"]["physicsJoints"]
+    shoulder = model.joint("shoulder")
+    ext = nodes[index["shoulder/joint"]].extensions["KHR_physics_rigid_bodies"]["joint"]
+    assert ext["connectedNode"] == index["shoulder/joint/child"]
+    assert parent_of[index["shoulder/joint"]] == index["base"]
+    assert parent_of[index["shoulder/joint/child"]] == index["upper"]
+    # at q = 0 both attachment frames coincide, and their x is the joint axis
+    a, b = world(index["shoulder/joint"]), world(index["shoulder/joint/child"])
+    assert np.allclose(a, b, atol=1e-12)
+    axis_in_base = shoulder.origin.rotation() @ np.array(shoulder.axis)
+    assert np.allclose(a[:3, 0], axis_in_base / np.linalg.norm(axis_in_base))
+    spec = joints[ext["joint"]]
+    assert {"angularAxes": [0], "min": -2.9, "max": 2.9} in spec["limits"]
+    assert spec["drives"][0]["damping"] == 0.05
+    finger = joints[
+        nodes[index["finger_a/joint"]].extensions["KHR_physics_rigid_bodies"]["joint"]["joint"]
+    ]
+    assert {"linearAxes": [0], "min": 0.0, "max": 0.02} in finger["limits"]
+    spin = joints[
+        nodes[index["wrist_spin/joint"]].extensions["KHR_physics_rigid_bodies"]["joint"]["joint"]
+    ]
+    assert not any(lim.get("angularAxes") == [0] for lim in spin["limits"])
+
+
 def pygltflib_quat_matrix(q) -> np.ndarray:
     return Pose((0, 0, 0), q).rotation()
 

@@ -323,6 +323,7 @@ class _RobotWriter:
         self.shapes: list[dict] = []
         self.triangles: dict[int, tuple[tuple[int, int, int] | None, MeshData]] = {}
         self.extra_nodes: list[int] = []
+        self.joint_specs: dict[str, int] = {}
 
     def _mesh_data(self, shape: Mesh, where: str) -> MeshData:
         if shape.data is not None:
@@ -453,10 +454,35 @@ class _RobotWriter:
         }
         records.append(record)
         for j in self.model.child_joints(link.name):
-            kids.append(self._link(self.model.link(j.child), records))
+            child = self._link(self.model.link(j.child), records)
+            kids.append(child)
+            joint_node = self._physics_joint(j, child)
+            if joint_node is not None:
+                kids.append(joint_node)
         if kids:
             self.b.gltf.nodes[node].children = kids
         return node
+
+    def _physics_joint(self, joint: Joint, child: int) -> int | None:
+        """KHR_physics_rigid_bodies joint: a node `JOINT/joint` under the parent link and
+        an anchor `JOINT/joint/child` under the child link, both with x along the axis;
+        they coincide at joint value 0. None for floating and planar joints."""
+        spec = _joint_limits(joint)
+        if spec is None:
+            return None
+        key = json.dumps(spec, sort_keys=True)
+        if key not in self.joint_specs:
+            self.joint_specs[key] = len(self.joint_specs)
+        frame = _x_to_axis(joint.axis)
+        anchor = self.b.node(f"{joint.name}/joint/child", frame)
+        node = self.b.gltf.nodes[child]
+        node.children = [*(node.children or []), anchor]
+        link = {"connectedNode": anchor, "joint": self.joint_specs[key]}
+        return self.b.node(
+            f"{joint.name}/joint",
+            joint.origin @ frame,
+            extensions={PHYSICS_EXTENSION: {"joint": link}},
+        )
 
     def write(self) -> bytes:
         m = self.model
@@ -502,8 +528,53 @@ class _RobotWriter:
         if self.shapes:
             ext[SHAPES_EXTENSION] = {"shapes": self.shapes}
             used.append(SHAPES_EXTENSION)
+        if self.joint_specs:
+            ext[PHYSICS_EXTENSION] = {"physicsJoints": [json.loads(k) for k in self.joint_specs]}
         self.b.gltf.extensions = ext
         return self.b.finish(sorted(used))
+
+
+def _x_to_axis(axis) -> Pose:
+    """The rotation taking +x onto `axis` (identity for a zero axis)."""
+    a = np.asarray(axis, dtype=float)
+    n = float(np.linalg.norm(a))
+    if not n > 1e-12:
+        return Pose()
+    rot, _ = Rotation.align_vectors([a / n], [[1.0, 0.0, 0.0]])
+    return Pose((0.0, 0.0, 0.0), rot.as_quat())
+
+
+def _joint_limits(joint: Joint) -> dict | None:
+    """The physicsJoints entry of a URDF joint in a frame whose x is the joint axis:
+    locked degrees of freedom as zero-range limits, the free one with the URDF limits,
+    and the URDF damping as a drive towards zero velocity."""
+    lock_linear = {"linearAxes": [0, 1, 2], "min": 0.0, "max": 0.0}
+    lock_angular = {"angularAxes": [0, 1, 2], "min": 0.0, "max": 0.0}
+    if joint.type == "fixed":
+        return {"limits": [lock_linear, lock_angular]}
+    if joint.type not in ("revolute", "continuous", "prismatic"):
+        return None
+    angular = joint.type != "prismatic"
+    free = "angularAxes" if angular else "linearAxes"
+    limits = [
+        {"linearAxes": [1, 2] if not angular else [0, 1, 2], "min": 0.0, "max": 0.0},
+        {"angularAxes": [1, 2] if angular else [0, 1, 2], "min": 0.0, "max": 0.0},
+    ]
+    if joint.type != "continuous" and joint.limit is not None:
+        bound: dict[str, Any] = {free: [0]}
+        if math.isfinite(joint.limit.lower):
+            bound["min"] = float(joint.limit.lower)
+        if math.isfinite(joint.limit.upper):
+            bound["max"] = float(joint.limit.upper)
+        if len(bound) > 1:
+            limits.append(bound)
+    spec: dict[str, Any] = {"limits": limits}
+    damping = joint.dynamics.damping if joint.dynamics is not None else 0.0
+    if damping > 0 and math.isfinite(damping):
+        kind = "angular" if angular else "linear"
+        drive = {"type": kind, "mode": "force", "axis": 0, "velocityTarget": 0.0}
+        spec["drives"] = [{**drive, "damping": float(damping)}]
+    return spec
 
 
 def _valid_shape(shapes: list[dict], geometry: dict) -> bool:

@@ -156,6 +156,13 @@ def test_page_shows_moves_and_switches_robots(
         room_pixels = snapshot(page, artifacts / "web_mobile_manipulator_room_a.png")
         assert drawn_fraction(room_pixels) > 0.05
 
+        # Another place for the same robot: the robot stays, the room changes.
+        page.select_option("#world-picker", "apartment")
+        home = wait_ready(page, "mobile_manipulator", "apartment")
+        assert home["joints"] == mobile["joints"]
+        flat_pixels = snapshot(page, artifacts / "web_mobile_manipulator_apartment.png")
+        assert drawn_fraction(flat_pixels) > 0.05
+
         browser.close()
     assert errors == []
     (artifacts / "web_timing.json").write_text(

@@ -71,8 +71,12 @@ export class RobotrialApp {
       this.robotShown = robotName;
       this.viewer.setWorld(world);
       this.viewer.setRobot(placeAt(robot.object, spawn ?? { xyz: [0, 0, 0], quat: [0, 0, 0, 1] }));
-      if (robot !== keep) this.viewer.frame(robot.object);
+      this.viewer.frame(robot.object);
       this.panel.setJoints(robot.joints, robot.jointValues());
+      this.panel.describeEndEffector(
+        robot.description.tcp,
+        robot.joints.some((j) => j.group === "arm" || j.group === "gripper"),
+      );
       this.panel.setEndEffector(robot.endEffector());
       await this.viewer.rendered();
       if (load !== this.loads) return;

@@ -28,19 +28,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import uvicorn
 
-    from robotrial.app.server import create_app
+    from robotrial.app.server import ROSBRIDGE_PATH, create_app
     from robotrial.cli.output import console
     from robotrial.model.robot import ModelError
+    from robotrial.ros.bus import Bus
 
     try:
-        app = create_app(args.robot, args.world)
+        app = create_app(args.robot, args.world, bus=Bus())
     except ModelError as exc:
         console.print(f"[red]error:[/red] {exc}")
         return 2
     shown = "127.0.0.1" if args.host in ("0.0.0.0", "::") else args.host
     host = f"[{shown}]" if ":" in shown else shown
     print(
-        f"robotrial: open http://{host}:{args.port}/ ({args.robot} in {args.world}); Ctrl+C stops",
+        f"robotrial: open http://{host}:{args.port}/ ({args.robot} in {args.world}); "
+        f"rosbridge at ws://{host}:{args.port}{ROSBRIDGE_PATH}; Ctrl+C stops",
         flush=True,
     )
     uvicorn.run(app, host=args.host, port=args.port, log_level="warning")

@@ -30,6 +30,8 @@ export class Panel {
   private readonly worldPicker = el("select", { id: "world-picker", "aria-label": "World" });
   private readonly status = el("p", { class: "status", role: "status", "aria-live": "polite" });
   private readonly effector = el("dl", { class: "effector", id: "end-effector" });
+  private readonly effectorTitle = el("h2", {}, "Hand position");
+  private readonly effectorHint = el("p", { class: "hint" }, "Tool tip, from the robot's base");
   private readonly jointList = el("div", { class: "joints", id: "joints" });
   private readonly homeButton = el("button", { type: "button", class: "quiet" }, "Home position");
   private readonly rows = new Map<string, SliderRow>();
@@ -48,8 +50,8 @@ export class Panel {
       el(
         "section",
         {},
-        el("h2", {}, "Hand position"),
-        el("p", { class: "hint" }, "Tool tip, from the robot's base"),
+        this.effectorTitle,
+        this.effectorHint,
         this.effector,
       ),
       el(
@@ -121,6 +123,15 @@ export class Panel {
       row.input.value = String(value);
       row.output.value = formatJoint(row.joint, value);
     }
+  }
+
+  /** Name what the position read-out shows: a hand's tool tip, or for a robot without
+   * an arm, the link its description names as end effector. */
+  describeEndEffector(link: string, hand: boolean): void {
+    this.effectorTitle.textContent = hand ? "Hand position" : "Position";
+    this.effectorHint.textContent = hand
+      ? "Tool tip, from the robot's base"
+      : `${humanize(link)}, from the robot's base`;
   }
 
   /** The end-effector position (m) or null while nothing is loaded. */

@@ -14,63 +14,70 @@ from robotrial.kinematics.chain import fk_single
 
 
 @nb.njit(cache=True, inline="always")
-def _sphere_box(c, r, inv, half) -> bool:
-    """Does a sphere (centre `c`, radius `r`) touch a box (inverse pose `inv`, half-extents)?"""
+def _box_gap2(x, y, z, inv, k, half) -> float:
+    """Squared distance from point (x, y, z) to box k (0 inside); indices, not views,
+    keep the inner loop free of array-view bookkeeping."""
     d2 = 0.0
     for i in range(3):
-        x = inv[i, 0] * c[0] + inv[i, 1] * c[1] + inv[i, 2] * c[2] + inv[i, 3]
-        e = abs(x) - half[i]
+        u = inv[k, i, 0] * x + inv[k, i, 1] * y + inv[k, i, 2] * z + inv[k, i, 3]
+        e = abs(u) - half[k, i]
         if e > 0.0:
-            if e > r:
-                return False
             d2 += e * e
-    return d2 <= r * r
+    return d2
 
 
 @nb.njit(cache=True, inline="always")
-def _sphere_cylinder(c, r, inv, radius, half_length) -> bool:
-    """Does a sphere touch a cylinder along its own z (inverse pose `inv`)?"""
-    x = inv[0, 0] * c[0] + inv[0, 1] * c[1] + inv[0, 2] * c[2] + inv[0, 3]
-    y = inv[1, 0] * c[0] + inv[1, 1] * c[1] + inv[1, 2] * c[2] + inv[1, 3]
-    z = inv[2, 0] * c[0] + inv[2, 1] * c[1] + inv[2, 2] * c[2] + inv[2, 3]
-    rho = np.sqrt(x * x + y * y)
-    dr = max(rho - radius, 0.0)
-    dz = max(abs(z) - half_length, 0.0)
-    return dr * dr + dz * dz <= r * r
+def _cyl_gap2(x, y, z, inv, k, radius, half_length) -> float:
+    u = inv[k, 0, 0] * x + inv[k, 0, 1] * y + inv[k, 0, 2] * z + inv[k, 0, 3]
+    v = inv[k, 1, 0] * x + inv[k, 1, 1] * y + inv[k, 1, 2] * z + inv[k, 1, 3]
+    w = inv[k, 2, 0] * x + inv[k, 2, 1] * y + inv[k, 2, 2] * z + inv[k, 2, 3]
+    dr = max(np.sqrt(u * u + v * v) - radius[k], 0.0)
+    dz = max(abs(w) - half_length[k], 0.0)
+    return dr * dr + dz * dz
 
 
 @nb.njit(cache=True)
 def world_spheres(poses, sphere_link, sphere_local, out) -> None:
     """Sphere centres in the world frame from the link poses."""
     for s in range(sphere_link.shape[0]):
-        m = poses[sphere_link[s]]
-        p = sphere_local[s]
+        li = sphere_link[s]
+        x, y, z = sphere_local[s, 0], sphere_local[s, 1], sphere_local[s, 2]
         for i in range(3):
-            out[s, i] = m[i, 0] * p[0] + m[i, 1] * p[1] + m[i, 2] * p[2] + m[i, 3]
+            out[s, i] = (
+                poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
+            )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _body_hits_env(b, centres, radius, body_start, body_end, bound_c, bound_r, pad, env):
     """Does body `b` touch any environment shape? `env` holds boxes, cylinders, spheres."""
     box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env
-    bc = bound_c[b]
+    bx, by, bz = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2]
     br = bound_r[b] + pad
     for k in range(box_inv.shape[0]):
-        if not _sphere_box(bc, br, box_inv[k], box_half[k]):
+        if _box_gap2(bx, by, bz, box_inv, k, box_half) > br * br:
             continue
         for s in range(body_start[b], body_end[b]):
-            if _sphere_box(centres[s], radius[s] + pad, box_inv[k], box_half[k]):
+            r = radius[s] + pad
+            if (
+                _box_gap2(centres[s, 0], centres[s, 1], centres[s, 2], box_inv, k, box_half)
+                <= r * r
+            ):
                 return True
     for k in range(cyl_inv.shape[0]):
-        if not _sphere_cylinder(bc, br, cyl_inv[k], cyl_r[k], cyl_h[k]):
+        if _cyl_gap2(bx, by, bz, cyl_inv, k, cyl_r, cyl_h) > br * br:
             continue
         for s in range(body_start[b], body_end[b]):
-            if _sphere_cylinder(centres[s], radius[s] + pad, cyl_inv[k], cyl_r[k], cyl_h[k]):
+            r = radius[s] + pad
+            if (
+                _cyl_gap2(centres[s, 0], centres[s, 1], centres[s, 2], cyl_inv, k, cyl_r, cyl_h)
+                <= r * r
+            ):
                 return True
     for k in range(sph_c.shape[0]):
-        dx = bc[0] - sph_c[k, 0]
-        dy = bc[1] - sph_c[k, 1]
-        dz = bc[2] - sph_c[k, 2]
+        dx = bx - sph_c[k, 0]
+        dy = by - sph_c[k, 1]
+        dz = bz - sph_c[k, 2]
         lim = br + sph_r[k]
         if dx * dx + dy * dy + dz * dz > lim * lim:
             continue
@@ -84,7 +91,7 @@ def _body_hits_env(b, centres, radius, body_start, body_end, bound_c, bound_r, p
     return False
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _bodies_touch(a, b, centres, radius, body_start, body_end, bound_c, bound_r) -> bool:
     dx = bound_c[a, 0] - bound_c[b, 0]
     dy = bound_c[a, 1] - bound_c[b, 1]
@@ -103,7 +110,7 @@ def _bodies_touch(a, b, centres, radius, body_start, body_end, bound_c, bound_r)
     return False
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, poses, centres, bound_c) -> bool:
     """True when configuration `q` is free of self and environment contacts."""
     parent, origin, jtype, axis, src, mult, offset, const = kin
@@ -113,8 +120,10 @@ def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, poses, centres, bo
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
     world_spheres(poses, sphere_link, sphere_local, centres)
     world_spheres(poses, body_link, bound_local, bound_c)
-    for b in env_bodies:
-        if _body_hits_env(b, centres, radius, body_start, body_end, bound_c, bound_r, pad, env):
+    for e in range(env_bodies.shape[0]):
+        if _body_hits_env(
+            env_bodies[e], centres, radius, body_start, body_end, bound_c, bound_r, pad, env
+        ):
             return False
     for p in range(pairs.shape[0]):
         if _bodies_touch(

@@ -47,7 +47,7 @@ class RobotSpheres:
         spheres: Sequence[CollisionSphere] | None = None,
         samples: int = 3000,
         seed: int = 0,
-        step: float = 0.01,
+        step: float = 0.015,
     ) -> None:
         self.kin = kin
         sph = list(spheres) if spheres is not None else link_spheres(kin.model)
@@ -65,6 +65,7 @@ class RobotSpheres:
             if name in by_link
         ]
         self.disabled, self.reasons = self._disable_pairs(samples, seed)
+        self.step = float(step)
         self.resolution = self._resolution(step, seed)
 
     def _rigid_group(self) -> np.ndarray:
@@ -148,7 +149,8 @@ class RobotSpheres:
                 world = np.einsum("nij,sj->nsi", m[:, :3, :3], b.centres) + m[:, None, :3, 3]
                 r = np.linalg.norm(world - poses[:, k, None, :3, 3], axis=-1) + b.radii
                 lever[s] = max(lever[s], float(r.max()) * abs(kin.mult[k]))
-        return step / lever
+        # the sampled maximum may miss the true one by a little: keep a margin
+        return step / (1.1 * lever)
 
 
 @dataclass
@@ -229,8 +231,9 @@ class CollisionChecker:
     """Batched, compiled validity checks for one robot in one environment.
 
     `valid(qs)` takes (N, d) planning configurations; `motion_valid(a, b)` checks the
-    straight joint-space segment at the robot's resolution. `padding` (m) inflates the
-    robot's spheres against the environment.
+    straight joint-space segment at the robot's resolution (times `resolution_scale`).
+    `padding` (m) inflates the robot's spheres against the environment. `held` is an
+    object carried by the hand; the links it touches at `held_touch_at` may touch it.
     """
 
     def __init__(
@@ -240,12 +243,13 @@ class CollisionChecker:
         padding: float = 0.0,
         held: HeldObject | None = None,
         held_touch_at: np.ndarray | None = None,
+        resolution_scale: float = 1.0,
     ) -> None:
         self.robot = robot
         self.kin = robot.kin
         self.env = env if env is not None else Environment()
         self.padding = float(padding)
-        self.resolution = robot.resolution
+        self.resolution = robot.resolution * float(resolution_scale)
         bodies = list(robot.bodies)
         disabled = set(robot.disabled)
         if held is not None:
@@ -328,7 +332,10 @@ class CollisionChecker:
         )
 
     def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """(N,) bool: which straight segments a[i] -> b[i] are free (a[i] assumed free)."""
+        """(N,) bool: which straight segments a[i] -> b[i] are free (a[i] assumed free).
+
+        Samples each segment at the robot's resolution, midpoint first, and stops at the
+        first contact."""
         return kernels.motions_valid(
             np.ascontiguousarray(np.atleast_2d(a), dtype=float),
             np.ascontiguousarray(np.atleast_2d(b), dtype=float),

@@ -1,0 +1,98 @@
+"""Path post-processing: drop needless waypoints, shortcut, and round the corners.
+
+Layer 3. Every change is checked with the planner's checker, so a valid path stays
+valid: shortcuts replace a stretch by a straight segment only when that segment is free.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from robotrial.planning.base import Checker
+
+
+def reduce_vertices(path: np.ndarray, checker: Checker) -> np.ndarray:
+    """From each kept waypoint, jump to the farthest later waypoint reachable in a straight
+    line (one batched motion check per kept waypoint)."""
+    path = np.asarray(path, dtype=float)
+    if len(path) <= 2:
+        return path
+    out = [path[0]]
+    i = 0
+    while i < len(path) - 1:
+        later = path[i + 1 :]
+        ok = checker.motions_valid(np.repeat(path[i][None], len(later), 0), later)
+        j = i + 1 + int(np.nonzero(ok)[0].max()) if np.any(ok) else i + 1
+        out.append(path[j])
+        i = j
+    return np.array(out)
+
+
+def _at(path: np.ndarray, cum: np.ndarray, s: float) -> tuple[np.ndarray, int]:
+    """The point at arc length `s` and the index of the segment it lies on."""
+    k = int(np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(path) - 2))
+    seg = cum[k + 1] - cum[k]
+    t = 0.0 if seg <= 0 else (s - cum[k]) / seg
+    return path[k] + t * (path[k + 1] - path[k]), k
+
+
+def shortcut(
+    path: np.ndarray, checker: Checker, rng: np.random.Generator, attempts: int = 60
+) -> np.ndarray:
+    """Random shortcuts between points anywhere on the path (not only waypoints), tried
+    in batches of 16; each accepted one replaces the stretch between its ends."""
+    path = reduce_vertices(path, checker)
+    done = 0
+    while done < attempts and len(path) > 2:
+        seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
+        cum = np.concatenate([[0.0], np.cumsum(seg)])
+        if cum[-1] <= 0:
+            break
+        s = np.sort(rng.uniform(0, cum[-1], size=(16, 2)), axis=1)
+        a = np.array([_at(path, cum, x)[0] for x in s[:, 0]])
+        b = np.array([_at(path, cum, x)[0] for x in s[:, 1]])
+        ok = checker.motions_valid(a, b)
+        done += 16
+        best, gain = -1, 1e-6
+        for m in np.nonzero(ok)[0]:
+            ka, kb = _at(path, cum, s[m, 0])[1], _at(path, cum, s[m, 1])[1]
+            if ka == kb:
+                continue
+            g = (s[m, 1] - s[m, 0]) - float(np.linalg.norm(b[m] - a[m]))
+            if g > gain:
+                best, gain = m, g
+        if best < 0:
+            continue
+        ka, kb = _at(path, cum, s[best, 0])[1], _at(path, cum, s[best, 1])[1]
+        path = np.vstack([path[: ka + 1], a[best], b[best], path[kb + 1 :]])
+    return reduce_vertices(path, checker)
+
+
+def densify(path: np.ndarray, step: float) -> np.ndarray:
+    """Insert waypoints so that no segment is longer than `step` (joint-space L2)."""
+    out = [path[0]]
+    for a, b in itertools.pairwise(path):
+        n = max(int(np.ceil(np.linalg.norm(b - a) / step)), 1)
+        out.extend(a + (b - a) * (k / n) for k in range(1, n + 1))
+    return np.array(out)
+
+
+def round_corners(path: np.ndarray, checker: Checker, fraction: float = 0.25) -> np.ndarray:
+    """Cut each corner by a chord between points `fraction` of the way along its two
+    segments (when the chord is free), so the timed spline turns gently."""
+    path = np.asarray(path, dtype=float)
+    if len(path) <= 2:
+        return path
+    out = [path[0]]
+    for i in range(1, len(path) - 1):
+        p, c, n = out[-1], path[i], path[i + 1]
+        a = c + fraction * (p - c)
+        b = c + fraction * (n - c)
+        if checker.motions_valid(a[None], b[None])[0]:
+            out.extend([a, b])
+        else:
+            out.append(c)
+    out.append(path[-1])
+    return np.array(out)

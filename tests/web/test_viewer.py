@@ -26,29 +26,27 @@ VIEWPORT = {"width": 1280, "height": 800}
 
 
 @pytest.fixture
-def server(port: int) -> Iterator[str]:
+def server(port: int, tmp_path: Path) -> Iterator[str]:
     """`robotrial serve` on a free loopback port; yields the URL it prints."""
-    proc = subprocess.Popen(
-        [Path(sys.executable).with_name("robotrial"), "serve", "--port", str(port)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    log = tmp_path / "serve.log"
+    with log.open("w") as errors:
+        proc = subprocess.Popen(
+            [Path(sys.executable).with_name("robotrial"), "serve", "--port", str(port)],
+            stdout=subprocess.PIPE,
+            stderr=errors,
+            text=True,
+        )
     try:
         line = proc.stdout.readline() if proc.stdout else ""
         url = f"http://127.0.0.1:{port}/"
-        assert url in line, (
-            f"serve printed {line!r}; stderr: {proc.stderr.read() if proc.stderr else ''}"
-        )
+        assert url in line, f"serve printed {line!r}; stderr: {log.read_text()}"
         deadline = time.monotonic() + 20
         while True:
             try:
                 httpx.get(url + "api/config", timeout=1).raise_for_status()
                 break
             except httpx.HTTPError:
-                assert proc.poll() is None, (
-                    f"serve exited: {proc.stderr.read() if proc.stderr else ''}"
-                )
+                assert proc.poll() is None, f"serve exited: {log.read_text()}"
                 assert time.monotonic() < deadline, "serve did not answer within 20 s"
                 time.sleep(0.1)
         yield url
@@ -143,6 +141,12 @@ def test_page_shows_moves_and_switches_robots(
         bent_pixels = snapshot(page, artifacts / "web_desk_arm_moved.png")
         changed = np.abs(bent_pixels - home_pixels).sum(axis=2) > 30
         assert changed.mean() > 0.002, "the robot on screen did not move"
+
+        page.get_by_role("button", name="Home position").click()
+        page.wait_for_function("window.robotrial.state().joints.values.every(v => v === 0)")
+        back = page.evaluate("window.robotrial.state()")
+        np.testing.assert_allclose(back["endEffector"], state["endEffector"], atol=1e-9)
+        assert page.locator('input[data-joint="joint2"]').input_value() == "0"
 
         # Switch to the mobile manipulator: it opens in room A.
         start = time.perf_counter()

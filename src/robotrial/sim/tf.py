@@ -9,14 +9,13 @@ the sensor, a child of the link at the sensor's origin; cameras add `<frame>_opt
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from robotrial.geometry import Pose
-from robotrial.kinematics.reference import joint_motion
 from robotrial.model.robot import RobotModel
 
 OPTICAL = Pose.from_xyz_rpy((0, 0, 0), (-np.pi / 2, 0.0, -np.pi / 2))
@@ -43,8 +42,22 @@ class Transform:
 def planar_transform(
     parent: str, child: str, x: float, y: float, yaw: float, z: float = 0.0
 ) -> Transform:
-    q = Rotation.from_euler("z", yaw).as_quat()
-    return Transform(parent, child, (x, y, z), tuple(float(v) for v in q))  # type: ignore[arg-type]
+    h = 0.5 * yaw
+    return Transform(
+        parent, child, (float(x), float(y), float(z)), (0.0, 0.0, math.sin(h), math.cos(h))
+    )
+
+
+def quat_multiply(a: tuple, b: tuple) -> tuple[float, float, float, float]:
+    """Hamilton product of two (x, y, z, w) quaternions."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    )
 
 
 def sensor_frame(robot: RobotModel, sensor_name: str) -> str:
@@ -80,6 +93,8 @@ class TfTree:
             for j in robot.topological_joints()
             if j.type in ("revolute", "continuous", "prismatic")
         ]
+        self._axes = [np.asarray(j.axis, float) / np.linalg.norm(j.axis) for j in self.movable]
+        self._rots = [j.origin.rotation() for j in self.movable]
         for j in robot.topological_joints():
             if j.type == "fixed":
                 statics.append(Transform(j.parent, j.child, j.origin.xyz, j.origin.quat))
@@ -96,12 +111,20 @@ class TfTree:
         """Transforms of the movable joints at joint `values` (missing joints at 0; mimic
         joints follow their leader)."""
         out = []
-        for j in self.movable:
+        for j, axis, rot in zip(self.movable, self._axes, self._rots, strict=True):
             v = values.get(j.name)
             if v is None and j.mimic is not None:
                 v = j.mimic.multiplier * values.get(j.mimic.joint, 0.0) + j.mimic.offset
-            m = j.origin.matrix() @ joint_motion(j, float(v or 0.0))
-            out.append(Transform.from_matrix(j.parent, j.child, m))
+            v = float(v or 0.0)
+            if j.type == "prismatic":
+                d = rot @ (axis * v)
+                xyz = tuple(float(a + b) for a, b in zip(j.origin.xyz, d, strict=True))
+                out.append(Transform(j.parent, j.child, xyz, j.origin.quat))  # type: ignore[arg-type]
+            else:
+                h = 0.5 * v
+                turn = (*(float(a) * math.sin(h) for a in axis), math.cos(h))
+                quat = quat_multiply(j.origin.quat, turn)
+                out.append(Transform(j.parent, j.child, j.origin.xyz, quat))
         return out
 
 

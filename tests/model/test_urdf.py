@@ -753,3 +753,25 @@ def test_revolute_with_zero_range_is_opened() -> None:
     )
     lim = repaired(text, "joint 'j' (line 5): revolute joint with range [0, 0]").joint("j").limit
     assert (lim.lower, lim.upper) == (-math.pi, math.pi)
+
+
+def test_xacro_find_of_unknown_package(tmp_path: Path) -> None:
+    path = tmp_path / "r.urdf.xacro"
+    path.write_text(
+        '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<xacro:include filename="$(find ghost_description)/urdf/parts.xacro"/>'
+        '<link name="a"/></robot>'
+    )
+    with pytest.raises(ModelError, match=r"\$\(find ghost_description\): package not found"):
+        load_urdf(path)
+
+
+def test_small_but_valid_inertia_is_left_alone() -> None:
+    text = two_links(
+        child_extra='<inertial><mass value="0.3"/><inertia ixx="2e-8" iyy="2e-8" izz="3e-8"/>'
+        "</inertial>"
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", URDFRepairWarning)
+        i = urdf_from_string(text).link("arm").inertial
+    assert (i.ixx, i.iyy, i.izz) == (2e-8, 2e-8, 3e-8)

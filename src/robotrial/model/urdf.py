@@ -996,22 +996,22 @@ def box_inertia(mass: float, size: Sequence[float]) -> tuple[float, float, float
 def nearest_valid_inertia(tensor: np.ndarray, mass: float = 0.0) -> np.ndarray | None:
     """None if `tensor` is a physical inertia; else the nearest one that is.
 
-    Physical: symmetric positive definite, and each principal moment at most the sum
-    of the other two. The fix keeps the principal axes, raises moments below a floor
-    (that of `mass` spread over a millimetre, at least INERTIA_FLOOR) and, when the
-    triangle inequality fails, moves the largest moment down and the two others up by
-    the same amount until it holds with equality.
+    Physical: symmetric positive definite (every principal moment above INERTIA_FLOOR
+    and a billionth of the largest), and each principal moment at most the sum of the
+    other two. The fix keeps the principal axes, raises moments to a floor (that of
+    `mass` spread over a millimetre, at least the limits above) and, when the triangle
+    inequality fails, moves the largest moment down and the two others up by the same
+    amount until it holds.
     """
     t = np.asarray(tensor, dtype=float)
     t = (t + t.T) / 2
     w, v = np.linalg.eigh(t)
     scale = float(np.max(np.abs(w)))
-    floor = max(INERTIA_FLOOR, 1e-9 * scale, mass * 1e-6)
+    least = max(INERTIA_FLOOR, 1e-9 * scale)
     a, b, c = w  # ascending
-    tol = 1e-9 * max(scale, INERTIA_FLOOR)
-    if a > 0 and a >= floor * (1 - 1e-6) and a + b >= c - tol:
+    if a >= least and a + b >= c - 1e-9 * scale:
         return None
-    m = np.maximum(w, floor)
+    m = np.maximum(w, max(least, mass * 1e-6))
     if m[0] + m[1] < m[2]:
         # a hair past equality, so rounding cannot break the inequality again
         d = (m[2] - m[0] - m[1]) / 3.0 + 1e-9 * m[2]

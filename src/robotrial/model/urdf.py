@@ -15,6 +15,7 @@ from __future__ import annotations
 import io
 import math
 import re
+import sys
 import threading
 import warnings
 from collections.abc import Mapping, Sequence
@@ -26,7 +27,7 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
-from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
+from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere, transform_points
 from robotrial.model.meshes import mesh_bounds, mesh_format_supported
 from robotrial.model.packages import PackageResolver, ResourceNotFound
 from robotrial.model.robot import (
@@ -63,6 +64,14 @@ _xacro_lock = threading.Lock()
 
 class URDFRepairWarning(UserWarning):
     """The loader changed something in a description to make it usable."""
+
+
+def _outside_this_module() -> int:
+    """The `stacklevel` that points a warning at the code that called the loader."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename == __file__:
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 # --- public entry points ----------------------------------------------------------------
@@ -277,7 +286,7 @@ class _Reader:
 
     def repair(self, msg: str) -> None:
         self.repairs.append(msg)
-        warnings.warn(msg, URDFRepairWarning, stacklevel=4)
+        warnings.warn(msg, URDFRepairWarning, stacklevel=_outside_this_module())
 
     # --- attribute parsing ------------------------------------------------------------
 
@@ -703,8 +712,6 @@ class _Reader:
             corners = np.array(
                 [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
             )
-            from robotrial.geometry import transform_points
-
             pts = transform_points(part.origin.matrix(), corners)
             lows.append(pts.min(axis=0))
             highs.append(pts.max(axis=0))

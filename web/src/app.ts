@@ -1,13 +1,22 @@
 // The page's controller: loads a robot into a world, wires the panel to the robot's
 // joints, and keeps the state that window.robotrial.state() reports.
 
-import { getCatalog, getConfig, robotFileUrl, worldFileUrl, type Catalog } from "./api";
+import {
+  getCatalog,
+  getConfig,
+  robotFileUrl,
+  worldFileUrl,
+  type Catalog,
+  type Spawn,
+} from "./api";
 import { loadRobot, type Robot } from "./robot";
 import { enableShadows, Viewer } from "./scene";
 import type { RobotrialState } from "./state";
 import { humanize } from "./ui/dom";
 import { Panel } from "./ui/panel";
 import { loadWorld, placeAt } from "./world";
+
+const ORIGIN: Spawn = { xyz: [0, 0, 0], quat: [0, 0, 0, 1] };
 
 export class RobotrialApp {
   readonly viewer: Viewer;
@@ -70,7 +79,7 @@ export class RobotrialApp {
       this.robot = robot;
       this.robotShown = robotName;
       this.viewer.setWorld(world);
-      this.viewer.setRobot(placeAt(robot.object, spawn ?? { xyz: [0, 0, 0], quat: [0, 0, 0, 1] }));
+      this.viewer.setRobot(placeAt(robot.object, spawn ?? ORIGIN));
       this.viewer.frame(robot.object);
       this.panel.setJoints(robot.joints, robot.jointValues());
       this.panel.describeEndEffector(
@@ -83,7 +92,8 @@ export class RobotrialApp {
       this.ready = true;
       performance.measure(`robotrial:ready ${robotName} ${worldName}`, { start: started });
       this.panel.setStatus(`${humanize(robotName)} · ${humanize(worldName)}`, "ready");
-      history.replaceState(null, "", `?robot=${encodeURIComponent(robotName)}&world=${encodeURIComponent(worldName)}`);
+      const query = new URLSearchParams({ robot: robotName, world: worldName });
+      history.replaceState(null, "", `?${query}`);
     } catch (err) {
       if (load === this.loads) this.fail(err);
     }

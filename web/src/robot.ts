@@ -81,7 +81,9 @@ export class Robot {
       return node;
     };
     const rootName = rootLink(ext);
-    this.root = rootName ? find(rootName, "the kinematic tree") : (gltf.scene.children[0] ?? gltf.scene);
+    this.root = rootName
+      ? find(rootName, "the kinematic tree")
+      : (gltf.scene.children[0] ?? gltf.scene);
     this.tcp = ext.tcp ? find(ext.tcp, "tcp") : this.root;
 
     const groups = jointGroups(ext);
@@ -89,7 +91,8 @@ export class Robot {
       .filter((j) => MOVING.has(j.type) && !j.mimic)
       .map((j) => {
         const [lower, upper] = sliderRange(j);
-        return { name: j.name, type: j.type as ActuatedJoint["type"], lower, upper, group: groups.get(j.name) ?? "other" };
+        const type = j.type as ActuatedJoint["type"];
+        return { name: j.name, type, lower, upper, group: groups.get(j.name) ?? "other" };
       });
     for (const j of this.joints) this.values.set(j.name, clamp(0, j.lower, j.upper));
 
@@ -172,7 +175,8 @@ export async function loadRobot(url: string): Promise<Robot> {
 
 /** glTF node name -> three.js object, by node index (three.js rewrites some names). */
 function linkNodes(gltf: GLTF): Map<string, Object3D> {
-  const names: string[] = (gltf.parser.json.nodes ?? []).map((n: { name?: string }) => n.name ?? "");
+  const nodes: Array<{ name?: string }> = gltf.parser.json.nodes ?? [];
+  const names = nodes.map((n) => n.name ?? "");
   const out = new Map<string, Object3D>();
   for (const [object, refs] of gltf.parser.associations) {
     if (refs.nodes !== undefined && object instanceof Object3D && !out.has(names[refs.nodes])) {

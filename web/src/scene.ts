@@ -31,6 +31,8 @@ Object3D.DEFAULT_UP.set(0, 0, 1);
 const BACKGROUND = 0xeef1f5;
 /** Where the camera looks from, relative to what it frames: in front, to the right, above. */
 const VIEW_DIRECTION = new Vector3(1.0, -1.25, 0.8).normalize();
+/** Where the sun shines from: high, in front of the robot and to its right. */
+const SUN_DIRECTION = new Vector3(0.5, -0.8, 1.6).normalize();
 
 export class Viewer {
   readonly renderer: WebGLRenderer;
@@ -96,7 +98,8 @@ export class Viewer {
     const fov = (this.camera.fov * Math.PI) / 180;
     const distance = (radius / Math.sin(fov / 2)) * 1.3;
     this.controls.target.copy(sphere.center);
-    this.camera.position.copy(sphere.center).addScaledVector(this.viewDirection(sphere.center), distance);
+    const direction = this.viewDirection(sphere.center);
+    this.camera.position.copy(sphere.center).addScaledVector(direction, distance);
     this.camera.near = distance / 100;
     this.camera.far = distance * 100;
     this.camera.updateProjectionMatrix();
@@ -164,7 +167,7 @@ export class Viewer {
     const sphere = box.getBoundingSphere(new Sphere());
     const r = Math.max(sphere.radius, 0.5);
     this.sun.target.position.copy(sphere.center);
-    this.sun.position.copy(sphere.center).add(new Vector3(0.5, -0.8, 1.6).normalize().multiplyScalar(2 * r));
+    this.sun.position.copy(sphere.center).addScaledVector(SUN_DIRECTION, 2 * r);
     const cam = this.sun.shadow.camera;
     cam.left = -r;
     cam.right = r;

@@ -17,7 +17,11 @@ export interface PanelActions {
 
 export type Status = "loading" | "ready" | "error";
 
-const GROUP_TITLES: Record<string, string> = { arm: "Arm", gripper: "Gripper", other: "Other joints" };
+const GROUP_TITLES: Record<string, string> = {
+  arm: "Arm",
+  gripper: "Gripper",
+  other: "Other joints",
+};
 
 interface SliderRow {
   joint: ActuatedJoint;
@@ -109,9 +113,8 @@ export class Panel {
       }
       return el("div", { class: "group" }, el("h3", {}, title), ...rows);
     });
-    this.jointList.replaceChildren(
-      ...(joints.length ? blocks : [el("p", { class: "hint" }, "This robot has no joints to move.")]),
-    );
+    const none = el("p", { class: "hint" }, "This robot has no moving joints.");
+    this.jointList.replaceChildren(...(joints.length ? blocks : [none]));
     this.homeButton.hidden = joints.length === 0;
   }
 

@@ -19,6 +19,7 @@ import collections
 import inspect
 import itertools
 import logging
+import math
 import threading
 import time
 from collections.abc import Awaitable, Callable
@@ -35,6 +36,7 @@ log = logging.getLogger(__name__)
 
 LEVELS = {"info": 0, "warning": 1, "error": 2, "none": 3}
 COMPRESSIONS = ("none", "cbor", "cbor-raw", "png")
+MAX_QUEUE_LENGTH = 10_000
 Send = Callable[[str | bytes], Awaitable[None]]
 
 
@@ -77,10 +79,10 @@ def _kind_name(kind: type | tuple) -> str:
     return names.get(kind, kind.__name__)
 
 
-def _nonneg(op: dict, key: str, default: float) -> float:
+def _nonneg(op: dict, key: str, default: float, maximum: float = 1e9) -> float:
     value = _opt(op, key, (int, float), default)
-    if value < 0 or value != value:
-        raise ProtocolError(f"'{key}' must be >= 0, got {value}")
+    if not math.isfinite(value) or not 0 <= value <= maximum:
+        raise ProtocolError(f"'{key}' must be between 0 and {maximum:g}, got {value}")
     return value
 
 
@@ -89,6 +91,13 @@ def _name(op: dict, key: str) -> str:
     are taken from the root."""
     name = _req(op, key, str)
     return name if name.startswith("/") else "/" + name
+
+
+def _id_key(oid: Any) -> Any:
+    """A subscribe id usable as a dict key (clients may send any JSON value)."""
+    if oid is None or isinstance(oid, str | int | float):
+        return oid
+    return repr(oid)
 
 
 def _plain_id(oid: Any) -> Any:
@@ -311,12 +320,12 @@ class Session:
         wire_name = op["topic"]
         type_name = _opt(op, "type", str, "")
         throttle_ms = _nonneg(op, "throttle_rate", 0)
-        queue_length = int(_nonneg(op, "queue_length", 0))
+        queue_length = int(_nonneg(op, "queue_length", 0, MAX_QUEUE_LENGTH))
         fragment_size = int(_nonneg(op, "fragment_size", 0))
         compression = _opt(op, "compression", str, "none")
         if compression not in COMPRESSIONS:
             raise ProtocolError(f"compression must be one of {', '.join(COMPRESSIONS)}")
-        sid = op.get("id")
+        sid = _id_key(op.get("id"))
         dialect = type_dialect(type_name) or self.server.dialect
         bound = queue_length or self.limits.default_queue_length
         sub = self.subscriptions.get(topic)
@@ -360,7 +369,7 @@ class Session:
     def _unsubscribe(self, op: dict) -> None:
         topic = _name(op, "topic")
         sub = self.subscriptions.get(topic)
-        sid = op.get("id")
+        sid = _id_key(op.get("id"))
         if sub is None:
             self.status("warning", f"unsubscribe: not subscribed to {topic}", sid)
             return
@@ -382,7 +391,7 @@ class Session:
         if args is not None and not isinstance(args, dict | list):
             raise ProtocolError("'args' must be an object or an array")
         timeout = _opt(op, "timeout", (int, float), None)
-        if timeout is not None and not timeout > 0:
+        if timeout is not None and not 0 < timeout < math.inf:
             raise ProtocolError(f"'timeout' must be > 0 s, got {timeout}")
         compression = _opt(op, "compression", str, "none")
         if compression not in COMPRESSIONS:

@@ -17,7 +17,7 @@ import trimesh
 
 from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Sphere
 from robotrial.kinematics.reference import joint_values, link_poses
-from robotrial.model import library, load_robot
+from robotrial.model import library, load_robot, load_world
 from robotrial.model.mjcf import (
     FREE_JOINT,
     MAX_MESH_FACES,
@@ -343,6 +343,17 @@ def small_world() -> World:
     )
 
 
+def test_world_mesh_obstacles_are_static_geoms(tmp_path) -> None:
+    stl = tmp_path / "crate.stl"
+    trimesh.creation.box((0.4, 0.4, 0.4)).export(stl)
+    world = World(name="m", obstacles=(Obstacle("crate", Mesh(str(stl)), Pose((1, 0, 0.2))),))
+    doc = to_mjcf(world=world)
+    model = doc.compile()
+    geom = model.geom("obstacle/crate")
+    assert geom.type == mujoco.mjtGeom.mjGEOM_MESH and geom.bodyid[0] == 0
+    assert list(doc.assets) == [f"{model.mesh(0).name}.stl"]
+
+
 def test_world_names_and_an_object_falls_to_the_floor() -> None:
     model = to_mjcf(world=small_world()).compile()
     for geom in ("floor", "wall/north", "obstacle/pillar", "object/cube"):
@@ -360,6 +371,28 @@ def test_robot_in_a_world_stands_at_the_default_spawn() -> None:
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     np.testing.assert_allclose(data.xpos[model.body("base").id][:2], [0.5, -1.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("world_name", library.world_names())
+def test_mobile_manipulator_drives_in_every_builtin_world(world_name: str) -> None:
+    robot = load_robot("mobile_manipulator")
+    groups = robot.metadata["groups"]
+    kinds = {j: "velocity" for j in groups["base"]}
+    kinds |= {j: "position" for j in groups["arm"] + groups["gripper"]}
+    kinds |= {"base_x": "velocity", "base_y": "velocity", "base_yaw": "velocity"}
+    world = load_world(world_name)
+    model = to_mjcf(robot, world, base="planar", actuators=kinds).compile()
+    data = mujoco.MjData(model)
+    start = world.spawns.get("default", Pose())
+    assert data.qpos[model.joint("base_x").qposadr[0]] == pytest.approx(start.xyz[0])
+    assert model.nu == len(kinds)
+    for wheel in groups["base"]:  # let the wheels roll
+        data.ctrl[model.actuator(wheel).id] = 0.3 / robot.metadata["drive"]["wheel_radius"]
+    data.ctrl[model.actuator("base_x").id] = 0.3
+    mujoco.mj_step(model, data, 500)
+    assert data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number == 0
+    moved = data.qpos[model.joint("base_x").qposadr[0]] - start.xyz[0]
+    assert 0.1 < moved < 0.4
 
 
 def test_robot_collides_with_the_world_but_not_with_itself_by_default() -> None:

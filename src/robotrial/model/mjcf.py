@@ -45,6 +45,10 @@ KP_PER_EFFORT = 50.0
 """Default position gain per unit of effort limit: full effort at 0.02 rad (or m) error."""
 KP_MAX = 5000.0
 """Upper bound of the default position gain, so light links stay stable at 2 ms steps."""
+BASE_KP = 100.0
+"""Default position gain of a planar base joint per kg of robot (N/m; a quarter for yaw)."""
+BASE_KV = 20.0
+"""Default velocity gain of a planar base joint per kg of robot (N s/m; a quarter for yaw)."""
 FREE_JOINT = "base_free"
 """The name of the free joint of a robot written with base="free"."""
 PLANAR_JOINTS = ("base_x", "base_y", "base_yaw")
@@ -180,12 +184,66 @@ def simplify_mesh(data: MeshData, max_faces: int = MAX_MESH_FACES) -> MeshData:
         cells *= min(0.9, 0.95 * np.sqrt(max_faces / len(nf)))
 
 
+@dataclass(frozen=True)
+class _Stl:
+    """A mesh made ready for MuJoCo: STL bytes (None if unusable) and what was done to it."""
+
+    blob: bytes | None
+    digest: str
+    faces_before: int
+    faces_after: int
+
+
+_stl_cache: dict[tuple, _Stl] = {}
+_STL_CACHE_BYTES = 512 * 2**20
+
+
+def _mesh_key(mesh: Mesh) -> tuple | None:
+    """A key for meshes read from files (None for in-memory triangles)."""
+    if mesh.data is not None or not mesh.filename:
+        return None
+    try:
+        st = Path(mesh.filename).stat()
+    except OSError:
+        return None
+    return (mesh.filename, st.st_mtime_ns, st.st_size, mesh.scale)
+
+
+def _stl(mesh: Mesh) -> _Stl:
+    """The STL of a mesh: scaled, mirrored faces flipped, degenerate faces dropped,
+    simplified below MAX_MESH_FACES. Cached per file, so repeated documents are cheap."""
+    key = _mesh_key(mesh)
+    if key is not None and key in _stl_cache:
+        return _stl_cache[key]
+    data = load_mesh(mesh)
+    before = len(data.faces)
+    if before > MAX_MESH_FACES:
+        data = simplify_mesh(data)
+    faces = data.faces
+    if np.prod(np.sign(mesh.scale)) < 0:  # mirrored: keep the triangles facing outwards
+        faces = faces[:, ::-1]
+    tri = data.vertices[faces]
+    area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    faces = faces[area > 1e-14]
+    extent = np.ptp(data.vertices, axis=0) if len(data.vertices) else np.zeros(3)
+    if len(faces) == 0 or np.count_nonzero(extent > 1e-9) < 3:
+        out = _Stl(None, "", before, 0)
+    else:
+        blob = stl_bytes(MeshData(data.vertices, faces))
+        out = _Stl(blob, hashlib.sha1(blob).hexdigest()[:10], before, len(faces))
+    if key is not None:
+        if sum(len(v.blob or b"") for v in _stl_cache.values()) > _STL_CACHE_BYTES:
+            _stl_cache.clear()
+        _stl_cache[key] = out
+    return out
+
+
 class _MeshTable:
     """Mesh assets of one document: one STL per distinct (file, scale) or in-memory mesh."""
 
     def __init__(self) -> None:
         self.assets: dict[str, bytes] = {}
-        self._by_key: dict[object, str | ModelError | None] = {}
+        self._by_key: dict[object, _Stl | ModelError] = {}
         self._by_digest: dict[str, str] = {}
         self.elements: list[ET.Element] = []
 
@@ -198,48 +256,31 @@ class _MeshTable:
         key: object = (mesh.filename, mesh.scale) if mesh.data is None else id(mesh.data)
         if key not in self._by_key:
             try:
-                self._by_key[key] = self._make(mesh, where, notes)
+                self._by_key[key] = _stl(mesh)
             except ModelError as exc:
                 self._by_key[key] = exc
         found = self._by_key[key]
+        label = mesh.filename or "(in memory)"
         if isinstance(found, ModelError):
             if "/visual/" not in where:
                 raise ModelError(f"{where}: {found}")
             notes.append(f"{where}: left out ({found})")
             return None
-        return found
-
-    def _make(self, mesh: Mesh, where: str, notes: list[str]) -> str | None:
-        data = load_mesh(mesh)
-        if len(data.faces) > MAX_MESH_FACES:
-            simpler = simplify_mesh(data)
-            notes.append(
-                f"{where}: mesh {mesh.filename or '(in memory)'} simplified from "
-                f"{len(data.faces)} to {len(simpler.faces)} triangles (MuJoCo's limit)"
-            )
-            data = simpler
-        faces = data.faces
-        if np.prod(np.sign(mesh.scale)) < 0:  # mirrored: keep the triangles facing outwards
-            faces = faces[:, ::-1]
-        tri = data.vertices[faces]
-        area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-        faces = faces[area > 1e-14]
-        extent = np.ptp(data.vertices, axis=0) if len(data.vertices) else np.zeros(3)
-        if len(faces) == 0 or np.count_nonzero(extent > 1e-9) < 3:
-            notes.append(
-                f"{where}: mesh {mesh.filename or '(in memory)'} is flat or empty; left out"
-            )
+        if found.blob is None:
+            notes.append(f"{where}: mesh {label} is flat or empty; left out")
             return None
-        blob = stl_bytes(MeshData(data.vertices, faces))
-        digest = hashlib.sha1(blob).hexdigest()[:10]
-        if digest in self._by_digest:
-            return self._by_digest[digest]
-        stem = _file_stem(Path(mesh.filename).stem if mesh.filename else "mesh")
-        name = f"{stem}_{digest}"
-        self.assets[f"{name}.stl"] = blob
-        self._by_digest[digest] = name
-        self.elements.append(ET.Element("mesh", name=name, file=f"{name}.stl"))
-        return name
+        if found.faces_before > MAX_MESH_FACES:
+            notes.append(
+                f"{where}: mesh {label} simplified from {found.faces_before} to "
+                f"{found.faces_after} triangles (MuJoCo's limit is {MAX_MESH_FACES})"
+            )
+        if found.digest not in self._by_digest:
+            stem = _file_stem(Path(mesh.filename).stem if mesh.filename else "mesh")
+            name = f"{stem}_{found.digest}"
+            self.assets[f"{name}.stl"] = found.blob
+            self._by_digest[found.digest] = name
+            self.elements.append(ET.Element("mesh", name=name, file=f"{name}.stl"))
+        return self._by_digest[found.digest]
 
 
 # --- inertia ----------------------------------------------------------------------------
@@ -383,10 +424,10 @@ class _Writer:
         if base == "free":
             ET.SubElement(body, "freejoint", name=FREE_JOINT)
         elif base == "planar":
-            self._planar(body, pose)
+            self._planar(body, pose, model.total_mass)
         self._fill(body, model, link)
 
-    def _planar(self, body: ET.Element, pose: Pose) -> None:
+    def _planar(self, body: ET.Element, pose: Pose, mass: float) -> None:
         # Joint axes live in the body frame; express world x, y, z there so that the
         # joint values are the base's world x, y and yaw (ref = the spawn pose).
         rot_t = pose.rotation().T
@@ -399,6 +440,11 @@ class _Writer:
             el = ET.SubElement(body, "joint", name=name, type=kind, axis=_nums(rot_t @ axis))
             if ref != 0.0:
                 el.set("ref", _num(ref))
+            # Driven only when named in an actuator mapping; default gains scale with mass.
+            if isinstance(self.opts.actuators, Mapping) and name in self.opts.actuators:
+                joint = Joint(name, "prismatic" if kind == "slide" else "continuous", "", "")
+                per = max(mass, 1.0) * (1.0 if kind == "slide" else 0.25)
+                self._actuator(joint, gains=(BASE_KP * per, BASE_KV * per))
 
     def _joint_subtree(self, parent: ET.Element, model: RobotModel, j: Joint, at: Pose) -> None:
         body = ET.SubElement(parent, "body", name=j.child)
@@ -485,7 +531,8 @@ class _Writer:
             return
         self._actuator(j)
 
-    def _actuator(self, j: Joint) -> None:
+    def _actuator(self, j: Joint, gains: tuple[float, float] | None = None) -> None:
+        """The joint's actuator; `gains` = default (kp, kv) when the joint has no effort."""
         kind = _per_joint(self.opts.actuators, j.name, "none")
         if kind not in ACTUATORS:
             raise ModelError(f"joint {j.name!r}: unknown actuator kind {kind!r} ({ACTUATORS})")
@@ -500,8 +547,10 @@ class _Writer:
                 el.set("ctrlrange", _nums([-effort, effort]))
         elif kind == "position":
             kp = _per_joint(self.opts.kp, j.name, None)
-            if kp is None:
-                kp = float(np.clip(KP_PER_EFFORT * effort, 10.0, KP_MAX)) if effort > 0 else 100.0
+            if kp is None and effort > 0:
+                kp = float(np.clip(KP_PER_EFFORT * effort, 10.0, KP_MAX))
+            elif kp is None:
+                kp = gains[0] if gains else 100.0
             el.set("kp", _num(kp))
             kv = _per_joint(self.opts.kv, j.name, None)
             if kv is not None:
@@ -517,8 +566,10 @@ class _Writer:
                 el.set("forcerange", _nums([-effort, effort]))
         else:  # velocity
             kv = _per_joint(self.opts.kv, j.name, None)
-            if kv is None:
-                kv = float(np.clip(effort, 1.0, 1e4)) if effort > 0 else 10.0
+            if kv is None and effort > 0:
+                kv = float(np.clip(effort, 1.0, 1e4))
+            elif kv is None:
+                kv = gains[1] if gains else 10.0
             el.set("kv", _num(kv))
             speed = j.limit.velocity if j.limit is not None else 0.0
             if speed > 0:
@@ -637,7 +688,8 @@ def to_mjcf(
     if isinstance(actuators, str) and actuators not in ACTUATORS:
         raise ModelError(f"actuators must be one of {ACTUATORS} or a mapping, got {actuators!r}")
     if isinstance(actuators, Mapping) and robot is not None:
-        unknown = sorted(set(actuators) - {j.name for j in robot.joints})
+        known = {j.name for j in robot.joints} | (set(PLANAR_JOINTS) if base == "planar" else set())
+        unknown = sorted(set(actuators) - known)
         if unknown:
             raise ModelError(f"actuators name joints the robot does not have: {unknown}")
     if spawn is None:

@@ -7,12 +7,15 @@ import json
 import math
 import shutil
 import subprocess
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pygltflib
 import pytest
 import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Sphere
 from robotrial.model import library, load_robot, load_world
@@ -138,7 +141,15 @@ def hand_built(tmp_path: Path) -> RobotModel:
             JointLimit(0.0, 0.02, 5.0, 0.1),
             mimic=Mimic("finger_a", -1.0, 0.001),
         ),
-        Joint("wrist_spin", "continuous", "upper", "tcp", odd, (0.0, 0.0, 1.0)),
+        Joint(
+            "wrist_spin",
+            "continuous",
+            "upper",
+            "tcp",
+            odd,
+            (0.0, 0.0, 1.0),
+            JointLimit(-math.inf, math.inf, 1.5, 6.0),
+        ),
     )
     return RobotModel(
         name="hand_built",
@@ -166,6 +177,7 @@ def hand_built(tmp_path: Path) -> RobotModel:
             "groups": {"arm": ["shoulder"]},
             "gripper": {"joints": ["finger_a"], "open": 0.02, "closed": 0.0, "link": "upper"},
             "drive": {"type": "skid_steer", "max_speed": 1.0},
+            "home": (0.0, 0.1),
         },
         source="/somewhere/hand_built.urdf",
         repairs=("link finger_a: inertia was zero; set to a small sphere",),
@@ -378,3 +390,85 @@ def test_world_glb_places_every_body_and_light(tmp_path):
         floor.max(axis=0), [3.0, 2.0, 0.0]
     )
     assert gltf.extras["world"]["spawns"]["default"]["xyz"] == [0.5, 0.5, 0.0]
+
+
+def test_differences_are_found_and_named(tmp_path):
+    model = hand_built(tmp_path)
+    back = rdtf_from_bytes(write_rdtf(model))
+    shoulder = back.joint("shoulder")
+    nudged = shoulder.limit.upper + 1e-15  # one float64 step matters
+    changed = back.with_changes(
+        joints=tuple(
+            replace(j, limit=replace(j.limit, upper=nudged)) if j.name == "shoulder" else j
+            for j in back.joints
+        ),
+        sensors=(replace(back.sensors[0], params={**back.sensors[0].params, "rings": 32}),),
+        tcp="upper",
+    )
+    found = model_differences(model, changed)
+    assert any(d.startswith("joint shoulder") for d in found)
+    assert any(d.startswith("sensor names") for d in found)
+    assert any(d.startswith("tcp") for d in found)
+
+
+finite = st.floats(-10.0, 10.0, allow_nan=False)
+positive = st.floats(1e-3, 5.0, allow_nan=False)
+shapes = st.one_of(
+    st.builds(Box, st.tuples(positive, positive, positive)),
+    st.builds(Cylinder, positive, positive),
+    st.builds(Sphere, positive),
+)
+poses = st.builds(
+    Pose.from_xyz_rpy,
+    st.tuples(finite, finite, finite),
+    st.tuples(finite, finite, finite),
+)
+
+
+@st.composite
+def random_robots(draw) -> RobotModel:
+    """Random trees: each new link hangs from an earlier one by a random joint."""
+    n = draw(st.integers(1, 6))
+    links, joints = [], []
+    for i in range(n):
+        inertial = draw(
+            st.none() | st.builds(Inertial, positive, poses, positive, finite, finite, positive)
+        )
+        visuals = tuple(
+            Visual(g, p, "m" if draw(st.booleans()) else "")
+            for g, p in draw(st.lists(st.tuples(shapes, poses), max_size=2))
+        )
+        collisions = tuple(
+            Collision(g, p) for g, p in draw(st.lists(st.tuples(shapes, poses), max_size=2))
+        )
+        links.append(Link(f"l{i}", inertial, visuals, collisions))
+        if i:
+            kind = draw(st.sampled_from(["revolute", "continuous", "prismatic", "fixed"]))
+            lo = draw(finite)
+            limit = JointLimit(lo, lo + draw(positive), draw(positive), draw(positive))
+            axis = draw(st.tuples(finite, finite, finite).filter(lambda a: any(a)))
+            joints.append(
+                Joint(
+                    f"j{i}",
+                    kind,
+                    f"l{draw(st.integers(0, i - 1))}",
+                    f"l{i}",
+                    draw(poses),
+                    axis,
+                    None if kind == "continuous" else limit,
+                    draw(st.none() | st.builds(JointDynamics, positive, positive)),
+                )
+            )
+    return RobotModel(
+        "random",
+        tuple(links),
+        tuple(joints),
+        materials={"m": Material("m", (0.2, 0.4, 0.6, 1.0))},
+    )
+
+
+@settings(max_examples=25, deadline=None)
+@given(random_robots())
+def test_random_robots_round_trip_exactly(model):
+    data = write_rdtf(model)
+    assert model_differences(model, rdtf_from_bytes(data)) == []

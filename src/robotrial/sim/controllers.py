@@ -87,8 +87,8 @@ class JointController:
         self,
         model: mujoco.MjModel,
         joints: Sequence[str],
-        kp: float = 400.0,
-        kd: float = 40.0,
+        kp: float = 900.0,
+        kd: float = 60.0,
         effort: Sequence[float] | None = None,
     ) -> None:
         self.model = model

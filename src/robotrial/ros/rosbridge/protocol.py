@@ -144,6 +144,9 @@ class RosbridgeServer:
             collections.OrderedDict()
         )
         self._counter = itertools.count(1)
+        self._wake_lock = threading.Lock()
+        self._to_wake: set[Session] = set()
+        self._wake_scheduled = False
 
     def open_session(self, send: Send, name: str = "/rosbridge_websocket/client") -> Session:
         """A new client session; call from the event loop that will run it."""
@@ -189,6 +192,26 @@ class RosbridgeServer:
     def next_id(self) -> int:
         return next(self._counter)
 
+    def wake_from_thread(self, session: Session) -> None:
+        """Wake a session's writer from a publisher thread. One publish reaching many
+        sessions costs one loop wake-up, not one per session."""
+        with self._wake_lock:
+            self._to_wake.add(session)
+            if self._wake_scheduled:
+                return
+            self._wake_scheduled = True
+        try:
+            session.loop.call_soon_threadsafe(self._wake_sessions)
+        except RuntimeError:
+            pass  # the loop has closed: the sessions are going away
+
+    def _wake_sessions(self) -> None:
+        with self._wake_lock:
+            sessions, self._to_wake = self._to_wake, set()
+            self._wake_scheduled = False
+        for s in sessions:
+            s._wake.set()
+
 
 class Session:
     """One connected client: its subscriptions, publishers, offered services and calls."""
@@ -211,7 +234,6 @@ class Session:
         self.closed = False
         self._control: collections.deque[str | bytes] = collections.deque()
         self._wake = asyncio.Event()
-        self._poked = False
         self._timer: asyncio.TimerHandle | None = None
         self._ops: dict[str, Callable[[dict], Any]] = {
             "advertise": self._advertise,
@@ -573,16 +595,8 @@ class Session:
         sub.queue.append(msg)
         if threading.get_ident() == self._thread:
             self._wake.set()
-        elif not self._poked:
-            self._poked = True
-            try:
-                self.loop.call_soon_threadsafe(self._wake_from_thread)
-            except RuntimeError:
-                pass  # the loop has closed: the session is going away
-
-    def _wake_from_thread(self) -> None:
-        self._poked = False
-        self._wake.set()
+        else:
+            self.server.wake_from_thread(self)
 
     async def _write_loop(self) -> None:
         try:

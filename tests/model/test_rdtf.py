@@ -108,7 +108,12 @@ def hand_built(tmp_path: Path) -> RobotModel:
             ),
         ),
         Link("finger_a", Inertial(0.01), (Visual(Sphere(0.01), material="red"),)),
-        Link("finger_b", None),
+        Link(  # degenerate shapes, as messy files have them
+            "finger_b",
+            None,
+            (Visual(Box((0.1, 0.0, 0.1))), Visual(Sphere(0.0))),
+            (Collision(Box((0.1, 0.0, 0.1))), Collision(Cylinder(0.0, 0.1))),
+        ),
         Link("tcp"),
     )
     joints = (

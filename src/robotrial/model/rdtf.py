@@ -73,19 +73,17 @@ def _num(x: float) -> float | str:
     return "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")
 
 
-def _unnum(v: Any) -> float:
-    return float(v)
-
-
 def _nums(values) -> list[float | str]:
     return [_num(v) for v in values]
 
 
 def _exact_pose(xyz, quat) -> Pose:
-    """A Pose holding exactly these float64 values (no re-normalisation)."""
+    """A Pose holding exactly these float64 values: a unit quaternion is not normalised
+    again (that could change its last bits); any other is."""
     p = Pose(xyz, quat)
     object.__setattr__(p, "xyz", tuple(float(v) for v in xyz))
-    object.__setattr__(p, "quat", tuple(float(v) for v in quat))
+    if np.allclose(p.quat, quat, rtol=0.0, atol=1e-12):
+        object.__setattr__(p, "quat", tuple(float(v) for v in quat))
     return p
 
 
@@ -95,8 +93,8 @@ def _pose_json(p: Pose) -> dict:
 
 def _pose_from(d: Mapping, where: str) -> Pose:
     try:
-        xyz = [_unnum(v) for v in d["xyz"]]
-        quat = [_unnum(v) for v in d["quat"]]
+        xyz = [float(v) for v in d["xyz"]]
+        quat = [float(v) for v in d["quat"]]
     except (KeyError, TypeError, ValueError) as exc:
         raise ModelError(f"{where}: a pose needs xyz (3 numbers) and quat (4 numbers)") from exc
     if len(xyz) != 3 or len(quat) != 4:
@@ -237,6 +235,12 @@ class GltfBuilder:
             return None
         if normals is None:
             normals = _vertex_normals(vertices, faces)
+        else:
+            normals = np.asarray(normals, dtype=float)
+            length = np.linalg.norm(normals, axis=1)
+            bad = ~(np.abs(length - 1.0) < 1e-3)
+            normals = normals.copy()
+            normals[bad] = (0.0, 0.0, 1.0)
         return (
             self._vec3_accessor(vertices, with_bounds=True),
             self._vec3_accessor(normals, with_bounds=False),
@@ -322,7 +326,6 @@ class _RobotWriter:
         self.b = GltfBuilder()
         self.shapes: list[dict] = []
         self.triangles: dict[int, tuple[tuple[int, int, int] | None, MeshData]] = {}
-        self.extra_nodes: list[int] = []
         self.joint_specs: dict[str, int] = {}
 
     def _mesh_data(self, shape: Mesh, where: str) -> MeshData:
@@ -368,9 +371,11 @@ class _RobotWriter:
             if shape.scale != (1.0, 1.0, 1.0):
                 fields["scale"] = [float(v) for v in shape.scale]
         else:
-            v, n, f = primitive_triangles(shape)
-            accessors = self.b.triangles(v, f, n)
-            index = None if accessors is None else self.b.mesh(name, accessors, material)
+            index = None
+            if _has_volume(shape):
+                v, n, f = primitive_triangles(shape)
+                accessors = self.b.triangles(v, f, n)
+                index = None if accessors is None else self.b.mesh(name, accessors, material)
             geom = _shape_json(shape)
         pose = visual.origin
         if index is not None:
@@ -385,39 +390,39 @@ class _RobotWriter:
         }
         return node, record
 
-    def _shape_index(self, shape: dict) -> int:
-        self.shapes.append(shape)
-        return len(self.shapes) - 1
+    def _implicit_shape(self, spec: dict) -> dict | None:
+        """`{"shape": index}` for a KHR_implicit_shapes entry; None for a degenerate one
+        (the extension forbids zero sizes; such a shape stays only in RDTF_robot)."""
+        values = [v for k, v in spec[spec["type"]].items() if k != "radiusBottom"]
+        flat = [x for v in values for x in (v if isinstance(v, list) else [v])]
+        if not all(math.isfinite(x) and x > 0 for x in flat):
+            return None
+        self.shapes.append(spec)
+        return {"shape": len(self.shapes) - 1}
 
     def _collision(self, link: Link, i: int, col: Collision) -> tuple[int, dict]:
         name = f"{link.name}/collision/{i}"
         shape = col.geometry
         pose = col.origin
-        fields: dict[str, Any] = {}
+        geom = _shape_json(shape)
+        geometry: dict | None = None
         if isinstance(shape, Box):
-            geometry = {
-                "shape": self._shape_index({"type": "box", "box": {"size": list(shape.size)}})
-            }
-            geom = _shape_json(shape)
+            geometry = self._implicit_shape({"type": "box", "box": {"size": list(shape.size)}})
         elif isinstance(shape, Sphere):
-            geometry = {
-                "shape": self._shape_index({"type": "sphere", "sphere": {"radius": shape.radius}})
-            }
-            geom = _shape_json(shape)
+            geometry = self._implicit_shape({"type": "sphere", "sphere": {"radius": shape.radius}})
         elif isinstance(shape, Cylinder):
-            cyl = {"height": shape.length, "radiusTop": shape.radius, "radiusBottom": shape.radius}
-            geometry = {"shape": self._shape_index({"type": "cylinder", "cylinder": cyl})}
+            r = shape.radius
+            cyl = {"height": shape.length, "radiusTop": r, "radiusBottom": r}
+            geometry = self._implicit_shape({"type": "cylinder", "cylinder": cyl})
             pose = pose @ Y_TO_Z
-            geom = _shape_json(shape)
         else:
             index, geom = self._file_mesh(shape, name, None)
-            geometry = None
             if index is not None:
                 scale = [float(v) for v in shape.scale] if shape.scale != (1.0, 1.0, 1.0) else None
                 holder = self.b.node(f"{name}/mesh", mesh=index, scale=scale)
-                self.extra_nodes.append(holder)
                 geometry = {"node": holder, "convexHull": False}
-        if geometry is not None and _valid_shape(self.shapes, geometry):
+        fields: dict[str, Any] = {}
+        if geometry is not None:
             fields["extensions"] = {PHYSICS_EXTENSION: {"collider": {"geometry": geometry}}}
         node = self.b.node(name, pose, **fields)
         record = {
@@ -577,15 +582,15 @@ def _joint_limits(joint: Joint) -> dict | None:
     return spec
 
 
-def _valid_shape(shapes: list[dict], geometry: dict) -> bool:
-    """KHR_implicit_shapes forbids degenerate shapes; those stay only in RDTF_robot."""
-    if "shape" not in geometry:
-        return True
-    s = shapes[geometry["shape"]]
-    params = s[s["type"]]
-    values = [v for k, v in params.items() if k != "radiusBottom"]
-    flat = [x for v in values for x in (v if isinstance(v, list) else [v])]
-    return all(math.isfinite(x) and x > 0 for x in flat)
+def _has_volume(shape: Box | Cylinder | Sphere) -> bool:
+    """Whether a primitive has positive, finite sizes (messy files have zeros)."""
+    if isinstance(shape, Box):
+        sizes = list(shape.size)
+    elif isinstance(shape, Cylinder):
+        sizes = [shape.radius, shape.length]
+    else:
+        sizes = [shape.radius]
+    return all(math.isfinite(x) and x > 0 for x in sizes)
 
 
 def _inertial_json(inertial: Inertial | None) -> dict | None:
@@ -729,11 +734,11 @@ class _Reader:
         kind = d.get("type")
         try:
             if kind == "box":
-                return Box(tuple(_unnum(v) for v in d["size"]))
+                return Box(tuple(float(v) for v in d["size"]))
             if kind == "cylinder":
-                return Cylinder(_unnum(d["radius"]), _unnum(d["length"]))
+                return Cylinder(float(d["radius"]), float(d["length"]))
             if kind == "sphere":
-                return Sphere(_unnum(d["radius"]))
+                return Sphere(float(d["radius"]))
             if kind == "mesh":
                 if d.get("mesh") is not None:
                     data = self.mesh_data(int(d["mesh"]))
@@ -741,12 +746,12 @@ class _Reader:
                     data = None
                 else:
                     data = MeshData(
-                        np.array([[_unnum(x) for x in v] for v in d.get("vertices", [])]).reshape(
+                        np.array([[float(x) for x in v] for v in d.get("vertices", [])]).reshape(
                             -1, 3
                         ),
                         np.array(d.get("faces", []), dtype=np.int64).reshape(-1, 3),
                     )
-                return Mesh(str(d.get("filename", "")), tuple(_unnum(v) for v in d["scale"]), data)
+                return Mesh(str(d.get("filename", "")), tuple(float(v) for v in d["scale"]), data)
         except (KeyError, TypeError, ValueError) as exc:
             raise ModelError(f"{self.where}: {where}: bad {kind} geometry ({exc})") from None
         raise ModelError(f"{self.where}: {where}: unknown geometry type {kind!r}")
@@ -757,9 +762,9 @@ class _Reader:
         if d.get("inertial") is not None:
             i = d["inertial"]
             inertial = Inertial(
-                mass=_unnum(i["mass"]),
+                mass=float(i["mass"]),
                 origin=_pose_from(i["origin"], f"{self.where}: link {name} inertial"),
-                **{k: _unnum(i[k]) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
+                **{k: float(i[k]) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
             )
         visuals = tuple(
             Visual(
@@ -789,16 +794,16 @@ def _joint_from(d: Mapping, where: str) -> Joint:
         parent=str(d["parent"]),
         child=str(d["child"]),
         origin=_pose_from(d["origin"], f"{where}: joint {d['name']}"),
-        axis=tuple(_unnum(v) for v in d["axis"]),  # type: ignore[arg-type]
+        axis=tuple(float(v) for v in d["axis"]),  # type: ignore[arg-type]
         limit=None
         if lim is None
-        else JointLimit(*(_unnum(lim[k]) for k in ("lower", "upper", "effort", "velocity"))),
+        else JointLimit(*(float(lim[k]) for k in ("lower", "upper", "effort", "velocity"))),
         dynamics=None
         if dyn is None
-        else JointDynamics(_unnum(dyn["damping"]), _unnum(dyn["friction"])),
+        else JointDynamics(float(dyn["damping"]), float(dyn["friction"])),
         mimic=None
         if mim is None
-        else Mimic(str(mim["joint"]), _unnum(mim["multiplier"]), _unnum(mim["offset"])),
+        else Mimic(str(mim["joint"]), float(mim["multiplier"]), float(mim["offset"])),
     )
 
 
@@ -808,7 +813,7 @@ def _sensor_from(d: Mapping, where: str) -> Sensor:
         type=str(d["type"]),  # type: ignore[arg-type]
         link=str(d["link"]),
         origin=_pose_from(d["origin"], f"{where}: sensor {d['name']}"),
-        rate_hz=_unnum(d["rate_hz"]),
+        rate_hz=float(d["rate_hz"]),
         params=dict(d.get("params", {})),
     )
 
@@ -836,15 +841,15 @@ def _model_from_gltf(doc: Mapping, blob: bytes, where: str) -> RobotModel:
         spheres = tuple(
             CollisionSphere(
                 str(s["link"]),
-                tuple(_unnum(v) for v in s["center"]),  # type: ignore[arg-type]
-                _unnum(s["radius"]),
+                tuple(float(v) for v in s["center"]),  # type: ignore[arg-type]
+                float(s["radius"]),
             )
             for s in robot.get("spheres", [])
         )
         materials = {
             str(m["key"]): Material(
                 str(m["name"]),
-                tuple(_unnum(v) for v in m["rgba"]),  # type: ignore[arg-type]
+                tuple(float(v) for v in m["rgba"]),  # type: ignore[arg-type]
                 str(m.get("texture", "")),
             )
             for m in robot.get("materials", [])

@@ -109,15 +109,18 @@ export class Viewer {
 
   /** Resolves once the next frame has been drawn. */
   rendered(): Promise<void> {
+    if (this.empty()) return Promise.resolve();
     return new Promise((resolve) => {
       this.waiting.push(resolve);
       this.requestRender();
     });
   }
 
-  /** Draw a new frame soon (once, however often this is called before it). */
+  /** Draw a new frame soon (once, however often this is called before it). Nothing is
+   * drawn before a world or robot arrives: the empty view is the page's background. */
   requestRender(): void {
     if (this.frameRequested) return;
+    if (this.empty()) return;
     this.frameRequested = true;
     requestAnimationFrame(() => {
       this.frameRequested = false;
@@ -139,6 +142,10 @@ export class Viewer {
     if (inward.length() < 1.0) return VIEW_DIRECTION.clone();
     inward.normalize();
     return new Vector3(inward.x, inward.y, 0.75).normalize();
+  }
+
+  private empty(): boolean {
+    return this.worldSlot.children.length === 0 && this.robotSlot.children.length === 0;
   }
 
   private resize(): void {

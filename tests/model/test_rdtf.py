@@ -477,3 +477,14 @@ def random_robots(draw) -> RobotModel:
 def test_random_robots_round_trip_exactly(model):
     data = write_rdtf(model)
     assert model_differences(model, rdtf_from_bytes(data)) == []
+
+
+def test_reads_the_json_form_other_tools_make(tmp_path):
+    """A .glb re-saved as .gltf (JSON with an external buffer) by another tool reads back."""
+    model = hand_built(tmp_path)
+    glb = tmp_path / "hand.glb"
+    write_rdtf(model, glb)
+    gltf = pygltflib.GLTF2.load(str(glb))
+    gltf.convert_buffers(pygltflib.BufferFormat.BINFILE)
+    gltf.save(str(tmp_path / "hand.gltf"))
+    assert model_differences(model, read_rdtf(tmp_path / "hand.gltf")) == []

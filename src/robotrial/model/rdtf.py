@@ -20,6 +20,7 @@ Coordinates are the robot's own (metres, z up); a y-up viewer rotates the scene.
 
 from __future__ import annotations
 
+import base64
 import json
 import math
 import struct
@@ -27,6 +28,7 @@ import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
+from urllib.parse import unquote
 
 import numpy as np
 import pygltflib
@@ -874,6 +876,24 @@ def _model_from_gltf(doc: Mapping, blob: bytes, where: str) -> RobotModel:
         ) from None
 
 
+def _parse_gltf_json(data: bytes, path: Path) -> tuple[dict, bytes]:
+    """The document and buffer 0 of a .gltf (JSON) file: the form other tools make when
+    they re-save our .glb; the buffer is a data: URI or a file next to it."""
+    try:
+        doc = json.loads(data)
+        buffers = doc.get("buffers") or []
+        if not buffers:
+            return doc, b""
+        uri = buffers[0].get("uri", "")
+        if uri.startswith("data:"):
+            return doc, base64.b64decode(uri.split(",", 1)[1])
+        return doc, (path.parent / unquote(uri)).read_bytes()
+    except (ValueError, AttributeError, IndexError) as exc:
+        raise ModelError(f"{path}: not a readable glTF file ({exc})") from None
+    except OSError as exc:
+        raise ModelError(f"{path}: its buffer file cannot be read ({exc})") from None
+
+
 def read_rdtf(path: str | Path) -> RobotModel:
     """A RobotModel from an RDTF (.glb) file written by `write_rdtf`."""
     p = Path(path)
@@ -882,14 +902,7 @@ def read_rdtf(path: str | Path) -> RobotModel:
     except OSError as exc:
         raise ModelError(f"{p}: cannot read RDTF file ({exc.strerror})") from None
     if p.suffix.lower() == ".gltf" and data[:4] != b"glTF":
-        # the JSON form (written by other tools from our .glb): buffers by URI
-        try:
-            gltf = pygltflib.GLTF2.load(str(p))
-            gltf.convert_buffers(pygltflib.BufferFormat.BINARYBLOB)
-            doc = json.loads(gltf.gltf_to_json())
-        except Exception as exc:
-            raise ModelError(f"{p}: not a readable glTF file ({exc})") from None
-        return _model_from_gltf(doc, gltf.binary_blob() or b"", str(p))
+        return _model_from_gltf(*_parse_gltf_json(data, p), str(p))
     return rdtf_from_bytes(data, str(p))
 
 

@@ -75,3 +75,16 @@ def test_sensor_frames_match_the_mjcf_sites(mm_sim):
         sid = mujoco.mj_name2id(w.model, mujoco.mjtObj.mjOBJ_SITE, s.name)
         pose = mm_sim.frame_pose(frame)
         assert np.allclose(pose[:3, 3], w.data.site_xpos[sid], atol=1e-6), s.name
+
+
+def test_scan_in_room_b_sees_the_cylinder():
+    opts = SimOptions(cameras=False, streams={"velodyne": StreamSettings(noise=0.0)})
+    sim = Simulation.create(
+        "room_b", "mobile_manipulator", spawn=Pose.from_xy_yaw(1.5, 3.81, 0.0), options=opts
+    )
+    sim.start()
+    scan = sim.latest["scan"].data
+    pose = sim.frame_pose(scan.frame)
+    ahead = round((0.0 - scan.angle_min) / scan.angle_increment)
+    want = 3.89 - pose[0, 3] - 0.5
+    assert scan.ranges[ahead] == pytest.approx(want, abs=0.01)

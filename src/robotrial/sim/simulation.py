@@ -43,6 +43,8 @@ from robotrial.sim.tf import TfTree, chain_to_root
 from robotrial.sim.world import SimWorld
 
 DEFAULT_RATES = {"odom": 50.0, "ground_truth": 50.0, "joint_states": 50.0}
+SCAN_ABOVE_FLOOR = 0.1
+"""m: the 2D scan keeps points from this height above the floor to 0.5 m above the LiDAR."""
 
 
 @dataclass(frozen=True)
@@ -219,13 +221,14 @@ class Simulation:
 
     def _build_streams(self) -> None:
         w, opts = self.world, self.options
+        self._mobile = w.planar or (w.base_body >= 0 and w.model.body_jntadr[w.base_body] >= 0)
         self._scene: RayScene | None = None
         model = w.model
         if self.state_reader is not None:
             self._add(
                 "joint_states", "joint_states", DEFAULT_RATES["joint_states"], self._read_joints
             )
-        if w.planar or model.body_jntadr[w.base_body] >= 0:
+        if self._mobile:
             self._add("odom", "odom", DEFAULT_RATES["odom"], self._read_odom)
             self._add("ground_truth", "odom", DEFAULT_RATES["ground_truth"], self._read_truth)
         first_lidar = True
@@ -250,6 +253,8 @@ class Simulation:
                 )
                 self.closers.append(lidar.close)
                 scan_cfg = opts.scan or ScanConfig(
+                    min_height=SCAN_ABOVE_FLOOR - self._height_above_floor(s.name),
+                    max_height=0.5,
                     angle_increment=pattern.horizontal_resolution,
                     range_min=pattern.range_min,
                     range_max=min(pattern.range_max, 30.0),
@@ -295,6 +300,14 @@ class Simulation:
                         Reading(n, "imu", imu.read(self.world.data, self.world.rng, t))
                     ],
                 )
+
+    def _height_above_floor(self, site: str) -> float:
+        """Height (m) of a sensor site above the floor geom (z = 0 without one)."""
+        model, data = self.world.model, self.world.data
+        sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
+        fid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+        floor = float(data.geom_xpos[fid][2]) if fid >= 0 else 0.0
+        return float(data.site_xpos[sid][2]) - floor
 
     def _lidar_reader(self, name: str, lidar: Lidar, scan: ScanConfig | None):
         def read(t: float) -> list[Reading]:
@@ -394,7 +407,7 @@ class Simulation:
         if self.gripper is not None:
             self.gripper.carry(data)
         t = w.time
-        if self.base is not None:
+        if self._mobile:
             x, y, yaw = w.base_pose2d()
             self.odometry.update(x, y, yaw, self.control_dt)
         out: list[Reading] = []
@@ -409,7 +422,7 @@ class Simulation:
 
     def start(self) -> list[Reading]:
         """Sample every stream at the current time (the first readings of a run)."""
-        if self.base is not None:
+        if self._mobile:
             x, y, yaw = self.world.base_pose2d()
             self.odometry.update(x, y, yaw, 0.0)
         t = self.world.time

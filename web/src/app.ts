@@ -99,11 +99,15 @@ export class RobotrialApp {
     }
   }
 
-  /** Move driven joints (rad or m, clamped to their limits). */
+  /** Move driven joints (rad or m, clamped to their limits): the robot, the sliders,
+   * the read-out and the view follow, whoever asks (a slider, a button, a trajectory). */
   setJoints(values: Record<string, number>): void {
-    if (!this.robot) return;
-    this.robot.setJoints(values);
-    this.panel.setEndEffector(this.robot.endEffector());
+    const robot = this.robot;
+    if (!robot) return;
+    robot.setJoints(values);
+    const now = robot.valuesByName();
+    this.panel.showJointValues(Object.fromEntries(Object.keys(values).map((n) => [n, now[n]])));
+    this.panel.setEndEffector(robot.endEffector());
     this.viewer.requestRender();
   }
 
@@ -111,7 +115,6 @@ export class RobotrialApp {
   home(): void {
     if (!this.robot) return;
     this.setJoints(Object.fromEntries(this.robot.joints.map((j) => [j.name, 0])));
-    this.panel.showJointValues(this.robot.valuesByName());
   }
 
   state(): RobotrialState {

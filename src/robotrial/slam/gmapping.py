@@ -1,0 +1,210 @@
+"""GMapping-class SLAM: a Rao-Blackwellized particle filter over odometry and scans
+(layer 3).
+
+Each particle carries a pose, a log-weight and its own map. When the robot has moved
+`linearUpdate` or turned `angularUpdate` (odometry) since the last update:
+
+1. every particle draws its new pose from the odometry motion model (srr, srt, str, stt);
+2. the scan matcher moves that draw to where the scan fits the particle's own map (the
+   improved proposal of Grisetti et al. 2007); a match scoring below `minimumScore` is
+   not trusted and the draw stays;
+3. the particle's weight grows by the scan's likelihood on its map (likelihood field,
+   `lsigma`, `kernelSize`), tempered by `ogain`;
+4. when the effective sample size falls below `resampleThreshold` * particles, the
+   particles are resampled (systematic), children copying their parent's map;
+5. every particle writes the scan into its map.
+
+Between updates the pose follows odometry from the best particle. The trajectory at the
+end is the best particle's ancestry, so it is consistent with its map.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robotrial.slam.grid import LogOddsGrid
+from robotrial.slam.matcher import ScanMatcher, likelihood
+from robotrial.slam.params import GMappingParams
+from robotrial.slam.scan import Beams, compose, relative, transform_points
+
+
+class OdometryRequired(ValueError):
+    """GMapping was given a scan without an odometry pose."""
+
+
+@dataclass
+class _Step:
+    poses: np.ndarray  # (N, 3) particle poses after this update
+    parents: np.ndarray  # (N,) index of each particle's parent at the previous update
+
+
+class GMappingSlam:
+    """Feed scans with odometry through `process`; read `pose`, `grid`, `trajectory`."""
+
+    uses_odometry = True
+
+    def __init__(self, params: GMappingParams | None = None) -> None:
+        self.params = p = params or GMappingParams()
+        self.rng = np.random.default_rng(p.seed)
+        n = p.particles
+        self.poses = np.zeros((n, 3))
+        self.logw = np.zeros(n)
+        self.maps: list[LogOddsGrid] = [LogOddsGrid(p.delta)]
+        self._map_index = np.zeros(n, dtype=int)
+        self.matcher = ScanMatcher(p.match_levels, p.iterations)
+        self._odom_at_update: np.ndarray | None = None
+        self._best = 0
+        self.history: list[_Step] = []
+        self._scans: list[tuple[float, int, np.ndarray]] = []
+        self.updates = 0
+        self.resamples = 0
+        self.neff = float(n)
+
+    @property
+    def usable_range(self) -> float:
+        return self.params.maxUrange
+
+    @property
+    def min_range(self) -> float:
+        return 0.0
+
+    @property
+    def grid(self) -> LogOddsGrid:
+        """The best particle's map."""
+        return self.maps[self._map_index[self._best]]
+
+    @property
+    def pose(self) -> np.ndarray:
+        return self.poses[self._best].copy()
+
+    def process(self, scan: Beams, stamp: float, odom: np.ndarray | None = None) -> np.ndarray:
+        """Take one scan with the odometry pose (x, y, yaw in the odom frame) at its time;
+        returns the base's pose in the map frame (the best particle's)."""
+        if odom is None:
+            raise OdometryRequired(
+                "gmapping needs odometry with every scan (a /odom topic or odom -> base TF); "
+                "use the hector method for scans alone"
+            )
+        odom = np.asarray(odom, dtype=np.float64)
+        p = self.params
+        if self._odom_at_update is None:
+            self._register(scan)
+            self._odom_at_update = odom.copy()
+            self.history.append(_Step(self.poses.copy(), np.arange(p.particles)))
+            self.updates += 1
+        else:
+            d = relative(self._odom_at_update, odom)
+            moved = np.hypot(d[0], d[1]) >= p.linearUpdate or abs(d[2]) >= p.angularUpdate
+            if moved and scan.hit.any():
+                self._update(scan, d)
+                self._odom_at_update = odom.copy()
+        delta = relative(self._odom_at_update, odom)
+        self._scans.append((float(stamp), len(self.history) - 1, delta))
+        return compose(self.poses[self._best], delta)
+
+    def _update(self, scan: Beams, d: np.ndarray) -> None:
+        p = self.params
+        n = p.particles
+        hits = scan.hits
+        stride = p.lskip + 1
+        for i in range(n):
+            guess = compose(self.poses[i], self._sample_motion(d))
+            grid = self.maps[self._map_index[i]]
+            matched = self.matcher.match(grid, hits[::stride], guess).pose
+            pose = matched
+            score, loglik, _ = likelihood(
+                grid, hits, pose, p.kernelSize, p.sigma, p.lsigma, stride=stride
+            )
+            if score <= p.minimumScore:
+                pose = guess
+                _, loglik, _ = likelihood(
+                    grid, hits, pose, p.kernelSize, p.sigma, p.lsigma, stride=stride
+                )
+            self.poses[i] = pose
+            self.logw[i] += loglik
+        gain = 1.0 / (p.ogain * n)
+        w = np.exp(gain * (self.logw - self.logw.max()))
+        w /= w.sum()
+        self.neff = float(1.0 / np.sum(w * w))
+        self._best = int(np.argmax(w))
+        parents = np.arange(n)
+        if self.neff < p.resampleThreshold * n:
+            parents = self._systematic(w)
+            self.poses = self.poses[parents].copy()
+            self.logw[:] = 0.0
+            self._resample_maps(parents)
+            self._best = int(np.argmax(w[parents]))
+            self.resamples += 1
+        self._register(scan)
+        self.history.append(_Step(self.poses.copy(), parents))
+        self.updates += 1
+
+    def _sample_motion(self, d: np.ndarray) -> np.ndarray:
+        """GMapping's odometry motion model: noise grows with the distance and angle."""
+        p = self.params
+        sxy = 0.3 * p.srr
+        dx, dy, dth = d
+        g = self.rng.normal(size=3)
+        return np.array(
+            [
+                dx + g[0] * (p.srr * abs(dx) + p.str * abs(dth) + sxy * abs(dy)),
+                dy + g[1] * (p.srr * abs(dy) + p.str * abs(dth) + sxy * abs(dx)),
+                dth + g[2] * (p.stt * abs(dth) + p.srt * np.hypot(dx, dy)),
+            ]
+        )
+
+    def _systematic(self, w: np.ndarray) -> np.ndarray:
+        n = w.size
+        positions = (self.rng.random() + np.arange(n)) / n
+        idx = np.searchsorted(np.cumsum(w), positions)
+        return np.minimum(idx, n - 1)
+
+    def _resample_maps(self, parents: np.ndarray) -> None:
+        # A parent's map goes to its first child as is; further children get copies.
+        old = [self.maps[self._map_index[j]] for j in range(len(self._map_index))]
+        taken: set[int] = set()
+        maps: list[LogOddsGrid] = []
+        for j in parents:
+            src = old[j]
+            if id(src) in taken:
+                maps.append(src.copy())
+            else:
+                taken.add(id(src))
+                maps.append(src)
+        self.maps = maps
+        self._map_index = np.arange(len(maps))
+
+    def _register(self, scan: Beams) -> None:
+        # Before the first resampling all particles share one map; split it on write.
+        n = self.params.particles
+        if len(self.maps) == 1 and n > 1:
+            self.maps = [self.maps[0].copy() for _ in range(n)]
+            self._map_index = np.arange(n)
+        for i in range(n):
+            pose = self.poses[i]
+            origin = transform_points(pose, np.array([scan.origin]))[0]
+            self.maps[self._map_index[i]].integrate(
+                origin, transform_points(pose, scan.ends), scan.hit
+            )
+
+    def map_to_odom(self, odom: np.ndarray) -> np.ndarray:
+        """The map -> odom transform that puts `odom` (the odometry pose now) at the
+        estimated pose."""
+        est = compose(self.poses[self._best], relative(self._odom_at_update, odom))
+        return compose(est, relative(odom, np.zeros(3)))
+
+    def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
+        """(stamps, poses (N, 3)) of every scan: the best particle's ancestry at each
+        update, carried forward by odometry between updates."""
+        if not self._scans:
+            return np.zeros(0), np.zeros((0, 3))
+        lineage = np.zeros((len(self.history), 3))
+        idx = self._best
+        for k in range(len(self.history) - 1, -1, -1):
+            lineage[k] = self.history[k].poses[idx]
+            idx = int(self.history[k].parents[idx])
+        stamps = np.array([s for s, _, _ in self._scans])
+        poses = np.array([compose(lineage[k], d) for _, k, d in self._scans])
+        return stamps, poses

@@ -1,0 +1,111 @@
+"""SLAM parameters with the names and defaults of the ROS packages (layer 3).
+
+`GMappingParams` follows slam_gmapping's ROS parameters, `HectorParams` hector_mapping's,
+so a ROS user's launch-file values carry over (`from_dict` takes them by name).
+Where a ROS default assumes a real robot and a huge map (xmin = -100 m), ours grows the
+map as the robot explores instead, so there is no size parameter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+
+
+def _from_dict(cls: type[T], values: dict[str, Any] | None) -> T:
+    known = {f.name: f for f in fields(cls)}  # type: ignore[arg-type]
+    out = cls()
+    for k, v in (values or {}).items():
+        if k not in known:
+            raise ValueError(f"{cls.__name__}: unknown parameter {k!r}; known: {sorted(known)}")
+        kind = type(getattr(out, k))
+        try:
+            out = replace(out, **{k: kind(v)})  # type: ignore[type-var]
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{cls.__name__}: parameter {k!r}={v!r}: {exc}") from exc
+    return out
+
+
+@dataclass(frozen=True)
+class GMappingParams:
+    """slam_gmapping parameters (ROS names and defaults). Distances in m, angles in rad,
+    times in s; srr/srt/str/stt are the odometry error model (translation from
+    translation, translation from rotation, rotation from translation, rotation from
+    rotation)."""
+
+    particles: int = 30
+    delta: float = 0.05
+    linearUpdate: float = 1.0
+    angularUpdate: float = 0.5
+    temporalUpdate: float = -1.0
+    map_update_interval: float = 5.0
+    maxUrange: float = 80.0
+    maxRange: float = 0.0
+    sigma: float = 0.05
+    kernelSize: int = 1
+    lstep: float = 0.05
+    astep: float = 0.05
+    iterations: int = 5
+    lsigma: float = 0.075
+    ogain: float = 3.0
+    lskip: int = 0
+    minimumScore: float = 0.0
+    srr: float = 0.1
+    srt: float = 0.2
+    str: float = 0.1
+    stt: float = 0.2
+    resampleThreshold: float = 0.5
+    occ_thresh: float = 0.25
+    # Multi-resolution levels of the Gauss-Newton matcher that improves each particle's
+    # proposal (GMapping hill-climbs in steps of lstep/astep instead).
+    match_levels: int = 3
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.particles < 1:
+            raise ValueError(f"gmapping: particles must be >= 1, got {self.particles}")
+        if not self.delta > 0:
+            raise ValueError(f"gmapping: delta (map resolution) must be > 0, got {self.delta}")
+        if not 0 < self.resampleThreshold <= 1:
+            raise ValueError(
+                f"gmapping: resampleThreshold must be in (0, 1], got {self.resampleThreshold}"
+            )
+        if self.linearUpdate < 0 or self.angularUpdate < 0:
+            raise ValueError("gmapping: linearUpdate and angularUpdate must be >= 0")
+        if not self.maxUrange > 0:
+            raise ValueError(f"gmapping: maxUrange must be > 0, got {self.maxUrange}")
+
+    @staticmethod
+    def from_dict(values: dict[str, Any] | None) -> GMappingParams:
+        return _from_dict(GMappingParams, values)
+
+
+@dataclass(frozen=True)
+class HectorParams:
+    """hector_mapping parameters (ROS names and defaults)."""
+
+    map_resolution: float = 0.025
+    map_multi_res_levels: int = 3
+    update_factor_free: float = 0.4
+    update_factor_occupied: float = 0.9
+    map_update_distance_thresh: float = 0.4
+    map_update_angle_thresh: float = 0.9
+    laser_min_dist: float = 0.4
+    laser_max_dist: float = 30.0
+    map_pub_period: float = 2.0
+    # Gauss-Newton steps per resolution level (hector_mapping hard-codes a few).
+    iterations: int = 5
+
+    def __post_init__(self) -> None:
+        if not self.map_resolution > 0:
+            raise ValueError(f"hector: map_resolution must be > 0, got {self.map_resolution}")
+        if self.map_multi_res_levels < 1:
+            raise ValueError("hector: map_multi_res_levels must be >= 1")
+        if not self.laser_max_dist > self.laser_min_dist >= 0:
+            raise ValueError("hector: need 0 <= laser_min_dist < laser_max_dist")
+
+    @staticmethod
+    def from_dict(values: dict[str, Any] | None) -> HectorParams:
+        return _from_dict(HectorParams, values)

@@ -4,12 +4,14 @@
 `Recorder` writes robotrial.msgs messages; `BusRecorder` subscribes to topics of a bus
 and records what they carry (like `ros2 bag record`). Serialization goes through the
 `rosbags` type stores (ROS 2 Humble CDR, ROS 1 Noetic); the MCAP schemas are the full
-`.msg` definitions of robotrial.msgs, in the `ros2msg` encoding that ROS 2 tools write.
+`.msg` definitions of robotrial.msgs, in the `ros2msg` encoding that ROS 2 tools write,
+and its chunks are LZ4-compressed (quick to write; Foxglove and Lichtblick read them).
 """
 
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -84,44 +86,66 @@ def _default(store, desc) -> Any:
     if kind == Nodetype.BASE:
         return "" if detail[0] == "string" else (False if detail[0] == "bool" else 0)
     if kind == Nodetype.NAME:
-        return _build(store, detail, None)
+        return _converter(store, detail)(None)
     (sub_kind, sub_detail), length = detail
+    n = length if kind == Nodetype.ARRAY else 0
     if sub_kind == Nodetype.BASE and sub_detail[0] != "string":
-        return np.zeros(length if kind == Nodetype.ARRAY else 0, dtype=_DTYPES[sub_detail[0]])
-    return [
-        _default(store, (sub_kind, sub_detail))
-        for _ in range(length if kind == Nodetype.ARRAY else 0)
-    ]
+        return np.zeros(n, dtype=_DTYPES[sub_detail[0]])
+    return [_default(store, (sub_kind, sub_detail)) for _ in range(n)]
 
 
-def _convert(store, value: Any, desc) -> Any:
+def _field_converter(store, desc) -> Callable[[Any], Any] | None:
+    """How to turn one of our field values into the rosbags value (None: as it is)."""
     kind, detail = desc
     if kind == Nodetype.BASE:
-        return value
+        return None
     if kind == Nodetype.NAME:
-        return _build(store, detail, value)
+        return _converter(store, detail)
     (sub_kind, sub_detail), _ = detail
     if sub_kind == Nodetype.BASE and sub_detail[0] != "string":
         dtype = _DTYPES[sub_detail[0]]
-        if isinstance(value, bytes | bytearray | memoryview):
-            return np.frombuffer(value, dtype=np.uint8).astype(dtype, copy=False)
-        return np.asarray(value, dtype=dtype)
-    return [_convert(store, v, (sub_kind, sub_detail)) for v in value]
+
+        def numbers(value: Any) -> np.ndarray:
+            if isinstance(value, bytes | bytearray | memoryview):
+                return np.frombuffer(value, dtype=np.uint8).astype(dtype, copy=False)
+            return np.asarray(value, dtype=dtype)
+
+        return numbers
+    inner = _field_converter(store, (sub_kind, sub_detail))
+    if inner is None:
+        return list
+    return lambda value: [inner(v) for v in value]
 
 
-def _build(store, typename: str, msg: Message | None) -> Any:
-    """The rosbags object of `typename` with the fields of our `msg` (None: defaults)."""
+_CONVERTERS: dict[tuple[int, str], Callable[[Any], Any]] = {}
+_MISSING = object()
+
+
+def _converter(store, typename: str) -> Callable[[Any], Any]:
+    """A function from our message of `typename` to the store's object (None: defaults);
+    built once per type and store."""
+    key = (id(store), typename)
+    fn = _CONVERTERS.get(key)
+    if fn is not None:
+        return fn
     cls = store.types[typename]
     _, fields = store.fielddefs[typename]
-    aliases = getattr(msg, "__aliases__", {}) if msg is not None else {}
-    kwargs = {}
-    for name, desc in fields:
-        ours = aliases.get(name, name)
-        if msg is not None and hasattr(msg, ours):
-            kwargs[name] = _convert(store, getattr(msg, ours), desc)
-        else:
-            kwargs[name] = _default(store, desc)
-    return cls(**kwargs)
+    plan: list[tuple[str, Callable[[Any], Any] | None, Any]] = []
+
+    def build(msg: Any) -> Any:
+        aliases = getattr(msg, "__aliases__", {})
+        kwargs = {}
+        for name, conv, desc in plan:
+            value = _MISSING if msg is None else getattr(msg, aliases.get(name, name), _MISSING)
+            if value is _MISSING:
+                kwargs[name] = _default(store, desc)
+            else:
+                kwargs[name] = value if conv is None else conv(value)
+        return cls(**kwargs)
+
+    _CONVERTERS[key] = build
+    plan.extend((name, _field_converter(store, desc), desc) for name, desc in fields)
+    return build
 
 
 def serialize(msg: Message, dialect: str = "ros2") -> bytes:
@@ -129,7 +153,7 @@ def serialize(msg: Message, dialect: str = "ros2") -> bytes:
     store = typestore(dialect)
     cls = type(msg)
     ensure_type(store, cls, dialect)
-    obj = _build(store, cls.__ros_type__, msg)
+    obj = _converter(store, cls.__ros_type__)(msg)
     if dialect == "ros2":
         return bytes(store.serialize_cdr(obj, cls.__ros_type__))
     return bytes(store.serialize_ros1(obj, cls.__ros_type__))
@@ -208,7 +232,7 @@ class Recorder:
             self._file = open(self.path, "wb")
             self._mcap = McapWriter(
                 self._file,
-                compression=CompressionType.ZSTD if compression else CompressionType.NONE,
+                compression=CompressionType.LZ4 if compression else CompressionType.NONE,
             )
             self._mcap.start(profile="ros2", library="robotrial")
             self._schemas: dict[str, int] = {}

@@ -101,10 +101,17 @@ def test_page_is_served_from_the_build(client: TestClient) -> None:
     assert client.get(script).status_code == 200
 
 
-def test_missing_build_says_how_to_build(tmp_path) -> None:
-    response = TestClient(create_app(static_dir=tmp_path, warm=False)).get("/")
+def test_missing_build_says_how_to_build_and_is_served_once_built(tmp_path) -> None:
+    client = TestClient(create_app(static_dir=tmp_path, warm=False))
+    response = client.get("/")
     assert response.status_code == 503
     assert "make web" in response.text
+    assert client.get("/assets/main.js").status_code == 404
+    (tmp_path / "assets").mkdir()
+    (tmp_path / "assets" / "main.js").write_text("// built")
+    (tmp_path / "index.html").write_text('<div id="view"></div>')
+    assert client.get("/").status_code == 200
+    assert client.get("/assets/main.js").text == "// built"
 
 
 def test_unknown_default_robot_is_refused_at_start() -> None:

@@ -91,6 +91,18 @@ class WorldList(BaseModel):
 NOT_FOUND: dict[int | str, dict[str, Any]] = {404: {"description": "no such built-in name"}}
 
 
+class PageAssets(StaticFiles):
+    """The page's scripts and styles; plain 404s (not errors) while the page is not built,
+    and it is served as soon as it is, without a restart."""
+
+    def __init__(self, directory: Path) -> None:
+        super().__init__(directory=directory, check_dir=False)
+
+    async def check_config(self) -> None:
+        if self.directory is not None and Path(self.directory).is_dir():
+            await super().check_config()
+
+
 def mount_rosbridge(app: FastAPI, bus: Bus) -> None:
     """Add the rosbridge v2 WebSocket route at ROSBRIDGE_PATH, serving `bus`.
 
@@ -193,11 +205,7 @@ def create_app(
         """The world as a glTF binary scene (floor, walls, obstacles, objects, lights)."""
         return _glb(catalog.world_glb(name), request)
 
-    app.mount(
-        "/assets",
-        StaticFiles(directory=static_dir / "assets", check_dir=False),
-        name="assets",
-    )
+    app.mount("/assets", PageAssets(directory=static_dir / "assets"), name="assets")
     if bus is not None:
         mount_rosbridge(app, bus)
     return app

@@ -146,3 +146,23 @@ def test_the_installed_command_runs(tmp_path):
     )
     assert json.loads(done.stdout)["name"] == "husky"
     assert out.read_bytes()[:4] == b"glTF"
+
+
+XACRO = """<?xml version="1.0"?>
+<robot name="stick" xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:arg name="length" default="0.2"/>
+  <link name="base"><visual><geometry>
+    <cylinder radius="0.01" length="$(arg length)"/>
+  </geometry></visual></link>
+</robot>
+"""
+
+
+def test_xacro_arguments_reach_the_robot(tmp_path, capsys):
+    src = tmp_path / "stick.urdf.xacro"
+    src.write_text(XACRO)
+    out = tmp_path / "stick.glb"
+    assert convert(capsys, str(src), "-o", str(out), "--xacro-arg", "length:=0.5")[0] == 0
+    assert read_rdtf(out).link("base").visuals[0].geometry.length == 0.5
+    code, _, err = convert(capsys, str(src), "-o", str(out), "--xacro-arg", "length=0.5")
+    assert code == 1 and "expected NAME:=VALUE" in err

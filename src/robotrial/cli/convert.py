@@ -43,6 +43,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="P",
         help="folder searched for package:// URIs (repeatable; before ROS_PACKAGE_PATH)",
     )
+    parser.add_argument(
+        "--xacro-arg",
+        action="append",
+        default=[],
+        metavar="NAME:=VALUE",
+        help="argument for a .xacro file (repeatable)",
+    )
     parser.add_argument("--world", action="store_true", help="IN is a world, not a robot")
     parser.add_argument(
         "--base",
@@ -61,10 +68,26 @@ def _size(n: int) -> str:
     return str(n)
 
 
-def _convert_robot(args: argparse.Namespace, out: Path, fmt: str) -> dict[str, Any]:
+def _load_robot(args: argparse.Namespace):
     from robotrial.model import load_robot
+    from robotrial.model.robot import ModelError
+    from robotrial.model.urdf import load_urdf
 
-    model = load_robot(args.input, package_paths=args.package_path)
+    if not args.xacro_arg:
+        return load_robot(args.input, package_paths=args.package_path)
+    xargs = {}
+    for item in args.xacro_arg:
+        name, sep, value = item.partition(":=")
+        if not sep or not name.strip():
+            raise ModelError(f"--xacro-arg {item!r}: expected NAME:=VALUE")
+        xargs[name.strip()] = value
+    if not str(args.input).endswith(".xacro"):
+        raise ModelError(f"--xacro-arg given, but {args.input} is not a .xacro file")
+    return load_urdf(args.input, package_paths=args.package_path, xacro_args=xargs)
+
+
+def _convert_robot(args: argparse.Namespace, out: Path, fmt: str) -> dict[str, Any]:
+    model = _load_robot(args)
     result: dict[str, Any] = {
         "input": str(args.input),
         "kind": "robot",

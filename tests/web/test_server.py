@@ -6,6 +6,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from robotrial.app.server import STATIC_DIR, create_app
+from robotrial.cli import main
 from robotrial.model.robot import ModelError
 from robotrial.ros.bus import Bus
 
@@ -149,3 +150,8 @@ def test_rosbridge_is_mounted_when_a_bus_is_given() -> None:
 def test_no_rosbridge_route_without_a_bus(client: TestClient) -> None:
     assert client.get("/api/config").json()["rosbridge_enabled"] is False
     assert client.get("/rosbridge").status_code == 404
+
+
+def test_serve_refuses_an_unknown_world(capsys) -> None:
+    assert main(["serve", "--world", "atlantis"]) == 2
+    assert "unknown world 'atlantis'" in capsys.readouterr().err

@@ -96,6 +96,36 @@ def _run(sim, duration: float) -> dict:
     }
 
 
+def _run_recorded(sim, duration: float) -> dict:
+    """The sim node on a bus with every topic recorded to MCAP (what `robotrial sim
+    --record` does)."""
+    import tempfile
+
+    from robotrial.ros.bus import Bus
+    from robotrial.ros.recorder import BusRecorder, Recorder
+    from robotrial.ros.sim_node import SimNode
+    from robotrial.sim.drives import SquareDrive
+
+    drive = SquareDrive(2.0, 0.5)
+    bus = Bus()
+    node = SimNode(bus, sim)
+    topics = sorted({t for t, _ in node.topics.values()} | {"/tf", "/tf_static"})
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = Recorder(Path(tmp) / "bench.mcap")
+        BusRecorder(bus, rec, topics)
+        wall0, cpu0 = time.perf_counter(), time.process_time()
+        node.run(duration, on_step=lambda t: sim.drive(*drive.command(t)))
+        rec.close()
+        wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+    sim_time = sim.world.time
+    return {
+        "sim_s": sim_time,
+        "wall_s": wall,
+        "rtf_wall": sim_time / wall,
+        "rtf_cpu": sim_time / cpu,
+    }
+
+
 def _sensor_costs(resolution_deg: float, threads: int) -> list[dict]:
     """ms per reading of each stream alone, at the robot's rates."""
     sim = _sim(resolution_deg, {}, True, threads)
@@ -175,6 +205,7 @@ def run(args: argparse.Namespace) -> int:
         ),
         ("+ odometry, ground truth, joints", {"imu": False, "velodyne": False}, False),
         ("+ VLP-16 10 Hz + scan", {"imu": False}, False),
+        ("+ sim node on the bus, MCAP recording", {"imu": False}, False),
         ("+ IMU, depth and RGB cameras", {}, True),
     ]
     rows = []
@@ -183,7 +214,10 @@ def run(args: argparse.Namespace) -> int:
         for res in args.lidar_resolution:
             for label, streams, cameras in configs:
                 sim = _sim(res, streams, cameras, args.threads)
-                r = _run(sim, args.camera_duration if cameras else args.duration)
+                if label.startswith("+ sim node"):
+                    r = _run_recorded(sim, args.duration)
+                else:
+                    r = _run(sim, args.camera_duration if cameras else args.duration)
                 sim.close()
                 rows.append({"config": label, "lidar_deg": res, **r})
                 advance()

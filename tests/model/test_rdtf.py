@@ -316,7 +316,7 @@ def test_builtin_robots_and_worlds_validate_and_robots_round_trip(tmp_path):
     write_rdtf(hand_built(tmp_path), hand)
     paths.append(hand)
     for name in [*library.world_names(), "lit"]:
-        world = lit_world() if name == "lit" else load_world(name)
+        world = lit_world(tmp_path) if name == "lit" else load_world(name)
         path = tmp_path / f"world_{name}.glb"
         write_world_glb(world, path)
         paths.append(path)
@@ -337,8 +337,10 @@ def test_reading_bad_files_names_the_problem(tmp_path):
         read_rdtf(tmp_path / "missing.glb")
 
 
-def lit_world() -> World:
-    """A small world with every kind of body and both kinds of light."""
+def lit_world(tmp_path: Path) -> World:
+    """A small world with every kind of body, a mesh obstacle and both kinds of light."""
+    stl = tmp_path / "vase.stl"
+    trimesh.creation.cone(radius=100.0, height=300.0).export(stl)
     return World(
         name="lit",
         floor=Floor(size=(4.0, 3.0), center=(1.0, 0.5), rgba=(0.8, 0.8, 0.8, 1.0)),
@@ -346,6 +348,7 @@ def lit_world() -> World:
         obstacles=(
             Obstacle("pillar", Cylinder(0.2, 1.5), Pose.from_xy_yaw(0.5, 0.5, 0.3, 0.75)),
             Obstacle("ball", Sphere(0.3), Pose((2.0, 0.0, 0.3)), rgba=(1.0, 0.0, 0.0, 0.5)),
+            Obstacle("vase", Mesh(str(stl), (0.001, 0.001, 0.001)), Pose((0.0, 1.0, 0.0))),
         ),
         objects=(Obstacle("cup", Box((0.08, 0.08, 0.1)), Pose((1.0, 1.0, 0.05)), mass=0.2),),
         lights=(
@@ -368,7 +371,7 @@ def world_node_corners(path: Path) -> dict[str, np.ndarray]:
 
 
 def test_world_glb_places_every_body_and_light(tmp_path):
-    world = lit_world()
+    world = lit_world(tmp_path)
     path = tmp_path / "lit.glb"
     write_world_glb(world, path)
     gltf = pygltflib.GLTF2.load(str(path))
@@ -394,6 +397,9 @@ def test_world_glb_places_every_body_and_light(tmp_path):
     assert np.allclose(floor.min(axis=0), [-1.0, -1.0, 0.0]) and np.allclose(
         floor.max(axis=0), [3.0, 2.0, 0.0]
     )
+    vase = corners["obstacle/vase"]  # millimetre file, scaled by the node
+    assert np.allclose(vase[:, 2].max() - vase[:, 2].min(), 0.3, atol=1e-6)
+    assert names["obstacle/vase"].scale == [0.001, 0.001, 0.001]
     assert gltf.extras["world"]["spawns"]["default"]["xyz"] == [0.5, 0.5, 0.0]
 
 

@@ -67,7 +67,7 @@ class _WorldWriter:
         self.world = world
         self.b = GltfBuilder()
         self.shapes: list[dict] = []
-        self.mesh_cache: dict[tuple, int | None] = {}
+        self.accessors: dict[tuple, tuple[int, int, int] | None] = {}
         self.scene_nodes: list[int] = []
         self.physics = False
 
@@ -100,20 +100,20 @@ class _WorldWriter:
         return self.b.node(f"{name}/collider", pose, extensions=ext)
 
     def _mesh(self, name: str, shape: Shape, rgba) -> int | None:
+        """The glTF mesh of a body; the same shape's triangles are stored once."""
         material = self.b.material(f"rgba({', '.join(f'{c:g}' for c in rgba)})", rgba)
-        if isinstance(shape, Mesh):
-            data = load_mesh(shape, scaled=False)
-            key: tuple = ("mesh", shape.filename, id(shape.data), material)
-            vertices, normals, faces = data.vertices, None, data.faces
-        else:
-            key = (shape, material)
-            vertices, normals, faces = primitive_triangles(shape)
-        if key not in self.mesh_cache:
-            accessors = self.b.triangles(vertices, faces, normals)
-            self.mesh_cache[key] = (
-                None if accessors is None else self.b.mesh(name, accessors, material)
-            )
-        return self.mesh_cache[key]
+        key: tuple = (
+            ("mesh", shape.filename, id(shape.data)) if isinstance(shape, Mesh) else (shape,)
+        )
+        if key not in self.accessors:
+            if isinstance(shape, Mesh):
+                data = load_mesh(shape, scaled=False)
+                self.accessors[key] = self.b.triangles(data.vertices, data.faces)
+            else:
+                vertices, normals, faces = primitive_triangles(shape)
+                self.accessors[key] = self.b.triangles(vertices, faces, normals)
+        accessors = self.accessors[key]
+        return None if accessors is None else self.b.mesh(name, accessors, material)
 
     def body(self, prefix: str, body: Obstacle) -> int:
         name = f"{prefix}/{body.name}"

@@ -14,6 +14,8 @@ import mujoco
 import numpy as np
 import pytest
 import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Sphere
 from robotrial.kinematics.reference import joint_values, link_poses
@@ -211,6 +213,37 @@ def test_fk_of_builtin_robots_matches_the_reference(name: str) -> None:
 )
 def test_fk_of_corpus_robots_matches_the_reference(urdf: str) -> None:
     assert_fk_equal(load_robot(ERD / urdf), samples=5)
+
+
+@st.composite
+def random_trees(draw) -> RobotModel:
+    """Robots of 2 to 8 links with random parents, joint kinds, origins and axes."""
+    n = draw(st.integers(2, 8))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    links = [Link(f"link{i}", Inertial(1.0, ixx=0.01, iyy=0.01, izz=0.01)) for i in range(n)]
+    joints = []
+    for i in range(1, n):
+        kind = str(rng.choice(["revolute", "continuous", "prismatic", "fixed"]))
+        lo = float(rng.uniform(-3, 0))
+        joints.append(
+            Joint(
+                f"joint{i}",
+                kind,  # type: ignore[arg-type]
+                f"link{int(rng.integers(0, i))}",
+                f"link{i}",
+                Pose.from_xyz_rpy(rng.normal(0, 0.3, 3), rng.uniform(-np.pi, np.pi, 3)),
+                tuple(rng.normal(0, 1, 3) + 1e-3),
+                JointLimit(lo, lo + float(rng.uniform(0.1, 3)), 10, 1),
+            )
+        )
+    return RobotModel("random", tuple(links), tuple(joints))
+
+
+@settings(max_examples=25, deadline=None)
+@given(random_trees())
+def test_fk_of_random_trees_matches_the_reference(robot: RobotModel) -> None:
+    assert_fk_equal(robot, samples=3, spawn=Pose.from_xyz_rpy((0.1, 0.2, 0.3), (0.3, 0.2, 0.1)))
 
 
 def test_planar_base_joints_are_the_world_pose_of_the_base() -> None:
@@ -514,6 +547,28 @@ def test_saved_folder_loads_from_disk(tmp_path) -> None:
     assert model.nbody == doc.compile().nbody
 
 
+def _world_rooted(kind: str) -> RobotModel:
+    """A URDF-style robot hanging from a `world` link by a fixed or floating joint."""
+    arm = toy_robot()
+    links = (Link("world"), *arm.links)
+    joints = (Joint("mount", kind, "world", "base", Pose((0.2, 0, 0.5))), *arm.joints)
+    return arm.with_changes(links=links, joints=joints)
+
+
+@pytest.mark.parametrize(
+    ("kind", "base"), [("fixed", "fixed"), ("fixed", "free"), ("floating", "fixed")]
+)
+def test_a_urdf_world_link_is_mujocos_world_body(kind: str, base: str) -> None:
+    robot = _world_rooted(kind)
+    model = to_mjcf(robot, base=base).compile()
+    assert model.body("world").id == 0
+    assert model.body("base").parentid[0] == 0
+    assert_fk_equal(robot, samples=3, base=base)
+    free = mujoco.mjtJoint.mjJNT_FREE
+    has_free = any(model.jnt_type[i] == free for i in range(model.njnt))
+    assert has_free == (kind == "floating" or base == "free")
+
+
 # --- bad input ----------------------------------------------------------------------------
 
 
@@ -526,6 +581,12 @@ def test_bad_arguments_are_named() -> None:
         to_mjcf(toy_robot(), actuators={"nope": "motor"})
     with pytest.raises(ModelError, match="actuators"):
         to_mjcf(toy_robot(), actuators="magic")  # type: ignore[arg-type]
+    with pytest.raises(ModelError, match="base_x"):
+        to_mjcf(toy_robot(), actuators={"base_x": "velocity"})  # only with a planar base
+    robot = toy_robot()
+    clash = robot.with_changes(sensors=(Sensor("tcp", "imu", "base"),))
+    with pytest.raises(ModelError, match="'tcp'"):
+        to_mjcf(clash)
 
 
 # --- the browser's MuJoCo (3.3.8, WebAssembly) ------------------------------------------------

@@ -398,6 +398,19 @@ class _Writer:
             if j.type in ("revolute", "continuous", "prismatic"):
                 if not np.linalg.norm(j.axis) > 1e-12:
                     raise ModelError(f"robot {model.name!r}: joint {j.name!r} has a zero axis")
+        if model.root != "world" and any(lk.name == "world" for lk in model.links):
+            raise ModelError(
+                f"robot {model.name!r}: link 'world' is not the root; MuJoCo reserves the "
+                "name for its world body"
+            )
+        taken = {"tcp"}
+        for s in model.sensors:
+            if s.name in taken:
+                raise ModelError(
+                    f"robot {model.name!r}: sensor name {s.name!r} is used twice in MJCF "
+                    "(sites are named as sensors, and the end-effector site is 'tcp')"
+                )
+            taken.add(s.name)
         root = model.root
         if root == "world":
             # The URDF's `world` link is MuJoCo's world body: its children hang from it.

@@ -180,8 +180,10 @@ def run(args: argparse.Namespace) -> int:
             warnings.simplefilter("always")
             convert = _convert_world if args.world else _convert_robot
             result = convert(args, out, fmt)
-    except (ModelError, OSError) as exc:
-        print(f"robotrial convert: error: {exc}", file=sys.stderr)
+    except (ModelError, OSError, ValueError) as exc:
+        # ModelError says what and where; an OSError names the file it failed on
+        message = " ".join(str(exc).split())
+        print(f"robotrial convert: error: {message}", file=sys.stderr)
         return 1
     result["output"] = str(out)
     result["bytes"] = out.stat().st_size

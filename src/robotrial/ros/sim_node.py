@@ -13,8 +13,9 @@ sensor topics a Gazebo robot has):
 | `/joint_states` | sensor_msgs/JointState | all actuated joints |
 | `/tf` | tf2_msgs/TFMessage | odom -> base, movable joints |
 | `/tf_static` | tf2_msgs/TFMessage (latched) | fixed joints, sensor mounts |
-| `/NAME/image_raw` | sensor_msgs/Image rgb8 | each camera |
-| `/NAME/depth/image_raw`, `/NAME/points` | Image 32FC1, PointCloud2 | each depth camera |
+| `/NAME/image_raw`, `/NAME/camera_info` | Image rgb8, CameraInfo | each camera |
+| `/NAME/depth/image_raw`, `/NAME/depth/camera_info` | Image 32FC1, CameraInfo | depth camera |
+| `/NAME/points` | sensor_msgs/PointCloud2 (x, y, z) | depth camera, from the image |
 
 It listens to `/cmd_vel` (geometry_msgs/Twist) and `/robotrial/joint_reference`
 (trajectory_msgs/JointTrajectory). Other lidars publish on `/NAME/points`.
@@ -41,7 +42,15 @@ from robotrial.msgs.geometry_msgs import (
     Vector3,
 )
 from robotrial.msgs.nav_msgs import Odometry
-from robotrial.msgs.sensor_msgs import Image, Imu, JointState, LaserScan, PointCloud2, PointField
+from robotrial.msgs.sensor_msgs import (
+    CameraInfo,
+    Image,
+    Imu,
+    JointState,
+    LaserScan,
+    PointCloud2,
+    PointField,
+)
 from robotrial.msgs.std_msgs import Header
 from robotrial.msgs.tf2_msgs import TFMessage
 from robotrial.msgs.trajectory_msgs import JointTrajectory
@@ -191,6 +200,22 @@ def image_message(r: ImageReading) -> Image:
     )
 
 
+def camera_info_message(r: ImageReading) -> CameraInfo:
+    """Pinhole intrinsics of an image (no distortion), as image_proc and Foxglove use."""
+    h, w = r.pixels.shape[:2]
+    fx, fy, cx, cy = r.intrinsics()
+    return CameraInfo(
+        header=header(r.stamp, r.frame),
+        height=h,
+        width=w,
+        distortion_model="plumb_bob",
+        d=[0.0] * 5,
+        k=[fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0],
+        r=[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+        p=[fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0],
+    )
+
+
 def joint_state_message(r: JointStateReading) -> JointState:
     return JointState(
         header=header(r.stamp, ""),
@@ -257,8 +282,10 @@ class SimNode(Node):
                 self.topics[s.name] = ("/imu" if s.name == "imu" else f"/{s.name}/imu", Imu)
             elif s.type == "camera":
                 self.topics[s.name] = (f"/{s.name}/image_raw", Image)
+                self.topics[f"{s.name}/info"] = (f"/{s.name}/camera_info", CameraInfo)
             elif s.type == "depth_camera":
                 self.topics[s.name] = (f"/{s.name}/depth/image_raw", Image)
+                self.topics[f"{s.name}/info"] = (f"/{s.name}/depth/camera_info", CameraInfo)
                 self.topics[f"{s.name}/points"] = (f"/{s.name}/points", PointCloud2)
         for topic, cls in self.topics.values():
             self._pubs[topic] = self.create_publisher(topic, cls)
@@ -306,6 +333,7 @@ class SimNode(Node):
             self._send(topic, scan_message(d))
         elif r.kind == "image":
             self._send(topic, image_message(d))
+            self._send(self.topics[f"{r.stream}/info"][0], camera_info_message(d))
         elif r.kind == "imu":
             self._send(topic, imu_message(d))
         elif r.kind == "joint_states":

@@ -30,6 +30,7 @@ from robotrial.ros.bus import Bus, Node
 FORMATS = ("mcap", "bag")
 _STORES: dict[str, Any] = {}
 _STORE_LOCK = threading.Lock()
+_READY: set[tuple[int, str]] = set()
 
 
 def format_of(path: str | Path) -> str:
@@ -54,14 +55,19 @@ def typestore(dialect: str):
 
 def ensure_type(store, cls: type[Message], dialect: str) -> None:
     """Register `cls` (and what it contains) in the store if the store lacks it."""
+    key = (id(store), cls.__ros_type__)
+    if key in _READY:
+        return
     missing = [c for c in dependencies(cls) if c.__ros_type__ not in store.types]
     if not missing:
+        _READY.add(key)
         return
     types: dict = {}
     for c in missing:
         types.update(get_types_from_msg(definition(c, dialect), c.__ros_type__))
     with _STORE_LOCK:
         store.register(types)
+    _READY.add(key)
 
 
 _DTYPES = {

@@ -315,8 +315,21 @@ def test_mimic_joint_follows_its_leader_in_simulation() -> None:
     assert b == pytest.approx(a, abs=1e-3)
 
 
-def test_position_servos_hold_an_arm_against_gravity() -> None:
-    robot = load_robot("desk_arm")
+def test_joint_limits_damping_friction_and_armature_are_written() -> None:
+    model = to_mjcf(toy_robot(), armature=0.02).compile()
+    j1, j2, j3 = model.joint("j1"), model.joint("j2"), model.joint("j3")
+    assert j1.limited[0] and list(j1.range) == [-2.5, 2.5]
+    assert not j2.limited[0]  # continuous
+    assert j3.limited[0] and list(j3.range) == pytest.approx([-0.1, 0.2])
+    assert model.dof_damping[j2.dofadr[0]] == 0.5
+    assert model.dof_frictionloss[j2.dofadr[0]] == 0.1
+    assert model.dof_armature[j1.dofadr[0]] == 0.02
+    assert list(model.actuator("j1").ctrlrange) == [-30, 30]  # motor: +- effort
+
+
+@pytest.mark.parametrize("name", ["desk_arm", "manipulator_h"])
+def test_position_servos_hold_an_arm_against_gravity(name: str) -> None:
+    robot = load_robot(name)
     model = to_mjcf(robot, actuators="position").compile()
     data = mujoco.MjData(model)
     lo, hi = robot.joint_limits()
@@ -488,7 +501,7 @@ def test_scaled_and_mirrored_meshes_keep_their_shape(scale) -> None:
 
 
 def test_dae_meshes_load_through_pycollada() -> None:
-    dae = next(ERD.rglob("*.dae"))
+    dae = ERD / "ur_description/meshes/ur5/visual/forearm.dae"
     robot = RobotModel(
         "d",
         (
@@ -501,6 +514,11 @@ def test_dae_meshes_load_through_pycollada() -> None:
     assert not doc.notes, doc.notes
     model = doc.compile()
     assert model.nmesh == 1 and model.mesh_vertnum[0] > 3
+    # the forearm is about 0.5 m long: metres, not the file's own units
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    extent = np.ptp(_world_vertices(model, data, "base/visual/0"), axis=0)
+    assert 0.3 < extent.max() < 0.7
 
 
 def test_huge_meshes_are_simplified_below_mujocos_limit() -> None:

@@ -1,0 +1,189 @@
+"""The local planner: the Dynamic Window Approach (dwa_local_planner's role) (layer 3).
+
+Each control period, `DWAPlanner.compute` samples forward speeds and yaw rates the base
+can reach within one period from its current velocity (the dynamic window, bounded by
+the acceleration and speed limits), rolls each pair out for `sim_time` seconds as an
+arc, and scores the arcs that keep the whole rectangular footprint clear of lethal
+cells:
+
+    cost = path_bias * (distance from the arc's end to the global path)
+         + goal_bias * (distance from the arc's end to a carrot on the path ahead)
+         + heading_bias * (angle between the end heading and the way to the carrot)
+         + obstacle_bias * (highest inflation cost along the arc) / 252
+         - speed_bias * v
+
+The footprint is covered by circles (`Footprint.circles`); an arc is admissible when
+every circle stays `margin` clear of obstacles in the costmap's distance field. Near the
+goal the speed is capped so that the base can stop on it. All arcs are scored at once
+with numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robotrial.nav.costmap import MAX_INFLATED, Costmap, Footprint
+
+
+@dataclass(frozen=True)
+class DWAConfig:
+    """Speed (m/s, rad/s) and acceleration (m/s^2, rad/s^2) limits, sampling and weights."""
+
+    max_speed: float = 0.3
+    min_speed: float = 0.0
+    max_yaw_rate: float = 1.0
+    acc_lim_v: float = 1.0
+    acc_lim_w: float = 3.0
+    period: float = 0.05
+    sim_time: float = 1.5
+    sim_dt: float = 0.1
+    v_samples: int = 8
+    w_samples: int = 21
+    path_bias: float = 2.0
+    goal_bias: float = 1.0
+    heading_bias: float = 0.3
+    obstacle_bias: float = 0.3
+    speed_bias: float = 0.5
+    lookahead: float = 1.0
+    margin: float = 0.03
+
+    def __post_init__(self) -> None:
+        for k in ("max_speed", "max_yaw_rate", "acc_lim_v", "acc_lim_w", "period", "sim_time"):
+            if not getattr(self, k) > 0:
+                raise ValueError(f"DWA: {k} must be positive, got {getattr(self, k)}")
+        if self.min_speed > self.max_speed:
+            raise ValueError("DWA: min_speed is above max_speed")
+        if self.v_samples < 2 or self.w_samples < 2:
+            raise ValueError("DWA: need at least 2 samples of v and of w")
+
+
+@dataclass
+class DWAResult:
+    """The chosen command, whether any arc was admissible, and the chosen arc (M, 3)."""
+
+    v: float
+    w: float
+    ok: bool
+    trajectory: np.ndarray
+    candidates: int
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def rollout(
+    pose: tuple[float, float, float], v: np.ndarray, w: np.ndarray, steps: int, dt: float
+) -> np.ndarray:
+    """Arcs of constant (v, w) from `pose`: (K, steps, 3) x, y, yaw after each `dt`."""
+    x0, y0, th0 = pose
+    t = dt * np.arange(1, steps + 1)[None, :]
+    v = np.asarray(v, dtype=float)[:, None]
+    w = np.asarray(w, dtype=float)[:, None]
+    th = th0 + w * t
+    small = np.abs(w) < 1e-6
+    ws = np.where(small, 1.0, w)
+    x = np.where(small, x0 + v * t * np.cos(th0), x0 + v / ws * (np.sin(th) - np.sin(th0)))
+    y = np.where(small, y0 + v * t * np.sin(th0), y0 - v / ws * (np.cos(th) - np.cos(th0)))
+    return np.stack([x, y, np.broadcast_to(th, x.shape)], axis=-1)
+
+
+def footprint_clearance(costmap: Costmap, footprint: Footprint, poses: np.ndarray) -> np.ndarray:
+    """Clearance (m) of the footprint at poses (..., 3): the smallest distance from any
+    covering circle's edge to a lethal cell (negative: overlap)."""
+    centres, radius = footprint.circles()
+    th = poses[..., 2][..., None]
+    c, s = np.cos(th), np.sin(th)
+    px = poses[..., 0][..., None] + c * centres[:, 0] - s * centres[:, 1]
+    py = poses[..., 1][..., None] + s * centres[:, 0] + c * centres[:, 1]
+    d = costmap.distance_at(np.stack([px, py], axis=-1))
+    return d.min(axis=-1) - radius
+
+
+def carrot(path: np.ndarray, xy: np.ndarray, lookahead: float) -> tuple[np.ndarray, int]:
+    """The point `lookahead` m along `path` past its point nearest to `xy`, and the index
+    of that nearest point."""
+    d = np.hypot(*(path - xy).T)
+    i = int(np.argmin(d))
+    seg = np.hypot(*np.diff(path[i:], axis=0).T)
+    acc = np.concatenate([[0.0], np.cumsum(seg)])
+    j = int(np.searchsorted(acc, lookahead))
+    if j >= len(acc):
+        return path[-1], i
+    a = (lookahead - acc[j - 1]) / max(seg[j - 1], 1e-9)
+    return path[i + j - 1] + a * (path[i + j] - path[i + j - 1]), i
+
+
+class DWAPlanner:
+    """Turns a pose, a velocity, a global path and a local costmap into (v, w)."""
+
+    def __init__(self, footprint: Footprint, config: DWAConfig = DWAConfig()) -> None:
+        self.footprint = footprint
+        self.config = config
+
+    def window(self, v0: float, w0: float, v_cap: float) -> tuple[np.ndarray, np.ndarray]:
+        """The sampled (v, w) pairs reachable within one period."""
+        c = self.config
+        hi_v = min(c.max_speed, v_cap, v0 + c.acc_lim_v * c.period)
+        lo_v = max(c.min_speed, v0 - c.acc_lim_v * c.period)
+        if lo_v > hi_v:
+            lo_v = hi_v = min(max(c.min_speed, v0 - c.acc_lim_v * c.period), hi_v)
+        lo_w = max(-c.max_yaw_rate, w0 - c.acc_lim_w * c.period)
+        hi_w = min(c.max_yaw_rate, w0 + c.acc_lim_w * c.period)
+        vs = np.linspace(lo_v, hi_v, c.v_samples)
+        ws = np.unique(
+            np.concatenate([np.linspace(lo_w, hi_w, c.w_samples), np.clip([0.0], lo_w, hi_w)])
+        )
+        vv, ww = np.meshgrid(vs, ws, indexing="ij")
+        return vv.ravel(), ww.ravel()
+
+    def compute(
+        self,
+        pose: tuple[float, float, float],
+        velocity: tuple[float, float],
+        path: np.ndarray,
+        costmap: Costmap,
+        goal_distance: float | None = None,
+    ) -> DWAResult:
+        """The best admissible (v, w); `ok` is False (and the command a stop) when every
+        sampled arc would hit something. `goal_distance` (m) caps the speed so the base
+        can stop at the goal."""
+        c = self.config
+        path = np.asarray(path, dtype=float).reshape(-1, 2)
+        if len(path) == 0:
+            raise ValueError("DWA: the global path is empty")
+        v_cap = c.max_speed
+        if goal_distance is not None:
+            v_cap = min(v_cap, max(0.05, np.sqrt(2 * 0.8 * c.acc_lim_v * max(goal_distance, 0.0))))
+        v, w = self.window(float(velocity[0]), float(velocity[1]), v_cap)
+        steps = max(1, int(round(c.sim_time / c.sim_dt)))
+        traj = rollout(pose, v, w, steps, c.sim_dt)
+        clear = footprint_clearance(costmap, self.footprint, traj).min(axis=1)
+        ok = clear >= c.margin
+        if not ok.any():
+            return DWAResult(0.0, 0.0, False, traj[:0, 0], len(v))
+        end = traj[:, -1, :2]
+        target, i0 = carrot(path, np.asarray(pose[:2], dtype=float), c.lookahead)
+        local = path[i0 : i0 + int(3 * c.lookahead / max(costmap.resolution, 1e-3)) + 2]
+        dpath = np.min(
+            np.hypot(end[:, None, 0] - local[None, :, 0], end[:, None, 1] - local[None, :, 1]),
+            axis=1,
+        )
+        dgoal = np.hypot(*(end - target).T)
+        to_target = np.arctan2(target[1] - end[:, 1], target[0] - end[:, 0])
+        heading = np.abs(_wrap(to_target - traj[:, -1, 2]))
+        heading[dgoal < 0.05] = 0.0
+        obst = costmap.cost_at(traj[..., :2]).max(axis=1).astype(float)
+        obst = np.minimum(obst, MAX_INFLATED) / MAX_INFLATED
+        score = (
+            c.path_bias * dpath
+            + c.goal_bias * dgoal
+            + c.heading_bias * heading
+            + c.obstacle_bias * obst
+            - c.speed_bias * v
+        )
+        score[~ok] = np.inf
+        k = int(np.argmin(score))
+        return DWAResult(float(v[k]), float(w[k]), True, traj[k], len(v))

@@ -1,0 +1,298 @@
+"""The navigator: global plan, local control, recoveries and a final status (move_base's
+role) (layer 3).
+
+`Navigator.step` is called at the control rate with the robot's pose on the map, its
+velocity and (when a new scan arrived) the scan's end points on the map. It
+
+1. plans a global path on the global costmap (again every `replan_period` s, and when
+   the path runs into a newly seen obstacle),
+2. asks the DWA local planner for (v, w) on a rolling local costmap (static map window
+   plus the current scan),
+3. near the goal, stops on it and turns in place to the goal's heading,
+4. when no admissible arc exists or the robot has not made progress for
+   `progress_timeout` s, runs the recovery behaviours in order: clear the costmaps'
+   obstacle layers, rotate in place, back up; after the last one fails it aborts.
+
+The final status is SUCCEEDED or ABORTED with a message saying why (no path, stuck
+after every recovery, time limit).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from robotrial.nav.costmap import Costmap, Footprint, Inflation
+from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
+from robotrial.nav.planners import NoPath, make_planner
+
+
+class Status(Enum):
+    IDLE = "idle"
+    ACTIVE = "active"
+    SUCCEEDED = "succeeded"
+    ABORTED = "aborted"
+
+
+class Recovery(Enum):
+    CLEAR_COSTMAPS = "clear_costmaps"
+    ROTATE = "rotate"
+    BACK_UP = "back_up"
+
+
+@dataclass(frozen=True)
+class NavigatorConfig:
+    """Tolerances (m, rad), timing (s), local window size (m) and the sub-planners."""
+
+    planner: str = "dijkstra"
+    xy_tolerance: float = 0.15
+    yaw_tolerance: float = 0.15
+    replan_period: float = 1.0
+    progress_timeout: float = 8.0
+    progress_distance: float = 0.15
+    local_size: float = 5.0
+    inflation: Inflation = Inflation(radius=1.0, cost_scaling=3.0)
+    dwa: DWAConfig = field(default_factory=DWAConfig)
+    backup_distance: float = 0.3
+    backup_speed: float = 0.15
+    max_no_path: int = 3
+    obstacle_range: float = 3.0
+
+
+@dataclass
+class _Behaviour:
+    kind: Recovery
+    until: float
+    start_yaw: float = 0.0
+    turned: float = 0.0
+    last_yaw: float = 0.0
+
+
+def _wrap(a: float) -> float:
+    return float((a + np.pi) % (2 * np.pi) - np.pi)
+
+
+class Navigator:
+    """Drives a robot to a goal pose on a static map. Algorithms only: no topics."""
+
+    def __init__(
+        self,
+        occupied: np.ndarray,
+        origin: tuple[float, float],
+        resolution: float,
+        footprint: Footprint,
+        config: NavigatorConfig = NavigatorConfig(),
+        unknown: np.ndarray | None = None,
+    ) -> None:
+        self.config = config
+        self.footprint = footprint
+        self.global_costmap = Costmap(
+            occupied, origin, resolution, footprint, config.inflation, unknown
+        )
+        self.planner = make_planner(config.planner)
+        self.dwa = DWAPlanner(footprint, config.dwa)
+        self.local_costmap: Costmap | None = None
+        self.status = Status.IDLE
+        self.message = ""
+        self.goal: np.ndarray | None = None
+        self.path: np.ndarray | None = None
+        self.plan_times: list[float] = []
+        self.local_times: list[float] = []
+        self.recoveries: list[str] = []
+        self.last_result: DWAResult | None = None
+        self._last_plan = -np.inf
+        self._progress = (0.0, np.zeros(2))
+        self._behaviour: _Behaviour | None = None
+        self._next_recovery = 0
+        self._no_path = 0
+        self._rotating = False
+        self._dirty = False
+
+    # --- goals -------------------------------------------------------------------------
+
+    def set_goal(self, x: float, y: float, yaw: float, now: float = 0.0) -> None:
+        """Start navigating to (x, y, yaw) on the map."""
+        if not all(np.isfinite([x, y, yaw])):
+            raise ValueError(f"navigator: the goal must be finite, got {(x, y, yaw)}")
+        self.goal = np.array([x, y, yaw], dtype=float)
+        self.status = Status.ACTIVE
+        self.message = "navigating"
+        self.path = None
+        self._last_plan = -np.inf
+        self._progress = (now, np.array([np.inf, np.inf]))
+        self._behaviour = None
+        self._next_recovery = 0
+        self._no_path = 0
+        self._rotating = False
+
+    def cancel(self, reason: str = "cancelled") -> None:
+        self._finish(Status.ABORTED, reason)
+
+    def _finish(self, status: Status, message: str) -> None:
+        self.status = status
+        self.message = message
+        self._behaviour = None
+
+    # --- sensing -----------------------------------------------------------------------
+
+    def observe(self, sensor_xy: tuple[float, float], points_xy: np.ndarray) -> None:
+        """A scan's end points on the map: mark and clear the global obstacle layer and
+        build the rolling local costmap around the sensor."""
+        cm = self.global_costmap
+        cm.mark_and_clear(sensor_xy, points_xy, mark_range=self.config.obstacle_range)
+        self._dirty = True
+        local = cm.window(sensor_xy, self.config.local_size)
+        pts = np.asarray(points_xy, dtype=float).reshape(-1, 2)
+        near = np.hypot(*(pts - np.asarray(sensor_xy)).T) <= self.config.obstacle_range
+        local.mark(pts[near])
+        local.update()
+        self.local_costmap = local
+
+    # --- the control step --------------------------------------------------------------
+
+    def step(
+        self, now: float, pose: tuple[float, float, float], velocity: tuple[float, float]
+    ) -> tuple[float, float]:
+        """One control period: the (v, w) command for the base (0, 0 when done)."""
+        if self.status is not Status.ACTIVE or self.goal is None:
+            return 0.0, 0.0
+        pose_a = np.asarray(pose, dtype=float)
+        goal = self.goal
+        dist = float(np.hypot(*(goal[:2] - pose_a[:2])))
+        if self._behaviour is not None:
+            return self._recover(now, pose_a, velocity)
+        if dist <= self.config.xy_tolerance or (
+            self._rotating and dist <= 2 * self.config.xy_tolerance
+        ):
+            self._rotating = True
+            err = _wrap(goal[2] - pose_a[2])
+            if abs(err) <= self.config.yaw_tolerance:
+                self._finish(
+                    Status.SUCCEEDED, f"reached the goal ({dist:.2f} m, {abs(err):.2f} rad off)"
+                )
+                return 0.0, 0.0
+            return 0.0, self._turn_rate(err, velocity[1])
+        self._track_progress(now, pose_a)
+        if self.status is not Status.ACTIVE:
+            return 0.0, 0.0
+        if self.path is None or now - self._last_plan >= self.config.replan_period:
+            if not self._plan(now, pose_a):
+                return 0.0, 0.0
+        local = self.local_costmap
+        if local is None:
+            local = self.global_costmap.window(tuple(pose_a[:2]), self.config.local_size)
+            self.local_costmap = local
+        t0 = time.perf_counter()
+        res = self.dwa.compute(tuple(pose_a), velocity, self.path, local, goal_distance=dist)
+        self.local_times.append(time.perf_counter() - t0)
+        self.last_result = res
+        if not res.ok:
+            self._start_recovery(now, pose_a)
+            return 0.0, 0.0
+        return res.v, res.w
+
+    def _turn_rate(self, err: float, w0: float) -> float:
+        c = self.config.dwa
+        # the fastest rate from which the turn can still stop on the heading
+        w_stop = np.sqrt(2 * 0.8 * c.acc_lim_w * abs(err))
+        w = np.sign(err) * min(c.max_yaw_rate, w_stop, max(0.15, 2.0 * abs(err)))
+        return float(np.clip(w, w0 - c.acc_lim_w * c.period, w0 + c.acc_lim_w * c.period))
+
+    def _plan(self, now: float, pose: np.ndarray) -> bool:
+        if self._dirty:
+            self.global_costmap.update()
+            self._dirty = False
+        t0 = time.perf_counter()
+        try:
+            path = self.planner.plan(self.global_costmap, tuple(pose[:2]), tuple(self.goal[:2]))
+        except NoPath as err:
+            self.plan_times.append(time.perf_counter() - t0)
+            self._no_path += 1
+            self._last_plan = now
+            if self._no_path >= self.config.max_no_path:
+                self._finish(Status.ABORTED, f"no path to the goal: {err}")
+            else:
+                self.global_costmap.clear_obstacles()
+                self._dirty = True
+            return False
+        self.plan_times.append(time.perf_counter() - t0)
+        self._no_path = 0
+        self.path = path
+        self._last_plan = now
+        return True
+
+    def _track_progress(self, now: float, pose: np.ndarray) -> None:
+        since, where = self._progress
+        if np.hypot(*(pose[:2] - where)) >= self.config.progress_distance:
+            self._progress = (now, pose[:2].copy())
+            if now - since < self.config.progress_timeout / 2:
+                self._next_recovery = 0
+        elif now - since > self.config.progress_timeout:
+            self._start_recovery(now, pose)
+
+    # --- recoveries --------------------------------------------------------------------
+
+    def _start_recovery(self, now: float, pose: np.ndarray) -> None:
+        order = list(Recovery)
+        if self._next_recovery >= len(order):
+            self._finish(
+                Status.ABORTED,
+                "stuck: no admissible motion after clearing costmaps, rotating and backing up",
+            )
+            return
+        kind = order[self._next_recovery]
+        self._next_recovery += 1
+        self.recoveries.append(kind.value)
+        self._progress = (now, pose[:2].copy())
+        if kind is Recovery.CLEAR_COSTMAPS:
+            self.global_costmap.clear_obstacles()
+            self._dirty = True
+            self.path = None
+            self._behaviour = None
+            return
+        length = (
+            2 * np.pi / max(self.config.dwa.max_yaw_rate, 0.1) + 2.0
+            if kind is Recovery.ROTATE
+            else self.config.backup_distance / self.config.backup_speed + 2.0
+        )
+        self._behaviour = _Behaviour(kind, now + length, float(pose[2]), 0.0, float(pose[2]))
+
+    def _recover(
+        self, now: float, pose: np.ndarray, velocity: tuple[float, float]
+    ) -> tuple[float, float]:
+        b = self._behaviour
+        assert b is not None
+        done = now >= b.until
+        cmd = (0.0, 0.0)
+        local = self.local_costmap
+        if b.kind is Recovery.ROTATE:
+            b.turned += abs(_wrap(float(pose[2]) - b.last_yaw))
+            b.last_yaw = float(pose[2])
+            w = 0.5 * self.config.dwa.max_yaw_rate
+            if local is not None:
+                nxt = rollout(tuple(pose), np.array([0.0]), np.array([w]), 5, 0.1)
+                if footprint_clearance(local, self.footprint, nxt).min() < 0.0:
+                    done = True
+            done = done or b.turned >= 2 * np.pi
+            cmd = (0.0, w)
+        else:
+            travelled = 0.0
+            if local is not None:
+                nxt = rollout(
+                    tuple(pose), np.array([-self.config.backup_speed]), np.array([0.0]), 5, 0.1
+                )
+                if footprint_clearance(local, self.footprint, nxt).min() < 0.0:
+                    done = True
+            b.turned += abs(velocity[0]) * self.config.dwa.period
+            travelled = b.turned
+            done = done or travelled >= self.config.backup_distance
+            cmd = (-self.config.backup_speed, 0.0)
+        if done:
+            self._behaviour = None
+            self.path = None
+            self._progress = (now, pose[:2].copy())
+            return 0.0, 0.0
+        return cmd

@@ -1,0 +1,514 @@
+"""Navigation trials: the platform paper's move_base + AMCL experiment, scored (layer 5).
+
+One run: the mobile manipulator spawns at the world's start pose in the MuJoCo
+simulation; AMCL starts from a guess near the spawn (off by a seeded error) and
+localizes on the map from the 2D scan (the VLP-16 cut to a plane) and the wheel
+odometry (with slip); the navigator plans (Dijkstra or A*), drives with DWA and
+recovers when stuck. The loop runs as fast as the CPU allows, on the simulation clock.
+
+A run succeeds when the navigator reports the goal reached, the base truly stands
+within `success_radius` of the goal, and the robot never touched a wall or an obstacle
+(any MuJoCo contact between a robot geom and a static geom or object: counted as a
+collision, and the run ends there). Its time is simulated seconds from the goal being
+given to the navigator's success. The seed varies sensor noise, odometry slip and the
+initial pose guess; start and goal stay the same.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from robotrial.geometry import Pose
+from robotrial.model import load_robot, load_world
+from robotrial.model.gridmap import world_occupancy
+from robotrial.model.world import World
+from robotrial.nav.amcl import AMCL, AMCLConfig, compose
+from robotrial.nav.costmap import Footprint
+from robotrial.nav.dwa import DWAConfig
+from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
+from robotrial.nav.planners import path_length, shortest_path
+from robotrial.sim import SimOptions, Simulation, StreamSettings
+
+PAPER_TABLE1 = {
+    "room_a": {
+        "successes": 10,
+        "runs": 10,
+        "mean_time": 22.63,
+        "min_time": 17.0,
+        "max_time": 33.96,
+    },
+    "room_b": {
+        "successes": 7,
+        "runs": 10,
+        "mean_time": 27.42,
+        "min_time": 15.74,
+        "max_time": 45.81,
+    },
+    "room_c": {
+        "successes": 6,
+        "runs": 10,
+        "mean_time": 88.19,
+        "min_time": 35.12,
+        "max_time": 116.0,
+    },
+}
+
+
+@dataclass(frozen=True)
+class NavMap:
+    """The map the robot navigates and localizes on: occupied and unknown cells (rows =
+    y), the origin (x, y) of cell (0, 0)'s corner and the resolution (m)."""
+
+    occupied: np.ndarray
+    unknown: np.ndarray
+    origin: tuple[float, float]
+    resolution: float
+    source: str
+
+
+def world_map(world: World, resolution: float = 0.05) -> NavMap:
+    """The ground-truth grid of a world, cut at the scan's height band."""
+    g = world_occupancy(world, resolution, z_band=(0.05, 1.5))
+    return NavMap(g.occupied, np.zeros_like(g.occupied), g.origin, g.resolution, "ground truth")
+
+
+def file_map(path: str | Path) -> NavMap:
+    """A map_server map (PGM + YAML), e.g. one saved by `robotrial slam`."""
+    from robotrial.model.mapfile import read_map
+
+    m = read_map(path)
+    if abs(m.origin[2]) > 1e-9:
+        raise ValueError(f"map {path}: a rotated origin (yaw {m.origin[2]}) is not supported")
+    data = np.asarray(m.data)
+    return NavMap(data >= 65, data < 0, (m.origin[0], m.origin[1]), m.resolution, str(path))
+
+
+@dataclass(frozen=True)
+class NavTrialSetup:
+    """What a trial is: world, robot, start (spawn name or pose), goal (x, y, yaw), the
+    map (None: the world's ground truth), the top speed (m/s) and the planner."""
+
+    world: str = "room_b"
+    goal: tuple[float, float, float] = (6.8, 6.6, 0.0)
+    start: str | tuple[float, float, float] = "default"
+    robot: str = "mobile_manipulator"
+    map_path: str | None = None
+    speed: float = 0.3
+    planner: str = "dijkstra"
+    time_limit: float | None = None
+    initial_error: tuple[float, float] = (0.1, 0.05)
+    success_radius: float = 0.3
+
+    def __post_init__(self) -> None:
+        if not 0 < self.speed:
+            raise ValueError(f"nav trial: speed must be positive, got {self.speed} m/s")
+        if len(self.goal) != 3 or not all(np.isfinite(self.goal)):
+            raise ValueError(f"nav trial: the goal is x y yaw, got {self.goal}")
+
+
+@dataclass
+class RunResult:
+    """One run: success, time (s, simulated), final status and message, whether it
+    collided, the true path (N, 2), the final true position error (m), the distance
+    driven (m), global planning and local planner step times (s, wall), recoveries."""
+
+    seed: int
+    success: bool
+    time: float
+    status: str
+    message: str
+    collision: bool
+    path: np.ndarray
+    final_error: float
+    distance: float
+    plan_times: list[float] = field(default_factory=list)
+    local_times: list[float] = field(default_factory=list)
+    recoveries: list[str] = field(default_factory=list)
+    wall_time: float = 0.0
+
+    def summary(self) -> dict:
+        return {
+            "seed": self.seed,
+            "success": self.success,
+            "time": round(self.time, 3),
+            "status": self.status,
+            "message": self.message,
+            "collision": self.collision,
+            "final_error": round(self.final_error, 3),
+            "distance": round(self.distance, 3),
+            "recoveries": self.recoveries,
+            "plan_ms_mean": round(1e3 * float(np.mean(self.plan_times)), 3)
+            if self.plan_times
+            else None,
+            "local_ms_mean": round(1e3 * float(np.mean(self.local_times)), 3)
+            if self.local_times
+            else None,
+            "wall_time": round(self.wall_time, 2),
+        }
+
+
+def footprint_of(sim: Simulation) -> Footprint:
+    """The robot's footprint: the box around its collision geoms in the base frame
+    (symmetric about the base origin, as the planners assume)."""
+    m, d = sim.world.model, sim.world.data
+    base = sim.world.body_pose(sim.world.base_body)
+    inv = np.linalg.inv(base)
+    lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
+    for g in range(m.ngeom):
+        if m.geom_bodyid[g] == 0 or m.geom_contype[g] == 0 or _is_env_body(m, m.geom_bodyid[g]):
+            continue
+        rot = d.geom_xmat[g].reshape(3, 3)
+        c, half = m.geom_aabb[g][:3], m.geom_aabb[g][3:]
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        pts = d.geom_xpos[g] + (c + corners * half) @ rot.T
+        local = (pts - base[:3, 3]) @ inv[:3, :3].T
+        lo = np.minimum(lo, local[:, :2].min(axis=0))
+        hi = np.maximum(hi, local[:, :2].max(axis=0))
+    if not np.all(np.isfinite(lo)):
+        raise ValueError(
+            f"robot {sim.robot.name!r} has no collision geometry to take a footprint from"
+        )
+    half = np.maximum(np.abs(lo), np.abs(hi))
+    return Footprint(2 * float(half[0]), 2 * float(half[1]))
+
+
+def _is_env_body(m: mujoco.MjModel, body: int) -> bool:
+    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(body)) or ""
+    return name.startswith("object/")
+
+
+class ContactWatch:
+    """Tells robot-versus-environment contacts from MuJoCo's contact list."""
+
+    def __init__(self, sim: Simulation) -> None:
+        m = sim.world.model
+        robot_bodies = set()
+        root = sim.world.base_body
+        for b in range(m.nbody):
+            if b != 0 and (b == root or _descends(m, b, root)):
+                robot_bodies.add(b)
+        self.robot = np.array([m.geom_bodyid[g] in robot_bodies for g in range(m.ngeom)])
+        self.env = np.zeros(m.ngeom, dtype=bool)
+        self.names = {}
+        for g in range(m.ngeom):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
+            body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[g])) or ""
+            if name.startswith(("wall/", "obstacle/")) or body.startswith("object/"):
+                self.env[g] = True
+                self.names[g] = name or body
+
+    def touching(self, data: mujoco.MjData) -> str | None:
+        """The name of an obstacle the robot touches now, or None."""
+        n = data.ncon
+        if n == 0:
+            return None
+        geoms = data.contact.geom[:n]
+        dist = data.contact.dist[:n]
+        for (g1, g2), dd in zip(geoms, dist, strict=True):
+            if dd > 0:
+                continue
+            if self.robot[g1] and self.env[g2]:
+                return self.names[g2]
+            if self.robot[g2] and self.env[g1]:
+                return self.names[g1]
+        return None
+
+
+def _descends(m: mujoco.MjModel, body: int, root: int) -> bool:
+    while body > 0:
+        if body == root:
+            return True
+        body = int(m.body_parentid[body])
+    return False
+
+
+def start_pose(world: World, start: str | tuple[float, float, float]) -> tuple[float, float, float]:
+    if isinstance(start, str):
+        p = world.spawn(start)
+        return float(p.xyz[0]), float(p.xyz[1]), float(p.yaw)
+    return float(start[0]), float(start[1]), float(start[2])
+
+
+def navigator_config(
+    speed: float, max_yaw_rate: float, max_accel: float, planner: str
+) -> NavigatorConfig:
+    """The navigation stack's settings for a top speed (m/s)."""
+    yaw_rate = min(max_yaw_rate, max(0.8, 1.6 * speed))
+    dwa = DWAConfig(
+        max_speed=speed,
+        max_yaw_rate=yaw_rate,
+        acc_lim_v=max_accel,
+        acc_lim_w=2.0,
+        sim_time=max(1.5, 1.2 + speed),
+        lookahead=max(0.8, 1.5 * speed),
+    )
+    return NavigatorConfig(planner=planner, dwa=dwa)
+
+
+def run_once(
+    setup: NavTrialSetup,
+    seed: int,
+    nav_map: NavMap | None = None,
+    world: World | None = None,
+) -> RunResult:
+    """One run of the trial with this seed."""
+    wall0 = time.perf_counter()
+    world = world or load_world(setup.world)
+    nav_map = nav_map or (file_map(setup.map_path) if setup.map_path else world_map(world))
+    sx, sy, syaw = start_pose(world, setup.start)
+    robot = load_robot(setup.robot)
+    streams = {
+        "joint_states": StreamSettings(enabled=False),
+        "ground_truth": StreamSettings(enabled=False),
+    }
+    for s in robot.sensors:
+        if s.type == "imu":
+            streams[s.name] = StreamSettings(enabled=False)
+    sim = Simulation.create(
+        world,
+        robot,
+        seed=seed,
+        spawn=Pose.from_xy_yaw(sx, sy, syaw),
+        options=SimOptions(cameras=False, streams=streams),
+    )
+    try:
+        return _drive(setup, seed, sim, nav_map, (sx, sy, syaw), wall0)
+    finally:
+        sim.close()
+
+
+def _drive(
+    setup: NavTrialSetup,
+    seed: int,
+    sim: Simulation,
+    nav_map: NavMap,
+    start: tuple[float, float, float],
+    wall0: float,
+) -> RunResult:
+    drive = sim.robot.metadata.get("drive", {}) or {}
+    max_speed = float(drive.get("max_speed", 1.0))
+    speed = min(setup.speed, max_speed)
+    config = navigator_config(
+        speed,
+        float(drive.get("max_yaw_rate", 2.0)),
+        float(drive.get("max_accel", 1.0)),
+        setup.planner,
+    )
+    footprint = footprint_of(sim)
+    nav = Navigator(
+        nav_map.occupied, nav_map.origin, nav_map.resolution, footprint, config, nav_map.unknown
+    )
+    rng = np.random.default_rng(seed + 1000)
+    guess = np.array(start) + np.concatenate(
+        [rng.normal(0, setup.initial_error[0], 2), rng.normal(0, setup.initial_error[1], 1)]
+    )
+    amcl = AMCL(nav_map.occupied, nav_map.origin, nav_map.resolution, AMCLConfig(), seed=seed)
+    amcl.initialize(tuple(guess), std=(0.2, 0.2, 0.1))
+    watch = ContactWatch(sim)
+    readings = sim.start()
+    scan = next((r.data for r in readings if r.kind == "scan"), None)
+    if scan is None:
+        raise ValueError(f"robot {setup.robot!r} has no lidar: navigation needs a scan")
+    base_inv = np.linalg.inv(sim.world.body_pose(sim.world.base_body))
+    laser_m = base_inv @ sim.frame_pose(scan.frame)
+    laser = np.array([laser_m[0, 3], laser_m[1, 3], np.arctan2(laser_m[1, 0], laser_m[0, 0])])
+    odo = sim.odometry.state
+    amcl.update((odo.x, odo.y, odo.yaw), *_beams(scan), laser_pose=tuple(laser), force=True)
+    map_to_odom = amcl.map_to_odom(np.array([odo.x, odo.y, odo.yaw]))
+
+    time_limit = setup.time_limit or max(60.0, 6.0 * _straight(start, setup.goal) / speed + 30.0)
+    nav.set_goal(*setup.goal, now=0.0)
+    t0 = sim.world.time
+    period_steps = max(1, round(config.dwa.period / sim.control_dt))
+    truth = [sim.world.base_pose2d()[:2]]
+    collision: str | None = None
+    new_scan = True
+    step = 0
+    while nav.status is Status.ACTIVE:
+        now = sim.world.time - t0
+        if now > time_limit:
+            nav.cancel(f"time limit: not at the goal after {time_limit:.0f} s")
+            break
+        if step % period_steps == 0:
+            odo = sim.odometry.state
+            odom_pose = np.array([odo.x, odo.y, odo.yaw])
+            if new_scan:
+                ranges, angles = _beams(scan)
+                if amcl.update(tuple(odom_pose), ranges, angles, laser_pose=tuple(laser)):
+                    map_to_odom = amcl.map_to_odom(odom_pose)
+                pose = compose(map_to_odom, odom_pose)
+                sensor = compose(pose, laser)
+                ok = np.isfinite(ranges)
+                a = sensor[2] + angles[ok]
+                pts = np.column_stack(
+                    [sensor[0] + ranges[ok] * np.cos(a), sensor[1] + ranges[ok] * np.sin(a)]
+                )
+                nav.observe((float(sensor[0]), float(sensor[1])), pts)
+                new_scan = False
+            pose = compose(map_to_odom, odom_pose)
+            v, w = nav.step(now, tuple(pose), (float(odo.v), float(odo.w)))
+            sim.drive(v, w)
+        for r in sim.control_step():
+            if r.kind == "scan":
+                scan = r.data
+                new_scan = True
+        step += 1
+        if step % 10 == 0:
+            truth.append(sim.world.base_pose2d()[:2])
+        collision = watch.touching(sim.world.data)
+        if collision is not None:
+            nav.cancel(f"collision with {collision}")
+            break
+        if not sim.world.is_finite():
+            nav.cancel("the simulation diverged")
+            break
+    sim.drive(0.0, 0.0)
+    x, y, _ = sim.world.base_pose2d()
+    truth.append((x, y))
+    err = float(np.hypot(x - setup.goal[0], y - setup.goal[1]))
+    elapsed = sim.world.time - t0
+    success = nav.status is Status.SUCCEEDED and collision is None and err <= setup.success_radius
+    message = nav.message
+    if nav.status is Status.SUCCEEDED and err > setup.success_radius:
+        message = f"believed it arrived, but stands {err:.2f} m from the goal (localization error)"
+    path = np.array(truth)
+    return RunResult(
+        seed=seed,
+        success=success,
+        time=elapsed,
+        status=nav.status.value,
+        message=message,
+        collision=collision is not None,
+        path=path,
+        final_error=err,
+        distance=path_length(path),
+        plan_times=nav.plan_times,
+        local_times=nav.local_times,
+        recoveries=nav.recoveries,
+        wall_time=time.perf_counter() - wall0,
+    )
+
+
+def _straight(a, b) -> float:
+    return float(np.hypot(b[0] - a[0], b[1] - a[1]))
+
+
+def _beams(scan) -> tuple[np.ndarray, np.ndarray]:
+    ranges = np.asarray(scan.ranges, dtype=float)
+    angles = scan.angle_min + scan.angle_increment * np.arange(len(ranges))
+    ranges = np.where((ranges >= scan.range_min) & (ranges < scan.range_max), ranges, np.inf)
+    return ranges, angles
+
+
+def shortest_time(
+    setup: NavTrialSetup, nav_map: NavMap, footprint: Footprint, world: World | None = None
+) -> tuple[float, float]:
+    """The shortest collision-free path length (m) from start to goal for a robot whose
+    centre keeps its inscribed radius from every obstacle, and that length over the top
+    speed (s)."""
+    world = world or load_world(setup.world)
+    s = start_pose(world, setup.start)
+    p = shortest_path(
+        nav_map.occupied,
+        nav_map.origin,
+        nav_map.resolution,
+        footprint.inscribed_radius,
+        s[:2],
+        setup.goal[:2],
+    )
+    length = path_length(p)
+    return length, length / setup.speed
+
+
+def summarize(results: list[RunResult], shortest: float | None = None) -> dict:
+    """Successes, and mean/min/max time over the successful runs (as Table 1 reports)."""
+    times = [r.time for r in results if r.success]
+    out: dict = {
+        "runs": len(results),
+        "successes": sum(r.success for r in results),
+        "collisions": sum(r.collision for r in results),
+        "mean_time": float(np.mean(times)) if times else None,
+        "min_time": float(np.min(times)) if times else None,
+        "max_time": float(np.max(times)) if times else None,
+    }
+    if shortest:
+        out["shortest_time"] = shortest
+        out["ratio"] = out["mean_time"] / shortest if times else None
+    plans = [t for r in results for t in r.plan_times]
+    local = [t for r in results for t in r.local_times]
+    out["plan_ms_mean"] = 1e3 * float(np.mean(plans)) if plans else None
+    out["local_ms_mean"] = 1e3 * float(np.mean(local)) if local else None
+    return out
+
+
+def run_trials(
+    setup: NavTrialSetup,
+    runs: int,
+    seed: int = 0,
+    on_run: Callable[[RunResult], None] | None = None,
+) -> tuple[list[RunResult], NavMap, World]:
+    """`runs` runs with seeds seed, seed+1, ...; `on_run` hears of each as it ends."""
+    if runs < 1:
+        raise ValueError(f"nav trial: runs must be at least 1, got {runs}")
+    world = load_world(setup.world)
+    nav_map = file_map(setup.map_path) if setup.map_path else world_map(world)
+    out = []
+    for i in range(runs):
+        r = run_once(setup, seed + i, nav_map, world)
+        out.append(r)
+        if on_run is not None:
+            on_run(r)
+    return out, nav_map, world
+
+
+def plot_paths(
+    path: str | Path,
+    nav_map: NavMap,
+    results: list[RunResult],
+    start: tuple[float, float, float],
+    goal: tuple[float, float, float],
+    title: str = "",
+) -> Path:
+    """A PNG of every run's true path over the map (green: success, red: failure)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    h, w = nav_map.occupied.shape
+    extent = (
+        nav_map.origin[0],
+        nav_map.origin[0] + w * nav_map.resolution,
+        nav_map.origin[1],
+        nav_map.origin[1] + h * nav_map.resolution,
+    )
+    img = np.where(nav_map.occupied, 0.1, np.where(nav_map.unknown, 0.6, 1.0))
+    fig, ax = plt.subplots(figsize=(6, 6 * h / max(w, 1)))
+    ax.imshow(img, origin="lower", extent=extent, cmap="gray", vmin=0, vmax=1)
+    for r in results:
+        ax.plot(
+            r.path[:, 0],
+            r.path[:, 1],
+            color="tab:green" if r.success else "tab:red",
+            lw=1,
+            alpha=0.7,
+        )
+    ax.plot(start[0], start[1], "bo", label="start")
+    ax.plot(goal[0], goal[1], "m*", ms=12, label="goal")
+    ok = sum(r.success for r in results)
+    ax.set_title(title or f"{ok}/{len(results)} successes")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(loc="lower right")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out

@@ -41,3 +41,9 @@ def test_sim_command_names_unknown_world_and_robot(capsys):
     assert "unknown robot 'r2d2'" in capsys.readouterr().err
     assert main(["sim", "--record", "run.txt", "--duration", "1"]) == 2
     assert ".mcap (ROS 2) or .bag" in capsys.readouterr().err
+
+
+def test_keyboard_drive_needs_a_terminal(capsys, monkeypatch):
+    monkeypatch.setattr("sys.stdin", open("/dev/null"))
+    assert main(["sim", "--world", "room_a", "--drive", "keys", "--duration", "1"]) == 2
+    assert "needs an interactive terminal" in capsys.readouterr().err

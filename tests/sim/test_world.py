@@ -102,3 +102,18 @@ def test_bad_input_is_refused_clearly(boxroom):
         sim.advance(-1.0)
     with pytest.raises(ValueError, match="finite"):
         sim.drive(float("nan"), 0.0)
+
+
+def test_spawn_restarts_the_run_at_a_pose(boxroom):
+    sim = boxroom.make_sim()
+    sim.start()
+    sim.drive(0.5, 0.0)
+    sim.step(50)
+    sim.spawn(Pose.from_xy_yaw(-2.0, 2.0, 1.0))
+    sim.start()
+    assert sim.world.time == 0.0
+    assert sim.world.base_pose2d() == pytest.approx((-2.0, 2.0, 1.0))
+    odom = sim.latest["odom"].data
+    assert (odom.x, odom.y, odom.yaw) == (0.0, 0.0, 0.0)
+    readings = sim.step(10)
+    assert {r.stream for r in readings} >= {"lidar", "scan", "odom"}

@@ -435,6 +435,21 @@ class Simulation:
             out.extend(got)
         return out
 
+    def step(self, n: int = 1) -> list[Reading]:
+        """`n` control periods; the readings that fell due."""
+        if n < 0:
+            raise ValueError(f"cannot step a negative number of control periods ({n})")
+        out: list[Reading] = []
+        for _ in range(n):
+            out.extend(self.control_step())
+        return out
+
+    def spawn(self, pose: Pose) -> None:
+        """Put the base at `pose` (world frame) and restart there: clock 0, odometry at the
+        origin of a new odom frame."""
+        self.world.spawn(pose)
+        self.reset()
+
     def advance(
         self, duration: float, on_reading: Callable[[Reading], None] | None = None
     ) -> list[Reading]:

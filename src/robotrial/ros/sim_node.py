@@ -23,6 +23,7 @@ It listens to `/cmd_vel` (geometry_msgs/Twist) and `/robotrial/joint_reference`
 
 from __future__ import annotations
 
+import logging
 import threading
 from collections.abc import Callable
 from typing import Any
@@ -65,6 +66,7 @@ from robotrial.sim.tf import planar_transform
 from robotrial.sim.world import Pacer
 
 GROUND_TRUTH = "/ground_truth"
+log = logging.getLogger(__name__)
 
 
 def header(stamp: float, frame: str) -> Header:
@@ -294,6 +296,7 @@ class SimNode(Node):
         self.create_subscription("/cmd_vel", Twist, self._on_cmd_vel)
         self.create_subscription("/robotrial/joint_reference", JointTrajectory, self._on_reference)
         self._started = False
+        self.rejected: list[str] = []
 
     # --- inputs ---------------------------------------------------------------------
 
@@ -304,9 +307,14 @@ class SimNode(Node):
             self.sim.drive(float(msg.linear.x), float(msg.angular.z))
 
     def _on_reference(self, msg: JointTrajectory) -> None:
-        ref = reference_from_message(msg)
-        with self._lock:
-            self.sim.follow(ref)
+        """Track a joint trajectory; one the robot cannot follow is logged and dropped."""
+        try:
+            ref = reference_from_message(msg)
+            with self._lock:
+                self.sim.follow(ref)
+        except ValueError as exc:
+            self.rejected.append(str(exc))
+            log.warning("%s: joint reference ignored: %s", self.name, exc)
 
     # --- outputs --------------------------------------------------------------------
 

@@ -299,6 +299,10 @@ class Session:
                 result = handler(op)
                 if inspect.isawaitable(result):
                     await result
+                elif name == "publish":
+                    # let the subscribers' writers take this message before the next
+                    # frame is read, so a burst of publishes does not overrun queue_length 1
+                    await asyncio.sleep(0)
         except (ProtocolError, MessageError, BusError) as exc:
             self.status("error", f"{name}: {exc}", oid)
         except Exception as exc:

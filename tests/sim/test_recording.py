@@ -104,3 +104,24 @@ def test_bad_recording_names_are_refused(tmp_path):
         Recorder(tmp_path / "run.txt")
     with pytest.raises(FileNotFoundError, match="no such recording"):
         list(read_recording(tmp_path / "missing.mcap"))
+
+
+def test_joint_reference_topic_moves_the_arm_and_bad_ones_are_refused(boxroom):
+    from robotrial.msgs.builtin_interfaces import Duration
+    from robotrial.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
+
+    bus = Bus()
+    node = SimNode(bus, boxroom.make_sim())
+    points = [
+        JointTrajectoryPoint(positions=[0.0, 0.0], time_from_start=Duration.from_sec(0.0)),
+        JointTrajectoryPoint(positions=[0.5, -0.3], time_from_start=Duration.from_sec(1.0)),
+    ]
+    bus.publish(
+        "/robotrial/joint_reference", JointTrajectory(joint_names=["j1", "j2"], points=points)
+    )
+    node.run(1.5)
+    q = node.sim.joint_values()
+    assert q["j1"] == pytest.approx(0.5, abs=0.01) and q["j2"] == pytest.approx(-0.3, abs=0.01)
+    bad = JointTrajectory(joint_names=["elbow"], points=[JointTrajectoryPoint(positions=[0.1])])
+    bus.publish("/robotrial/joint_reference", bad)
+    assert node.rejected == ["joint reference names joints ['elbow'] this robot does not drive"]

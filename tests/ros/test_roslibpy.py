@@ -129,3 +129,12 @@ def test_typed_request_reaches_node(live) -> None:
         PlanTask.Request.from_dict({"current_joints": {"name": ["x"], "position": [2.0]}}),
     )
     assert resp.goal_joints == [3.0]
+
+
+def test_connect_by_url_to_the_rosbridge_path(live) -> None:
+    client = roslibpy.Ros(host=f"{live.url}/rosbridge")
+    client.run(timeout=10)
+    try:
+        assert "/rosapi/topics" in client.get_services()
+    finally:
+        client.close()

@@ -246,11 +246,11 @@ class Lidar:
     ) -> PointCloud:
         """One full sweep as a point cloud of the valid returns in the sensor frame."""
         r = self.ranges(data, rng)
-        ok = np.isfinite(r)
-        pts = (self.directions[ok] * r[ok, None]).astype(np.float32)
-        cols = self.n // self.pattern.rings
-        ring = (np.nonzero(ok)[0] // cols).astype(np.uint16)
-        return PointCloud(stamp, self.frame, pts, ring, r[ok].astype(np.float32))
+        pts = np.empty((self.n, 3), dtype=np.float32)
+        ring = np.empty(self.n, dtype=np.uint16)
+        dist = np.empty(self.n, dtype=np.float32)
+        k = _returns(self.directions, r, self.n // self.pattern.rings, pts, ring, dist)
+        return PointCloud(stamp, self.frame, pts[:k], ring[:k], dist[:k])
 
     def close(self) -> None:
         if self._pool is not None:
@@ -259,14 +259,43 @@ class Lidar:
 
 
 @numba.njit(cache=True)
-def _bin_min(angles, ranges, angle_min, inc, wrap, out):
+def _flatten(points, min_h, max_h, rmin, rmax, angle_min, inc, wrap, out):
+    """Nearest horizontal range per angle bin of the points inside the height band."""
     nbins = out.shape[0]
-    for i in range(angles.shape[0]):
-        k = int(np.floor((angles[i] - angle_min) / inc + 0.5))
+    two_pi = 2.0 * np.pi
+    for i in range(points.shape[0]):
+        z = points[i, 2]
+        if z < min_h or z > max_h:
+            continue
+        x = np.float64(points[i, 0])
+        y = np.float64(points[i, 1])
+        r = np.sqrt(x * x + y * y)
+        if r < rmin or r > rmax:
+            continue
+        a = np.arctan2(y, x)
+        if wrap and a < angle_min:
+            a += two_pi
+        k = int(np.floor((a - angle_min) / inc + 0.5))
         if wrap and k == nbins:
             k = 0
-        if 0 <= k < nbins and ranges[i] < out[k]:
-            out[k] = ranges[i]
+        if 0 <= k < nbins and r < out[k]:
+            out[k] = r
+
+
+@numba.njit(cache=True)
+def _returns(directions, ranges, rings_cols, points, ring, rng_out):
+    """Points, ring index and range of the finite returns; returns how many there are."""
+    n = 0
+    for i in range(ranges.shape[0]):
+        r = ranges[i]
+        if np.isfinite(r):
+            points[n, 0] = directions[i, 0] * r
+            points[n, 1] = directions[i, 1] * r
+            points[n, 2] = directions[i, 2] * r
+            ring[n] = i // rings_cols
+            rng_out[n] = r
+            n += 1
+    return n
 
 
 @dataclass(frozen=True)
@@ -302,23 +331,28 @@ def laserscan_from_points(
 ) -> Scan:
     """Flatten (N, 3) points into a planar scan: keep points whose z (after `transform`,
     a 4x4 into the scan frame) lies in the height band, then the nearest per angle bin."""
-    p = np.asarray(points, dtype=np.float64)
+    p = np.asarray(points)
+    if p.dtype not in (np.float32, np.float64):
+        p = p.astype(np.float64)
     if transform is not None:
         p = p @ transform[:3, :3].T + transform[:3, 3]
+    p = np.ascontiguousarray(p).reshape(-1, 3)
     full_turn = config.angle_max - config.angle_min >= 2 * np.pi - 1e-9
     nbins = round((config.angle_max - config.angle_min) / config.angle_increment)
     if not full_turn:
         nbins += 1
-    keep = (p[:, 2] >= config.min_height) & (p[:, 2] <= config.max_height)
-    p = p[keep]
-    rng = np.hypot(p[:, 0], p[:, 1])
-    ok = (rng >= config.range_min) & (rng <= config.range_max)
-    p, rng = p[ok], rng[ok]
-    ang = np.arctan2(p[:, 1], p[:, 0])
-    if full_turn:
-        ang = np.where(ang < config.angle_min, ang + 2 * np.pi, ang)
     out = np.full(nbins, np.inf)
-    _bin_min(ang, rng, config.angle_min, config.angle_increment, full_turn, out)
+    _flatten(
+        p,
+        config.min_height,
+        config.max_height,
+        config.range_min,
+        config.range_max,
+        config.angle_min,
+        config.angle_increment,
+        full_turn,
+        out,
+    )
     return Scan(
         stamp=stamp,
         frame=frame,

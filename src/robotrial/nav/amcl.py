@@ -190,7 +190,7 @@ class AMCL:
         est, _ = self.estimate()
         return compose(est, inverse(np.asarray(odom_pose, dtype=float)))
 
-    def _motion(self, delta: np.ndarray, start_yaw: float) -> None:
+    def _motion(self, delta: np.ndarray) -> None:
         """Apply the odometry increment `delta` (in the odom frame's motion, expressed as
         a relative pose) to every particle with sampled noise."""
         c = self.config
@@ -240,7 +240,7 @@ class AMCL:
         moved = np.hypot(delta[0], delta[1]) >= c.update_min_d or abs(delta[2]) >= c.update_min_a
         if not (moved or force):
             return False
-        self._motion(delta, float(self._odom[2]))
+        self._motion(delta)
         self._odom = odom
         if ranges is not None and angles is not None:
             self._sense(np.asarray(ranges, float), np.asarray(angles, float), laser_pose)

@@ -7,13 +7,14 @@ arc, and scores the arcs that keep the whole rectangular footprint clear of leth
 cells:
 
     cost = path_bias * (distance from the arc's end to the global path)
-         + goal_bias * (distance from the arc's end to a carrot on the path ahead)
-         + heading_bias * (angle between the end heading and the way to the carrot)
+         - progress_bias * (path length gained: where the arc's end projects on the path)
+         + heading_bias * (angle between the end heading and the way to a carrot
+                           `lookahead` m further along the path)
          + obstacle_bias * (highest inflation cost along the arc) / 252
-         - speed_bias * v
 
 The footprint is covered by circles (`Footprint.circles`); an arc is admissible when
-every circle stays `margin` clear of obstacles in the costmap's distance field. Near the
+every circle stays `margin` clear of obstacles in the costmap's distance field for as
+long as the base needs to stop on it, plus a second. Near the
 goal the speed is capped so that the base can stop on it. All arcs are scored at once
 with numpy.
 """
@@ -42,10 +43,9 @@ class DWAConfig:
     v_samples: int = 8
     w_samples: int = 21
     path_bias: float = 2.0
-    goal_bias: float = 1.0
+    progress_bias: float = 1.0
     heading_bias: float = 0.3
     obstacle_bias: float = 0.3
-    speed_bias: float = 0.5
     lookahead: float = 1.0
     margin: float = 0.03
 
@@ -158,31 +158,40 @@ class DWAPlanner:
         if goal_distance is not None:
             v_cap = min(v_cap, max(0.05, np.sqrt(2 * 0.8 * c.acc_lim_v * max(goal_distance, 0.0))))
         v, w = self.window(float(velocity[0]), float(velocity[1]), v_cap)
-        steps = max(1, int(round(c.sim_time / c.sim_dt)))
+        steps = max(1, round(c.sim_time / c.sim_dt))
         traj = rollout(pose, v, w, steps, c.sim_dt)
-        clear = footprint_clearance(costmap, self.footprint, traj).min(axis=1)
+        # an arc must stay clear for as long as the base needs to stop on it, plus a
+        # second; what lies beyond is seen again in later periods
+        horizon = np.abs(v) / c.acc_lim_v + 1.0
+        t = c.sim_dt * np.arange(1, steps + 1)
+        clear = footprint_clearance(costmap, self.footprint, traj)
+        clear = np.where(t[None, :] <= horizon[:, None], clear, np.inf).min(axis=1)
         ok = clear >= c.margin
         if not ok.any():
             return DWAResult(0.0, 0.0, False, traj[:0, 0], len(v))
         end = traj[:, -1, :2]
-        target, i0 = carrot(path, np.asarray(pose[:2], dtype=float), c.lookahead)
-        local = path[i0 : i0 + int(3 * c.lookahead / max(costmap.resolution, 1e-3)) + 2]
-        dpath = np.min(
-            np.hypot(end[:, None, 0] - local[None, :, 0], end[:, None, 1] - local[None, :, 1]),
-            axis=1,
-        )
-        dgoal = np.hypot(*(end - target).T)
-        to_target = np.arctan2(target[1] - end[:, 1], target[0] - end[:, 0])
+        _, i0 = carrot(path, np.asarray(pose[:2], dtype=float), 0.0)
+        reach = c.max_speed * c.sim_time + c.lookahead + 0.5
+        local = path[i0:]
+        along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(local, axis=0).T))])
+        keep = int(np.searchsorted(along, reach)) + 1
+        local, along = local[:keep], along[:keep]
+        d = np.hypot(end[:, None, 0] - local[None, :, 0], end[:, None, 1] - local[None, :, 1])
+        j = np.argmin(d, axis=1)
+        dpath = d[np.arange(len(j)), j]
+        progress = along[j]
+        tj = np.minimum(np.searchsorted(along, along[j] + c.lookahead), len(local) - 1)
+        target = local[tj]
+        to_target = np.arctan2(target[:, 1] - end[:, 1], target[:, 0] - end[:, 0])
         heading = np.abs(_wrap(to_target - traj[:, -1, 2]))
-        heading[dgoal < 0.05] = 0.0
+        heading[np.hypot(*(target - end).T) < 0.05] = 0.0
         obst = costmap.cost_at(traj[..., :2]).max(axis=1).astype(float)
         obst = np.minimum(obst, MAX_INFLATED) / MAX_INFLATED
         score = (
             c.path_bias * dpath
-            + c.goal_bias * dgoal
+            - c.progress_bias * progress
             + c.heading_bias * heading
             + c.obstacle_bias * obst
-            - c.speed_bias * v
         )
         score[~ok] = np.inf
         k = int(np.argmin(score))

@@ -27,7 +27,7 @@ import numpy as np
 
 from robotrial.nav.costmap import Costmap, Footprint, Inflation
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
-from robotrial.nav.planners import NoPath, make_planner
+from robotrial.nav.planners import NoPath, make_planner, smooth
 
 
 class Status(Enum):
@@ -53,8 +53,9 @@ class NavigatorConfig:
     replan_period: float = 1.0
     progress_timeout: float = 8.0
     progress_distance: float = 0.15
+    blocked_timeout: float = 1.0
     local_size: float = 5.0
-    inflation: Inflation = Inflation(radius=1.0, cost_scaling=3.0)
+    inflation: Inflation = field(default_factory=Inflation)
     dwa: DWAConfig = field(default_factory=DWAConfig)
     backup_distance: float = 0.3
     backup_speed: float = 0.15
@@ -110,6 +111,7 @@ class Navigator:
         self._no_path = 0
         self._rotating = False
         self._dirty = False
+        self._blocked_since: float | None = None
 
     # --- goals -------------------------------------------------------------------------
 
@@ -127,6 +129,7 @@ class Navigator:
         self._next_recovery = 0
         self._no_path = 0
         self._rotating = False
+        self._blocked_since = None
 
     def cancel(self, reason: str = "cancelled") -> None:
         self._finish(Status.ABORTED, reason)
@@ -190,8 +193,14 @@ class Navigator:
         self.local_times.append(time.perf_counter() - t0)
         self.last_result = res
         if not res.ok:
-            self._start_recovery(now, pose_a)
+            # brake first; recover only if no arc opens up while stopping
+            if self._blocked_since is None:
+                self._blocked_since = now
+            if now - self._blocked_since >= self.config.blocked_timeout:
+                self._blocked_since = None
+                self._start_recovery(now, pose_a)
             return 0.0, 0.0
+        self._blocked_since = None
         return res.v, res.w
 
     def _turn_rate(self, err: float, w0: float) -> float:
@@ -220,7 +229,7 @@ class Navigator:
             return False
         self.plan_times.append(time.perf_counter() - t0)
         self._no_path = 0
-        self.path = path
+        self.path = smooth(path, self.global_costmap)
         self._last_plan = now
         return True
 

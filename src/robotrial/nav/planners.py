@@ -138,7 +138,7 @@ def _trace(parent: np.ndarray, start: int, goal: int, cols: int) -> np.ndarray:
 class GridPlanner:
     """Shared machinery of the grid planners; `heuristic` switches Dijkstra to A*."""
 
-    cost_weight: float = 3.0
+    cost_weight: float = 1.0
     allow_unknown: bool = False
     heuristic: bool = False
     name: str = "grid"
@@ -202,17 +202,23 @@ def plan_on_weights(
     return pts
 
 
-def Dijkstra(cost_weight: float = 3.0, allow_unknown: bool = False) -> GridPlanner:  # noqa: N802
+@dataclass
+class Dijkstra(GridPlanner):
     """navfn's algorithm: uniform-cost search, no heuristic."""
-    return GridPlanner(cost_weight, allow_unknown, heuristic=False, name="dijkstra")
+
+    heuristic: bool = False
+    name: str = "dijkstra"
 
 
-def AStar(cost_weight: float = 3.0, allow_unknown: bool = False) -> GridPlanner:  # noqa: N802
+@dataclass
+class AStar(GridPlanner):
     """A* with the octile distance (admissible: every step weight is >= 1)."""
-    return GridPlanner(cost_weight, allow_unknown, heuristic=True, name="astar")
+
+    heuristic: bool = True
+    name: str = "astar"
 
 
-PLANNERS = {"dijkstra": Dijkstra, "astar": AStar}
+PLANNERS: dict[str, type[GridPlanner]] = {"dijkstra": Dijkstra, "astar": AStar}
 
 
 def make_planner(name: str, **kwargs) -> GridPlanner:
@@ -223,6 +229,23 @@ def make_planner(name: str, **kwargs) -> GridPlanner:
         raise ValueError(
             f"unknown global planner {name!r}; choose from {sorted(PLANNERS)}"
         ) from None
+
+
+def smooth(path: np.ndarray, costmap: Costmap, window: float = 0.5) -> np.ndarray:
+    """The path with its grid stair-steps averaged out over `window` m; the ends stay,
+    and a point whose average would enter an inscribed cell keeps its place."""
+    p = np.asarray(path, dtype=float)
+    k = int(round(window / costmap.resolution)) | 1
+    if len(p) < 3 or k < 3:
+        return p
+    pad = k // 2
+    padded = np.vstack([np.repeat(p[:1], pad, 0), p, np.repeat(p[-1:], pad, 0)])
+    kernel = np.ones(k) / k
+    out = np.column_stack([np.convolve(padded[:, i], kernel, mode="valid") for i in range(2)])
+    bad = costmap.cost_at(out) >= INSCRIBED
+    out[bad] = p[bad]
+    out[0], out[-1] = p[0], p[-1]
+    return out
 
 
 def path_length(path: np.ndarray) -> float:

@@ -178,6 +178,15 @@ def footprint_of(sim: Simulation) -> Footprint:
     return Footprint(2 * float(half[0]), 2 * float(half[1]))
 
 
+def footprint_of_robot(robot: str, world: World | str = "room_a") -> Footprint:
+    """The footprint of a robot (built-in name or file), taken in a simulation of it."""
+    sim = Simulation.create(world, robot, options=SimOptions(cameras=False))
+    try:
+        return footprint_of(sim)
+    finally:
+        sim.close()
+
+
 def _is_env_body(m: mujoco.MjModel, body: int) -> bool:
     name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(body)) or ""
     return name.startswith("object/")

@@ -1,0 +1,199 @@
+"""`robotrial bench nav`: the platform paper's Table 1, re-run and timed (layer 5).
+
+Rooms A, B and C (start `default` (1, 1), goal (6.8, 6.6, 0)), `--runs` runs each (10 in
+the paper; seeds vary sensor noise, odometry slip and the initial pose guess) at 0.3
+m/s (the paper's speed) and at the base's top speed 1.0 m/s, plus the apartment
+(`default` -> `study`). Each row: successes, collisions, mean/min/max time of the
+successes, the shortest possible time (shortest collision-free path for the footprint's
+inscribed radius over the top speed) and their ratio, beside the paper's figures.
+Then the global planner's time per call (Dijkstra and A*) on each map and the local
+planner's (DWA) step time, measured on the maps apart from the trials.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "osmesa")
+os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+
+import numpy as np
+
+from robotrial.cli.output import add_json_flag, print_json, print_table, progress
+
+HELP = "Table 1 of the platform paper (rooms A, B, C; apartment) at 0.3 and 1.0 m/s; planner times"
+
+ROOMS = {
+    "room_a": ("default", (6.8, 6.6, 0.0)),
+    "room_b": ("default", (6.8, 6.6, 0.0)),
+    "room_c": ("default", (6.8, 6.6, 0.0)),
+    "apartment": ("default", "study"),
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--runs", type=int, default=10, help="runs per room and speed")
+    parser.add_argument(
+        "--speeds", type=float, nargs="+", default=[0.3, 1.0], help="top speeds (m/s)"
+    )
+    parser.add_argument(
+        "--worlds", nargs="+", default=list(ROOMS), choices=list(ROOMS), help="which worlds"
+    )
+    parser.add_argument("--planner", choices=("dijkstra", "astar"), default="dijkstra")
+    parser.add_argument("--repeats", type=int, default=30, help="planner timing repetitions")
+    parser.add_argument("--out", metavar="JSON", help="also write the results here")
+    parser.add_argument("--plots", metavar="DIR", help="write a PNG of the paths per row here")
+    add_json_flag(parser)
+
+
+def _goal(world, goal) -> tuple[float, float, float]:
+    if isinstance(goal, str):
+        p = world.spawn(goal)
+        return float(p.xyz[0]), float(p.xyz[1]), float(p.yaw)
+    return goal
+
+
+def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
+    """Median wall time (ms) of one global plan (Dijkstra, A*) and one DWA step."""
+    from robotrial.nav.costmap import Costmap
+    from robotrial.nav.dwa import DWAConfig, DWAPlanner
+    from robotrial.nav.planners import AStar, Dijkstra
+
+    cm = Costmap(nav_map.occupied, nav_map.origin, nav_map.resolution, footprint)
+    out = {}
+    path = None
+    for planner in (Dijkstra(), AStar()):
+        path = planner.plan(cm, start[:2], goal[:2])
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            planner.plan(cm, start[:2], goal[:2])
+            times.append(time.perf_counter() - t0)
+        out[f"{planner.name}_ms"] = 1e3 * float(np.median(times))
+    dwa = DWAPlanner(footprint, DWAConfig(max_speed=1.0, max_yaw_rate=1.6))
+    times = []
+    for i in range(repeats):
+        k = min(len(path) - 1, (i * 7) % len(path))
+        x, y = path[k]
+        local = cm.window((x, y), 5.0)
+        t0 = time.perf_counter()
+        dwa.compute((x, y, 0.5), (0.5, 0.0), path, local)
+        times.append(time.perf_counter() - t0)
+    out["dwa_step_ms"] = 1e3 * float(np.median(times))
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    from robotrial.model import load_world
+    from robotrial.trials.nav import (
+        PAPER_TABLE1,
+        NavTrialSetup,
+        footprint_of_robot,
+        plot_paths,
+        run_once,
+        shortest_time,
+        start_pose,
+        summarize,
+        world_map,
+    )
+
+    if args.runs < 1:
+        print("robotrial bench nav: --runs must be at least 1")
+        return 2
+    footprint = footprint_of_robot("mobile_manipulator")
+    rows, timing = [], {}
+    total = len(args.worlds) * len(args.speeds) * args.runs
+    with progress("bench nav", total=total, enabled=not args.json) as advance:
+        for name in args.worlds:
+            world = load_world(name)
+            nav_map = world_map(world)
+            start_name, goal_spec = ROOMS[name]
+            goal = _goal(world, goal_spec)
+            start = start_pose(world, start_name)
+            timing[name] = planner_times(nav_map, footprint, start, goal, args.repeats)
+            timing[name]["map_cells"] = int(nav_map.occupied.size)
+            for speed in args.speeds:
+                setup = NavTrialSetup(
+                    world=name, goal=goal, start=start_name, speed=speed, planner=args.planner
+                )
+                length, best = shortest_time(setup, nav_map, footprint, world)
+                results = []
+                for i in range(args.runs):
+                    results.append(run_once(setup, i, nav_map, world))
+                    advance()
+                s = summarize(results, best)
+                s.update(world=name, speed=speed, shortest_length=length)
+                s["failures"] = [r.summary() for r in results if not r.success]
+                s["wall_time"] = float(sum(r.wall_time for r in results))
+                rows.append(s)
+                if args.plots:
+                    plot_paths(
+                        Path(args.plots) / f"nav_{name}_{speed:g}.png",
+                        nav_map,
+                        results,
+                        start,
+                        goal,
+                        title=f"{name}: {s['successes']}/{s['runs']} at {speed:g} m/s",
+                    )
+    result = {
+        "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
+        "date": time.strftime("%Y-%m-%d"),
+        "runs_per_row": args.runs,
+        "planner": args.planner,
+        "rows": rows,
+        "planning": timing,
+        "paper": PAPER_TABLE1,
+    }
+    if args.out:
+        Path(args.out).write_text(json.dumps(result, indent=2, default=float))
+    if args.json:
+        print_json(result)
+        return 0
+    fmt = lambda v, d=2: "-" if v is None else f"{v:.{d}f}"  # noqa: E731
+    table = []
+    for s in rows:
+        paper = PAPER_TABLE1.get(s["world"]) if abs(s["speed"] - 0.3) < 1e-9 else None
+        table.append(
+            (
+                s["world"],
+                s["speed"],
+                f"{s['successes']}/{s['runs']}",
+                s["collisions"],
+                fmt(s["mean_time"]),
+                fmt(s["min_time"]),
+                fmt(s["max_time"]),
+                fmt(s["shortest_time"]),
+                fmt(s["ratio"]),
+                f"{paper['successes']}/{paper['runs']}, {paper['mean_time']}" if paper else "-",
+            )
+        )
+    print_table(
+        "navigation trials (times in simulated s, successes only)",
+        [
+            "world",
+            "m/s",
+            "success",
+            "collisions",
+            "mean",
+            "min",
+            "max",
+            "shortest",
+            "ratio",
+            "paper (success, mean)",
+        ],
+        table,
+    )
+    print_table(
+        "planning time per call (ms, median)",
+        ["world", "cells", "Dijkstra", "A*", "DWA step"],
+        [
+            (w, t["map_cells"], fmt(t["dijkstra_ms"]), fmt(t["astar_ms"]), fmt(t["dwa_step_ms"]))
+            for w, t in timing.items()
+        ],
+    )
+    return 0

@@ -1,0 +1,154 @@
+"""`robotrial nav`: navigation trials to a goal, scored like the platform paper (layer 5).
+
+    robotrial nav --world room_b --goal 6.8 6.6 0 --runs 10 --speed 0.3 [--map room_b.yaml]
+
+Runs the mobile manipulator from the world's start to the goal `runs` times (seeds
+seed..seed+runs-1) with AMCL, the global planner, DWA and recoveries in the simulator;
+prints success and time per run and the mean, min and max time of the successes (or
+JSON with --json), and writes a PNG of the true paths over the map.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+os.environ.setdefault("MUJOCO_GL", "osmesa")
+os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+
+from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
+
+HELP = "navigate to a goal with AMCL, Dijkstra/A* and DWA in the simulator; success and time"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--world", default="room_b", help="built-in world name or YAML file")
+    parser.add_argument(
+        "--goal",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "YAW"),
+        help="goal pose on the map (m, m, rad); default: the world's `goal` spawn",
+    )
+    parser.add_argument("--start", default="default", help="spawn pose name in the world")
+    parser.add_argument("--map", metavar="YAML", help="map_server map (default: ground truth)")
+    parser.add_argument("--runs", type=int, default=1, help="how many runs (seeds differ)")
+    parser.add_argument("--speed", type=float, default=0.3, help="top speed (m/s)")
+    parser.add_argument("--planner", choices=("dijkstra", "astar"), default="dijkstra")
+    parser.add_argument("--robot", default="mobile_manipulator", help="built-in robot or URDF")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the first run")
+    parser.add_argument("--time-limit", type=float, help="simulated s before a run gives up")
+    parser.add_argument(
+        "--plot", metavar="PNG", help="where to write the paths (default: nav_WORLD.png)"
+    )
+    add_json_flag(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    from robotrial.model import load_world
+    from robotrial.trials.nav import (
+        NavTrialSetup,
+        file_map,
+        footprint_of_robot,
+        plot_paths,
+        run_trials,
+        shortest_time,
+        start_pose,
+        summarize,
+        world_map,
+    )
+
+    try:
+        world = load_world(args.world)
+        goal = tuple(args.goal) if args.goal else _spawn_goal(world)
+        setup = NavTrialSetup(
+            world=args.world,
+            goal=goal,
+            start=args.start,
+            robot=args.robot,
+            map_path=args.map,
+            speed=args.speed,
+            planner=args.planner,
+            time_limit=args.time_limit,
+        )
+        nav_map = file_map(args.map) if args.map else world_map(world)
+        start = start_pose(world, args.start)
+        length, best = shortest_time(setup, nav_map, footprint_of_robot(args.robot), world)
+    except (ValueError, KeyError, OSError) as err:
+        console.print(f"[red]robotrial nav: {err}[/red]")
+        return 2
+
+    results = []
+    with progress(f"nav {world.name}", total=args.runs, enabled=not args.json) as advance:
+
+        def on_run(r) -> None:
+            results.append(r)
+            advance()
+
+        try:
+            run_trials(setup, args.runs, args.seed, on_run=on_run)
+        except ValueError as err:
+            console.print(f"[red]robotrial nav: {err}[/red]")
+            return 2
+    summary = summarize(results, best)
+    summary["shortest_length"] = length
+    plot = plot_paths(
+        args.plot or f"nav_{world.name}.png",
+        nav_map,
+        results,
+        start,
+        goal,
+        title=f"{world.name}: {summary['successes']}/{len(results)} at {args.speed} m/s",
+    )
+    if args.json:
+        print_json(
+            {
+                "world": world.name,
+                "goal": goal,
+                "speed": args.speed,
+                "map": nav_map.source,
+                "planner": args.planner,
+                "runs": [r.summary() for r in results],
+                "summary": summary,
+                "plot": str(plot),
+            }
+        )
+        return 0 if summary["successes"] == len(results) else 1
+    print_table(
+        f"robotrial nav {world.name} -> {goal} at {args.speed} m/s ({nav_map.source} map)",
+        ["seed", "success", "time (s)", "status", "message"],
+        [(r.seed, "yes" if r.success else "no", r.time, r.status, r.message) for r in results],
+    )
+    fmt = lambda v: "-" if v is None else f"{v:.2f}"  # noqa: E731
+    print_table(
+        "summary",
+        [
+            "successes",
+            "mean (s)",
+            "min (s)",
+            "max (s)",
+            "shortest (s)",
+            "mean / shortest",
+            "collisions",
+        ],
+        [
+            (
+                f"{summary['successes']}/{summary['runs']}",
+                fmt(summary["mean_time"]),
+                fmt(summary["min_time"]),
+                fmt(summary["max_time"]),
+                fmt(best),
+                fmt(summary.get("ratio")),
+                summary["collisions"],
+            )
+        ],
+    )
+    console.print(f"paths: {plot}")
+    return 0 if summary["successes"] == len(results) else 1
+
+
+def _spawn_goal(world) -> tuple[float, float, float]:
+    if "goal" not in world.spawns:
+        raise ValueError(f"world {world.name!r} has no `goal` spawn; give --goal X Y YAW")
+    p = world.spawn("goal")
+    return float(p.xyz[0]), float(p.xyz[1]), float(p.yaw)

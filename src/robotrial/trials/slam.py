@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 from scipy import ndimage
-from scipy.spatial.transform import Rotation
 
 from robotrial.model.gridmap import world_occupancy
 from robotrial.model.world import World
+from robotrial.ros.slam_node import frame_in, odom_pose, planar, stamp_of, transform_matrix
 from robotrial.slam.gmapping import GMappingSlam, OdometryRequired
 from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.hector import HectorSlam
@@ -93,54 +93,25 @@ def interpolate_poses(track: np.ndarray, t: float) -> np.ndarray | None:
     )
 
 
-def _yaw(q: Any) -> float:
-    return float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)))
+class RecordingBuilder:
+    """Collects /scan, /odom, /ground_truth and /tf_static messages (from a file or the
+    live bus) into a Recording."""
 
+    def __init__(self, source: str = "") -> None:
+        self.source = source
+        self.scans: list[ScanSample] = []
+        self.odom: list[tuple[float, float, float, float]] = []
+        self.truth: list[tuple[float, float, float, float]] = []
+        self.static: dict[str, tuple[str, np.ndarray]] = {}
+        self.scan_frame: str | None = None
+        self.base_frame: str | None = None
 
-def _matrix(tr: Any) -> np.ndarray:
-    m = np.eye(4)
-    r = tr.rotation
-    m[:3, :3] = Rotation.from_quat([r.x, r.y, r.z, r.w]).as_matrix()
-    m[:3, 3] = [tr.translation.x, tr.translation.y, tr.translation.z]
-    return m
-
-
-def laser_mount(static: dict[str, tuple[str, np.ndarray]], laser: str, base: str) -> np.ndarray:
-    """4x4 pose of frame `laser` in frame `base` from static transforms (child ->
-    (parent, matrix)); identity when they are the same frame."""
-    m = np.eye(4)
-    frame = laser
-    seen = set()
-    while frame != base:
-        if frame not in static or frame in seen:
-            raise ValueError(
-                f"recording: no static transform chain from the scan frame {laser!r} to the "
-                f"base frame {base!r} in /tf_static"
-            )
-        seen.add(frame)
-        parent, t = static[frame]
-        m = t @ m
-        frame = parent
-    return m
-
-
-def load_recording(path: str | Path) -> Recording:
-    """Scans, odometry, ground truth and the laser mount from a .mcap or .bag."""
-    from robotrial.ros.playback import read_recording
-
-    scans: list[ScanSample] = []
-    odom: list[tuple[float, ...]] = []
-    truth: list[tuple[float, ...]] = []
-    static: dict[str, tuple[str, np.ndarray]] = {}
-    scan_frame = None
-    base_frame = None
-    for topic, msg, _ in read_recording(path, ["/scan", "/odom", "/ground_truth", "/tf_static"]):
+    def add(self, topic: str, msg: Any) -> None:
         if topic == "/scan":
-            st = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-            scan_frame = scan_frame or msg.header.frame_id
-            scans.append(
+            self.scan_frame = self.scan_frame or msg.header.frame_id
+            self.scans.append(
                 ScanSample(
-                    st,
+                    stamp_of(msg.header),
                     np.asarray(msg.ranges, dtype=np.float64),
                     float(msg.angle_min),
                     float(msg.angle_increment),
@@ -149,28 +120,46 @@ def load_recording(path: str | Path) -> Recording:
                 )
             )
         elif topic in ("/odom", "/ground_truth"):
-            st = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-            p = msg.pose.pose
-            row = (st, p.position.x, p.position.y, _yaw(p.orientation))
-            (odom if topic == "/odom" else truth).append(row)
-            base_frame = base_frame or msg.child_frame_id
-        else:
+            row = (stamp_of(msg.header), *odom_pose(msg))
+            (self.odom if topic == "/odom" else self.truth).append(row)
+            self.base_frame = self.base_frame or msg.child_frame_id
+        elif topic == "/tf_static":
             for tr in msg.transforms:
-                static[tr.child_frame_id] = (tr.header.frame_id, _matrix(tr.transform))
-    if not scans:
-        raise ValueError(f"{path}: the recording has no /scan messages")
-    mount = np.eye(4)
-    if scan_frame and base_frame and scan_frame != base_frame:
-        mount = laser_mount(static, scan_frame, base_frame)
-    yaw = float(np.arctan2(mount[1, 0], mount[0, 0]))
-    return Recording(
-        scans=sorted(scans, key=lambda s: s.stamp),
-        odom=np.array(sorted(odom), dtype=np.float64).reshape(-1, 4),
-        truth=np.array(sorted(truth), dtype=np.float64).reshape(-1, 4),
-        laser_pose=(float(mount[0, 3]), float(mount[1, 3]), yaw),
-        laser_height=float(mount[2, 3]),
-        source=str(path),
-    )
+                self.static[tr.child_frame_id] = (
+                    tr.header.frame_id,
+                    transform_matrix(tr.transform),
+                )
+
+    def build(self) -> Recording:
+        if not self.scans:
+            raise ValueError(f"{self.source or 'recording'}: there are no /scan messages")
+        mount = np.eye(4)
+        if self.scan_frame and self.base_frame and self.scan_frame != self.base_frame:
+            try:
+                mount = frame_in(self.static, self.scan_frame, self.base_frame)
+            except ValueError as exc:
+                raise ValueError(f"{self.source or 'recording'}: {exc}") from exc
+        return Recording(
+            scans=sorted(self.scans, key=lambda s: s.stamp),
+            odom=np.array(sorted(self.odom), dtype=np.float64).reshape(-1, 4),
+            truth=np.array(sorted(self.truth), dtype=np.float64).reshape(-1, 4),
+            laser_pose=planar(mount),
+            laser_height=float(mount[2, 3]),
+            source=self.source,
+        )
+
+
+TOPICS = ("/scan", "/odom", "/ground_truth", "/tf_static")
+
+
+def load_recording(path: str | Path) -> Recording:
+    """Scans, odometry, ground truth and the laser mount from a .mcap or .bag."""
+    from robotrial.ros.playback import read_recording
+
+    builder = RecordingBuilder(str(path))
+    for topic, msg, _ in read_recording(path, TOPICS):
+        builder.add(topic, msg)
+    return builder.build()
 
 
 def make_slam(method: str, params: dict[str, Any] | None = None) -> GMappingSlam | HectorSlam:
@@ -222,38 +211,178 @@ def run_slam(
             f"{rec.source or 'recording'}: gmapping needs odometry but the recording has no "
             "/odom messages; record /odom, or use --method hector (scans alone)"
         )
-    times = np.zeros(len(rec.scans))
+    times = np.full(len(rec.scans), np.nan)
     wall0 = time.perf_counter()
     for i, s in enumerate(rec.scans):
         odom = rec.odom_at(s.stamp) if slam.uses_odometry else None
-        if slam.uses_odometry and odom is None:
-            times[i] = np.nan
-            continue
-        t0 = time.perf_counter()
-        slam.process(scan_beams(slam, s, rec.laser_pose), s.stamp, odom)
-        times[i] = time.perf_counter() - t0
+        if not (slam.uses_odometry and odom is None):
+            t0 = time.perf_counter()
+            slam.process(scan_beams(slam, s, rec.laser_pose), s.stamp, odom)
+            times[i] = time.perf_counter() - t0
         if on_scan is not None:
             on_scan(i)
     wall = time.perf_counter() - wall0
+    return finish_run(method, slam, times[~np.isnan(times)], wall, rec.duration)
+
+
+def finish_run(
+    method: str, slam: GMappingSlam | HectorSlam, times: np.ndarray, wall: float, duration: float
+) -> SlamRun:
+    """A SlamRun from a SLAM object that has seen its scans."""
     stamps, poses = slam.trajectory()
-    extra: dict[str, Any] = {}
     if isinstance(slam, GMappingSlam):
         nbytes = sum(m.logodds.nbytes for m in slam.maps)
-        extra = {"updates": slam.updates, "resamples": slam.resamples}
+        extra: dict[str, Any] = {"updates": slam.updates, "resamples": slam.resamples}
     else:
         nbytes = slam.grid.logodds.nbytes
         extra = {"map_updates": slam.map_updates}
-    return SlamRun(
-        method,
-        slam.grid,
-        stamps,
-        poses,
-        times[~np.isnan(times)],
-        wall,
-        rec.duration,
-        int(nbytes),
-        extra,
+    return SlamRun(method, slam.grid, stamps, poses, times, wall, duration, int(nbytes), extra)
+
+
+def record_drive(
+    world: World | str,
+    path: str | Path | None = None,
+    duration: float = 30.0,
+    side: float = 3.0,
+    speed: float = 0.3,
+    seed: int = 0,
+    lidar_resolution_deg: float | None = None,
+    robot: str = "mobile_manipulator",
+    spawn: str = "default",
+    on_step: Callable[[float], None] | None = None,
+    extra_nodes: Callable[[Any], None] | None = None,
+) -> Recording:
+    """Drive the robot in a square in the simulator and collect what SLAM needs (written
+    to `path`, .mcap or .bag, when given): /scan, /odom, /ground_truth, /tf_static.
+    `extra_nodes(bus)` may attach more nodes (a live SlamNode) before the run starts."""
+    from robotrial.model import load_robot, load_world
+    from robotrial.ros.bus import Bus
+    from robotrial.ros.recorder import BusRecorder, Recorder
+    from robotrial.ros.sim_node import SimNode
+    from robotrial.sim.drives import SquareDrive
+    from robotrial.sim.simulation import SimOptions, Simulation, StreamSettings
+
+    w = load_world(world) if isinstance(world, str) else world
+    r = load_robot(robot)
+    if lidar_resolution_deg is not None:
+        sensors = tuple(
+            type(s)(
+                s.name,
+                s.type,
+                s.link,
+                s.origin,
+                s.rate_hz,
+                dict(s.params, horizontal_resolution=float(np.deg2rad(lidar_resolution_deg))),
+            )
+            if s.type == "lidar"
+            else s
+            for s in r.sensors
+        )
+        r = r.with_changes(sensors=sensors)
+    off = StreamSettings(enabled=False)
+    streams = {s.name: off for s in r.sensors if s.type not in ("lidar",)}
+    streams["joint_states"] = off
+    sim = Simulation.create(
+        w, r, seed=seed, spawn=spawn, options=SimOptions(cameras=False, streams=streams)
     )
+    bus = Bus()
+    node = SimNode(bus, sim)
+    builder = RecordingBuilder(str(path or f"live {w.name}"))
+    for topic in TOPICS:
+        bus.subscribe(topic, lambda m, t=topic: builder.add(t, m))
+    recorder = Recorder(path) if path is not None else None
+    if recorder is not None:
+        BusRecorder(bus, recorder, list(TOPICS))
+    if extra_nodes is not None:
+        extra_nodes(bus)
+    square = SquareDrive(side, speed)
+
+    def step(t: float) -> None:
+        sim.drive(*square.command(t))
+        if on_step is not None:
+            on_step(t)
+
+    try:
+        sim.drive(*square.command(0.0))
+        node.run(duration, on_step=step)
+    finally:
+        if recorder is not None:
+            recorder.close()
+        sim.close()
+        node.destroy()
+    return builder.build()
+
+
+def write_outputs(
+    run: SlamRun, rec: Recording, world: World | None, stem: str | Path
+) -> dict[str, str]:
+    """STEM.pgm + STEM.yaml (map_server), STEM.tum (the trajectory, TUM format: stamp x
+    y z qx qy qz qw, what evo reads) and STEM.png (the map, the estimated trajectory and
+    the ground truth)."""
+    from robotrial.model.mapfile import OccupancyMap, write_map
+
+    stem = Path(stem)
+    g = run.grid
+    pgm, yml = write_map(stem, OccupancyMap(g.ros_values(), g.resolution, (*g.origin, 0.0)))
+    tum = stem.with_name(stem.name + ".tum")
+    with open(tum, "w") as f:
+        for t, p in zip(run.stamps, run.poses, strict=True):
+            f.write(
+                f"{t:.6f} {p[0]:.6f} {p[1]:.6f} 0 0 0 {np.sin(p[2] / 2):.9f} "
+                f"{np.cos(p[2] / 2):.9f}\n"
+            )
+    png = stem.with_name(stem.name + ".png")
+    plot_map(run, rec, world, png)
+    return {"pgm": str(pgm), "yaml": str(yml), "trajectory": str(tum), "png": str(png)}
+
+
+def plot_map(run: SlamRun, rec: Recording, world: World | None, png: Path) -> None:
+    """The map in its own frame, the true walls and path moved into that frame."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    g = run.grid
+    vals = g.ros_values()
+    img = np.full(vals.shape, 0.8)
+    img[vals == 0] = 1.0
+    img[vals == 100] = 0.0
+    x0, y0, x1, y1 = g.extent()
+    fig, ax = plt.subplots(figsize=(7, 7))
+    ax.imshow(img, cmap="gray", origin="lower", extent=(x0, x1, y0, y1), vmin=0, vmax=1)
+    start = map_pose_in_world(rec)
+    if start is not None and world is not None:
+        gt = world_occupancy(
+            world,
+            g.resolution,
+            (rec.laser_height + SCAN_BAND[0], rec.laser_height + SCAN_BAND[1]),
+        )
+        xs, ys = gt.cell_centers()
+        pts = np.stack([xs[gt.occupied], ys[gt.occupied]], axis=1)
+        c, s = np.cos(start[2]), np.sin(start[2])
+        d = pts - start[:2]
+        ax.scatter(
+            c * d[:, 0] + s * d[:, 1],
+            -s * d[:, 0] + c * d[:, 1],
+            s=1.5,
+            c="tab:red",
+            alpha=0.35,
+            label="true obstacles",
+        )
+    ref, _ = true_poses(rec, run.stamps)
+    if len(ref):
+        ax.plot(ref[:, 0], ref[:, 1], c="tab:green", lw=2, label="true path")
+    if len(run.poses):
+        ax.plot(run.poses[:, 0], run.poses[:, 1], c="tab:blue", lw=1, ls="--", label=run.method)
+    ax.set_xlabel("x (m, map frame)")
+    ax.set_ylabel("y (m, map frame)")
+    ax.set_title(f"{run.method}: {Path(rec.source).name}")
+    ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    png.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
 
 
 # --- trajectory metrics ------------------------------------------------------------------

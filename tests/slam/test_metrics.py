@@ -1,0 +1,52 @@
+"""ATE and RPE agree with evo on the same trajectories."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from evo.core import metrics
+from evo.core.trajectory import PoseTrajectory3D
+from scipy.spatial.transform import Rotation
+
+from robotrial.trials.slam import ate, rpe
+
+
+def to_evo(poses: np.ndarray) -> PoseTrajectory3D:
+    xyz = np.column_stack([poses[:, :2], np.zeros(len(poses))])
+    q = Rotation.from_euler("z", poses[:, 2:3]).as_quat()[:, [3, 0, 1, 2]]
+    return PoseTrajectory3D(xyz, q, np.arange(len(poses), dtype=float))
+
+
+@pytest.fixture
+def pair():
+    rng = np.random.default_rng(3)
+    t = np.linspace(0, 2 * np.pi, 200)
+    ref = np.column_stack([2 * np.cos(t), np.sin(2 * t), t + np.pi / 2])
+    c, s = np.cos(0.2), np.sin(0.2)
+    est = ref.copy()
+    est[:, 0] = c * ref[:, 0] - s * ref[:, 1] + 0.5
+    est[:, 1] = s * ref[:, 0] + c * ref[:, 1] - 0.3
+    est[:, 2] = ref[:, 2] + 0.2
+    est[:, :2] += rng.normal(0, 0.02, (200, 2))
+    est[:, 2] += rng.normal(0, 0.01, 200)
+    return est, ref
+
+
+def test_ate_matches_evo_ape_with_alignment(pair):
+    est, ref = pair
+    e, r = to_evo(est), to_evo(ref)
+    e.align(r, correct_scale=False)
+    ape = metrics.APE(metrics.PoseRelation.translation_part)
+    ape.process_data((r, e))
+    assert ate(est, ref)["rmse"] == pytest.approx(
+        ape.get_statistic(metrics.StatisticsType.rmse), rel=1e-6
+    )
+
+
+def test_rpe_matches_evo_rpe(pair):
+    est, ref = pair
+    m = metrics.RPE(metrics.PoseRelation.translation_part, delta=1, delta_unit=metrics.Unit.frames)
+    m.process_data((to_evo(ref), to_evo(est)))
+    assert rpe(est, ref)["rmse"] == pytest.approx(
+        m.get_statistic(metrics.StatisticsType.rmse), rel=1e-6
+    )

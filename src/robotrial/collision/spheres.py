@@ -27,10 +27,24 @@ def _cells(extent: np.ndarray, max_cells: int) -> np.ndarray:
     return counts
 
 
-def box_spheres(size, max_spheres: int = 12) -> tuple[np.ndarray, np.ndarray]:
-    """Centres (n, 3) and radii (n,) of spheres covering a box centred at the origin."""
+def box_spheres(size, max_spheres: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Centres (n, 3) and radii (n,) of spheres covering a box centred at the origin.
+
+    The box is cut into cells as thick as its smallest edge across, about as wide along
+    its middle edge, and thin (half the smallest edge) along its longest edge, so each
+    sphere hugs the cross-section rather than a cube around it.
+    """
     extent = np.asarray(size, dtype=float)
-    counts = _cells(extent, max_spheres)
+    order = np.argsort(extent)
+    s0, s1, s2 = extent[order]
+    k1 = max(round(float(s1) / max(float(s0), 1e-9)), 1)
+    k2 = max(int(np.ceil(s2 / max(0.5 * s0, 1e-9))), 1)
+    while k1 * k2 > max_spheres and k2 > 1:
+        k2 -= 1
+    while k1 * k2 > max_spheres and k1 > 1:
+        k1 -= 1
+    counts = np.ones(3, dtype=int)
+    counts[order[1]], counts[order[2]] = k1, k2
     cell = extent / counts
     axes = [(-extent[i] / 2 + cell[i] * (np.arange(counts[i]) + 0.5)) for i in range(3)]
     centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -39,15 +53,35 @@ def box_spheres(size, max_spheres: int = 12) -> tuple[np.ndarray, np.ndarray]:
 
 
 def cylinder_spheres(
-    radius: float, length: float, max_spheres: int = 8
+    radius: float, length: float, max_spheres: int = 16
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Spheres covering a cylinder along z centred at the origin: one per slice."""
-    n = int(np.clip(np.ceil(length / max(radius, 1e-6)), 1, max_spheres))
-    h = length / n
-    z = -length / 2 + h * (np.arange(n) + 0.5)
-    centres = np.zeros((n, 3))
-    centres[:, 2] = z
-    return centres, np.full(n, float(np.hypot(radius, h / 2)))
+    """Spheres covering a cylinder along z centred at the origin.
+
+    A long cylinder gets one sphere per thin slice (half a radius thick, so each sphere
+    is barely wider than the cylinder); a flat one (a disc) gets a grid of square cells
+    as wide as it is thick, keeping the cells that meet the disc.
+    """
+    if length >= radius:
+        n = int(np.clip(np.ceil(2 * length / max(radius, 1e-6)), 1, max_spheres))
+        h = length / n
+        z = -length / 2 + h * (np.arange(n) + 0.5)
+        centres = np.zeros((n, 3))
+        centres[:, 2] = z
+        return centres, np.full(n, float(np.hypot(radius, h / 2)))
+    cell = max(length, 1e-6)
+    while True:
+        k = int(np.ceil(2 * radius / cell))
+        grid = -k * cell / 2 + cell * (np.arange(k) + 0.5)
+        x, y = np.meshgrid(grid, grid, indexing="ij")
+        # distance from the disc's axis to the nearest point of each cell
+        near = np.hypot(np.maximum(np.abs(x) - cell / 2, 0), np.maximum(np.abs(y) - cell / 2, 0))
+        keep = near <= radius
+        if keep.sum() <= max_spheres:
+            break
+        cell *= 1.25
+    centres = np.stack([x[keep], y[keep], np.zeros(int(keep.sum()))], axis=1)
+    r = 0.5 * float(np.sqrt(2 * cell * cell + length * length))
+    return centres, np.full(len(centres), r)
 
 
 def point_spheres(points: np.ndarray, max_spheres: int = 12) -> tuple[np.ndarray, np.ndarray]:
@@ -84,7 +118,7 @@ def _hull_points(mesh: Mesh) -> np.ndarray:
     return np.vstack([hull.vertices, pts])
 
 
-def shape_spheres(shape: Shape, max_spheres: int = 12) -> tuple[np.ndarray, np.ndarray]:
+def shape_spheres(shape: Shape, max_spheres: int = 16) -> tuple[np.ndarray, np.ndarray]:
     """Spheres (centres in the shape's frame, radii) that cover `shape`."""
     if isinstance(shape, Sphere):
         return np.zeros((1, 3)), np.array([float(shape.radius)])
@@ -104,7 +138,7 @@ def shape_spheres(shape: Shape, max_spheres: int = 12) -> tuple[np.ndarray, np.n
     raise TypeError(f"no sphere cover for shape {shape!r}")
 
 
-def link_spheres(model: RobotModel, max_per_shape: int = 12) -> list[CollisionSphere]:
+def link_spheres(model: RobotModel, max_per_shape: int = 16) -> list[CollisionSphere]:
     """Spheres covering every collision shape of every link, in the links' frames."""
     out: list[CollisionSphere] = []
     for link in model.links:
@@ -119,7 +153,7 @@ def link_spheres(model: RobotModel, max_per_shape: int = 12) -> list[CollisionSp
     return out
 
 
-def pose_spheres(shape: Shape, pose: Pose, max_spheres: int = 12) -> tuple[np.ndarray, np.ndarray]:
+def pose_spheres(shape: Shape, pose: Pose, max_spheres: int = 16) -> tuple[np.ndarray, np.ndarray]:
     """Spheres covering `shape` placed at `pose`: centres in the pose's parent frame."""
     centres, radii = shape_spheres(shape, max_spheres)
     m = pose.matrix()

@@ -259,7 +259,10 @@ def reference_from_message(msg: JointTrajectory) -> JointReference:
 
 class SimNode(Node):
     """Puts a Simulation on the bus and steps it: `run(duration)` in the caller's thread
-    (as fast as possible or paced), or `start()`/`stop()` in a background thread."""
+    (as fast as possible or paced), or `start()`/`stop()` in a background thread.
+
+    A topic's message is only built when the topic has subscribers; `counts` holds the
+    messages per topic produced either way."""
 
     def __init__(self, bus: Bus, sim: Simulation, name: str = "/simulator") -> None:
         super().__init__(bus, name)
@@ -318,52 +321,55 @@ class SimNode(Node):
 
     # --- outputs --------------------------------------------------------------------
 
-    def _send(self, topic: str, msg: Any) -> None:
-        self._pubs[topic].publish(msg)
+    def _send(self, topic: str, make: Callable[[], Any]) -> None:
+        """Publish `make()` on `topic`; the message is only built when someone listens
+        (a run nobody records costs no conversions). Counted either way."""
+        if self.bus.subscriber_count(topic):
+            self._pubs[topic].publish(make())
         self.counts[topic] = self.counts.get(topic, 0) + 1
 
-    def _send_tf(self, transforms: list[SimTransform], stamp: float, static: bool = False) -> None:
-        msg = tf_message(transforms, stamp)
-        (self._tf_static if static else self._tf).publish(msg)
-        topic = "/tf_static" if static else "/tf"
-        self.counts[topic] = self.counts.get(topic, 0) + 1
+    def _send_tf(self, make: Callable[[], list[SimTransform]], stamp: float) -> None:
+        if self.bus.subscriber_count("/tf"):
+            self._tf.publish(tf_message(make(), stamp))
+        self.counts["/tf"] = self.counts.get("/tf", 0) + 1
 
     def publish_reading(self, r: Reading) -> None:
         """Turn one sensor reading into its message(s) and publish them."""
         topic = self.topics.get(r.stream, (None, None))[0]
         d = r.data
         if r.kind == "points":
-            self._send(topic, cloud_message(d.stamp, d.frame, d.points, d.ring))
+            self._send(topic, lambda: cloud_message(d.stamp, d.frame, d.points, d.ring))
         elif r.kind == "points_xyz":
             stamp, frame, pts = d
-            self._send(topic, cloud_message(stamp, frame, pts))
+            self._send(topic, lambda: cloud_message(stamp, frame, pts))
         elif r.kind == "scan":
-            self._send(topic, scan_message(d))
+            self._send(topic, lambda: scan_message(d))
         elif r.kind == "image":
-            self._send(topic, image_message(d))
-            self._send(self.topics[f"{r.stream}/info"][0], camera_info_message(d))
+            self._send(topic, lambda: image_message(d))
+            self._send(self.topics[f"{r.stream}/info"][0], lambda: camera_info_message(d))
         elif r.kind == "imu":
-            self._send(topic, imu_message(d))
+            self._send(topic, lambda: imu_message(d))
         elif r.kind == "joint_states":
-            self._send(topic, joint_state_message(d))
-            self._send_tf(
-                self.sim.tf.dynamic(dict(zip(d.names, d.position.tolist(), strict=True))), d.stamp
-            )
+            self._send(topic, lambda: joint_state_message(d))
+            values = dict(zip(d.names, d.position.tolist(), strict=True))
+            self._send_tf(lambda: self.sim.tf.dynamic(values), d.stamp)
         elif r.kind == "odom":
             if r.stream == "odom":
-                self._send(topic, odometry_message(d, covariance=0.01))
+                self._send(topic, lambda: odometry_message(d, covariance=0.01))
+                yaw = wrap_angle(d.yaw)
                 self._send_tf(
-                    [planar_transform("odom", d.child_frame, d.x, d.y, wrap_angle(d.yaw))], d.stamp
+                    lambda: [planar_transform("odom", d.child_frame, d.x, d.y, yaw)], d.stamp
                 )
             else:
-                self._send(topic, odometry_message(d))
+                self._send(topic, lambda: odometry_message(d))
 
     def start_streams(self) -> None:
         """Publish /tf_static and the first reading of every stream."""
         if self._started:
             return
         self._started = True
-        self._send_tf(self.sim.tf.static, self.sim.world.time, static=True)
+        self._tf_static.publish(tf_message(self.sim.tf.static, self.sim.world.time))
+        self.counts["/tf_static"] = 1
         for r in self.sim.start():
             self.publish_reading(r)
 

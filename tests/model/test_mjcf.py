@@ -325,6 +325,9 @@ def test_joint_limits_damping_friction_and_armature_are_written() -> None:
     assert model.dof_damping[j2.dofadr[0]] == 0.5
     assert model.dof_frictionloss[j2.dofadr[0]] == 0.1
     assert model.dof_armature[j1.dofadr[0]] == 0.02
+    world = to_mjcf(toy_robot(), small_world(), armature=0.02).compile()
+    cube = world.joint("object/cube").dofadr[0]
+    assert not world.dof_armature[cube : cube + 6].any()  # objects keep their own inertia
     assert list(model.actuator("j1").ctrlrange) == [-30, 30]  # motor: +- effort
 
 

@@ -53,8 +53,8 @@ FREE_JOINT = "base_free"
 """The name of the free joint of a robot written with base="free"."""
 PLANAR_JOINTS = ("base_x", "base_y", "base_yaw")
 
-# Contact bits: robot collision geoms (contype 1) touch the world (conaffinity 1) but not
-# each other (conaffinity 2) unless self_collision is on; world geoms touch everything.
+# Contact bits: robot collision geoms (contype 1) touch world geoms (conaffinity 3) but
+# not each other (conaffinity 2) unless self_collision is on; world geoms touch everything.
 ROBOT_CONTYPE = 1
 ROBOT_CONAFFINITY = 2
 ROBOT_SELF_CONAFFINITY = 3
@@ -514,6 +514,8 @@ class _Writer:
             )
         kind = "slide" if j.type == "prismatic" else "hinge"
         el = ET.SubElement(body, "joint", name=j.name, type=kind, axis=_nums(j.axis))
+        if self.opts.armature > 0:
+            el.set("armature", _num(self.opts.armature))
         if j.type in ("revolute", "prismatic") and j.limit is not None:
             lo, hi = sorted((j.limit.lower, j.limit.upper))
             if hi - lo < 1e-6:
@@ -760,7 +762,6 @@ def _build(
 
 def _defaults(root: ET.Element, opts: _Options) -> None:
     default = ET.SubElement(root, "default")
-    ET.SubElement(default, "joint", armature=_num(opts.armature))
     visual = ET.SubElement(default, "default", {"class": "visual"})
     ET.SubElement(
         visual, "geom", contype="0", conaffinity="0", group=str(VISUAL_GROUP), density="0"

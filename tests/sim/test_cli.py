@@ -47,3 +47,25 @@ def test_keyboard_drive_needs_a_terminal(capsys, monkeypatch):
     monkeypatch.setattr("sys.stdin", open("/dev/null"))
     assert main(["sim", "--world", "room_a", "--drive", "keys", "--duration", "1"]) == 2
     assert "needs an interactive terminal" in capsys.readouterr().err
+
+
+def test_bench_sim_reports_every_configuration(capsys):
+    code = main(
+        [
+            "bench",
+            "sim",
+            "--duration",
+            "0.1",
+            "--camera-duration",
+            "0.05",
+            "--lidar-resolution",
+            "0.4",
+            "--json",
+        ]
+    )
+    assert code == 0
+    out = json.loads(capsys.readouterr().out)
+    assert [r["config"] for r in out["rtf"]][2] == "+ VLP-16 10 Hz + scan"
+    assert all(r["rtf_wall"] > 0 for r in out["rtf"])
+    assert {c["stream"] for c in out["sensor_costs"]} >= {"velodyne", "depth_camera", "odom"}
+    assert out["arm_tracking"]["rms_rad"] < 0.01

@@ -175,46 +175,88 @@ async def _client_service_round_trips(url: str, calls: int) -> np.ndarray:
             task.cancel()
 
 
-async def _fan_out(url: str, n: int, seconds: float, queue_length: int) -> dict[str, Any]:
+SUBSCRIBERS_PER_PROCESS = 10
+
+
+def subscriber_worker(url: str, n: int, total: int, queue_length: int) -> None:
+    """`n` subscribers to /joint_states in this process (run as a subprocess): prints
+    "ready" once subscribed, then one JSON line with what each received."""
+    asyncio.run(_subscribers(url, n, total, queue_length))
+
+
+async def _subscribers(url: str, n: int, total: int, queue_length: int) -> None:
     import websockets
 
-    total = int(seconds * RATE_HZ)
     received: list[list[int]] = [[] for _ in range(n)]
     latencies: list[float] = []
     subs = [await websockets.connect(url, max_size=None, compression=None) for _ in range(n)]
-    pub = await websockets.connect(url, max_size=None, compression=None)
-    try:
-        for i, ws in enumerate(subs):
-            await ws.send(
-                json.dumps(
-                    {
-                        "op": "subscribe",
-                        "id": f"s{i}",
-                        "topic": "/joint_states",
-                        "type": "sensor_msgs/msg/JointState",
-                        "queue_length": queue_length,
-                    }
-                )
+    for i, ws in enumerate(subs):
+        await ws.send(
+            json.dumps(
+                {
+                    "op": "subscribe",
+                    "id": f"s{i}",
+                    "topic": "/joint_states",
+                    "type": "sensor_msgs/msg/JointState",
+                    "queue_length": queue_length,
+                }
             )
+        )
+    await asyncio.sleep(0.3)
+    print("ready", flush=True)
+
+    async def listen(i: int, ws: Any) -> None:
+        with contextlib.suppress(TimeoutError, asyncio.CancelledError):
+            timeout = 30.0  # until the first message: the publisher may start late
+            while len(received[i]) < total:
+                msg = json.loads(await asyncio.wait_for(ws.recv(), timeout))
+                timeout = 2.0
+                if msg.get("op") != "publish":
+                    continue
+                now = time.time_ns()
+                stamp = msg["msg"]["header"]["stamp"]
+                latencies.append((now - (stamp["sec"] * 10**9 + stamp["nanosec"])) * 1e-9)
+                received[i].append(int(msg["msg"]["position"][0]))
+
+    await asyncio.gather(*(listen(i, ws) for i, ws in enumerate(subs)))
+    for ws in subs:
+        with contextlib.suppress(Exception):
+            await ws.close()
+    print(json.dumps({"received": [len(r) for r in received], "latencies": latencies}), flush=True)
+
+
+async def _fan_out(url: str, n: int, seconds: float, queue_length: int) -> dict[str, Any]:
+    """n subscribers spread over processes of SUBSCRIBERS_PER_PROCESS connections, so the
+    clients' own decoding does not stand in for the server's speed."""
+    import websockets
+
+    total = int(seconds * RATE_HZ)
+    sizes = [SUBSCRIBERS_PER_PROCESS] * (n // SUBSCRIBERS_PER_PROCESS)
+    if n % SUBSCRIBERS_PER_PROCESS:
+        sizes.append(n % SUBSCRIBERS_PER_PROCESS)
+    workers = []
+    for size in sizes:
+        code = (
+            "from robotrial.benchmarks.rosbridge import subscriber_worker; "
+            f"subscriber_worker({url!r}, {size}, {total}, {queue_length})"
+        )
+        workers.append(
+            await asyncio.create_subprocess_exec(
+                sys.executable, "-c", code, stdout=asyncio.subprocess.PIPE
+            )
+        )
+    try:
+        for w in workers:
+            line = await asyncio.wait_for(w.stdout.readline(), 60)  # type: ignore[union-attr]
+            if line.strip() != b"ready":
+                raise RuntimeError(f"a subscriber process failed to start: {line!r}")
+        pub = await websockets.connect(url, max_size=None, compression=None)
         await pub.send(
             json.dumps(
                 {"op": "advertise", "topic": "/joint_states", "type": "sensor_msgs/msg/JointState"}
             )
         )
-        await asyncio.sleep(0.5)
-
-        async def listen(i: int, ws: Any) -> None:
-            with contextlib.suppress(TimeoutError, asyncio.CancelledError):
-                while len(received[i]) < total:
-                    msg = json.loads(await asyncio.wait_for(ws.recv(), 2.0))
-                    if msg.get("op") != "publish":
-                        continue
-                    now = time.time_ns()
-                    stamp = msg["msg"]["header"]["stamp"]
-                    latencies.append((now - (stamp["sec"] * 10**9 + stamp["nanosec"])) * 1e-9)
-                    received[i].append(int(msg["msg"]["position"][0]))
-
-        listeners = [asyncio.create_task(listen(i, ws)) for i, ws in enumerate(subs)]
+        await asyncio.sleep(0.2)
         names = [f"joint_{k}" for k in range(6)]
         t0 = time.perf_counter()
         for k in range(total):
@@ -228,15 +270,24 @@ async def _fan_out(url: str, n: int, seconds: float, queue_length: int) -> dict[
             }
             await pub.send(json.dumps({"op": "publish", "topic": "/joint_states", "msg": msg}))
             await asyncio.sleep(max(0.0, t0 + (k + 1) / RATE_HZ - time.perf_counter()))
-        await asyncio.gather(*listeners)
+        got: list[int] = []
+        latencies: list[float] = []
+        for w in workers:
+            line = await asyncio.wait_for(w.stdout.readline(), 60)  # type: ignore[union-attr]
+            result = json.loads(line)
+            got += result["received"]
+            latencies += result["latencies"]
+        await pub.close()
     finally:
-        for ws in [*subs, pub]:
-            with contextlib.suppress(Exception):
-                await ws.close()
-    got = [len(r) for r in received]
+        for w in workers:
+            if w.returncode is None:
+                with contextlib.suppress(ProcessLookupError):
+                    w.kill()
+            await w.wait()
     lat = np.array(latencies) if latencies else np.array([np.nan])
     return {
         "clients": n,
+        "processes": len(workers),
         "sent": total,
         "received_min": min(got),
         "lost_total": int(sum(total - g for g in got)),
@@ -253,7 +304,18 @@ def _stats(t: np.ndarray) -> dict[str, float]:
     }
 
 
-async def _measure(url: str, args: argparse.Namespace, ours: bool, advance) -> dict[str, Any]:
+def _cpu_seconds(pid: int) -> float | None:
+    """User + system CPU time of a process so far (Linux /proc), or None elsewhere."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+async def _measure(
+    url: str, args: argparse.Namespace, ours: bool, advance, pid: int
+) -> dict[str, Any]:
     out: dict[str, Any] = {"round_trip": {}, "fan_out": []}
     if ours:
         out["round_trip"]["bus service, inline"] = _stats(
@@ -269,7 +331,14 @@ async def _measure(url: str, args: argparse.Namespace, ours: bool, advance) -> d
     )
     advance()
     for n in [int(c) for c in args.clients.split(",") if c.strip()]:
-        out["fan_out"].append(await _fan_out(url, n, args.seconds, args.queue_length))
+        cpu0 = _cpu_seconds(pid)
+        result = await _fan_out(url, n, args.seconds, args.queue_length)
+        cpu1 = _cpu_seconds(pid)
+        if cpu0 is not None and cpu1 is not None:
+            # the server's CPU per message delivered to one subscriber
+            delivered = max(1, n * result["sent"] - result["lost_total"])
+            result["server_cpu_us_per_delivery"] = (cpu1 - cpu0) / delivered * 1e6
+        out["fan_out"].append(result)
         advance()
     return out
 
@@ -315,9 +384,9 @@ def run(args: argparse.Namespace) -> int:
         "queue_length": args.queue_length,
     }
     with progress("rosbridge bench", steps, enabled=not args.json) as advance:
-        with _server(cmd, port):
+        with _server(cmd, port) as proc:
             results["robotrial"] = asyncio.run(
-                _measure(f"ws://127.0.0.1:{port}/", args, True, advance)
+                _measure(f"ws://127.0.0.1:{port}/", args, True, advance, proc.pid)
             )
     rs_cmd, why = rosbridge_rs_status(args.rs_binary)
     if rs_cmd is None:
@@ -325,9 +394,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         rs_port = _free_port()
         try:
-            with _server([rs_cmd, "--port", str(rs_port)], rs_port):
+            with _server([rs_cmd, "--port", str(rs_port)], rs_port) as proc:
                 results["rosbridge_server_rs"] = asyncio.run(
-                    _measure(f"ws://127.0.0.1:{rs_port}/", args, False, lambda: None)
+                    _measure(f"ws://127.0.0.1:{rs_port}/", args, False, lambda: None, proc.pid)
                 )
         except RuntimeError as exc:
             results["rosbridge_server_rs"] = {"skipped": f"rosbridge-server-rs did not run: {exc}"}
@@ -359,11 +428,21 @@ def run(args: argparse.Namespace) -> int:
                     f["lost_total"],
                     f["latency_median_ms"],
                     f["latency_p99_ms"],
+                    f.get("server_cpu_us_per_delivery", float("nan")),
                 ]
             )
     print_table(
         f"/joint_states at {RATE_HZ:g} Hz, queue_length {args.queue_length}",
-        ["server", "clients", "sent", "min received", "lost", "latency median ms", "p99 ms"],
+        [
+            "server",
+            "clients",
+            "sent",
+            "min received",
+            "lost",
+            "latency median ms",
+            "p99 ms",
+            "server CPU us/delivery",
+        ],
         rows,
     )
     if "skipped" in results["rosbridge_server_rs"]:

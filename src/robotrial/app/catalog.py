@@ -65,14 +65,31 @@ class Catalog:
         self._lock = threading.Lock()
         self._building: dict[str, threading.Lock] = {}
         self._assets: dict[str, Asset] = {}
+        self._uploaded: dict[str, RobotModel] = {}
         self.default_robot = self.check_robot(robot)
         self.default_world = self.check_world(world)
 
     # --- names ---------------------------------------------------------------------
 
-    @staticmethod
-    def robot_names() -> list[str]:
-        return library.robot_names()
+    def robot_names(self) -> list[str]:
+        """The built-in robots, then the uploaded ones."""
+        with self._lock:
+            uploaded = list(self._uploaded)
+        return library.robot_names() + uploaded
+
+    def add_robot(self, name: str, model: RobotModel, glb: bytes | None = None) -> None:
+        """Offer an uploaded robot under `name` (a name not yet taken); `glb`: its RDTF
+        bytes when already built."""
+        with self._lock:
+            if name in self._uploaded or name in library.robot_names():
+                raise ValueError(f"robot name {name!r} is taken")
+            self._uploaded[name] = model
+            if glb is not None:
+                self._assets[f"robot/{name}"] = _asset(glb)
+
+    def is_uploaded(self, name: str) -> bool:
+        with self._lock:
+            return name in self._uploaded
 
     @staticmethod
     def world_names() -> list[str]:
@@ -94,7 +111,9 @@ class Catalog:
     # --- descriptions ----------------------------------------------------------------
 
     def robot(self, name: str) -> RobotModel:
-        return library.load_builtin_robot(self.check_robot(name))
+        with self._lock:
+            uploaded = self._uploaded.get(name)
+        return uploaded or library.load_builtin_robot(self.check_robot(name))
 
     def world(self, name: str) -> World:
         return library.load_builtin_world(self.check_world(name))
@@ -124,6 +143,7 @@ class Catalog:
                     "kind": kind,
                     "joints": len(model.actuated_joints),
                     "world": self.world_for(kind),
+                    "uploaded": self.is_uploaded(name),
                 }
             )
         return out
@@ -174,8 +194,11 @@ class Catalog:
             with self._lock:
                 if key in self._assets:
                     return self._assets[key]
-            data = build()
-            asset = Asset(data, '"' + hashlib.sha256(data).hexdigest()[:32] + '"')
+            asset = _asset(build())
             with self._lock:
                 self._assets[key] = asset
             return asset
+
+
+def _asset(data: bytes) -> Asset:
+    return Asset(data, '"' + hashlib.sha256(data).hexdigest()[:32] + '"')

@@ -10,6 +10,8 @@ becomes a file path except through StaticFiles, which stays inside its folder.
 from __future__ import annotations
 
 import logging
+import shutil
+import tempfile
 import threading
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -20,8 +22,20 @@ from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from pydantic import BaseModel
+from starlette.concurrency import run_in_threadpool
+from starlette.datastructures import FormData
+from starlette.datastructures import UploadFile as StarletteUpload
+from starlette.exceptions import HTTPException
+from starlette.formparsers import MultiPartException
 
 from robotrial.app.catalog import Asset, Catalog, UnknownName
+from robotrial.app.uploads import (
+    MAX_UPLOAD_BYTES,
+    UploadRefused,
+    UploadStore,
+    stored_name,
+    too_large_message,
+)
 from robotrial.model import library
 from robotrial.model.robot import ModelError
 
@@ -64,6 +78,14 @@ class RobotEntry(BaseModel):
     kind: str
     joints: int
     world: str
+    uploaded: bool = False
+
+
+class UploadAnswer(BaseModel):
+    """A robot accepted from an upload: its catalog entry and what the loader repaired."""
+
+    robot: RobotEntry
+    repairs: list[str]
 
 
 class RobotList(BaseModel):
@@ -121,12 +143,16 @@ def create_app(
     bus: Bus | None = None,
     static_dir: Path = STATIC_DIR,
     warm: bool = True,
+    uploads_dir: Path | None = None,
+    max_upload_bytes: int = MAX_UPLOAD_BYTES,
 ) -> FastAPI:
     """The web app, opening on `robot` in `world`.
 
     `bus`: the in-process topic/service bus to serve over rosbridge at `/rosbridge`
     (none: no rosbridge route). `warm`: build the default robot's and world's files in
     the background at start-up, so the first page load does not wait for them.
+    `uploads_dir`: where uploaded robots are kept (default: a temporary folder removed
+    when the server stops); `max_upload_bytes`: the largest upload taken.
     Raises ModelError if `robot` or `world` is not built in.
     """
     try:
@@ -134,11 +160,21 @@ def create_app(
     except UnknownName as exc:
         raise ModelError(str(exc)) from None
 
+    scratch = None
+    if uploads_dir is None:
+        scratch = tempfile.TemporaryDirectory(prefix="robotrial-uploads-")
+        uploads_dir = Path(scratch.name)
+    uploads = UploadStore(uploads_dir, max_bytes=max_upload_bytes)
+
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
         if warm:
             threading.Thread(target=_warm, args=(catalog,), daemon=True).start()
-        yield
+        try:
+            yield
+        finally:
+            if scratch is not None:
+                scratch.cleanup()
 
     app = FastAPI(
         title="robotrial",
@@ -147,6 +183,7 @@ def create_app(
         lifespan=lifespan,
     )
     app.state.catalog = catalog
+    app.state.uploads = uploads
 
     @app.exception_handler(UnknownName)
     async def unknown_name(_: Request, exc: UnknownName) -> JSONResponse:
@@ -185,6 +222,42 @@ def create_app(
         description and the robot's spawn pose, and the default robot and world."""
         return WorldList(default=Pair(**catalog.default_pair()), worlds=catalog.worlds())
 
+    @app.post(
+        "/api/robots/upload",
+        response_model=UploadAnswer,
+        status_code=201,
+        tags=["robots"],
+        responses={
+            400: {"description": "not a robot file, or a zip that is unsafe to unpack"},
+            413: {"description": "larger than the server takes"},
+            422: {"description": "the robot description is broken; detail says where"},
+        },
+    )
+    async def upload_robot(request: Request) -> Response:
+        """Add a robot from a multipart upload (field `file`): a .zip holding a URDF or
+        xacro with its meshes, a .urdf, a .xacro, or an RDTF .glb. It joins the robot
+        list under the name returned; its RDTF route works at once."""
+        try:
+            form = await _bounded_form(request, uploads.max_bytes)
+            sent = form.get("file")
+            if not isinstance(sent, StarletteUpload) or not sent.filename:
+                raise UploadRefused("no file: send the robot in the multipart field 'file'")
+            filename = stored_name(sent.filename)
+            folder = uploads.new_folder(filename)
+            with open(folder / filename, "wb") as out:
+                shutil.copyfileobj(sent.file, out)
+            robot = await run_in_threadpool(
+                uploads.load, filename, folder / filename, set(catalog.robot_names())
+            )
+            catalog.add_robot(robot.name, robot.model, robot.rdtf)
+        except UploadRefused as exc:
+            return JSONResponse({"detail": str(exc)}, status_code=exc.status)
+        except ModelError as exc:
+            return JSONResponse({"detail": str(exc)}, status_code=422)
+        entry = next(r for r in catalog.robots() if r["name"] == robot.name)
+        answer = UploadAnswer(robot=RobotEntry(**entry), repairs=list(robot.model.repairs))
+        return JSONResponse(answer.model_dump(), status_code=201)
+
     @app.get(
         "/api/robots/{name}.glb",
         tags=["robots"],
@@ -209,6 +282,35 @@ def create_app(
     if bus is not None:
         mount_rosbridge(app, bus)
     return app
+
+
+async def _bounded_form(request: Request, limit: int) -> FormData:
+    """The request's multipart form, refused with 413 as soon as the body passes
+    `limit` bytes (plus room for the multipart framing), before it is all read."""
+    message = too_large_message(limit)
+    slack = 64 * 1024
+    length = request.headers.get("content-length", "")
+    if length.isdigit() and int(length) > limit + slack:
+        raise UploadRefused(message, status=413)
+    body = bytearray()
+    async for chunk in request.stream():
+        body += chunk
+        if len(body) > limit + slack:
+            raise UploadRefused(message, status=413)
+    replayed = False
+
+    async def receive() -> dict[str, Any]:
+        nonlocal replayed
+        if replayed:
+            return {"type": "http.disconnect"}
+        replayed = True
+        return {"type": "http.request", "body": bytes(body), "more_body": False}
+
+    try:
+        return await Request(request.scope, receive).form(max_files=1, max_fields=10)
+    except (HTTPException, MultiPartException) as exc:
+        detail = getattr(exc, "detail", None) or getattr(exc, "message", str(exc))
+        raise UploadRefused(f"not a readable upload: {detail}") from None
 
 
 def _glb(asset: Asset, request: Request) -> Response:

@@ -421,6 +421,37 @@ def test_cbor_and_cbor_raw() -> None:
         back = store.deserialize_cdr(r["msg"]["bytes"], "sensor_msgs/msg/JointState")
         assert back.name == ["a", "b"] and list(back.position) == [1.5, -2.0]
 
+        # asked in the ROS 1 spelling, cbor-raw carries ROS 1 serialization
+        ros1 = Client(server)
+        await ros1.send(
+            {
+                "op": "subscribe",
+                "topic": "/joint_states",
+                "type": "sensor_msgs/JointState",
+                "compression": "cbor-raw",
+            }
+        )
+        bus.publish("/joint_states", msg)
+        r1 = cbor.loads(await ros1.frame())
+        back1 = get_typestore(Stores.ROS1_NOETIC).deserialize_ros1(
+            r1["msg"]["bytes"], "sensor_msgs/msg/JointState"
+        )
+        assert back1.name == ["a", "b"] and back1.header.seq == 0
+
+        # a client may speak CBOR too
+        await c.send(
+            cbor.dumps(
+                {
+                    "op": "call_service",
+                    "id": 9,
+                    "service": "/rosapi/topic_type",
+                    "args": {"topic": "/joint_states"},
+                }
+            )
+        )
+        resp = await c.recv_op("service_response")
+        assert resp["values"] == {"type": "sensor_msgs/msg/JointState"}
+
     run(main)
 
 

@@ -1,9 +1,10 @@
-"""ROS 2 CDR serialization (little-endian, XCDR1), for rosbridge's `cbor-raw` and bags.
+"""Binary ROS serializations, for rosbridge's `cbor-raw`: ROS 2 CDR and ROS 1.
 
 The bytes are what a ROS 2 node puts on the wire: a 4-byte encapsulation header
 (`00 01 00 00`), then the fields in order, each primitive aligned to its own size
 (counted from after the header), strings and sequences prefixed with a uint32 length.
-An empty message carries one zero byte, as rosidl generates.
+An empty message carries one zero byte, as rosidl generates. `serialize_ros1` writes
+the ROS 1 format for clients that asked in the ROS 1 dialect.
 """
 
 from __future__ import annotations
@@ -101,3 +102,65 @@ def serialize(msg: Any) -> bytes:
             f"{type(msg).__ros_type__}: value does not fit its type: {exc}"
         ) from None
     return bytes(w.buf)
+
+
+# ---------------------------------------------------------------- ROS 1
+
+
+def _ros1_field(buf: bytearray, spec: FieldSpec, value: Any) -> None:
+    if spec.msg is not None:
+        items = [value] if spec.array is None else value
+        if spec.array is not None and spec.array < 0:
+            buf += struct.pack("<I", len(items))
+        for item in items:
+            _ros1_message(buf, item)
+        return
+    if spec.array is None:
+        if spec.base == "string":
+            raw = value.encode("utf-8")
+            buf += struct.pack("<I", len(raw)) + raw
+        else:
+            buf += struct.pack(_FORMAT[spec.base], value)
+        return
+    if spec.array < 0:
+        buf += struct.pack("<I", len(value))
+    if spec.base == "string":
+        for item in value:
+            raw = item.encode("utf-8")
+            buf += struct.pack("<I", len(raw)) + raw
+    elif spec.base in BYTE_TYPES:
+        buf += bytes(value) if not isinstance(value, np.ndarray) else value.tobytes()
+    elif spec.base == "bool":
+        buf += bytes(bool(v) for v in value)
+    else:
+        buf += np.asarray(value, dtype=NUMPY_DTYPES[spec.base]).tobytes()
+
+
+def _ros1_message(buf: bytearray, msg: Message) -> None:
+    cls = type(msg)
+    r1 = cls.__ros1__
+    if r1.primitive:
+        # ROS 1 time: uint32 secs, uint32 nsecs; duration: int32 secs, int32 nsecs
+        fmt = "<II" if r1.primitive == "time" else "<ii"
+        buf += struct.pack(fmt, msg.sec, msg.nanosec)  # type: ignore[attr-defined]
+        return
+    for _, (rtype, value) in r1.extra.items():
+        buf += struct.pack(_FORMAT[rtype], value)
+    for spec in cls.__fields_spec__:
+        if spec.name not in r1.drop:
+            _ros1_field(buf, spec, getattr(msg, spec.name))
+
+
+def serialize_ros1(msg: Any) -> bytes:
+    """ROS 1 serialization of a message instance (what `rosbag` and rospy write):
+    little-endian, unaligned, length-prefixed strings and arrays, `seq` in headers."""
+    if not isinstance(msg, Message):
+        raise MessageError(f"ROS 1 serialization needs a known type, got {type(msg).__name__}")
+    buf = bytearray()
+    try:
+        _ros1_message(buf, msg)
+    except struct.error as exc:
+        raise MessageError(
+            f"{type(msg).__ros_type__}: value does not fit its type: {exc}"
+        ) from None
+    return bytes(buf)

@@ -181,7 +181,7 @@ class RosbridgeServer:
 
             ns = time.time_ns()
             raw = {"secs": ns // 1_000_000_000, "nsecs": ns % 1_000_000_000}
-            raw["bytes"] = cdr.serialize(msg)
+            raw["bytes"] = cdr.serialize_ros1(msg) if dialect == "ros1" else cdr.serialize(msg)
             return encoding.encode_op({"op": "publish", "topic": topic, "msg": raw}, "cbor")
         if isinstance(msg, Message):
             body = msg.to_wire(dialect) if compression == "cbor" else msg.to_dict(dialect)

@@ -171,7 +171,10 @@ def run(args: argparse.Namespace) -> int:
         console.print(f"[red]robotrial sim: {exc}")
         return 2
     if args.drive != "none" and sim.base is None:
-        console.print(f"[red]robotrial sim: robot {robot.name!r} has no mobile base to drive")
+        console.print(
+            f"[red]robotrial sim: robot {robot.name!r} has no mobile base to drive; "
+            "use --drive none"
+        )
         return 2
 
     bus = Bus()
@@ -256,7 +259,7 @@ def run(args: argparse.Namespace) -> int:
     png = Path(args.plot) if args.plot else None
     if png is None and args.record:
         png = Path(args.record).with_suffix(".png")
-    if png is not None:
+    if png is not None and truth:
         plot_trajectories(png, truth, odom, f"{robot.name} in {world.name}: {args.drive} drive")
         result["plot"] = str(png)
     if args.record:

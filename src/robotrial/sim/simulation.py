@@ -180,14 +180,18 @@ class Simulation:
         robot: RobotModel | str,
         seed: int = 0,
         spawn: Pose | str = "default",
-        base: str = "planar",
+        base: str = "auto",
         options: SimOptions | None = None,
     ) -> Simulation:
-        """Build from a world and a robot (objects, built-in names or files)."""
+        """Build from a world and a robot (objects, built-in names or files). `base`:
+        "planar", "free", "fixed", or "auto": planar for a robot with a `<drive>`, else
+        fixed."""
         from robotrial.model import load_robot, load_world
 
         w = load_world(world) if isinstance(world, str) else world
         r = load_robot(robot) if isinstance(robot, str) else robot
+        if base == "auto":
+            base = "planar" if r.metadata.get("drive") else "fixed"
         pose = w.spawn(spawn) if isinstance(spawn, str) else spawn
         model = compile_world(w, r, base=base, spawn=pose)
         sw = SimWorld(model, seed=seed, base_body=r.root)

@@ -225,3 +225,18 @@ def test_typescript_generation(tmp_path) -> None:
     assert len(names) == len(set(names))
     for name in msgs.MESSAGES:
         assert f'"{name}":' in ts
+
+
+def test_full_definitions_decode_cdr_like_ros2_tools() -> None:
+    """mcap_ros2 parses `.msg` text the way Foxglove's and ROS 2's tools do: the
+    definitions rosapi hands out must describe the bytes exactly."""
+    from mcap_ros2._dynamic import generate_dynamic
+
+    for name, cls in msgs.MESSAGES.items():
+        decoder = generate_dynamic(name, full_definition(cls))[name]
+        sample = cls()
+        if "header" in cls.__field_map__:
+            sample.header = Header(stamp=Time(7, 8), frame_id="map")
+        decoded = decoder(cdr.serialize(sample))
+        if "header" in cls.__field_map__:
+            assert decoded.header.frame_id == "map" and decoded.header.stamp.nanosec == 8, name

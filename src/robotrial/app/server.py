@@ -29,6 +29,7 @@ from starlette.exceptions import HTTPException
 from starlette.formparsers import MultiPartException
 
 from robotrial.app.catalog import Asset, Catalog, UnknownName
+from robotrial.app.live import LivePlatform, runs_live
 from robotrial.app.uploads import (
     MAX_UPLOAD_BYTES,
     UploadRefused,
@@ -36,6 +37,7 @@ from robotrial.app.uploads import (
     stored_name,
     too_large_message,
 )
+from robotrial.geometry import Pose
 from robotrial.model import library
 from robotrial.model.robot import ModelError
 
@@ -64,6 +66,21 @@ class Pair(BaseModel):
     world: str
 
 
+class SpawnPose(BaseModel):
+    xyz: list[float]
+    quat: list[float]
+
+
+class LiveInfo(BaseModel):
+    """The simulated platform streaming on rosbridge: which robot in which world, and
+    where its odom and map frames start in the world (the spawn pose)."""
+
+    robot: str
+    world: str
+    origin: SpawnPose
+    error: str | None = None
+
+
 class Config(BaseModel):
     """What the page needs to start."""
 
@@ -71,6 +88,7 @@ class Config(BaseModel):
     world: str
     rosbridge: str
     rosbridge_enabled: bool
+    live: LiveInfo | None = None
 
 
 class RobotEntry(BaseModel):
@@ -91,11 +109,6 @@ class UploadAnswer(BaseModel):
 class RobotList(BaseModel):
     default: Pair
     robots: list[RobotEntry]
-
-
-class SpawnPose(BaseModel):
-    xyz: list[float]
-    quat: list[float]
 
 
 class WorldEntry(BaseModel):
@@ -145,6 +158,7 @@ def create_app(
     warm: bool = True,
     uploads_dir: Path | None = None,
     max_upload_bytes: int = MAX_UPLOAD_BYTES,
+    live: bool = False,
 ) -> FastAPI:
     """The web app, opening on `robot` in `world`.
 
@@ -152,7 +166,9 @@ def create_app(
     (none: no rosbridge route). `warm`: build the default robot's and world's files in
     the background at start-up, so the first page load does not wait for them.
     `uploads_dir`: where uploaded robots are kept (default: a temporary folder removed
-    when the server stops); `max_upload_bytes`: the largest upload taken.
+    when the server stops); `max_upload_bytes`: the largest upload taken. `live`: with a
+    `bus`, a mobile robot in a room runs as a live platform (simulator and SLAM on the
+    bus, real time; robotrial.app.live) while the server runs.
     Raises ModelError if `robot` or `world` is not built in.
     """
     try:
@@ -165,14 +181,27 @@ def create_app(
         scratch = tempfile.TemporaryDirectory(prefix="robotrial-uploads-")
         uploads_dir = Path(scratch.name)
     uploads = UploadStore(uploads_dir, max_bytes=max_upload_bytes)
+    platform: LivePlatform | None = None
+    if live and bus is not None:
+        robot_model = catalog.robot(catalog.default_robot)
+        world_model = catalog.world(catalog.default_world)
+        if runs_live(robot_model, world_model):
+            spawn = next(w for w in catalog.worlds() if w["name"] == catalog.default_world)
+            platform = LivePlatform(
+                bus, robot_model, world_model, Pose(spawn["spawn"]["xyz"], spawn["spawn"]["quat"])
+            )
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
         if warm:
             threading.Thread(target=_warm, args=(catalog,), daemon=True).start()
+        if platform is not None:
+            platform.start()
         try:
             yield
         finally:
+            if platform is not None:
+                platform.stop()
             if scratch is not None:
                 scratch.cleanup()
 
@@ -208,6 +237,14 @@ def create_app(
             world=catalog.default_world,
             rosbridge=ROSBRIDGE_PATH,
             rosbridge_enabled=bus is not None,
+            live=None
+            if platform is None
+            else LiveInfo(
+                robot=catalog.default_robot,
+                world=catalog.default_world,
+                origin=SpawnPose(xyz=list(platform.spawn.xyz), quat=list(platform.spawn.quat)),
+                error=platform.error,
+            ),
         )
 
     @app.get("/api/robots", response_model=RobotList, tags=["robots"])

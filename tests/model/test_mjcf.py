@@ -540,6 +540,18 @@ def test_huge_meshes_are_simplified_below_mujocos_limit() -> None:
     assert radii.min() > 0.199 and radii.max() < 0.2001
 
 
+def test_a_lower_triangle_budget_makes_lighter_documents() -> None:
+    robot = load_robot(ERD / "panda_description/urdf/panda.urdf")
+    full = to_mjcf(robot)
+    light = to_mjcf(robot, max_mesh_faces=2000)
+    assert sum(map(len, light.assets.values())) < sum(map(len, full.assets.values())) / 2
+    model = light.compile()
+    assert model.mesh_facenum.max() <= 2000
+    assert any("simplified" in n for n in light.notes)
+    with pytest.raises(ModelError, match="max_mesh_faces"):
+        to_mjcf(robot, max_mesh_faces=10**6)
+
+
 def test_simplified_mesh_stays_within_a_grid_cell_of_the_original() -> None:
     sphere = trimesh.creation.icosphere(subdivisions=5, radius=1.0)
     simple = simplify_mesh(MeshData(sphere.vertices, sphere.faces), max_faces=2000)

@@ -209,16 +209,17 @@ def _mesh_key(mesh: Mesh) -> tuple | None:
     return (mesh.filename, st.st_mtime_ns, st.st_size, mesh.scale)
 
 
-def _stl(mesh: Mesh) -> _Stl:
+def _stl(mesh: Mesh, max_faces: int) -> _Stl:
     """The STL of a mesh: scaled, mirrored faces flipped, degenerate faces dropped,
-    simplified below MAX_MESH_FACES. Cached per file, so repeated documents are cheap."""
+    simplified to at most `max_faces`. Cached per file, so repeated documents are cheap."""
     key = _mesh_key(mesh)
+    key = None if key is None else (*key, max_faces)
     if key is not None and key in _stl_cache:
         return _stl_cache[key]
     data = load_mesh(mesh)
     before = len(data.faces)
-    if before > MAX_MESH_FACES:
-        data = simplify_mesh(data)
+    if before > max_faces:
+        data = simplify_mesh(data, max_faces)
     faces = data.faces
     if np.prod(np.sign(mesh.scale)) < 0:  # mirrored: keep the triangles facing outwards
         faces = faces[:, ::-1]
@@ -241,7 +242,8 @@ def _stl(mesh: Mesh) -> _Stl:
 class _MeshTable:
     """Mesh assets of one document: one STL per distinct (file, scale) or in-memory mesh."""
 
-    def __init__(self) -> None:
+    def __init__(self, max_faces: int) -> None:
+        self.max_faces = max_faces
         self.assets: dict[str, bytes] = {}
         self._by_key: dict[object, _Stl | ModelError] = {}
         self._by_digest: dict[str, str] = {}
@@ -256,7 +258,7 @@ class _MeshTable:
         key: object = (mesh.filename, mesh.scale) if mesh.data is None else id(mesh.data)
         if key not in self._by_key:
             try:
-                self._by_key[key] = _stl(mesh)
+                self._by_key[key] = _stl(mesh, self.max_faces)
             except ModelError as exc:
                 self._by_key[key] = exc
         found = self._by_key[key]
@@ -269,10 +271,10 @@ class _MeshTable:
         if found.blob is None:
             notes.append(f"{where}: mesh {label} is flat or empty; left out")
             return None
-        if found.faces_before > MAX_MESH_FACES:
+        if found.faces_before > self.max_faces:
             notes.append(
                 f"{where}: mesh {label} simplified from {found.faces_before} to "
-                f"{found.faces_after} triangles (MuJoCo's limit is {MAX_MESH_FACES})"
+                f"{found.faces_after} triangles (limit {self.max_faces})"
             )
         if found.digest not in self._by_digest:
             stem = _file_stem(Path(mesh.filename).stem if mesh.filename else "mesh")
@@ -372,6 +374,7 @@ class _Options:
     self_collision: bool
     visuals: bool
     collisions: bool
+    max_mesh_faces: int
 
 
 def _per_joint(value, joint: str, default):
@@ -384,7 +387,7 @@ class _Writer:
     def __init__(self, opts: _Options) -> None:
         self.opts = opts
         self.notes: list[str] = []
-        self.meshes = _MeshTable()
+        self.meshes = _MeshTable(opts.max_mesh_faces)
         self.actuators: list[ET.Element] = []
         self.equalities: list[ET.Element] = []
         self.sensors: list[ET.Element] = []
@@ -679,6 +682,7 @@ def to_mjcf(
     self_collision: bool = False,
     visuals: bool = True,
     collisions: bool = True,
+    max_mesh_faces: int = MAX_MESH_FACES,
     name: str = "",
 ) -> MjcfDocument:
     """Build the MJCF of a robot, a world, or a robot standing in a world.
@@ -692,7 +696,9 @@ def to_mjcf(
     missing from a mapping get none. `kp`/`kv`: servo gains (a number or per joint).
     `armature` (kg m^2 or kg) is added to every robot joint for numerical stability.
     `self_collision`: let the robot's non-adjacent links collide with each other
-    (pairs already touching in the zero configuration are excluded).
+    (pairs already touching in the zero configuration are excluded). `max_mesh_faces`:
+    meshes with more triangles are simplified (at most MuJoCo's STL limit, 200,000; less
+    makes lighter documents for a browser).
     """
     if robot is None and world is None:
         raise ModelError("to_mjcf needs a robot, a world or both")
@@ -709,7 +715,11 @@ def to_mjcf(
             raise ModelError(f"actuators name joints the robot does not have: {unknown}")
     if spawn is None:
         spawn = world.spawns.get("default", Pose()) if world is not None else Pose()
-    opts = _Options(actuators, kp, kv, armature, self_collision, visuals, collisions)
+    if not 4 <= max_mesh_faces <= MAX_MESH_FACES:
+        raise ModelError(f"max_mesh_faces must be in [4, {MAX_MESH_FACES}], got {max_mesh_faces}")
+    opts = _Options(
+        actuators, kp, kv, armature, self_collision, visuals, collisions, max_mesh_faces
+    )
     doc_name = name or "+".join(x.name for x in (robot, world) if x is not None)
     doc = _build(doc_name, robot, world, base, spawn, opts, timestep, excludes=())
     if self_collision and robot is not None:

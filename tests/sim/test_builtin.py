@@ -88,3 +88,43 @@ def test_scan_in_room_b_sees_the_cylinder():
     ahead = round((0.0 - scan.angle_min) / scan.angle_increment)
     want = 3.89 - pose[0, 3] - 0.5
     assert scan.ranges[ahead] == pytest.approx(want, abs=0.01)
+
+
+def test_lidar_sees_mesh_obstacles_where_they_stand(tmp_path):
+    import trimesh
+
+    from robotrial.model.world import world_from_dict
+
+    trimesh.creation.box(extents=(0.6, 0.6, 1.0)).export(tmp_path / "crate.stl")
+    world = world_from_dict(
+        {
+            "name": "mesh_room",
+            "floor": {"size": [20, 20]},
+            "obstacles": [
+                {
+                    "name": "crate",
+                    "shape": "mesh",
+                    "file": "crate.stl",
+                    "pose": {"xyz": [3.0, 0.5, 0.5], "rpy": [0, 0, 0.3]},
+                }
+            ],
+        },
+        base=tmp_path,
+    )
+    opts = SimOptions(cameras=False, streams={"velodyne": StreamSettings(noise=0.0)})
+    sim = Simulation.create(
+        world, "mobile_manipulator", spawn=Pose.from_xy_yaw(0.0, 0.5, 0.0), options=opts
+    )
+    sim.start()
+    scan = sim.latest["scan"].data
+    lidar = sim.frame_pose(scan.frame)
+    ahead = round((0.0 - scan.angle_min) / scan.angle_increment)
+    # the crate's face towards the robot, rotated by 0.3 rad, seen along the x axis
+    c, s = np.cos(0.3), np.sin(0.3)
+    # ray from (lx, 0.5) along +x hits the crate boundary |R^T (p - centre)| <= 0.3
+    t = np.linspace(0, 5, 50001)
+    px, py = lidar[0, 3] + t - 3.0, np.zeros_like(t) + lidar[1, 3] - 0.5
+    inside = (np.abs(c * px + s * py) <= 0.3) & (np.abs(-s * px + c * py) <= 0.3)
+    want = t[np.argmax(inside)]
+    assert scan.ranges[ahead] == pytest.approx(want, abs=0.01)
+    sim.close()

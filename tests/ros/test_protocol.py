@@ -219,6 +219,12 @@ ERRORS = [
     ({"op": "set_level", "id": "l", "level": "loud"}, "l", "level must be one of"),
     ({"op": "service_response", "id": None}, None, "missing field 'id'"),
     (b"\xff\x00\x13garbage", None, "neither JSON nor valid CBOR"),
+    (
+        '{"op": "publish", "id": "deep", "msg": ' + "[" * 100 + "]" * 100 + "}",
+        "deep",
+        "nested deeper",
+    ),
+    (b"[" * 5000 + b"]" * 5000, None, "nested too deeply"),
 ]
 
 

@@ -39,6 +39,25 @@ def _sanitize(obj: Any) -> Any:
     return obj
 
 
+MAX_DEPTH = 64  # nesting of objects and arrays a client may send
+
+
+def check_depth(value: Any, where: str, limit: int = MAX_DEPTH) -> None:
+    """Refuse data nested deeper than `limit` (it would have to be re-encoded for others)."""
+    stack = [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, dict):
+            children = item.values()
+        elif isinstance(item, list | tuple):
+            children = item
+        else:
+            continue
+        if depth > limit:
+            raise ProtocolError(f"{where} is nested deeper than {limit} levels")
+        stack.extend((c, depth + 1) for c in children)
+
+
 def dumps(op: dict[str, Any]) -> str:
     """Compact JSON text of an operation; non-finite floats written as null."""
     try:
@@ -57,8 +76,12 @@ def loads(data: str | bytes) -> Any:
                 return json.loads(raw.decode("utf-8"))
             except (UnicodeDecodeError, json.JSONDecodeError) as exc:
                 raise ProtocolError(f"invalid JSON: {exc}") from None
+            except RecursionError:
+                raise ProtocolError("invalid JSON: nested too deeply") from None
         try:
             return cbor.loads(raw)
+        except RecursionError:
+            raise ProtocolError("CBOR nested too deeply") from None
         except Exception as exc:
             raise ProtocolError(f"binary frame is neither JSON nor valid CBOR: {exc}") from None
     try:

@@ -281,6 +281,12 @@ class Session:
         if not isinstance(op, dict):
             self.status("error", f"expected a JSON object with an 'op', got {type(op).__name__}")
             return
+        try:
+            encoding.check_depth(op, "the operation")
+        except ProtocolError as exc:
+            oid = op.get("id")
+            self.status("error", str(exc), oid if isinstance(oid, str | int) else None)
+            return
         oid = op.get("id")
         name = op.get("op")
         if not isinstance(name, str):
@@ -631,7 +637,16 @@ class Session:
                         continue
                 msg = sub.queue.popleft()
                 sub.last_sent = now
-                frame = self.server.encode_publish(sub.wire_name, msg, sub.dialect, sub.compression)
+                try:
+                    frame = self.server.encode_publish(
+                        sub.wire_name, msg, sub.dialect, sub.compression
+                    )
+                except Exception as exc:
+                    log.warning("message on %s not encodable: %s", sub.topic, exc)
+                    self.status(
+                        "error", f"a message on {sub.wire_name} could not be encoded: {exc}"
+                    )
+                    continue
                 if isinstance(frame, str) and sub.fragment_size:
                     fid = f"publish:{sub.topic}:{self.server.next_id()}"
                     for piece in encoding.fragments(frame, sub.fragment_size, fid):

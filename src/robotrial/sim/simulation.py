@@ -244,6 +244,8 @@ class Simulation:
             params = dict(s.params)
             if st.noise is not None:
                 params["noise"] = st.noise
+                if s.type == "imu":
+                    params["noise_gyro"] = params["noise_accel"] = st.noise
             if s.type == "lidar":
                 pattern = LidarPattern.from_params(params)
                 scene = None

@@ -86,9 +86,10 @@ class Inflation:
         d = np.asarray(distance, dtype=float)
         out = np.zeros(d.shape, dtype=np.uint8)
         decay = MAX_INFLATED * np.exp(-self.cost_scaling * (d - inscribed_radius))
-        spread = (d > inscribed_radius) & (d <= max(self.radius, inscribed_radius))
+        eps = 1e-9  # distances are cell counts times the resolution: 3 * 0.1 > 0.3
+        spread = d <= max(self.radius, inscribed_radius) + eps
         out[spread] = np.clip(decay[spread], 0, MAX_INFLATED).astype(np.uint8)
-        out[d <= inscribed_radius] = INSCRIBED
+        out[d <= inscribed_radius + eps] = INSCRIBED
         out[d <= 0] = LETHAL
         return out
 

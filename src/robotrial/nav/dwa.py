@@ -11,6 +11,7 @@ cells:
          + heading_bias * (angle between the end heading and the way to a carrot
                            `lookahead` m further along the path)
          + obstacle_bias * (highest inflation cost along the arc) / 252
+         + collision_penalty * (1 if the arc hits something after the stopping horizon)
 
 The footprint is covered by circles (`Footprint.circles`); an arc is admissible when
 every circle stays `margin` clear of obstacles in the costmap's distance field for as
@@ -42,10 +43,11 @@ class DWAConfig:
     sim_dt: float = 0.1
     v_samples: int = 8
     w_samples: int = 21
-    path_bias: float = 2.0
+    path_bias: float = 0.6
     progress_bias: float = 1.0
-    heading_bias: float = 0.3
+    heading_bias: float = 0.1
     obstacle_bias: float = 0.3
+    collision_penalty: float = 1.0
     lookahead: float = 1.0
     margin: float = 0.03
 
@@ -164,9 +166,10 @@ class DWAPlanner:
         # second; what lies beyond is seen again in later periods
         horizon = np.abs(v) / c.acc_lim_v + 1.0
         t = c.sim_dt * np.arange(1, steps + 1)
-        clear = footprint_clearance(costmap, self.footprint, traj)
-        clear = np.where(t[None, :] <= horizon[:, None], clear, np.inf).min(axis=1)
+        clear_all = footprint_clearance(costmap, self.footprint, traj)
+        clear = np.where(t[None, :] <= horizon[:, None], clear_all, np.inf).min(axis=1)
         ok = clear >= c.margin
+        late_hit = clear_all.min(axis=1) < c.margin
         if not ok.any():
             return DWAResult(0.0, 0.0, False, traj[:0, 0], len(v))
         end = traj[:, -1, :2]
@@ -192,6 +195,7 @@ class DWAPlanner:
             - c.progress_bias * progress
             + c.heading_bias * heading
             + c.obstacle_bias * obst
+            + c.collision_penalty * late_hit
         )
         score[~ok] = np.inf
         k = int(np.argmin(score))

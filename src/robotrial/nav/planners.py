@@ -235,7 +235,7 @@ def smooth(path: np.ndarray, costmap: Costmap, window: float = 0.5) -> np.ndarra
     """The path with its grid stair-steps averaged out over `window` m; the ends stay,
     and a point whose average would enter an inscribed cell keeps its place."""
     p = np.asarray(path, dtype=float)
-    k = int(round(window / costmap.resolution)) | 1
+    k = round(window / costmap.resolution) | 1
     if len(p) < 3 or k < 3:
         return p
     pad = k // 2

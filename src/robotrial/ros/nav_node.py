@@ -1,0 +1,249 @@
+"""The navigation stack on the bus: AMCL and the navigator behind ROS topics (layer 4).
+
+`NavNode` plays move_base + amcl. It holds no algorithm of its own: it feeds
+`robotrial.nav.AMCL` and `robotrial.nav.Navigator` from messages and publishes what they
+produce.
+
+| direction | topic | type |
+| --- | --- | --- |
+| in | `/map` | nav_msgs/OccupancyGrid (latched; builds the costmaps and AMCL) |
+| in | `/initialpose` | geometry_msgs/PoseWithCovarianceStamped (AMCL's initial guess) |
+| in | `/odom` | nav_msgs/Odometry (drives the control loop at `control_rate`) |
+| in | `/scan` | sensor_msgs/LaserScan (AMCL update, obstacle layers) |
+| in | `/move_base_simple/goal` | geometry_msgs/PoseStamped |
+| out | `/cmd_vel` | geometry_msgs/Twist |
+| out | `/plan` | nav_msgs/Path |
+| out | `/move_base/global_costmap/costmap` | nav_msgs/OccupancyGrid (on each new plan) |
+| out | `/move_base/local_costmap/costmap` | nav_msgs/OccupancyGrid (on each scan) |
+| out | `/amcl_pose` | geometry_msgs/PoseWithCovarianceStamped |
+| out | `/particlecloud` | geometry_msgs/PoseArray |
+| out | `/move_base/status` | std_msgs/String (idle, active, succeeded or aborted: why) |
+
+Costmap cells go out as 0..100 (costmap_2d's cost * 100 / 253, lethal 100) and -1 for
+unknown.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from robotrial.msgs.builtin_interfaces import Time
+from robotrial.msgs.geometry_msgs import (
+    Point,
+    Pose,
+    PoseArray,
+    PoseStamped,
+    PoseWithCovariance,
+    PoseWithCovarianceStamped,
+    Quaternion,
+    Twist,
+    Vector3,
+)
+from robotrial.msgs.nav_msgs import MapMetaData, OccupancyGrid, Odometry, Path
+from robotrial.msgs.sensor_msgs import LaserScan
+from robotrial.msgs.std_msgs import Header, String
+from robotrial.nav.amcl import AMCL, AMCLConfig, compose, inverse
+from robotrial.nav.costmap import LETHAL, UNKNOWN, Costmap, Footprint
+from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
+from robotrial.ros.bus import Bus, Node
+
+GLOBAL_COSTMAP = "/move_base/global_costmap/costmap"
+LOCAL_COSTMAP = "/move_base/local_costmap/costmap"
+
+
+def _yaw(q: Quaternion) -> float:
+    return float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)))
+
+
+def _quat(yaw: float) -> Quaternion:
+    return Quaternion(x=0.0, y=0.0, z=float(np.sin(yaw / 2)), w=float(np.cos(yaw / 2)))
+
+
+def _pose(x: float, y: float, yaw: float) -> Pose:
+    return Pose(position=Point(x=float(x), y=float(y), z=0.0), orientation=_quat(yaw))
+
+
+def costmap_message(cm: Costmap, stamp: float, frame: str = "map") -> OccupancyGrid:
+    """A costmap as nav_msgs/OccupancyGrid (0..100, -1 unknown)."""
+    cost = cm.cost.astype(np.int32)
+    data = np.where(cost >= LETHAL, 100, (cost * 100) // 253)
+    data[cost == UNKNOWN] = -1
+    rows, cols = cm.shape
+    return OccupancyGrid(
+        header=Header(stamp=Time.from_sec(stamp), frame_id=frame),
+        info=MapMetaData(
+            map_load_time=Time.from_sec(stamp),
+            resolution=cm.resolution,
+            width=cols,
+            height=rows,
+            origin=_pose(cm.origin[0], cm.origin[1], 0.0),
+        ),
+        data=data.astype(np.int8).ravel().tolist(),
+    )
+
+
+class NavNode(Node):
+    """AMCL + navigator on the bus (see the module docstring for the topics)."""
+
+    def __init__(
+        self,
+        bus: Bus,
+        footprint: Footprint,
+        config: NavigatorConfig | None = None,
+        amcl_config: AMCLConfig | None = None,
+        laser_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        name: str = "move_base",
+        seed: int = 0,
+    ) -> None:
+        super().__init__(bus, name)
+        self.footprint = footprint
+        self.config = config or NavigatorConfig()
+        self.amcl_config = amcl_config or AMCLConfig()
+        self.laser_pose = np.asarray(laser_pose, dtype=float)
+        self.seed = seed
+        self.navigator: Navigator | None = None
+        self.amcl: AMCL | None = None
+        self.map_to_odom = np.zeros(3)
+        self.odom = np.zeros(3)
+        self.velocity = (0.0, 0.0)
+        self._initial: tuple[np.ndarray, np.ndarray] | None = None
+        self._pending_goal: np.ndarray | None = None
+        self._next_control = -np.inf
+        self._last_status = ""
+        self._plans = 0
+        self.cmd_pub = self.create_publisher("/cmd_vel", Twist)
+        self.plan_pub = self.create_publisher("/plan", Path)
+        self.global_pub = self.create_publisher(GLOBAL_COSTMAP, OccupancyGrid, latched=True)
+        self.local_pub = self.create_publisher(LOCAL_COSTMAP, OccupancyGrid)
+        self.pose_pub = self.create_publisher("/amcl_pose", PoseWithCovarianceStamped)
+        self.cloud_pub = self.create_publisher("/particlecloud", PoseArray)
+        self.status_pub = self.create_publisher("/move_base/status", String, latched=True)
+        self.create_subscription("/map", OccupancyGrid, self._on_map)
+        self.create_subscription("/initialpose", PoseWithCovarianceStamped, self._on_initial)
+        self.create_subscription("/move_base_simple/goal", PoseStamped, self._on_goal)
+        self.create_subscription("/odom", Odometry, self._on_odom)
+        self.create_subscription("/scan", LaserScan, self._on_scan)
+
+    # --- inputs ------------------------------------------------------------------------
+
+    def _on_map(self, msg: OccupancyGrid) -> None:
+        info = msg.info
+        if info.width * info.height != len(msg.data):
+            raise ValueError(
+                f"/map: {info.width} x {info.height} cells announced, {len(msg.data)} sent"
+            )
+        data = np.asarray(msg.data, dtype=np.int16).reshape(info.height, info.width)
+        occupied, unknown = data >= 65, data < 0
+        origin = (info.origin.position.x, info.origin.position.y)
+        self.navigator = Navigator(
+            occupied, origin, info.resolution, self.footprint, self.config, unknown
+        )
+        self.amcl = AMCL(occupied, origin, info.resolution, self.amcl_config, seed=self.seed)
+        mean, std = self._initial or (np.zeros(3), np.array([0.25, 0.25, 0.2]))
+        self.amcl.initialize(tuple(mean), tuple(std))
+        self.map_to_odom = compose(mean, inverse(self.odom))
+        stamp = msg.header.stamp.to_sec()
+        self.global_pub.publish(costmap_message(self.navigator.global_costmap, stamp))
+        if self._pending_goal is not None:
+            self.navigator.set_goal(*self._pending_goal)
+            self._pending_goal = None
+
+    def _on_initial(self, msg: PoseWithCovarianceStamped) -> None:
+        p = msg.pose.pose
+        mean = np.array([p.position.x, p.position.y, _yaw(p.orientation)])
+        cov = np.asarray(msg.pose.covariance, dtype=float).reshape(6, 6)
+        std = np.sqrt(np.maximum([cov[0, 0], cov[1, 1], cov[5, 5]], 1e-4))
+        self._initial = (mean, std)
+        if self.amcl is not None:
+            self.amcl.initialize(tuple(mean), tuple(std))
+            self.map_to_odom = compose(mean, inverse(self.odom))
+
+    def _on_goal(self, msg: PoseStamped) -> None:
+        p = msg.pose
+        goal = np.array([p.position.x, p.position.y, _yaw(p.orientation)])
+        if self.navigator is None:
+            self._pending_goal = goal
+            return
+        self.navigator.set_goal(*goal, now=msg.header.stamp.to_sec())
+        self._next_control = -np.inf
+
+    def _on_odom(self, msg: Odometry) -> None:
+        p = msg.pose.pose
+        self.odom = np.array([p.position.x, p.position.y, _yaw(p.orientation)])
+        self.velocity = (msg.twist.twist.linear.x, msg.twist.twist.angular.z)
+        now = msg.header.stamp.to_sec()
+        if self.navigator is None or now < self._next_control:
+            return
+        self._next_control = now + self.config.dwa.period
+        nav = self.navigator
+        active = nav.status is Status.ACTIVE
+        plans = len(nav.plan_times)
+        v, w = nav.step(now, tuple(self.pose()), self.velocity)
+        if active:
+            self.cmd_pub.publish(
+                Twist(linear=Vector3(x=v, y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=w))
+            )
+        if len(nav.plan_times) != plans and nav.path is not None:
+            self._publish_plan(nav.path, now)
+        status = nav.status.value + (f": {nav.message}" if nav.message else "")
+        if status != self._last_status:
+            self._last_status = status
+            self.status_pub.publish(String(data=status))
+
+    def _on_scan(self, msg: LaserScan) -> None:
+        if self.amcl is None or self.navigator is None:
+            return
+        ranges = np.asarray(msg.ranges, dtype=float)
+        angles = msg.angle_min + msg.angle_increment * np.arange(len(ranges))
+        ranges = np.where((ranges >= msg.range_min) & (ranges < msg.range_max), ranges, np.inf)
+        stamp = msg.header.stamp.to_sec()
+        if self.amcl.update(tuple(self.odom), ranges, angles, tuple(self.laser_pose)):
+            self.map_to_odom = self.amcl.map_to_odom(self.odom)
+            self._publish_amcl(stamp)
+        sensor = compose(self.pose(), self.laser_pose)
+        ok = np.isfinite(ranges)
+        a = sensor[2] + angles[ok]
+        pts = np.column_stack(
+            [sensor[0] + ranges[ok] * np.cos(a), sensor[1] + ranges[ok] * np.sin(a)]
+        )
+        self.navigator.observe((float(sensor[0]), float(sensor[1])), pts)
+        if self.navigator.local_costmap is not None:
+            self.local_pub.publish(costmap_message(self.navigator.local_costmap, stamp))
+
+    # --- outputs -----------------------------------------------------------------------
+
+    def pose(self) -> np.ndarray:
+        """The robot's pose on the map: map -> odom (AMCL) composed with odometry."""
+        return compose(self.map_to_odom, self.odom)
+
+    def _publish_plan(self, path: np.ndarray, stamp: float) -> None:
+        head = Header(stamp=Time.from_sec(stamp), frame_id="map")
+        d = np.diff(path, axis=0)
+        yaws = np.append(np.arctan2(d[:, 1], d[:, 0]), self.navigator.goal[2])
+        self.plan_pub.publish(
+            Path(
+                header=head,
+                poses=[
+                    PoseStamped(header=head, pose=_pose(x, y, t))
+                    for (x, y), t in zip(path, yaws, strict=True)
+                ],
+            )
+        )
+        self.global_pub.publish(costmap_message(self.navigator.global_costmap, stamp))
+
+    def _publish_amcl(self, stamp: float) -> None:
+        est, cov = self.amcl.estimate()
+        c = np.zeros((6, 6))
+        c[:2, :2] = cov[:2, :2]
+        c[5, 5] = cov[2, 2]
+        c[:2, 5] = c[5, :2] = cov[:2, 2]
+        head = Header(stamp=Time.from_sec(stamp), frame_id="map")
+        self.pose_pub.publish(
+            PoseWithCovarianceStamped(
+                header=head,
+                pose=PoseWithCovariance(pose=_pose(*est), covariance=c.ravel().tolist()),
+            )
+        )
+        self.cloud_pub.publish(
+            PoseArray(header=head, poses=[_pose(*p) for p in self.amcl.particles])
+        )

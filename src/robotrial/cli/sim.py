@@ -34,8 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--drive",
         choices=("square", "keys", "none"),
-        default="square",
-        help="scripted square, keyboard teleop, or standing still",
+        default=None,
+        help="scripted square (default for a mobile robot), keyboard teleop, "
+        "or standing still (default for an arm)",
     )
     parser.add_argument("--side", type=float, default=2.0, help="side of the square (m)")
     parser.add_argument("--speed", type=float, default=0.5, help="driving speed (m/s)")
@@ -166,7 +167,12 @@ def run(args: argparse.Namespace) -> int:
         world = load_world(args.world)
         robot, options = _options(args, load_robot(args.robot))
         spawn = world.spawn(args.spawn)
+        if args.realtime is not None and not args.realtime > 0:
+            raise ValueError(f"--realtime must be positive, got {args.realtime}")
         sim = Simulation.create(world, robot, seed=args.seed, spawn=spawn, options=options)
+        if args.drive is None:
+            args.drive = "square" if sim.base is not None else "none"
+        square = SquareDrive(args.side, args.speed) if args.drive == "square" else None
     except (ModelError, ValueError, KeyError) as exc:
         console.print(f"[red]robotrial sim: {exc}")
         return 2
@@ -199,7 +205,6 @@ def run(args: argparse.Namespace) -> int:
     bus.subscribe("/odom", on_odom)
 
     teleop = None
-    square = SquareDrive(args.side, args.speed) if args.drive == "square" else None
     realtime = args.realtime
     if args.drive == "keys":
         lim = sim.base.limits if sim.base else None

@@ -125,3 +125,20 @@ def test_joint_reference_topic_moves_the_arm_and_bad_ones_are_refused(boxroom):
     bad = JointTrajectory(joint_names=["elbow"], points=[JointTrajectoryPoint(positions=[0.1])])
     bus.publish("/robotrial/joint_reference", bad)
     assert node.rejected == ["joint reference names joints ['elbow'] this robot does not drive"]
+
+
+def test_published_tf_tree_links_every_sensor_frame_to_odom(recorded):
+    published, _, _ = recorded
+    parent: dict[str, str] = {}
+    for topic, msg in published:
+        if topic in ("/tf", "/tf_static"):
+            for t in msg.transforms:
+                assert parent.setdefault(t.child_frame_id, t.header.frame_id) == t.header.frame_id
+    frames = {m.header.frame_id for t, m in published if t in ("/points", "/scan", "/imu")}
+    frames |= {m.child_frame_id for t, m in published if t == "/odom"}
+    for frame in frames:
+        seen, cur = set(), frame
+        while cur != "odom":
+            assert cur in parent and cur not in seen, f"{frame} does not reach odom"
+            seen.add(cur)
+            cur = parent[cur]

@@ -645,19 +645,21 @@ def _mujoco_js() -> Path | None:
 def test_documents_load_and_step_in_mujoco_js(tmp_path) -> None:
     docs = {
         "toy": to_mjcf(toy_robot(), small_world(), base="planar", actuators="position"),
+        "self": to_mjcf(toy_robot(), self_collision=True, actuators="velocity"),
         "panda": to_mjcf(load_robot(ERD / "panda_description/urdf/panda.urdf")),
     }
-    for name, doc in docs.items():
-        path = doc.save(tmp_path / name)
-        out = subprocess.run(
-            ["node", str(NODE_CHECK), str(path)],
-            capture_output=True,
-            text=True,
-            timeout=60,
-            env={**os.environ, "MUJOCO_JS": str(_mujoco_js())},
-        )
-        assert out.returncode == 0, out.stderr + out.stdout
-        report = json.loads(out.stdout)
+    paths = [str(doc.save(tmp_path / name)) for name, doc in docs.items()]
+    out = subprocess.run(
+        ["node", str(NODE_CHECK), *paths],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "MUJOCO_JS": str(_mujoco_js())},
+    )
+    assert out.returncode == 0, out.stderr + out.stdout
+    reports = [json.loads(line) for line in out.stdout.splitlines()]
+    assert len(reports) == len(docs)
+    for doc, report in zip(docs.values(), reports, strict=True):
         model = doc.compile()
         assert report["version"].startswith("3.")
         assert report["nbody"] == model.nbody and report["nu"] == model.nu

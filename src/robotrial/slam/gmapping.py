@@ -112,7 +112,8 @@ class GMappingSlam:
         for i in range(n):
             guess = compose(self.poses[i], self._sample_motion(d))
             grid = self.maps[self._map_index[i]]
-            matched = self.matcher.match(grid, hits[::stride], guess).pose
+            pyramid = grid.pyramid(p.match_levels)
+            matched = self.matcher.match(grid, hits[::stride], guess, pyramid).pose
             pose = matched
             score, loglik, _ = likelihood(
                 grid, hits, pose, p.kernelSize, p.sigma, p.lsigma, stride=stride

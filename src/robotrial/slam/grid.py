@@ -102,6 +102,27 @@ def _trace(
                 grid[r1, c1] = lo if v < lo else v
 
 
+@numba.njit(cache=True, nogil=True)
+def _halve(src: np.ndarray) -> np.ndarray:
+    # Each 2x2 block keeps its most occupied cell (cells outside the grid are unknown,
+    # 0): a wall one fine cell thick stays a wall at every level, as in hector_mapping's
+    # maps updated at each resolution, instead of fading into the free and unknown
+    # cells around it.
+    rows, cols = src.shape
+    out = np.empty(((rows + 1) // 2, (cols + 1) // 2), dtype=np.float32)
+    for r in range(out.shape[0]):
+        for c in range(out.shape[1]):
+            best = -1e30
+            for i in range(2):
+                for j in range(2):
+                    rr, cc = 2 * r + i, 2 * c + j
+                    v = src[rr, cc] if rr < rows and cc < cols else 0.0
+                    if v > best:
+                        best = v
+            out[r, c] = best
+    return out
+
+
 class LogOddsGrid:
     """A growable log-odds occupancy grid (float32), in a map frame."""
 
@@ -193,19 +214,11 @@ class LogOddsGrid:
         )
 
     def pyramid(self, levels: int) -> list[np.ndarray]:
-        """The grid and `levels - 1` coarser views of it (blocks of 2^k cells averaged,
-        occupancy-wise), as log-odds-like arrays the scan matcher reads with the same
-        origin: the matcher's l -> occupancy map is inverted after averaging."""
+        """The grid and `levels - 1` coarser views of it: level k has cells 2^k times
+        larger, each holding the highest log-odds of the cells it covers (same origin)."""
         out = [self.logodds]
-        occ = 0.5 + 0.5 * self.logodds / (1.0 + np.abs(self.logodds))
-        for k in range(1, levels):
-            b = 1 << k
-            rows, cols = self.shape
-            pr, pc = -rows % b, -cols % b
-            padded = np.pad(occ, ((0, pr), (0, pc)), constant_values=0.5)
-            m = padded.reshape(padded.shape[0] // b, b, padded.shape[1] // b, b).mean(axis=(1, 3))
-            t = np.clip(2.0 * m - 1.0, -0.999, 0.999)
-            out.append((t / (1.0 - np.abs(t))).astype(np.float32))
+        for _ in range(1, levels):
+            out.append(_halve(out[-1]))
         return out
 
     def probability(self) -> np.ndarray:

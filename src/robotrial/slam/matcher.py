@@ -4,9 +4,10 @@
 The map is read as a continuous function M(x, y) in [0, 1]: occupancy probabilities
 bilinearly interpolated between cell centres. Matching finds the pose that puts the scan's
 end points where M is 1, minimising sum (1 - M(S_i(pose)))^2 with Gauss-Newton steps
-(Kohlbrecher et al. 2011). Coarse levels read the same grid through blocks of 2^k x 2^k
-cells averaged together (a smoothed, lower-resolution view), which widens the basin of
-convergence; matching runs coarse to fine. The same kernels score a pose with a
+(Kohlbrecher et al. 2011). Coarse levels read the grid through blocks of 2^k x 2^k
+cells, each block as occupied as its most occupied cell (a smoothed, lower-resolution
+view in which thin walls stay walls), which widens the basin of convergence; matching
+runs coarse to fine. The same kernels score a pose with a
 likelihood field (GMapping's particle weights): each end point looks for the nearest
 occupied cell in a small window.
 
@@ -37,11 +38,13 @@ def _occ(grid: np.ndarray, r: int, c: int) -> float:
 def _coarse(grid: np.ndarray, r: int, c: int, block: int) -> float:
     if block == 1:
         return _occ(grid, r, c)
-    s = 0.0
+    best = 0.0
     for i in range(block):
         for j in range(block):
-            s += _occ(grid, r * block + i, c * block + j)
-    return s / (block * block)
+            v = _occ(grid, r * block + i, c * block + j)
+            if v > best:
+                best = v
+    return best
 
 
 @numba.njit(cache=True)
@@ -81,7 +84,7 @@ def _gauss_newton(
     hess = np.zeros((3, 3))
     cost = 0.0
     max_step = res * block
-    pose_tol = 1e-3 * res
+    pose_tol = 1e-2 * res
     for _ in range(iterations):
         hess[:, :] = 0.0
         g = np.zeros(3)
@@ -125,7 +128,7 @@ def _gauss_newton(
         if abs(d[2]) > 0.2:
             d[2] = 0.2 * np.sign(d[2])
         p += d
-        if lin < pose_tol and abs(d[2]) < 1e-4:
+        if lin < pose_tol and abs(d[2]) < 1e-3:
             break
     return p, hess, cost
 

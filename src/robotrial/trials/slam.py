@@ -173,8 +173,9 @@ def make_slam(method: str, params: dict[str, Any] | None = None) -> GMappingSlam
 
 @dataclass
 class SlamRun:
-    """What a run produced: the map, the trajectory (stamps, poses in the map frame) and
-    the processing time of every scan (s)."""
+    """What a run produced: the map, the trajectory (stamps, poses in the map frame), the
+    processing time of every scan (s, wall clock; `cpu_times` the thread's CPU time) and
+    which scans updated the map."""
 
     method: str
     grid: LogOddsGrid
@@ -185,6 +186,8 @@ class SlamRun:
     duration: float
     map_bytes: int
     extra: dict[str, Any] = field(default_factory=dict)
+    cpu_times: np.ndarray | None = None
+    updated: np.ndarray | None = None
 
 
 def scan_beams(slam: GMappingSlam | HectorSlam, s: ScanSample, laser_pose) -> Any:
@@ -212,17 +215,29 @@ def run_slam(
             "/odom messages; record /odom, or use --method hector (scans alone)"
         )
     times = np.full(len(rec.scans), np.nan)
+    cpu = np.full(len(rec.scans), np.nan)
+    updated = np.zeros(len(rec.scans), bool)
     wall0 = time.perf_counter()
     for i, s in enumerate(rec.scans):
         odom = rec.odom_at(s.stamp) if slam.uses_odometry else None
         if not (slam.uses_odometry and odom is None):
-            t0 = time.perf_counter()
+            before = _updates(slam)
+            t0, c0 = time.perf_counter(), time.thread_time()
             slam.process(scan_beams(slam, s, rec.laser_pose), s.stamp, odom)
-            times[i] = time.perf_counter() - t0
+            times[i], cpu[i] = time.perf_counter() - t0, time.thread_time() - c0
+            updated[i] = _updates(slam) > before
         if on_scan is not None:
             on_scan(i)
     wall = time.perf_counter() - wall0
-    return finish_run(method, slam, times[~np.isnan(times)], wall, rec.duration)
+    ok = ~np.isnan(times)
+    run = finish_run(method, slam, times[ok], wall, rec.duration)
+    run.cpu_times = cpu[ok]
+    run.updated = updated[ok]
+    return run
+
+
+def _updates(slam: GMappingSlam | HectorSlam) -> int:
+    return slam.updates if isinstance(slam, GMappingSlam) else slam.map_updates
 
 
 def finish_run(
@@ -239,11 +254,60 @@ def finish_run(
     return SlamRun(method, slam.grid, stamps, poses, times, wall, duration, int(nbytes), extra)
 
 
+# Routes across each built-in room's workspace (world x, y in m), from its default spawn:
+# a loop along the walls of rooms A and B, out and back around room C's partition, the
+# living room and the kitchen of the apartment.
+ROUTES: dict[str, list[tuple[float, float]]] = {
+    "room_a": [(6.6, 1.0), (6.6, 6.5), (1.2, 6.5), (1.0, 1.3), (2.5, 1.0)],
+    "room_b": [(6.6, 1.0), (6.6, 6.5), (1.2, 6.5), (1.0, 1.3), (2.5, 1.0)],
+    "room_c": [(6.4, 1.0), (6.4, 6.5), (1.2, 6.5), (6.4, 6.5), (6.4, 1.2), (1.5, 1.0)],
+    "apartment": [
+        (5.6, 3.2),
+        (6.0, 2.5),
+        (7.4, 2.5),
+        (7.6, 3.4),
+        (7.4, 2.5),
+        (6.0, 2.5),
+        (5.6, 3.2),
+        (2.6, 3.2),
+    ],
+}
+
+
+class RouteDrive:
+    """Drives through waypoints like a careful teleoperator who sees the robot: turn on
+    the spot towards the next point, then drive at `speed` while steering onto it."""
+
+    def __init__(self, waypoints: list[tuple[float, float]], speed: float = 0.3) -> None:
+        if not waypoints:
+            raise ValueError("route: give at least one waypoint")
+        self.waypoints = list(waypoints)
+        self.speed = speed
+        self.index = 0
+
+    @property
+    def done(self) -> bool:
+        return self.index >= len(self.waypoints)
+
+    def command(self, x: float, y: float, yaw: float) -> tuple[float, float]:
+        while not self.done:
+            tx, ty = self.waypoints[self.index]
+            if np.hypot(tx - x, ty - y) > 0.15:
+                break
+            self.index += 1
+        if self.done:
+            return 0.0, 0.0
+        err = wrap(float(np.arctan2(ty - y, tx - x)) - yaw)
+        if abs(err) > 0.25:
+            return 0.0, float(np.clip(1.5 * err, -0.5, 0.5))
+        return self.speed, float(np.clip(1.5 * err, -0.3, 0.3))
+
+
 def record_drive(
     world: World | str,
     path: str | Path | None = None,
     duration: float = 30.0,
-    side: float = 3.0,
+    side: float = 2.0,
     speed: float = 0.3,
     seed: int = 0,
     lidar_resolution_deg: float | None = None,
@@ -251,10 +315,12 @@ def record_drive(
     spawn: str = "default",
     on_step: Callable[[float], None] | None = None,
     extra_nodes: Callable[[Any], None] | None = None,
+    route: list[tuple[float, float]] | None = None,
 ) -> Recording:
-    """Drive the robot in a square in the simulator and collect what SLAM needs (written
-    to `path`, .mcap or .bag, when given): /scan, /odom, /ground_truth, /tf_static.
-    `extra_nodes(bus)` may attach more nodes (a live SlamNode) before the run starts."""
+    """Drive the robot in the simulator and collect what SLAM needs (written to `path`,
+    .mcap or .bag, when given): /scan, /odom, /ground_truth, /tf_static. The drive is
+    `route` (waypoints, ending the run when reached, `duration` at most) or else an open
+    loop square of `side` m. `extra_nodes(bus)` may attach nodes (a live SlamNode)."""
     from robotrial.model import load_robot, load_world
     from robotrial.ros.bus import Bus
     from robotrial.ros.recorder import BusRecorder, Recorder
@@ -296,14 +362,23 @@ def record_drive(
     if extra_nodes is not None:
         extra_nodes(bus)
     square = SquareDrive(side, speed)
+    follow = RouteDrive(route, speed) if route else None
+
+    def command(t: float) -> tuple[float, float]:
+        if follow is None:
+            return square.command(t)
+        v, yr = follow.command(*sim.world.base_pose2d())
+        if follow.done:
+            node.stop()
+        return v, yr
 
     def step(t: float) -> None:
-        sim.drive(*square.command(t))
+        sim.drive(*command(t))
         if on_step is not None:
             on_step(t)
 
     try:
-        sim.drive(*square.command(0.0))
+        sim.drive(*command(0.0))
         node.run(duration, on_step=step)
     finally:
         if recorder is not None:
@@ -519,8 +594,8 @@ def map_accuracy(
 def room_dimensions(grid: LogOddsGrid) -> tuple[float, float, float]:
     """(width along the room's x, depth along its y, yaw of the room's axes in the map)
     measured on the map alone: the room's axes are the rotation that makes occupied
-    cells line up best; each wall's inner face is the mean of the occupied cells in the
-    outermost dense row of cells on its side."""
+    cells line up best; each wall's inner face is the mean of the occupied cells within two
+    cells of the outermost dense row of cells on its side."""
     pts = _cell_centres(grid, grid.ros_values() == 100)
     if len(pts) < 20:
         raise ValueError("the map has too few occupied cells to measure a room")
@@ -557,7 +632,8 @@ def _extent(u: np.ndarray, v: np.ndarray, res: float) -> float:
     faces = []
     for k in (dense[0], dense[-1]):
         centre = 0.5 * (edges[k] + edges[k + 1])
-        sel = np.abs(u - centre) <= 0.75 * res
+        # A wall blurred over neighbouring rows (small pose errors) counts as its middle.
+        sel = np.abs(u - centre) <= 2.0 * res
         faces.append(float(u[sel].mean()))
     return faces[1] - faces[0]
 
@@ -601,16 +677,26 @@ def score(
                 "axes_yaw_deg": float(np.rad2deg(yaw)),
             }
     times = run.scan_times
-    out["time_per_scan_ms"] = {
-        "mean": float(times.mean() * 1e3) if len(times) else 0.0,
-        "p95": float(np.percentile(times, 95) * 1e3) if len(times) else 0.0,
-        "max": float(times.max() * 1e3) if len(times) else 0.0,
-    }
+    out["time_per_scan_ms"] = _ms(times)
+    if run.cpu_times is not None:
+        out["cpu_per_scan_ms"] = _ms(run.cpu_times)
+    if run.updated is not None and run.updated.any():
+        out["time_per_update_ms"] = _ms(times[run.updated])
     out["scans"] = len(times)
     out["real_time_factor"] = run.duration / run.wall_time if run.wall_time > 0 else None
     out["map_memory_mb"] = run.map_bytes / 1e6
     out.update(run.extra)
     return out
+
+
+def _ms(times: np.ndarray) -> dict[str, float]:
+    if len(times) == 0:
+        return {"mean": 0.0, "p95": 0.0, "max": 0.0}
+    return {
+        "mean": float(times.mean() * 1e3),
+        "p95": float(np.percentile(times, 95) * 1e3),
+        "max": float(times.max() * 1e3),
+    }
 
 
 def room_size(world: World) -> tuple[float, float] | None:

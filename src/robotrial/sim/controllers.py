@@ -157,6 +157,9 @@ class JointController:
         data.qfrc_applied[self.dadr] = np.clip(tau, -self.effort, self.effort)
 
 
+TRACTION = 3.0
+
+
 @dataclass(frozen=True)
 class DriveLimits:
     """A base's top speeds (m/s, rad/s) and accelerations (m/s^2, rad/s^2)."""
@@ -182,8 +185,10 @@ class BaseController:
 
     The command is rate-limited to the accelerations, clipped to the top speeds, and
     tracked by a velocity loop on the planar joints base_x, base_y, base_yaw (the sideways
-    speed is held at zero: a skid-steer base cannot move sideways). Wheel joints, if named,
-    spin at the speeds that motion asks for."""
+    speed is held at zero: a skid-steer base cannot move sideways). The loop's force is
+    capped at TRACTION times what the top acceleration needs, so the base stalls against
+    a wall instead of pushing through it. Wheel joints, if named, spin at the speeds that
+    motion asks for."""
 
     def __init__(
         self,
@@ -202,6 +207,9 @@ class BaseController:
         self._dofs = [int(d) for d in self.dadr]
         self._qyaw = int(self.qadr[2])
         self._mass = [float(m) for m in model.dof_M0[self.dadr]]
+        # what the wheels can push with: TRACTION times the force of the top acceleration
+        accel = (limits.max_accel, limits.max_accel, limits.max_yaw_accel)
+        self._traction = [TRACTION * m * a for m, a in zip(self._mass, accel, strict=True)]
         self.wheels = [
             (joint_dof(model, n, "base controller")[1], y) for n, y in (wheels or {}).items()
         ]
@@ -230,7 +238,8 @@ class BaseController:
         want = (v * math.cos(yaw), v * math.sin(yaw), w)
         qvel, bias, out = data.qvel, data.qfrc_bias, data.qfrc_applied
         for i, dof in enumerate(self._dofs):
-            out[dof] = bias[dof] + self._mass[i] * (want[i] - qvel[dof]) / self.tau
+            push = self._mass[i] * (want[i] - qvel[dof]) / self.tau
+            out[dof] = bias[dof] + min(max(push, -self._traction[i]), self._traction[i])
         for dof, y in self.wheels:
             qvel[dof] = (v - w * y) / self.wheel_radius
 

@@ -501,7 +501,12 @@ def test_scaled_and_mirrored_meshes_keep_their_shape(scale) -> None:
     want = box.vertices * np.asarray(scale) + (0, 0, 1)
     np.testing.assert_allclose(got.min(axis=0), want.min(axis=0), atol=1e-6)
     np.testing.assert_allclose(got.max(axis=0), want.max(axis=0), atol=1e-6)
-    assert model.mesh(0).vertnum[0] > 0
+    # the triangles still face outwards: positive signed volume
+    m = model.mesh(0)
+    faces = model.mesh_face[m.faceadr[0] : m.faceadr[0] + m.facenum[0]]
+    tri = model.mesh_vert[m.vertadr[0] : m.vertadr[0] + m.vertnum[0]][faces]
+    volume = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6
+    assert volume == pytest.approx(0.006 * abs(np.prod(scale)), rel=1e-6)
 
 
 def test_dae_meshes_load_through_pycollada() -> None:

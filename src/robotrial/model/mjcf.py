@@ -210,7 +210,7 @@ def _mesh_key(mesh: Mesh) -> tuple | None:
 
 
 def _stl(mesh: Mesh, max_faces: int) -> _Stl:
-    """The STL of a mesh: scaled, mirrored faces flipped, degenerate faces dropped,
+    """The STL of a mesh: scaled (mirrored ones still facing out), degenerate faces dropped,
     simplified to at most `max_faces`. Cached per file, so repeated documents are cheap."""
     key = _mesh_key(mesh)
     key = None if key is None else (*key, max_faces)
@@ -220,9 +220,7 @@ def _stl(mesh: Mesh, max_faces: int) -> _Stl:
     before = len(data.faces)
     if before > max_faces:
         data = simplify_mesh(data, max_faces)
-    faces = data.faces
-    if np.prod(np.sign(mesh.scale)) < 0:  # mirrored: keep the triangles facing outwards
-        faces = faces[:, ::-1]
+    faces = data.faces  # load_mesh already reversed them if the scale mirrors
     tri = data.vertices[faces]
     area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
     faces = faces[area > 1e-14]

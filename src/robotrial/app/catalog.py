@@ -1,6 +1,7 @@
 """What the web server offers: the built-in robots and worlds, their kinds, the default
-pairings, and their browser files (RDTF for robots, scene glTF for worlds), built once
-and cached. Layer 5: calls the description layer, knows nothing of HTTP.
+pairings, and their browser files (RDTF for robots, scene glTF for worlds, MJCF for the
+browser's physics), built once and cached. Layer 5: calls the description layer, knows
+nothing of HTTP.
 
 A name from a request is only ever compared with the built-in lists; it never becomes
 part of a file path.
@@ -8,7 +9,9 @@ part of a file path.
 
 from __future__ import annotations
 
+import base64
 import hashlib
+import json
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -179,6 +182,23 @@ class Catalog:
         from robotrial.model.scene_gltf import write_world_glb
 
         return self._cached(f"world/{name}", lambda: write_world_glb(world))
+
+    def mjcf_bundle(self, robot: str, world: str) -> Asset:
+        """The robot standing in the world as MJCF for the browser's MuJoCo (mujoco-js), as
+        JSON: {name, xml, assets: {file: base64}, notes}. Every joint gets a position
+        servo (docs/mjcf.md), the controller the page's joint tracker drives."""
+        model = self.robot(robot)
+        scene = self.world(world)
+
+        def build() -> bytes:
+            from robotrial.model.mjcf import to_mjcf
+
+            doc = to_mjcf(model, scene, actuators="position")
+            assets = {n: base64.b64encode(b).decode("ascii") for n, b in doc.assets.items()}
+            body = {"name": doc.name, "xml": doc.xml, "assets": assets, "notes": list(doc.notes)}
+            return json.dumps(body).encode()
+
+        return self._cached(f"mjcf/{robot}/{world}", build)
 
     def warm(self) -> None:
         """Build the default robot's and world's files now, so the first page is quick."""

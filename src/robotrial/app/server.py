@@ -28,7 +28,7 @@ from starlette.datastructures import UploadFile as StarletteUpload
 from starlette.exceptions import HTTPException
 from starlette.formparsers import MultiPartException
 
-from robotrial.app.catalog import Asset, Catalog, UnknownName
+from robotrial.app.catalog import Asset, Catalog, UnknownName, robot_kind
 from robotrial.app.live import LivePlatform, runs_live
 from robotrial.app.uploads import (
     MAX_UPLOAD_BYTES,
@@ -121,6 +121,15 @@ class WorldEntry(BaseModel):
 class WorldList(BaseModel):
     default: Pair
     worlds: list[WorldEntry]
+
+
+class MjcfBundle(BaseModel):
+    """A MuJoCo model for the browser: MJCF text and the files it names."""
+
+    name: str
+    xml: str
+    assets: dict[str, str]
+    notes: list[str]
 
 
 NOT_FOUND: dict[int | str, dict[str, Any]] = {404: {"description": "no such built-in name"}}
@@ -314,6 +323,24 @@ def create_app(
     def world_file(name: str, request: Request) -> Response:
         """The world as a glTF binary scene (floor, walls, obstacles, objects, lights)."""
         return _glb(catalog.world_glb(name), request)
+
+    @app.get(
+        "/api/robots/{name}/mjcf.json",
+        tags=["robots"],
+        response_model=MjcfBundle,
+        responses=NOT_FOUND,
+    )
+    def robot_mjcf(name: str, request: Request, world: str | None = None) -> Response:
+        """The robot standing in `world` (default: the world it opens in) as MJCF for
+        the browser's physics (mujoco-js): the XML, its mesh files in base64, and what the
+        writer had to change. Every actuated joint has a position servo."""
+        if world is None:
+            world = catalog.world_for(robot_kind(catalog.robot(name)))
+        asset = catalog.mjcf_bundle(name, world)
+        headers = {"ETag": asset.etag, "Cache-Control": "no-cache"}
+        if request.headers.get("if-none-match") == asset.etag:
+            return Response(status_code=304, headers=headers)
+        return Response(asset.data, media_type="application/json", headers=headers)
 
     app.mount("/assets", PageAssets(directory=static_dir / "assets"), name="assets")
     if bus is not None:

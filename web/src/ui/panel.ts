@@ -39,18 +39,25 @@ export class Panel {
   private readonly jointList = el("div", { class: "joints", id: "joints" });
   private readonly homeButton = el("button", { type: "button", class: "quiet" }, "Home position");
   private readonly rows = new Map<string, SliderRow>();
+  private readonly brand: HTMLElement;
+  private readonly pickers: HTMLElement;
+  private readonly root: HTMLElement;
+  private jointsLocked = false;
   private robots: RobotEntry[] = [];
   private worlds: WorldEntry[] = [];
 
   constructor(root: HTMLElement, private readonly actions: PanelActions) {
+    this.root = root;
+    this.brand = el("header", { class: "brand" }, el("h1", {}, "robotrial"), this.status);
+    this.pickers = el(
+      "section",
+      { class: "pickers" },
+      el("label", {}, el("span", {}, "Robot"), this.robotPicker),
+      el("label", {}, el("span", {}, "Place"), this.worldPicker),
+    );
     root.append(
-      el("header", { class: "brand" }, el("h1", {}, "robotrial"), this.status),
-      el(
-        "section",
-        { class: "pickers" },
-        el("label", {}, el("span", {}, "Robot"), this.robotPicker),
-        el("label", {}, el("span", {}, "Place"), this.worldPicker),
-      ),
+      this.brand,
+      this.pickers,
       el(
         "section",
         {},
@@ -74,6 +81,21 @@ export class Panel {
     });
     this.homeButton.addEventListener("click", () => this.actions.home());
     this.setEndEffector(null);
+  }
+
+  /** Place the task's parts: its buttons under the pickers, its details at the end and
+   * the connection indicator in the header. */
+  addTask(main: HTMLElement, details: HTMLElement, indicator: HTMLElement): void {
+    this.brand.append(indicator);
+    this.pickers.after(main);
+    this.root.append(details);
+  }
+
+  /** Block the joint sliders (the robot is set or moving) or free them again. */
+  lockJoints(locked: boolean): void {
+    this.jointsLocked = locked;
+    for (const row of this.rows.values()) row.input.disabled = locked;
+    this.homeButton.disabled = locked;
   }
 
   /** The built-in robots and worlds to choose from. */
@@ -169,6 +191,7 @@ export class Panel {
       value: String(value),
       "data-joint": joint.name,
     });
+    input.disabled = this.jointsLocked;
     const output = el("output", { for: id }, formatJoint(joint, value));
     input.addEventListener("input", () => {
       const v = Number(input.value);

@@ -12,6 +12,16 @@ export interface Config extends Pair {
   /** Path of the rosbridge WebSocket on this server, e.g. "/rosbridge". */
   rosbridge: string;
   rosbridge_enabled: boolean;
+  /** The platform the server simulates live (a mobile robot in a room), or null. */
+  live?: LiveInfo | null;
+}
+
+/** A live platform: which robot in which world, and where its odom and map frames
+ * start in the world (the spawn pose). */
+export interface LiveInfo extends Pair {
+  origin: Spawn;
+  /** Why it could not start, or null. */
+  error: string | null;
 }
 
 export interface RobotEntry {
@@ -20,6 +30,8 @@ export interface RobotEntry {
   joints: number;
   /** The world this robot opens in when picked. */
   world: string;
+  /** True for a robot a user uploaded to this server. */
+  uploaded?: boolean;
 }
 
 export interface Spawn {

@@ -90,6 +90,15 @@ export class Viewer {
     this.requestRender();
   }
 
+  /** Show or hide the world, the plain ground and the background (AR shows the real
+   * room in their place). */
+  showSurroundings(visible: boolean): void {
+    this.worldSlot.visible = visible;
+    this.ground.visible = visible && this.worldSlot.children.length === 0;
+    this.scene.background = visible ? new Color(BACKGROUND) : null;
+    this.requestRender();
+  }
+
   /** Point the camera at `object`, close enough to fill the view. In a room the camera
    * stands on the room's side of the object, so walls behind it do not block the view. */
   frame(object: Object3D): void {

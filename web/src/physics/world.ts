@@ -163,6 +163,12 @@ export class PhysicsWorld {
     this.mj.mj_forward(this.model, this.data);
   }
 
+  /** Back to the model's initial state with joints at `values`, time 0, at rest. */
+  reset(values: Record<string, number>): void {
+    this.mj.mj_resetData(this.model, this.data);
+    this.setJoints(values);
+  }
+
   /** Joint values by name (rad or m). */
   jointValues(): Record<string, number> {
     const qpos: Float64Array = this.data.qpos;

@@ -157,6 +157,8 @@ export class RosConnection {
       this.attempts = 0;
       this.error = null;
       for (const entry of this.subscriptions) this.listen(ros, entry);
+      // From the page's start: with "robotrial:ready", how long until the page is usable.
+      performance.measure(`robotrial:connected ${this.url}`);
       this.set("connected");
     });
     ros.on("error", () => {

@@ -11,7 +11,7 @@ import type { PathSample } from "./plot";
 const SETTLE = 0.5;
 const SAMPLE_PERIOD = 0.01; // s
 /** At most this much simulated time per drawn frame, so a slow frame cannot stall. */
-const MAX_FRAME_TIME = 0.25; // s
+const MAX_FRAME_TIME = 0.5; // s
 
 export interface RunResult {
   samples: PathSample[];

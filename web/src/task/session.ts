@@ -6,7 +6,7 @@
 import { Matrix4, Quaternion, Vector3 } from "three";
 import type { JointTrajectory, PlanTaskResponse } from "../generated/msgs";
 import { JointReference, JointTracker } from "../physics/controller";
-import { fetchMjcf, type MjcfBundle, PhysicsWorld } from "../physics/world";
+import { fetchMjcf, type MjcfBundle, mujoco, PhysicsWorld } from "../physics/world";
 import type { Robot } from "../robot";
 import type { RosConnection } from "../ros/connection";
 import type { Viewer } from "../scene";
@@ -86,7 +86,9 @@ export class TaskSession {
   private planner: PlannerState = { status: "idle", message: "", planningTime: null, goalJoints: [] };
   private runState: RunState | null = null;
   private run: MotionRun | null = null;
-  private physics: PhysicsWorld | null = null;
+  private physics: Promise<PhysicsWorld> | null = null;
+  /** What `physics` was built for (the start arrangement and whether the object is held). */
+  private physicsKey = "";
   private bundle: Promise<MjcfBundle> | null = null;
   private nextObstacle = 1;
   private lastReference: JointReference | null = null;
@@ -120,8 +122,7 @@ export class TaskSession {
     this.worldName = worldName;
     if (!sameRobot) {
       this.bundle = null;
-      this.physics?.dispose();
-      this.physics = null;
+      this.dropPhysics();
     }
     this.editor.group.visible = true;
     this.phase = "editing";
@@ -135,8 +136,10 @@ export class TaskSession {
     }
     this.showPhase();
     this.say("Arrange the scene, press Set Robot, then Move Robot!");
-    // Fetch the physics model now, so Move Robot! does not wait for it.
+    // Fetch the physics model and MuJoCo when the page is idle, so Move Robot! does
+    // not wait for them.
     this.bundleFor();
+    requestIdleCallback(() => void mujoco().catch(() => undefined), { timeout: 3000 });
   }
 
   /** Nothing to do here (a robot without an arm): hide the task. */
@@ -159,10 +162,9 @@ export class TaskSession {
     };
   }
 
-  /** The physics model, built now if needed (for measuring its speed). */
-  async physicsWorld(): Promise<PhysicsWorld> {
-    if (!this.physics) this.physics = await this.buildPhysics();
-    return this.physics;
+  /** The physics model of the arrangement, built if needed (for measuring its speed). */
+  physicsWorld(): Promise<PhysicsWorld> {
+    return this.ensurePhysics();
   }
 
   // --- the four buttons --------------------------------------------------------------
@@ -184,6 +186,9 @@ export class TaskSession {
         : " The object is not in the hand: it stays where it is."
       : "";
     this.say(`Robot set.${object} Press Move Robot! to plan and move.`);
+    // Build the physics now (and let the browser compile its hot code) while the user
+    // reads; Move Robot! then starts at once.
+    this.ensurePhysics().catch((err) => console.warn("physics:", errorText(err)));
   }
 
   addObstacle(): void {
@@ -434,18 +439,38 @@ export class TaskSession {
     return this.bundle;
   }
 
-  private async buildPhysics(): Promise<PhysicsWorld> {
+  /** The physics of the start arrangement: built once per arrangement and warmed up. */
+  private async ensurePhysics(): Promise<PhysicsWorld> {
     const robot = this.robot;
     if (!robot) throw new Error("no robot is loaded");
     const start = this.start ?? this.arrangement();
     const held = this.phase !== "editing" && this.held ? this.objectInHandAt(start) : null;
-    const world = await PhysicsWorld.create(
-      await this.bundleFor(),
-      { obstacles: start.obstacles, object: start.object, heldAt: held },
-      robot.root.name,
-    );
-    world.setJoints(start.joints);
-    return world;
+    const key = JSON.stringify([start, held]);
+    if (!this.physics || key !== this.physicsKey) {
+      this.dropPhysics();
+      this.physicsKey = key;
+      this.physics = this.bundleFor().then(async (bundle) => {
+        const world = await PhysicsWorld.create(
+          bundle,
+          { obstacles: start.obstacles, object: start.object, heldAt: held },
+          robot.root.name,
+        );
+        world.reset(start.joints);
+        world.measureSpeed(0.3);
+        return world;
+      });
+      this.physics.catch(() => {
+        if (this.physicsKey === key) this.dropPhysics();
+      });
+    }
+    return this.physics;
+  }
+
+  private dropPhysics(): void {
+    const old = this.physics;
+    this.physics = null;
+    this.physicsKey = "";
+    old?.then((w) => w.dispose()).catch(() => undefined);
   }
 
   /** The held object's pose in the tcp frame for the start posture. */
@@ -511,10 +536,8 @@ export class TaskSession {
     this.phase = "moving";
     this.showPhase();
     this.say("Moving…");
-    this.physics?.dispose();
-    this.physics = null;
-    const world = await this.buildPhysics();
-    this.physics = world;
+    const world = await this.ensurePhysics();
+    world.reset((this.start ?? this.arrangement()).joints);
     const tracker = new JointTracker(world);
     const planned: Vec3[] = [];
     for (let t = 0; t <= reference.duration + 1e-9; t += 0.02) {

@@ -40,8 +40,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="NAME=VALUE",
         help="a ROS parameter of the method, e.g. particles=30 or map_resolution=0.05",
     )
-    parser.add_argument("--duration", type=float, default=60.0, help="--live: simulated s")
-    parser.add_argument("--side", type=float, default=3.0, help="--live: square side (m)")
+    parser.add_argument("--duration", type=float, default=120.0, help="--live: simulated s")
+    parser.add_argument(
+        "--drive",
+        choices=("route", "square"),
+        default="route",
+        help="--live: the world's route across the room (built-in rooms), or a square",
+    )
+    parser.add_argument("--side", type=float, default=2.0, help="--live: square side (m)")
     parser.add_argument("--speed", type=float, default=0.3, help="--live: speed (m/s)")
     parser.add_argument("--seed", type=int, default=0, help="--live: sensor noise seed")
     add_json_flag(parser)
@@ -141,6 +147,7 @@ def _live(args, params, world, trial):
             args.seed,
             on_step=on_step,
             extra_nodes=lambda bus: nodes.append(SlamNode(bus, slam)),
+            route=trial.ROUTES.get(world.name) if args.drive == "route" else None,
         )
     wall = time.perf_counter() - wall0
     times = np.asarray(nodes[0].scan_times)

@@ -109,11 +109,13 @@ class GMappingSlam:
         n = p.particles
         hits = scan.hits
         stride = p.lskip + 1
+        sx, sy, sth = self._motion_sigma(d)
+        sigma = (max(sx, sy), max(sx, sy), sth)  # isotropic: the map frame is rotated
         for i in range(n):
             guess = compose(self.poses[i], self._sample_motion(d))
             grid = self.maps[self._map_index[i]]
             pyramid = grid.pyramid(p.match_levels)
-            matched = self.matcher.match(grid, hits[::stride], guess, pyramid).pose
+            matched = self.matcher.match(grid, hits[::stride], guess, pyramid, sigma).pose
             pose = matched
             score, loglik, _ = likelihood(
                 grid, hits, pose, p.kernelSize, p.sigma, p.lsigma, stride=stride
@@ -142,19 +144,20 @@ class GMappingSlam:
         self.history.append(_Step(self.poses.copy(), parents))
         self.updates += 1
 
-    def _sample_motion(self, d: np.ndarray) -> np.ndarray:
-        """GMapping's odometry motion model: noise grows with the distance and angle."""
+    def _motion_sigma(self, d: np.ndarray) -> tuple[float, float, float]:
+        """GMapping's odometry motion model: standard deviations of x, y (in the frame
+        of the previous pose) and yaw, growing with the distance and angle moved."""
         p = self.params
         sxy = 0.3 * p.srr
-        dx, dy, dth = d
-        g = self.rng.normal(size=3)
-        return np.array(
-            [
-                dx + g[0] * (p.srr * abs(dx) + p.str * abs(dth) + sxy * abs(dy)),
-                dy + g[1] * (p.srr * abs(dy) + p.str * abs(dth) + sxy * abs(dx)),
-                dth + g[2] * (p.stt * abs(dth) + p.srt * np.hypot(dx, dy)),
-            ]
+        dx, dy, dth = (abs(float(v)) for v in d)
+        return (
+            p.srr * dx + p.str * dth + sxy * dy,
+            p.srr * dy + p.str * dth + sxy * dx,
+            p.stt * dth + p.srt * float(np.hypot(dx, dy)),
         )
+
+    def _sample_motion(self, d: np.ndarray) -> np.ndarray:
+        return np.asarray(d, dtype=np.float64) + self.rng.normal(size=3) * self._motion_sigma(d)
 
     def _systematic(self, w: np.ndarray) -> np.ndarray:
         n = w.size

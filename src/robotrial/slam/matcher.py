@@ -79,6 +79,8 @@ def _gauss_newton(
     stride: int,
     pose: np.ndarray,
     iterations: int,
+    prior: np.ndarray,
+    prior_weight: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     p = pose.copy()
     hess = np.zeros((3, 3))
@@ -114,6 +116,9 @@ def _gauss_newton(
         hess[1, 0] = hess[0, 1]
         hess[2, 0] = hess[0, 2]
         hess[2, 1] = hess[1, 2]
+        for k in range(3):
+            hess[k, k] += prior_weight[k]
+            g[k] += prior_weight[k] * (prior[k] - p[k])
         tr = hess[0, 0] + hess[1, 1] + hess[2, 2]
         if tr <= 1e-12:
             break
@@ -212,10 +217,15 @@ class ScanMatcher:
         points: np.ndarray,
         guess: np.ndarray,
         pyramid: list[np.ndarray] | None = None,
+        prior_sigma: tuple[float, float, float] | None = None,
     ) -> MatchResult:
         """Refine `guess` so that `points` ((N, 2), base frame) fall on the map's
         occupied cells. With `pyramid` (LogOddsGrid.pyramid, computed once a map update)
-        coarse levels read precomputed arrays instead of averaging blocks on the fly."""
+        coarse levels read precomputed arrays. With `prior_sigma` (x, y, yaw standard
+        deviations of a motion model) the cost adds sum ((pose - guess) / sigma)^2, so
+        along directions the scan cannot tell apart (a corridor, a wall seen alone) the
+        pose stays at the guess instead of sliding: the proposal of GMapping combines
+        the scan and the motion model this way."""
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
         pose = np.asarray(guess, dtype=np.float64).copy()
         if pts.shape[0] == 0 or grid.logodds.size == 0:
@@ -223,6 +233,10 @@ class ScanMatcher:
         hess = np.zeros((3, 3))
         cost = 0.0
         ox, oy = grid.origin
+        start = pose.copy()
+        weight = np.zeros(3)
+        if prior_sigma is not None:
+            weight = 1.0 / np.maximum(np.asarray(prior_sigma, dtype=np.float64), 1e-3) ** 2
         for level in range(self.levels - 1, -1, -1):
             block = 1 << level
             if pyramid is not None and level < len(pyramid):
@@ -230,7 +244,7 @@ class ScanMatcher:
             else:
                 arr, res, view = grid.logodds, grid.resolution, block
             pose, hess, cost = _gauss_newton(
-                arr, ox, oy, res, view, pts, block, pose, self.iterations
+                arr, ox, oy, res, view, pts, block, pose, self.iterations, start, weight
             )
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
         return MatchResult(pose, hess, cost / max(1, pts.shape[0]))

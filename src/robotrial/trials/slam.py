@@ -538,18 +538,19 @@ def _cell_centres(grid: LogOddsGrid, mask: np.ndarray) -> np.ndarray:
 
 
 def map_accuracy(
-    grid: LogOddsGrid, map_in_world: np.ndarray, world: World, spawn_xy: tuple[float, float]
+    grid: LogOddsGrid, map_in_world: np.ndarray, world: World, laser_height: float
 ) -> dict[str, float]:
     """Precision and recall of the map's occupied cells against the world's ground truth
-    with a one-cell tolerance (see the module docstring)."""
+    with a one-cell tolerance (see the module docstring). `map_in_world` is the map
+    frame's pose (x, y, yaw) in the world, also where the robot started."""
     occ = grid.ros_values() == 100
     res = grid.resolution
-    lo = SCAN_BAND
-    z0 = float(map_in_world[3]) if len(map_in_world) > 3 else 0.0
-    gt = world_occupancy(world, res, (z0 + lo[0], z0 + lo[1]), include_objects=True)
+    band = (laser_height + SCAN_BAND[0], laser_height + SCAN_BAND[1])
+    gt = world_occupancy(world, res, band, include_objects=True)
     truth = gt.occupied
     near_truth = ndimage.binary_dilation(truth, np.ones((3, 3), bool))
-    pose = map_in_world[:3]
+    pose = np.asarray(map_in_world, dtype=np.float64)
+    spawn_xy = (float(pose[0]), float(pose[1]))
     pts = _cell_centres(grid, occ)
     world_pts = np.empty_like(pts)
     c, s = np.cos(pose[2]), np.sin(pose[2])
@@ -652,12 +653,9 @@ def score(
         est = run.poses[ok]
         out["ate"] = ate(est, ref)
         out["rpe"] = rpe(est, ref)
-    start = rec.truth_at(rec.scans[0].stamp)
+    start = map_pose_in_world(rec)
     if world is not None and start is not None:
-        pose = np.array([*start, 0.0])
-        spawn_xy = (float(start[0]), float(start[1]))
-        z = rec.laser_height
-        out["map"] = map_accuracy(run.grid, np.array([*pose[:3], z]), world, spawn_xy)
+        out["map"] = map_accuracy(run.grid, start, world, rec.laser_height)
     if true_size is not None:
         try:
             w, d, yaw = room_dimensions(run.grid)
@@ -682,6 +680,8 @@ def score(
         out["cpu_per_scan_ms"] = _ms(run.cpu_times)
     if run.updated is not None and run.updated.any():
         out["time_per_update_ms"] = _ms(times[run.updated])
+        if run.cpu_times is not None:
+            out["cpu_per_update_ms"] = _ms(run.cpu_times[run.updated])
     out["scans"] = len(times)
     out["real_time_factor"] = run.duration / run.wall_time if run.wall_time > 0 else None
     out["map_memory_mb"] = run.map_bytes / 1e6

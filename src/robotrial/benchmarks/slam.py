@@ -1,0 +1,198 @@
+"""`robotrial bench slam`: GMapping- and Hector-class SLAM in rooms A, B, C and the
+apartment, from the same recordings (the platform paper's experiment, layer 5).
+
+For each world the simulator drives the mobile manipulator along the trial route at
+0.3 m/s (the paper's speed) and records /scan, /odom, /ground_truth and /tf_static;
+every method then runs over that one recording. Baseline, measured in the same run:
+the map built from the true poses with the same grid, which shows what the sensor and
+the grid alone cost (the floor no SLAM method can beat on room dimensions). The paper's
+finding (Hector fails in the large empty room A, GMapping holds) is checked twice: with
+the LiDAR's full range, and with the usable range cut to `--short-range` metres (what a
+large room looks like to a short-range laser).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import time
+from datetime import date
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robotrial.cli.output import console, print_table, progress
+
+HELP = "SLAM (gmapping, hector) in rooms A, B, C and the apartment: accuracy, ATE, speed"
+
+WORLDS = ("room_a", "room_b", "room_c", "apartment")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--worlds", default=",".join(WORLDS), help="comma-separated worlds")
+    parser.add_argument("--recordings", default="bench-slam", help="folder for recordings")
+    parser.add_argument("--rerecord", action="store_true", help="simulate even if recorded")
+    parser.add_argument("--particles", type=int, default=30, help="GMapping particles")
+    parser.add_argument("--short-range", type=float, default=4.0, help="room A check (m)")
+    parser.add_argument("--out", default="bench-slam/slam.json", help="JSON results")
+    parser.add_argument("--seed", type=int, default=0)
+
+
+def truth_map_run(rec, resolution: float):
+    """The baseline: the scans written into a grid at their true poses."""
+    from robotrial.slam.grid import LogOddsGrid
+    from robotrial.slam.scan import beams, transform_points
+    from robotrial.trials.slam import SlamRun, true_poses
+
+    grid = LogOddsGrid(resolution)
+    stamps = np.array([s.stamp for s in rec.scans])
+    poses, ok = true_poses(rec, stamps)
+    t0 = time.perf_counter()
+    for s, p in zip([s for s, k in zip(rec.scans, ok, strict=True) if k], poses, strict=True):
+        b = beams(s.ranges, s.angle_min, s.angle_increment, s.range_min, 30.0, rec.laser_pose)
+        grid.integrate(
+            transform_points(p, np.array([b.origin]))[0], transform_points(p, b.ends), b.hit
+        )
+    wall = time.perf_counter() - t0
+    return SlamRun(
+        "truth", grid, stamps[ok], poses, np.zeros(0), wall, rec.duration, grid.logodds.nbytes
+    )
+
+
+def odometry_run(rec, grid):
+    """The odometry alone, as a trajectory in the map frame (scored for ATE only)."""
+    from robotrial.slam.scan import relative
+    from robotrial.trials.slam import SlamRun
+
+    stamps = np.array([s.stamp for s in rec.scans])
+    first = rec.odom_at(stamps[0])
+    poses = np.array([relative(first, rec.odom_at(t)) for t in stamps])
+    return SlamRun("odometry", grid, stamps, poses, np.zeros(0), 0.0, rec.duration, 0)
+
+
+def _warm_up(rec) -> None:
+    """Compile (or load) every numba kernel before anything is timed."""
+    from robotrial.trials.slam import run_slam
+
+    short = type(rec)(rec.scans[:40], rec.odom, rec.truth, rec.laser_pose, rec.laser_height)
+    run_slam("hector", short)
+    run_slam("gmapping", short, {"particles": 2, "linearUpdate": 0.05})
+
+
+def _row(world: str, variant: str, s: dict[str, Any]) -> list[Any]:
+    room = s.get("room", {})
+    return [
+        world,
+        variant,
+        s.get("ate", {}).get("rmse", float("nan")) * 100,
+        s.get("ate", {}).get("max", float("nan")) * 100,
+        s.get("rpe", {}).get("rmse", float("nan")) * 100,
+        s.get("map", {}).get("precision", float("nan")),
+        s.get("map", {}).get("recall", float("nan")),
+        room.get("error", float("nan")) * 100 if isinstance(room.get("error"), float) else "-",
+        s.get("time_per_scan_ms", {}).get("mean", float("nan")),
+        s.get("cpu_per_scan_ms", {}).get("mean", float("nan")),
+        s.get("cpu_per_update_ms", {}).get("mean", float("nan")),
+        s.get("real_time_factor") or float("nan"),
+        s.get("map_memory_mb", float("nan")),
+    ]
+
+
+COLUMNS = [
+    "world",
+    "method",
+    "ATE cm",
+    "ATE max cm",
+    "RPE cm",
+    "precision",
+    "recall",
+    "room err cm",
+    "ms/scan",
+    "CPU ms/scan",
+    "CPU ms/update",
+    "RTF",
+    "map MB",
+]
+
+
+def run(args: argparse.Namespace) -> int:
+    from robotrial.model import load_world
+    from robotrial.trials.slam import (
+        ROUTES,
+        load_recording,
+        record_drive,
+        room_size,
+        run_slam,
+        score,
+    )
+
+    worlds = [w.strip() for w in args.worlds.split(",") if w.strip()]
+    unknown = [w for w in worlds if w not in ROUTES]
+    if unknown:
+        console.print(f"[red]bench slam: no route for {unknown}; known: {sorted(ROUTES)}")
+        return 2
+    folder = Path(args.recordings)
+    folder.mkdir(parents=True, exist_ok=True)
+    results: dict[str, Any] = {
+        "date": date.today().isoformat(),
+        "machine": f"{platform.machine()}, {_cpus()} cores, no GPU",
+        "particles": args.particles,
+        "worlds": {},
+    }
+    rows = []
+    variants = [
+        ("gmapping", "gmapping", {"particles": args.particles}),
+        ("hector", "hector", {}),
+        ("gmapping, lskip=3", "gmapping", {"particles": args.particles, "lskip": 3}),
+    ]
+    for world_name in worlds:
+        world = load_world(world_name)
+        path = folder / f"{world_name}.mcap"
+        if args.rerecord or not path.is_file():
+            with progress(f"simulating {world_name}", None) as _:
+                record_drive(
+                    world_name, path, duration=240.0, route=ROUTES[world_name], seed=args.seed
+                )
+        rec = load_recording(path)
+        if not results["worlds"]:
+            _warm_up(rec)
+        size = room_size(world) if world_name.startswith("room_") else None
+        per: dict[str, Any] = {"duration_s": rec.duration, "scans": len(rec.scans)}
+        base = truth_map_run(rec, 0.05)
+        per["truth_poses"] = score(base, rec, world, size)
+        rows.append(_row(world_name, "true poses (baseline)", per["truth_poses"]))
+        odo = score(odometry_run(rec, base.grid), rec, None)
+        per["odometry"] = {k: odo[k] for k in ("ate", "rpe")}
+        rows.append(_row(world_name, "odometry alone (baseline)", per["odometry"]))
+        todo = list(variants)
+        if world_name == "room_a":
+            r = args.short_range
+            todo += [
+                (
+                    f"gmapping, {r:g} m laser",
+                    "gmapping",
+                    {"particles": args.particles, "maxUrange": r},
+                ),
+                (f"hector, {r:g} m laser", "hector", {"laser_max_dist": r}),
+            ]
+        for label, method, params in todo:
+            with progress(f"{label} in {world_name}", len(rec.scans)) as adv:
+                run_ = run_slam(method, rec, params, on_scan=lambda i: adv())
+            s = score(run_, rec, world, size)
+            per[label] = s
+            rows.append(_row(world_name, label, s))
+        results["worlds"][world_name] = per
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(results, indent=2, default=float))
+    print_table("bench slam (ATE and room error in cm, times in ms)", COLUMNS, rows)
+    console.print(f"results: {out}")
+    return 0
+
+
+def _cpus() -> int:
+    import os
+
+    return os.cpu_count() or 1

@@ -1,5 +1,6 @@
 // The page's controller: loads a robot into a world, wires the panel to the robot's
-// joints, and keeps the state that window.robotrial.state() reports.
+// joints, keeps the rosbridge connection and, for arms, the task (task/session.ts), and
+// the state that window.robotrial.state() reports.
 
 import {
   getCatalog,
@@ -7,13 +8,20 @@ import {
   robotFileUrl,
   worldFileUrl,
   type Catalog,
+  type Config,
   type Spawn,
 } from "./api";
+import { ArView, installEmulatorIfAsked } from "./ar/ar";
+import { LiveView } from "./live/live";
 import { loadRobot, type Robot } from "./robot";
+import { checkRosbridgeUrl, RosConnection, sameOriginUrl } from "./ros/connection";
 import { enableShadows, Viewer } from "./scene";
-import type { RobotrialState } from "./state";
-import { humanize } from "./ui/dom";
+import type { PhysicsSpeed, RobotrialState } from "./state";
+import { TaskPanel } from "./task/panel";
+import { TaskSession } from "./task/session";
+import { el, humanize } from "./ui/dom";
 import { Panel } from "./ui/panel";
+import { UploadSection, type UploadAnswer } from "./upload/upload";
 import { loadWorld, placeAt } from "./world";
 
 const ORIGIN: Spawn = { xyz: [0, 0, 0], quat: [0, 0, 0, 1] };
@@ -21,6 +29,11 @@ const ORIGIN: Spawn = { xyz: [0, 0, 0], quat: [0, 0, 0, 1] };
 export class RobotrialApp {
   readonly viewer: Viewer;
   readonly panel: Panel;
+  readonly connection = new RosConnection();
+  readonly task: TaskSession;
+  readonly ar: ArView;
+  readonly live: LiveView;
+  private config: Config | null = null;
   private catalog: Catalog = { default: { robot: "", world: "" }, robots: [], worlds: [] };
   private robotName = "";
   private worldName = "";
@@ -39,6 +52,73 @@ export class RobotrialApp {
       moveJoint: (name, value) => this.setJoints({ [name]: value }),
       home: () => this.home(),
     });
+    const taskPanel = new TaskPanel({
+      setRobot: () => this.task.setRobot(),
+      addObstacle: () => this.task.addObstacle(),
+      resetRobot: () => this.task.resetRobot(),
+      moveRobot: () => void this.task.moveRobot(),
+      editObstacle: (box) => this.task.editObstacle(box),
+      removeObstacle: (id) => this.task.removeObstacle(id),
+      carryObject: (on) => this.task.carryObject(on),
+      editObject: (box) => this.task.editObject(box),
+      objectToHand: () => this.task.objectToHand(),
+      editGoal: (goal) => this.task.editGoal(goal),
+      select: (pick) => this.task.editor.select(pick),
+      gizmoMode: (mode) => this.task.editor.setMode(mode),
+      saveScene: () => this.task.saveScene(),
+      loadScene: (file) => void this.loadScene(file),
+      connect: (url) => this.connect(url),
+    });
+    this.panel.addTask(taskPanel.main, taskPanel.details, taskPanel.indicator);
+    const plot = plotCard(view, (kind) => void this.task.exportPlot(kind));
+    this.task = new TaskSession(
+      {
+        viewer: this.viewer,
+        connection: this.connection,
+        setJoints: (values) => this.setJoints(values),
+        lockJoints: (locked) => this.panel.lockJoints(locked),
+        plannerRobot: () => this.config?.robot ?? "",
+      },
+      taskPanel,
+      plot,
+    );
+    this.connection.onChange((state) => taskPanel.showConnection(state));
+    this.live = new LiveView(this.viewer, this.connection, (v) => this.setJoints(v), panel);
+    this.ar = new ArView(this.viewer, () => this.robot?.object.parent ?? null, panel);
+    new UploadSection(panel, (answer) => this.addUploadedRobot(answer));
+  }
+
+  /** A robot the server accepted from an upload: list it in the picker and open it. */
+  async addUploadedRobot(answer: UploadAnswer): Promise<void> {
+    this.catalog = await getCatalog();
+    this.panel.setCatalog(this.catalog.robots, this.catalog.worlds);
+    await this.load(answer.robot.name, answer.robot.world);
+    if (this.error) throw new Error(this.error);
+  }
+
+  /** Point the page at another rosbridge (a real ROS system offering the same names). */
+  connect(url: string): void {
+    try {
+      this.connection.open(checkRosbridgeUrl(url));
+    } catch (err) {
+      this.panel.setStatus(err instanceof Error ? err.message : String(err), "error");
+    }
+  }
+
+  /** MuJoCo steps per second of wall time for the robot and scene on screen. */
+  async measurePhysics(seconds = 1): Promise<PhysicsSpeed> {
+    const world = await this.task.physicsWorld();
+    return world.measureSpeed(seconds);
+  }
+
+  private async loadScene(file: File): Promise<void> {
+    const scene = await this.task.loadScene(file);
+    if (!scene) return;
+    if (scene.robot !== this.robotName || scene.world !== this.worldName) {
+      await this.load(scene.robot, scene.world);
+      if (!this.ready) return;
+    }
+    this.task.applyScene(scene);
   }
 
   /** Read the server's catalog and open the robot and world asked for in the URL
@@ -46,9 +126,16 @@ export class RobotrialApp {
   async start(): Promise<void> {
     try {
       const [config, catalog] = await Promise.all([getConfig(), getCatalog()]);
+      this.config = config;
+      this.live.setInfo(config.live ?? null);
+      await installEmulatorIfAsked();
+      void this.ar.check();
       this.catalog = catalog;
       this.panel.setCatalog(catalog.robots, catalog.worlds);
       const query = new URLSearchParams(location.search);
+      const rosbridge = query.get("rosbridge");
+      if (rosbridge) this.connect(rosbridge);
+      else if (config.rosbridge_enabled) this.connection.open(sameOriginUrl(config.rosbridge));
       await this.load(query.get("robot") ?? config.robot, query.get("world") ?? config.world);
     } catch (err) {
       this.fail(err);
@@ -80,6 +167,13 @@ export class RobotrialApp {
       this.robotShown = robotName;
       this.viewer.setWorld(world);
       this.viewer.setRobot(placeAt(robot.object, spawn ?? ORIGIN));
+      const place = spawn ?? ORIGIN;
+      this.task.editor.group.position.set(...place.xyz);
+      this.task.editor.group.quaternion.set(...place.quat);
+      const kind = this.catalog.robots.find((r) => r.name === robotName)?.kind;
+      if (kind === "arm") this.task.attach(robot, robotName, worldName);
+      else this.task.detach();
+      this.live.shown(robotName, worldName, robot);
       this.viewer.frame(robot.object);
       this.panel.setJoints(robot.joints, robot.jointValues());
       this.panel.describeEndEffector(
@@ -92,7 +186,9 @@ export class RobotrialApp {
       this.ready = true;
       performance.measure(`robotrial:ready ${robotName} ${worldName}`, { start: started });
       this.panel.setStatus(`${humanize(robotName)} · ${humanize(worldName)}`, "ready");
-      const query = new URLSearchParams({ robot: robotName, world: worldName });
+      const query = new URLSearchParams(location.search);
+      query.set("robot", robotName);
+      query.set("world", worldName);
       history.replaceState(null, "", `?${query}`);
     } catch (err) {
       if (load === this.loads) this.fail(err);
@@ -129,6 +225,10 @@ export class RobotrialApp {
       endEffector: robot ? robot.endEffector() : null,
       ready: this.ready,
       error: this.error,
+      connection: this.connection.state(),
+      ...this.task.state(),
+      ar: this.ar.state(),
+      live: this.live.state(),
     };
   }
 
@@ -138,4 +238,22 @@ export class RobotrialApp {
     this.panel.setStatus(`Could not load: ${this.error}`, "error");
     console.error(err);
   }
+}
+
+/** The card over the view that shows the hand's path after a run, with its exports. */
+function plotCard(view: HTMLElement, exportAs: (kind: "csv" | "png") => void): HTMLElement {
+  const csv = el("button", { type: "button", class: "quiet", id: "export-csv" }, "CSV");
+  const png = el("button", { type: "button", class: "quiet", id: "export-png" }, "PNG");
+  const close = el("button", { type: "button", class: "quiet", "aria-label": "Close the plot" }, "×");
+  const card = el(
+    "section",
+    { class: "plot-card", id: "path-plot", hidden: "", "aria-label": "Hand path" },
+    el("div", { class: "section-head" }, el("h2", {}, "Hand path: plan and browser"), el("div", { class: "row" }, csv, png, close)),
+    el("div", { class: "chart" }),
+  );
+  csv.addEventListener("click", () => exportAs("csv"));
+  png.addEventListener("click", () => exportAs("png"));
+  close.addEventListener("click", () => (card.hidden = true));
+  view.append(card);
+  return card;
 }

@@ -8,5 +8,8 @@ const app = new RobotrialApp(
   document.getElementById("view") as HTMLElement,
   document.getElementById("panel") as HTMLElement,
 );
-installWindowApi(() => app.state());
+installWindowApi(
+  () => app.state(),
+  (seconds) => app.measurePhysics(seconds),
+);
 void app.start();

@@ -49,14 +49,51 @@ def world_spheres(poses, sphere_link, sphere_local, out) -> None:
 
 
 @nb.njit(cache=True, inline="always")
-def _body_hits_env(b, centres, radius, body_start, body_end, bound_c, bound_r, pad, env):
-    """Does body `b` touch any environment shape? `env` holds boxes, cylinders, spheres."""
-    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env
+def _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready) -> None:
+    """Move body b's spheres to the world frame, once per configuration (on demand: most
+    bodies are far from everything and never need their spheres)."""
+    if ready[b]:
+        return
+    ready[b] = True
+    for s in range(body_start[b], body_end[b]):
+        li = sphere_link[s]
+        x, y, z = sphere_local[s, 0], sphere_local[s, 1], sphere_local[s, 2]
+        for i in range(3):
+            centres[s, i] = (
+                poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
+            )
+
+
+@nb.njit(cache=True, inline="always")
+def _body_hits_env(
+    b,
+    sphere_link,
+    sphere_local,
+    radius,
+    body_start,
+    body_end,
+    bound_r,
+    pad,
+    box_inv,
+    box_half,
+    cyl_inv,
+    cyl_r,
+    cyl_h,
+    sph_c,
+    sph_r,
+    poses,
+    centres,
+    bound_c,
+    ready,
+):
+    """Does body `b` touch any environment shape (boxes, cylinders, spheres)? Arrays come
+    one by one: unpacking tuples in a helper costs reference counting on every call."""
     bx, by, bz = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2]
     br = bound_r[b] + pad
     for k in range(box_inv.shape[0]):
         if _box_gap2(bx, by, bz, box_inv, k, box_half) > br * br:
             continue
+        _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
         for s in range(body_start[b], body_end[b]):
             r = radius[s] + pad
             if (
@@ -67,6 +104,7 @@ def _body_hits_env(b, centres, radius, body_start, body_end, bound_c, bound_r, p
     for k in range(cyl_inv.shape[0]):
         if _cyl_gap2(bx, by, bz, cyl_inv, k, cyl_r, cyl_h) > br * br:
             continue
+        _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
         for s in range(body_start[b], body_end[b]):
             r = radius[s] + pad
             if (
@@ -81,6 +119,7 @@ def _body_hits_env(b, centres, radius, body_start, body_end, bound_c, bound_r, p
         lim = br + sph_r[k]
         if dx * dx + dy * dy + dz * dz > lim * lim:
             continue
+        _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
         for s in range(body_start[b], body_end[b]):
             dx = centres[s, 0] - sph_c[k, 0]
             dy = centres[s, 1] - sph_c[k, 1]
@@ -92,14 +131,37 @@ def _body_hits_env(b, centres, radius, body_start, body_end, bound_c, bound_r, p
 
 
 @nb.njit(cache=True, inline="always")
-def _bodies_touch(a, b, centres, radius, body_start, body_end, bound_c, bound_r) -> bool:
+def _bodies_touch(
+    a,
+    b,
+    sphere_link,
+    sphere_local,
+    radius,
+    body_start,
+    body_end,
+    bound_r,
+    poses,
+    centres,
+    bound_c,
+    ready,
+) -> bool:
     dx = bound_c[a, 0] - bound_c[b, 0]
     dy = bound_c[a, 1] - bound_c[b, 1]
     dz = bound_c[a, 2] - bound_c[b, 2]
     lim = bound_r[a] + bound_r[b]
     if dx * dx + dy * dy + dz * dz > lim * lim:
         return False
+    _place(a, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
+    _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
+    bx, by, bz, brad = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2], bound_r[b]
     for i in range(body_start[a], body_end[a]):
+        # skip spheres of a that miss b's bounding sphere
+        dx = centres[i, 0] - bx
+        dy = centres[i, 1] - by
+        dz = centres[i, 2] - bz
+        lim = radius[i] + brad
+        if dx * dx + dy * dy + dz * dz > lim * lim:
+            continue
         for j in range(body_start[b], body_end[b]):
             dx = centres[i, 0] - centres[j, 0]
             dy = centres[i, 1] - centres[j, 1]
@@ -110,40 +172,78 @@ def _bodies_touch(a, b, centres, radius, body_start, body_end, bound_c, bound_r)
     return False
 
 
+def buffers(kin, bodies) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Scratch space for `config_valid`: link poses, sphere centres, body bounds, flags."""
+    n_bodies = bodies[5].shape[0]
+    return (
+        np.empty((kin[0].shape[0], 4, 4)),
+        np.empty((bodies[0].shape[0], 3)),
+        np.empty((n_bodies, 3)),
+        np.zeros(n_bodies, dtype=np.bool_),
+    )
+
+
 @nb.njit(cache=True, inline="always")
-def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, poses, centres, bound_c) -> bool:
-    """True when configuration `q` is free of self and environment contacts."""
+def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf) -> bool:
+    """True when configuration `q` is free of self and environment contacts. `buf` is
+    scratch space from `buffers`."""
     parent, origin, jtype, axis, src, mult, offset, const = kin
     sphere_link, sphere_local, radius, body_start, body_end, body_link, bound_local, bound_r = (
         bodies
     )
+    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env
+    poses, centres, bound_c, ready = buf
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
-    world_spheres(poses, sphere_link, sphere_local, centres)
     world_spheres(poses, body_link, bound_local, bound_c)
+    for i in range(ready.shape[0]):
+        ready[i] = False
     for e in range(env_bodies.shape[0]):
         if _body_hits_env(
-            env_bodies[e], centres, radius, body_start, body_end, bound_c, bound_r, pad, env
+            env_bodies[e],
+            sphere_link,
+            sphere_local,
+            radius,
+            body_start,
+            body_end,
+            bound_r,
+            pad,
+            box_inv,
+            box_half,
+            cyl_inv,
+            cyl_r,
+            cyl_h,
+            sph_c,
+            sph_r,
+            poses,
+            centres,
+            bound_c,
+            ready,
         ):
             return False
     for p in range(pairs.shape[0]):
         if _bodies_touch(
-            pairs[p, 0], pairs[p, 1], centres, radius, body_start, body_end, bound_c, bound_r
+            pairs[p, 0],
+            pairs[p, 1],
+            sphere_link,
+            sphere_local,
+            radius,
+            body_start,
+            body_end,
+            bound_r,
+            poses,
+            centres,
+            bound_c,
+            ready,
         ):
             return False
     return True
 
 
 @nb.njit(cache=True)
-def valid_batch(qs, kin, bodies, env_bodies, pairs, pad, env) -> np.ndarray:
-    n_links = kin[0].shape[0]
-    poses = np.empty((n_links, 4, 4))
-    centres = np.empty((bodies[0].shape[0], 3))
-    bound_c = np.empty((bodies[5].shape[0], 3))
+def valid_batch(qs, kin, bodies, env_bodies, pairs, pad, env, buf) -> np.ndarray:
     out = np.empty(qs.shape[0], dtype=np.bool_)
     for i in range(qs.shape[0]):
-        out[i] = config_valid(
-            qs[i], kin, bodies, env_bodies, pairs, pad, env, poses, centres, bound_c
-        )
+        out[i] = config_valid(qs[i], kin, bodies, env_bodies, pairs, pad, env, buf)
     return out
 
 
@@ -173,32 +273,36 @@ def _bisection_order(n: int) -> np.ndarray:
 
 
 @nb.njit(cache=True)
-def motions_valid(a, b, resolution, kin, bodies, env_bodies, pairs, pad, env) -> np.ndarray:
+def segment_valid(a, b, resolution, kin, bodies, env_bodies, pairs, pad, env, buf, q) -> bool:
+    """Is the straight motion a -> b free? `b` is checked, `a` is assumed free; samples
+    no farther apart than `resolution` per joint, midpoint first. `buf` and `q` are
+    scratch space."""
+    d = a.shape[0]
+    span = 0.0
+    for j in range(d):
+        span = max(span, abs(b[j] - a[j]) / resolution[j])
+    n = max(int(np.ceil(span)), 1)
+    if not config_valid(b, kin, bodies, env_bodies, pairs, pad, env, buf):
+        return False
+    if n == 1:
+        return True
+    for i in _bisection_order(n):
+        t = i / n
+        for j in range(d):
+            q[j] = a[j] + t * (b[j] - a[j])
+        if not config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf):
+            return False
+    return True
+
+
+@nb.njit(cache=True)
+def motions_valid(a, b, resolution, kin, bodies, env_bodies, pairs, pad, env, buf) -> np.ndarray:
     """For each row i: is the straight joint-space motion a[i] -> b[i] free? Ends excluded
     for `a` (assumed valid), included for `b`."""
-    n_links = kin[0].shape[0]
-    poses = np.empty((n_links, 4, 4))
-    centres = np.empty((bodies[0].shape[0], 3))
-    bound_c = np.empty((bodies[5].shape[0], 3))
-    d = a.shape[1]
+    q = np.empty(a.shape[1])
     out = np.empty(a.shape[0], dtype=np.bool_)
-    q = np.empty(d)
     for m in range(a.shape[0]):
-        span = 0.0
-        for j in range(d):
-            span = max(span, abs(b[m, j] - a[m, j]) / resolution[j])
-        n = max(int(np.ceil(span)), 1)
-        ok = config_valid(b[m], kin, bodies, env_bodies, pairs, pad, env, poses, centres, bound_c)
-        if ok and n > 1:
-            order = _bisection_order(n)
-            for i in order:
-                t = i / n
-                for j in range(d):
-                    q[j] = a[m, j] + t * (b[m, j] - a[m, j])
-                if not config_valid(
-                    q, kin, bodies, env_bodies, pairs, pad, env, poses, centres, bound_c
-                ):
-                    ok = False
-                    break
-        out[m] = ok
+        out[m] = segment_valid(
+            a[m], b[m], resolution, kin, bodies, env_bodies, pairs, pad, env, buf, q
+        )
     return out

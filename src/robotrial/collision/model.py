@@ -126,6 +126,19 @@ class RobotSpheres:
                     reasons[key] = "never"
         return set(reasons), reasons
 
+    def _reach(self, poses: np.ndarray) -> None:
+        """`origin`: the root's position; `reach`: how far from it any moving sphere
+        gets (sampled maximum plus a margin), to drop unreachable obstacles."""
+        kin = self.kin
+        self.origin = poses[0, 0, :3, 3].copy()
+        far = 0.0
+        for b in self.bodies:
+            lb = kin.link_index[b.link]
+            m = poses[:, lb]
+            world = np.einsum("nij,sj->nsi", m[:, :3, :3], b.centres) + m[:, None, :3, 3]
+            far = max(far, float(np.max(np.linalg.norm(world - self.origin, axis=-1) + b.radii)))
+        self.reach = 1.1 * far + 0.05
+
     def _resolution(self, step: float, seed: int) -> np.ndarray:
         """Joint steps (rad or m) such that one joint moving one step moves no sphere
         surface point farther than `step` metres."""
@@ -133,6 +146,7 @@ class RobotSpheres:
         rng = np.random.default_rng(seed)
         qs = kin.random(rng, 200)
         poses = kin.fk(qs)
+        self._reach(poses)
         lever = np.full(kin.d, 1e-3)
         for k in range(len(kin.link_names)):
             s = kin.src[k]
@@ -195,12 +209,14 @@ class Environment:
         self.poses.append(m)
         self.dims.append(dims)
 
-    def arrays(self) -> tuple:
+    def arrays(self, keep: Sequence[int] | None = None) -> tuple:
         """The tuple the kernels take: box inverse poses and half extents, cylinder
-        inverse poses, radii and half lengths, sphere centres and radii."""
+        inverse poses, radii and half lengths, sphere centres and radii (of the shapes
+        in `keep`, default all)."""
+        chosen = set(range(len(self.kinds)) if keep is None else keep)
 
         def pick(kind: str) -> list[int]:
-            return [i for i, k in enumerate(self.kinds) if k == kind]
+            return [i for i, k in enumerate(self.kinds) if k == kind and i in chosen]
 
         bi, ci, si = pick("box"), pick("cylinder"), pick("sphere")
         inv = [np.linalg.inv(m) for m in self.poses]
@@ -283,7 +299,23 @@ class CollisionChecker:
             [i for i, b in enumerate(bodies) if self.kin.moving[self.kin.link_index[b.link]]],
             dtype=np.int64,
         )
-        self._env = self.env.arrays()
+        self._env = self._reachable_env()
+        self._buf = kernels.buffers(self.kin._args(), self._bodies)
+
+    def _reachable_env(self) -> tuple:
+        """The environment arrays without shapes no moving body can reach (table legs,
+        a floor far below the arm): fewer tests for every check."""
+        reach = self.robot.reach + self.padding + 1e-3
+        for b in self.bodies:
+            if b.name == OBJECT:
+                reach += float(np.max(np.linalg.norm(b.centres, axis=1) + b.radii))
+        keep = [
+            i
+            for i in range(len(self.env))
+            if _distance(self.robot.origin, self.env.kinds[i], self.env.poses[i], self.env.dims[i])
+            <= reach
+        ]
+        return self.env.arrays(keep)
 
     def _pack(self) -> None:
         link_index = self.kin.link_index
@@ -328,7 +360,28 @@ class CollisionChecker:
         """(N,) bool: which configurations of (N, d) are free."""
         q = np.ascontiguousarray(np.atleast_2d(np.asarray(qs, dtype=float)))
         return kernels.valid_batch(
-            q, self.kin._args(), self._bodies, self.env_bodies, self.pairs, self.padding, self._env
+            q,
+            self.kin._args(),
+            self._bodies,
+            self.env_bodies,
+            self.pairs,
+            self.padding,
+            self._env,
+            self._buf,
+        )
+
+    def kernel_args(self) -> tuple:
+        """What compiled planners pass to `kernels.segment_valid` after the two ends:
+        resolution, kinematics, bodies, env bodies, pairs, padding, environment."""
+        return (
+            self.resolution,
+            self.kin._args(),
+            self._bodies,
+            self.env_bodies,
+            self.pairs,
+            self.padding,
+            self._env,
+            self._buf,
         )
 
     def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -346,6 +399,7 @@ class CollisionChecker:
             self.pairs,
             self.padding,
             self._env,
+            self._buf,
         )
 
     def motion_valid(self, a: np.ndarray, b: np.ndarray) -> bool:
@@ -385,6 +439,18 @@ class CollisionChecker:
                 if _touches(c, r + self.padding, kind, self.env.poses[k], self.env.dims[k]):
                     out.add((name, self.env.names[k]))
         return out
+
+
+def _distance(p: np.ndarray, kind: str, pose: np.ndarray, dims: np.ndarray) -> float:
+    """Distance from point p to an environment shape (0 inside)."""
+    inv = np.linalg.inv(pose)
+    local = inv[:3, :3] @ p + inv[:3, 3]
+    if kind == "box":
+        return float(np.linalg.norm(np.maximum(np.abs(local) - dims, 0.0)))
+    if kind == "cylinder":
+        dr = max(float(np.linalg.norm(local[:2])) - dims[0], 0.0)
+        return float(np.hypot(dr, max(abs(local[2]) - dims[1], 0.0)))
+    return max(float(np.linalg.norm(local)) - dims[0], 0.0)
 
 
 def _touches(c: np.ndarray, r: np.ndarray, kind: str, pose: np.ndarray, dims: np.ndarray) -> bool:

@@ -1,0 +1,462 @@
+"""`robotrial bench planning`: the platform paper's Table 2, our planners against OMPL's.
+
+Problems: the g2rViewer desk task (desk_arm), and the obstacle, shelf, cage and
+under-table scenes for manipulator_h and the Panda of example-robot-data. On each, our
+planners (sphere checker, compiled) and OMPL's (its Python bindings, with MuJoCo as the
+state validity callback, as MoveIt pairs OMPL with FCL) run on the same start and goal
+in the same process. Every path we return is checked densely with MuJoCo. `--validate N`
+adds N random desk problems (random boxes, random start and goal) and counts returned
+paths in collision. Writes docs/benchmarks/planning.md and, with --out, JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from datetime import date
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robotrial.cli.output import print_json, print_table, progress
+from robotrial.collision.exact import ExactChecker
+from robotrial.collision.model import CollisionChecker, Environment
+from robotrial.geometry import Box, Pose
+from robotrial.model import load_robot, load_world
+from robotrial.planning import PLANNERS, Problem
+from robotrial.planning.problems import PlanningProblem, desk_task, scene_problem
+
+HELP = "planning times of our planners vs OMPL's with a MuJoCo callback (Table 2 and harder scenes)"
+
+PAPER_TABLE2 = {"rrt": 0.449, "rrt_connect": 0.051, "rrt_star": 5.016}  # s, MoveIt + OMPL
+OMPL_NAMES = {"rrt": "RRT", "rrt_connect": "RRTConnect", "rrt_star": "RRTstar", "prm": "PRM"}
+TABLE2_PLANNERS = ["rrt", "rrt_connect", "rrt_star", "prm", "prm_star", "sbl", "est", "biest"]
+HARD_SCENES = ["shelf", "cage", "under_table"]
+MOVEIT_SEGMENT_FRACTION = 0.005  # MoveIt's longest_valid_segment_fraction default
+
+
+def panda_path() -> str:
+    """The Panda URDF shipped by the example-robot-data package."""
+    base = Path(sys.prefix) / "lib"
+    hits = sorted(
+        base.glob(
+            "python3*/site-packages/cmeel.prefix/share/example-robot-data/robots/panda_description/urdf/panda.urdf"
+        )
+    )
+    if not hits:
+        raise FileNotFoundError(
+            "example-robot-data's panda.urdf is not installed (pip install example-robot-data)"
+        )
+    return str(hits[0])
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--runs", type=int, default=50, help="runs per planner on the Table 2 problems"
+    )
+    parser.add_argument(
+        "--hard-runs", type=int, default=20, help="runs per planner on the harder scenes"
+    )
+    parser.add_argument("--time-limit", type=float, default=10.0, help="s per run")
+    parser.add_argument(
+        "--rrt-star-time", type=float, default=1.0, help="s of RRT* optimisation (both libraries)"
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="5 runs, desk and manipulator_h obstacle only"
+    )
+    parser.add_argument("--no-ompl", action="store_true", help="skip the OMPL baseline")
+    parser.add_argument(
+        "--validate",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also plan N random desk problems and count colliding paths",
+    )
+    parser.add_argument("--out", type=Path, help="write the results as JSON here")
+    parser.add_argument(
+        "--md",
+        type=Path,
+        default=Path("docs/benchmarks/planning.md"),
+        help="markdown table to write",
+    )
+    parser.add_argument("--json", action="store_true", help="print the results as JSON")
+
+
+# --- running one planner ----------------------------------------------------------------
+
+
+def _ours(
+    prob: PlanningProblem,
+    checker: CollisionChecker,
+    exact: ExactChecker,
+    name: str,
+    runs: int,
+    limit: float,
+    star_time: float,
+) -> dict[str, Any]:
+    times, lengths, ok, bad = [], [], 0, 0
+    for seed in range(runs):
+        cls = PLANNERS[name]
+        planner = cls()
+        res = planner.solve(
+            Problem(prob.start, prob.goal[None], star_time if name == "rrt_star" else limit, seed),
+            checker,
+        )
+        times.append(res.planning_time)
+        if res.success:
+            ok += 1
+            lengths.append(res.stats["path_length"])
+            if not exact.path_valid(res.path)[0]:
+                bad += 1
+    return _summary(times, ok, runs, lengths, bad)
+
+
+def _ompl(
+    prob: PlanningProblem, exact: ExactChecker, name: str, runs: int, limit: float, star_time: float
+) -> dict[str, Any]:
+    from ompl import base as ob
+    from ompl import geometric as og
+    from ompl import util as ou
+
+    ou.setLogLevel(ou.LOG_NONE)
+    d = prob.kin.d
+    space = ob.RealVectorStateSpace(d)
+    bounds = ob.RealVectorBounds(d)
+    for i in range(d):
+        bounds.setLow(i, float(prob.kin.lower[i]))
+        bounds.setHigh(i, float(prob.kin.upper[i]))
+    space.setBounds(bounds)
+    ss = og.SimpleSetup(space)
+    q = np.empty(d)
+
+    def valid(state) -> bool:
+        for i in range(d):
+            q[i] = state[i]
+        return exact.valid(q)
+
+    ss.setStateValidityChecker(valid)
+    si = ss.getSpaceInformation()
+    # MoveIt's default: motions checked every 0.5 % of the space's largest extent
+    si.setStateValidityCheckingResolution(MOVEIT_SEGMENT_FRACTION)
+    start, goal = space.allocState(), space.allocState()
+    for i in range(d):
+        start[i] = float(prob.start[i])
+        goal[i] = float(prob.goal[i])
+    ss.setStartAndGoalStates(start, goal)
+    planner = getattr(og, OMPL_NAMES[name])(si)
+    ss.setPlanner(planner)
+    ss.setup()
+    times, lengths, ok, bad = [], [], 0, 0
+    for seed in range(runs):
+        ss.clear()
+        ou.RNG.setSeed(seed + 1)
+        t0 = time.perf_counter()
+        status = ss.solve(star_time if name == "rrt_star" else limit)
+        times.append(time.perf_counter() - t0)
+        if ss.haveExactSolutionPath() and "Exact" in str(status):
+            ok += 1
+            path = ss.getSolutionPath()
+            pts = np.array(
+                [[path.getState(k)[i] for i in range(d)] for k in range(path.getStateCount())]
+            )
+            lengths.append(float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))))
+    return _summary(times, ok, runs, lengths, bad)
+
+
+def _summary(times, ok, runs, lengths, bad) -> dict[str, Any]:
+    t = np.array(times)
+    return {
+        "runs": runs,
+        "success": ok / runs if runs else 0.0,
+        "mean_s": float(t.mean()),
+        "median_s": float(np.median(t)),
+        "min_s": float(t.min()),
+        "max_s": float(t.max()),
+        "path_length": float(np.mean(lengths)) if lengths else None,
+        "invalid_paths": bad,
+    }
+
+
+# --- random problems for the zero-collision check -----------------------------------------
+
+
+def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str, Any]:
+    """Plan `n` random desk problems (1-4 random boxes, random free start and goal) with
+    RRTConnect and check every returned path densely with MuJoCo."""
+    robot, world = load_robot("desk_arm"), load_world("desk")
+    prob = desk_task(robot, world)
+    rng = np.random.default_rng(seed)
+    solved = colliding = 0
+    times = []
+    with progress("random desk problems", n, enabled=show) as advance:
+        for k in range(n):
+            env = Environment()
+            for ob in world.static_bodies:
+                env.add(ob.name, ob.geometry, ob.pose)
+            boxes = []
+            for i in range(int(rng.integers(1, 5))):
+                size = rng.uniform(0.03, 0.15, 3)
+                xyz = (*rng.uniform(-0.3, 0.3, 2), rng.uniform(0.0, 0.3))
+                pose = Pose(tuple(xyz), tuple(rng.normal(size=4)))  # type: ignore[arg-type]
+                boxes.append((f"box{i}", Box(tuple(size)), pose))  # type: ignore[arg-type]
+                env.add(f"box{i}", Box(tuple(size)), pose)  # type: ignore[arg-type]
+            checker = CollisionChecker(prob.spheres, env)
+            qs = prob.kin.random(rng, 200)
+            free = qs[checker.valid(qs)]
+            if len(free) < 2:
+                advance()
+                continue
+            res = PLANNERS["rrt_connect"]().solve(Problem(free[0], free[1][None], 2.0, k), checker)
+            times.append(res.planning_time)
+            if res.success:
+                solved += 1
+                exact = ExactChecker(checker, world, boxes)
+                if not exact.path_valid(res.path)[0]:
+                    colliding += 1
+            advance()
+    return {
+        "problems": n,
+        "solved": solved,
+        "colliding_paths": colliding,
+        "median_planning_time_s": float(np.median(times)) if times else None,
+    }
+
+
+# --- the whole benchmark ----------------------------------------------------------------
+
+
+def _problems(quick: bool) -> list[tuple[str, PlanningProblem, bool]]:
+    """(robot name, problem, is a Table 2 problem)."""
+    out = []
+    desk = desk_task(load_robot("desk_arm"), load_world("desk"))
+    out.append(("desk_arm", desk, True))
+    mh = load_robot("manipulator_h")
+    ob = scene_problem(mh, "obstacle")
+    out.append(("manipulator_h", ob, True))
+    if quick:
+        return out
+    for scene in HARD_SCENES:
+        out.append(("manipulator_h", scene_problem(mh, scene, spheres=ob.spheres), False))
+    panda = load_robot(panda_path())
+    first = None
+    for scene in ["obstacle", *HARD_SCENES]:
+        p = scene_problem(panda, scene, spheres=first)
+        first = first or p.spheres
+        out.append(("panda", p, False))
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    runs = 5 if args.quick else args.runs
+    hard_runs = 5 if args.quick else args.hard_runs
+    show = not args.json
+    t_start = time.time()
+    results: list[dict[str, Any]] = []
+    problems = _problems(args.quick)
+    total = sum(
+        (len(TABLE2_PLANNERS) + (0 if args.no_ompl else len(OMPL_NAMES)))
+        if t2
+        else (2 if not args.no_ompl else 1)
+        for _, _, t2 in problems
+    )
+    with progress("planning benchmark", total, enabled=show) as advance:
+        for robot_name, prob, table2 in problems:
+            checker = prob.checker()
+            exact = prob.exact(checker)
+            n = runs if table2 else hard_runs
+            ours = TABLE2_PLANNERS if table2 else ["rrt_connect"]
+            for name in ours:
+                r = _ours(prob, checker, exact, name, n, args.time_limit, args.rrt_star_time)
+                results.append(
+                    {
+                        "robot": robot_name,
+                        "problem": prob.name,
+                        "library": "robotrial",
+                        "planner": name,
+                        **r,
+                    }
+                )
+                advance()
+            if args.no_ompl:
+                continue
+            for name in OMPL_NAMES if table2 else ["rrt_connect"]:
+                r = _ompl(prob, exact, name, n, args.time_limit, args.rrt_star_time)
+                results.append(
+                    {
+                        "robot": robot_name,
+                        "problem": prob.name,
+                        "library": "ompl+mujoco",
+                        "planner": name,
+                        **r,
+                    }
+                )
+                advance()
+    validation = random_desk_validation(args.validate, show=show) if args.validate else None
+    report = {
+        "date": date.today().isoformat(),
+        "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
+        f"{platform.python_implementation()} {platform.python_version()}",
+        "seconds": time.time() - t_start,
+        "settings": {
+            "runs": runs,
+            "hard_runs": hard_runs,
+            "time_limit": args.time_limit,
+            "rrt_star_time": args.rrt_star_time,
+        },
+        "results": results,
+        "speedups": _speedups(results),
+        "validation": validation,
+    }
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps(report, indent=2))
+    if args.md:
+        args.md.parent.mkdir(parents=True, exist_ok=True)
+        args.md.write_text(markdown(report))
+    if args.json:
+        print_json(report)
+    else:
+        print_table(
+            "planning time (s)",
+            [
+                "robot",
+                "problem",
+                "library",
+                "planner",
+                "success",
+                "mean",
+                "median",
+                "min",
+                "max",
+                "bad paths",
+            ],
+            [
+                (
+                    r["robot"],
+                    r["problem"],
+                    r["library"],
+                    r["planner"],
+                    f"{r['success']:.0%}",
+                    r["mean_s"],
+                    r["median_s"],
+                    r["min_s"],
+                    r["max_s"],
+                    r["invalid_paths"],
+                )
+                for r in results
+            ],
+        )
+        if report["speedups"]:
+            print_table(
+                "RRTConnect: OMPL+MuJoCo median / ours",
+                ["robot", "problem", "speedup"],
+                [(s["robot"], s["problem"], f"{s['speedup']:.0f}x") for s in report["speedups"]],
+            )
+        if validation:
+            v = validation
+            print(
+                f"random desk problems: {v['solved']}/{v['problems']} solved, "
+                f"{v['colliding_paths']} paths in collision"
+            )
+    return 0
+
+
+def _speedups(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    out = []
+    key = {(r["robot"], r["problem"], r["library"], r["planner"]): r for r in results}
+    for (robot, problem, lib, planner), r in key.items():
+        if lib != "robotrial" or planner != "rrt_connect":
+            continue
+        o = key.get((robot, problem, "ompl+mujoco", planner))
+        if o:
+            out.append(
+                {"robot": robot, "problem": problem, "speedup": o["median_s"] / r["median_s"]}
+            )
+    return out
+
+
+def markdown(report: dict[str, Any]) -> str:
+    """docs/benchmarks/planning.md from a report."""
+    res = report["results"]
+    s = report["settings"]
+    lines = [
+        "# Planning benchmark",
+        "",
+        f"Measured {report['date']} on {report['machine']} (shared with other jobs), no GPU, by "
+        "`robotrial bench planning`"
+        f" ({s['runs']} runs per planner on the Table 2 problems, {s['hard_runs']} on the harder "
+        f"scenes; {s['time_limit']:g} s limit a run; RRT* given {s['rrt_star_time']:g} s in both "
+        f"libraries). Total {report['seconds'] / 60:.1f} min.",
+        "",
+        "Ours: `robotrial.planning` with the compiled sphere checker; every returned path is "
+        "then checked densely with MuJoCo (column *bad*). OMPL: the `ompl` package's planners "
+        "with MuJoCo as the state validity callback, motions checked every 0.5 % of the "
+        "joint space's extent (MoveIt's default `longest_valid_segment_fraction`).",
+        "",
+        "## Table 2 of the platform paper, reproduced",
+        "",
+        "| robot / problem | planner | paper (MoveIt) mean s | ours mean s | min | max | success "
+        "| OMPL+MuJoCo mean s | min | max | success |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    key = {(r["robot"], r["problem"], r["library"], r["planner"]): r for r in res}
+    for (robot, problem, lib, planner), r in key.items():
+        if lib != "robotrial" or planner not in PAPER_TABLE2:
+            continue
+        o = key.get((robot, problem, "ompl+mujoco", planner))
+        paper = PAPER_TABLE2[planner]
+        ompl_cells = (
+            f"{o['mean_s']:.4f} | {o['min_s']:.4f} | {o['max_s']:.4f} | {o['success']:.0%}"
+            if o
+            else "- | - | - | -"
+        )
+        lines.append(
+            f"| {robot} / {problem} | {planner} | {paper} | {r['mean_s']:.4f} | {r['min_s']:.4f} | "
+            f"{r['max_s']:.4f} | {r['success']:.0%} | {ompl_cells} |"
+        )
+    lines += [
+        "",
+        "The paper's RRT* time is its whole time budget (MoveIt runs RRT* until the limit); ours "
+        "and OMPL's are the budget given here.",
+        "",
+        "## All runs",
+        "",
+        "| robot | problem | library | planner | success | mean s | median s | min s | max s "
+        "| path length (rad) | bad |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for r in res:
+        pl = f"{r['path_length']:.2f}" if r["path_length"] is not None else "-"
+        lines.append(
+            f"| {r['robot']} | {r['problem']} | {r['library']} | {r['planner']} "
+            f"| {r['success']:.0%} | {r['mean_s']:.5f} | {r['median_s']:.5f} | {r['min_s']:.5f} "
+            f"| {r['max_s']:.5f} | {pl} | {r['invalid_paths']} |"
+        )
+    if report["speedups"]:
+        lines += [
+            "",
+            "## RRTConnect speed-up over OMPL + MuJoCo (median / median)",
+            "",
+            "| robot | problem | speed-up |",
+            "| --- | --- | --- |",
+        ]
+        lines += [
+            f"| {s['robot']} | {s['problem']} | {s['speedup']:.0f}x |" for s in report["speedups"]
+        ]
+    v = report.get("validation")
+    if v:
+        lines += [
+            "",
+            "## Zero-collision check",
+            "",
+            f"{v['problems']} random desk problems (1 to 4 boxes of random size, position and "
+            f"orientation; random free start and goal): RRTConnect solved {v['solved']}; "
+            f"**{v['colliding_paths']}** of the returned paths collide under dense MuJoCo checking "
+            f"(median planning time {v['median_planning_time_s'] * 1e3:.2f} ms).",
+        ]
+    return "\n".join(lines) + "\n"

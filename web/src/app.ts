@@ -244,11 +244,16 @@ export class RobotrialApp {
 function plotCard(view: HTMLElement, exportAs: (kind: "csv" | "png") => void): HTMLElement {
   const csv = el("button", { type: "button", class: "quiet", id: "export-csv" }, "CSV");
   const png = el("button", { type: "button", class: "quiet", id: "export-png" }, "PNG");
-  const close = el("button", { type: "button", class: "quiet", "aria-label": "Close the plot" }, "×");
+  const close = el("button", { type: "button", class: "quiet", "aria-label": "Close" }, "×");
   const card = el(
     "section",
     { class: "plot-card", id: "path-plot", hidden: "", "aria-label": "Hand path" },
-    el("div", { class: "section-head" }, el("h2", {}, "Hand path: plan and browser"), el("div", { class: "row" }, csv, png, close)),
+    el(
+      "div",
+      { class: "section-head" },
+      el("h2", {}, "Hand path: plan and browser"),
+      el("div", { class: "row" }, csv, png, close),
+    ),
     el("div", { class: "chart" }),
   );
   csv.addEventListener("click", () => exportAs("csv"));

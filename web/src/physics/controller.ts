@@ -109,7 +109,13 @@ export class JointTracker {
   private held: Record<string, number> = {};
   private reference: JointReference | null = null;
   private startTime = 0;
-  private readonly servos: Array<{ name: string; qpos: number; dof: number; actuator: number; lead: number }>;
+  private readonly servos: Array<{
+    name: string;
+    qpos: number;
+    dof: number;
+    actuator: number;
+    lead: number;
+  }>;
 
   constructor(private readonly world: PhysicsWorld) {
     const m = world.model;

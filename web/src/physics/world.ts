@@ -63,7 +63,8 @@ export function mujoco(): Promise<MainModule> {
 
 /** The server's MJCF for `robot` in `world`. */
 export async function fetchMjcf(robot: string, world: string): Promise<MjcfBundle> {
-  const path = `/api/robots/${encodeURIComponent(robot)}/mjcf.json?world=${encodeURIComponent(world)}`;
+  const name = encodeURIComponent(robot);
+  const path = `/api/robots/${name}/mjcf.json?world=${encodeURIComponent(world)}`;
   const response = await fetch(path);
   if (!response.ok) {
     const { errorText } = await import("../api");
@@ -127,7 +128,11 @@ export class PhysicsWorld {
   }
 
   /** Compile the server's MJCF with `bodies` added. `rootLink`: the robot's root link. */
-  static async create(bundle: MjcfBundle, bodies: TaskBodies, rootLink: string): Promise<PhysicsWorld> {
+  static async create(
+    bundle: MjcfBundle,
+    bodies: TaskBodies,
+    rootLink: string,
+  ): Promise<PhysicsWorld> {
     const mj = await mujoco();
     for (const [name, base64] of Object.entries(bundle.assets)) {
       mj.FS.writeFile(`${DIR}/${name}`, decodeBase64(base64));

@@ -3,12 +3,7 @@
 // calls and subscriptions over the generated message types (generated/msgs.ts).
 
 import { Ros, Service, Topic } from "roslib";
-import {
-  SERVICES,
-  TOPICS,
-  type MessageTypes,
-  type ServiceTypes,
-} from "../generated/msgs";
+import { SERVICES, TOPICS, type MessageTypes, type ServiceTypes } from "../generated/msgs";
 
 export type ConnectionStatus = "connecting" | "connected" | "disconnected";
 
@@ -64,7 +59,11 @@ export class RosConnection {
   private retryAt: number | null = null;
   private retryTimer: number | undefined;
   /** Subscriptions to restore on every new connection. */
-  private readonly subscriptions = new Set<{ name: string; type: string; cb: (m: never) => void }>();
+  private readonly subscriptions = new Set<{
+    name: string;
+    type: string;
+    cb: (m: never) => void;
+  }>();
   private readonly live = new Map<object, Topic<unknown>>();
   /** Topics this page publishes on, per name (re-created on a new connection). */
   private readonly publishers = new Map<string, Topic<unknown>>();

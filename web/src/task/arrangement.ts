@@ -103,7 +103,10 @@ export function parseSceneFile(text: string): Arrangement {
     throw new Error(`not a robotrial scene file ("format" should be "${SCENE_FORMAT}")`);
   }
   if (doc.version !== SCENE_VERSION) {
-    throw new Error(`scene file version ${String(doc.version)} is not supported (this page reads ${SCENE_VERSION})`);
+    throw new Error(
+      `scene file version ${String(doc.version)} is not supported ` +
+        `(this page reads ${SCENE_VERSION})`,
+    );
   }
   const joints = record(doc.joints, "joints");
   for (const [name, v] of Object.entries(joints)) finite(v, `joints.${name}`);
@@ -134,7 +137,8 @@ function taskBox(raw: unknown, where: string): TaskBox {
 }
 
 function record(v: unknown, where: string): Record<string, unknown> {
-  if (!v || typeof v !== "object" || Array.isArray(v)) throw new Error(`${where} must be an object`);
+  if (!v || typeof v !== "object" || Array.isArray(v))
+    throw new Error(`${where} must be an object`);
   return v as Record<string, unknown>;
 }
 
@@ -149,6 +153,7 @@ function finite(v: unknown, where: string): number {
 }
 
 function vec(v: unknown, n: number, where: string): number[] {
-  if (!Array.isArray(v) || v.length !== n) throw new Error(`"${where}" must be a list of ${n} numbers`);
+  if (!Array.isArray(v) || v.length !== n)
+    throw new Error(`"${where}" must be a list of ${n} numbers`);
   return v.map((x, i) => finite(x, `${where}[${i}]`));
 }

@@ -166,7 +166,9 @@ export class TaskEditor {
       this.paths.add(line);
     }
     if (simulated.length > 1) {
-      this.paths.add(new Line(lineGeometry(simulated), new LineBasicMaterial({ color: COLORS.simulated })));
+      this.paths.add(
+        new Line(lineGeometry(simulated), new LineBasicMaterial({ color: COLORS.simulated })),
+      );
     }
     this.viewer.requestRender();
   }
@@ -289,7 +291,7 @@ function goalMarker(): Group {
 function place(mesh: Mesh, box: TaskBox): void {
   mesh.position.set(...box.position);
   mesh.quaternion.set(...box.quaternion).normalize();
-  mesh.scale.set(...box.size.map((s) => Math.max(MIN_SIZE, s)) as Vec3);
+  mesh.scale.set(...(box.size.map((s) => Math.max(MIN_SIZE, s)) as Vec3));
 }
 
 function boxOf(id: string, mesh: Mesh): TaskBox {
@@ -314,4 +316,3 @@ function keepAbove(mesh: Mesh): void {
 function lineGeometry(points: Vec3[]): BufferGeometry {
   return new BufferGeometry().setFromPoints(points.map((p) => new Vector3(...p)));
 }
-

@@ -55,23 +55,59 @@ export class TaskPanel {
   /** The connection indicator: goes in the panel's header. */
   readonly indicator: HTMLElement;
 
-  private readonly setButton = button("set-robot", "Set Robot", "Fix the start posture and the goal");
-  private readonly addButton = button("add-obstacle", "Add obstacles", "Place a box over a piece of furniture");
-  private readonly resetButton = button("reset-robot", "Reset Robot", "Back to the start, editable again");
-  private readonly moveButton = button("move-robot", "Move Robot!", "Plan a path and move the robot", "primary");
-  private readonly message = el("p", { id: "task-message", class: "task-message", role: "status", "aria-live": "polite" });
+  private readonly setButton = button(
+    "set-robot",
+    "Set Robot",
+    "Fix the start posture and the goal",
+  );
+  private readonly addButton = button(
+    "add-obstacle",
+    "Add obstacles",
+    "Place a box over a piece of furniture",
+  );
+  private readonly resetButton = button(
+    "reset-robot",
+    "Reset Robot",
+    "Back to the start, editable again",
+  );
+  private readonly moveButton = button(
+    "move-robot",
+    "Move Robot!",
+    "Plan a path and move the robot",
+    "primary",
+  );
+  private readonly message = el("p", {
+    id: "task-message",
+    class: "task-message",
+    role: "status",
+    "aria-live": "polite",
+  });
   private readonly obstacleList = el("div", { id: "obstacles", class: "box-list" });
   private readonly obstacleCount = el("span", { class: "count" });
   private readonly carry = el("input", { type: "checkbox", id: "carry-object" });
   private readonly objectFields: HTMLElement;
   private readonly objectInputs = new Map<BoxField, HTMLInputElement>();
-  private readonly toHand = el("button", { type: "button", class: "quiet", id: "object-to-hand" }, "Put in the hand");
+  private readonly toHand = el(
+    "button",
+    { type: "button", class: "quiet", id: "object-to-hand" },
+    "Put in the hand",
+  );
   private readonly goalInputs = new Map<string, HTMLInputElement>();
   private readonly modeButtons = new Map<GizmoMode, HTMLButtonElement>();
-  private readonly urlInput = el("input", { id: "rosbridge-url", type: "url", spellcheck: "false", "aria-label": "rosbridge address" });
+  private readonly urlInput = el("input", {
+    id: "rosbridge-url",
+    type: "url",
+    spellcheck: "false",
+    "aria-label": "rosbridge address",
+  });
   private readonly connectionText = el("p", { class: "hint", id: "connection-detail" });
   private readonly rows = new Map<string, Map<BoxField, HTMLInputElement>>();
-  private readonly fileInput = el("input", { type: "file", accept: ".json,application/json", id: "scene-file", hidden: "" });
+  private readonly fileInput = el("input", {
+    type: "file",
+    accept: ".json,application/json",
+    id: "scene-file",
+    hidden: "",
+  });
   private editable = true;
 
   constructor(private readonly actions: TaskActions) {
@@ -82,11 +118,23 @@ export class TaskPanel {
     this.main = el(
       "section",
       { class: "task", "aria-label": "Task" },
-      el("div", { class: "task-buttons" }, this.setButton, this.addButton, this.resetButton, this.moveButton),
+      el(
+        "div",
+        { class: "task-buttons" },
+        this.setButton,
+        this.addButton,
+        this.resetButton,
+        this.moveButton,
+      ),
       this.message,
     );
 
-    const modes = el("div", { class: "segmented", id: "gizmo-mode", role: "group", "aria-label": "What dragging does" });
+    const modes = el("div", {
+      class: "segmented",
+      id: "gizmo-mode",
+      role: "group",
+      "aria-label": "What dragging does",
+    });
     for (const [mode, label] of [
       ["translate", "Move"],
       ["rotate", "Turn"],
@@ -104,7 +152,11 @@ export class TaskPanel {
 
     this.carry.addEventListener("change", () => actions.carryObject(this.carry.checked));
     this.toHand.addEventListener("click", () => actions.objectToHand());
-    this.objectFields = this.boxFields(this.objectInputs, (box) => actions.editObject(box), "object");
+    this.objectFields = this.boxFields(
+      this.objectInputs,
+      (box) => actions.editObject(box),
+      "object",
+    );
     const goalRow = el("div", { class: "fields three", id: "goal" });
     for (const axis of ["x", "y", "z"]) {
       const input = numberInput(`goal-${axis}`, "1");
@@ -115,7 +167,7 @@ export class TaskPanel {
     }
 
     const save = el("button", { type: "button", class: "quiet", id: "save-scene" }, "Save scene");
-    const load = el("button", { type: "button", class: "quiet", id: "load-scene" }, "Load scene…");
+    const load = el("button", { type: "button", class: "quiet", id: "load-scene" }, "Load…");
     save.addEventListener("click", () => actions.saveScene());
     load.addEventListener("click", () => this.fileInput.click());
     this.fileInput.addEventListener("change", () => {
@@ -124,13 +176,21 @@ export class TaskPanel {
       this.fileInput.value = "";
     });
 
-    const connect = el("button", { type: "button", class: "quiet", id: "rosbridge-connect" }, "Connect");
+    const connect = el(
+      "button",
+      { type: "button", class: "quiet", id: "rosbridge-connect" },
+      "Connect",
+    );
     const submit = () => actions.connect(this.urlInput.value);
     connect.addEventListener("click", submit);
     this.urlInput.addEventListener("keydown", (e) => {
       if (e.key === "Enter") submit();
     });
-    this.indicator = el("p", { class: "connection", id: "connection", "data-status": "disconnected", title: "" }, "Not connected");
+    this.indicator = el(
+      "p",
+      { class: "connection", id: "connection", "data-status": "disconnected", title: "" },
+      "Not connected",
+    );
 
     this.details = el(
       "div",
@@ -152,12 +212,22 @@ export class TaskPanel {
         this.toHand,
       ),
       el("details", {}, el("summary", {}, "Goal for the hand"), goalRow),
-      el("details", {}, el("summary", {}, "Scene file"), el("div", { class: "row" }, save, load), this.fileInput),
+      el(
+        "details",
+        {},
+        el("summary", {}, "Scene file"),
+        el("div", { class: "row" }, save, load),
+        this.fileInput,
+      ),
       el(
         "details",
         {},
         el("summary", {}, "Connection"),
-        el("p", { class: "hint" }, "The planner is reached through rosbridge. Point the page at another ROS system here."),
+        el(
+          "p",
+          { class: "hint" },
+          "The planner is reached through rosbridge. Point the page at another ROS system here.",
+        ),
         el("div", { class: "row" }, this.urlInput, connect),
         this.connectionText,
       ),
@@ -188,14 +258,31 @@ export class TaskPanel {
     for (const id of [...this.rows.keys()]) if (!current.has(id)) this.rows.delete(id);
     const rows = boxes.map((box, i) => {
       let inputs = this.rows.get(box.id);
-      let row = this.obstacleList.querySelector<HTMLElement>(`[data-obstacle="${CSS.escape(box.id)}"]`);
+      let row = this.obstacleList.querySelector<HTMLElement>(
+        `[data-obstacle="${CSS.escape(box.id)}"]`,
+      );
       if (!inputs || !row) {
         inputs = new Map();
         this.rows.set(box.id, inputs);
-        const remove = el("button", { type: "button", class: "quiet danger", "data-action": "delete", "aria-label": `Delete obstacle ${i + 1}` }, "Delete");
+        const remove = el(
+          "button",
+          {
+            type: "button",
+            class: "quiet danger",
+            "data-action": "delete",
+            "aria-label": `Delete obstacle ${i + 1}`,
+          },
+          "Delete",
+        );
         remove.addEventListener("click", () => this.actions.removeObstacle(box.id));
-        const select = el("button", { type: "button", class: "link", "data-action": "select" }, `Obstacle ${i + 1}`);
-        select.addEventListener("click", () => this.actions.select({ kind: "obstacle", id: box.id }));
+        const select = el(
+          "button",
+          { type: "button", class: "link", "data-action": "select" },
+          `Obstacle ${i + 1}`,
+        );
+        select.addEventListener("click", () =>
+          this.actions.select({ kind: "obstacle", id: box.id }),
+        );
         row = el(
           "div",
           { class: "box-row", "data-obstacle": box.id },
@@ -214,7 +301,10 @@ export class TaskPanel {
   /** Highlight the picked row. */
   showSelection(pick: Pick | null): void {
     for (const row of this.obstacleList.querySelectorAll<HTMLElement>(".box-row")) {
-      row.classList.toggle("selected", pick?.kind === "obstacle" && pick.id === row.dataset.obstacle);
+      row.classList.toggle(
+        "selected",
+        pick?.kind === "obstacle" && pick.id === row.dataset.obstacle,
+      );
     }
   }
 
@@ -262,7 +352,11 @@ export class TaskPanel {
     return ["x", "y", "z"].map((a) => Number(this.goalInputs.get(a)!.value) / 100) as Vec3;
   }
 
-  private boxFields(inputs: Map<BoxField, HTMLInputElement>, edit: (box: TaskBox) => void, key: string): HTMLElement {
+  private boxFields(
+    inputs: Map<BoxField, HTMLInputElement>,
+    edit: (box: TaskBox) => void,
+    key: string,
+  ): HTMLElement {
     const grid = el("div", { class: "fields three", id: `${key}-fields` });
     for (const [field, label, unit] of BOX_FIELDS) {
       const input = numberInput(`${key}-${field}`, field === "turn" ? "5" : "0.5");

@@ -37,7 +37,9 @@ export function pathChart(input: PlotInput): SVGSVGElement {
     "font-family": "system-ui, sans-serif",
     "font-size": "11",
   });
-  svg.append(node("rect", { x: "0", y: "0", width: String(WIDTH), height: String(HEIGHT), fill: "#fff" }));
+  svg.append(
+    node("rect", { x: "0", y: "0", width: String(WIDTH), height: String(HEIGHT), fill: "#fff" }),
+  );
   const { samples } = input;
   const tMax = Math.max(1e-3, ...samples.map((s) => s.t));
 
@@ -52,12 +54,28 @@ export function pathChart(input: PlotInput): SVGSVGElement {
     const sx = (t: number) => left.x + (t / tMax) * left.w;
     const sy = (v: number) => y0 + left.h - ((v - (lo - pad)) / (hi - lo + 2 * pad)) * left.h;
     svg.append(
-      node("rect", { x: String(left.x), y: String(y0), width: String(left.w), height: String(left.h), fill: "#f6f8fa", stroke: "#dfe4ea" }),
+      node("rect", {
+        x: String(left.x),
+        y: String(y0),
+        width: String(left.w),
+        height: String(left.h),
+        fill: "#f6f8fa",
+        stroke: "#dfe4ea",
+      }),
       text(left.x - 6, y0 + left.h / 2 + 4, `${axis}`, "end", "#5f6b7a", "600"),
       text(left.x - 6, y0 + 9, `${((hi + pad) * 100).toFixed(0)}`, "end", "#8a94a3"),
       text(left.x - 6, y0 + left.h, `${((lo - pad) * 100).toFixed(0)}`, "end", "#8a94a3"),
-      polyline(samples.map((s) => [sx(s.t), sy(s.simulated[i])]), SIMULATED, "", 3),
-      polyline(samples.map((s) => [sx(s.t), sy(s.planned[i])]), PLANNED, "5 3"),
+      polyline(
+        samples.map((s) => [sx(s.t), sy(s.simulated[i])]),
+        SIMULATED,
+        "",
+        3,
+      ),
+      polyline(
+        samples.map((s) => [sx(s.t), sy(s.planned[i])]),
+        PLANNED,
+        "5 3",
+      ),
     );
   });
   const bottom = left.top + 3 * left.h + 2 * left.gap;
@@ -77,14 +95,22 @@ export function pathChart(input: PlotInput): SVGSVGElement {
     xs.push(b.position[0] - r, b.position[0] + r);
     ys.push(b.position[1] - r, b.position[1] + r);
   }
-  const span = Math.max(Math.max(...xs) - Math.min(...xs), Math.max(...ys) - Math.min(...ys), 0.1) * 1.15;
+  const span =
+    Math.max(Math.max(...xs) - Math.min(...xs), Math.max(...ys) - Math.min(...ys), 0.1) * 1.15;
   const cx = (Math.max(...xs) + Math.min(...xs)) / 2;
   const cy = (Math.max(...ys) + Math.min(...ys)) / 2;
   const px = (x: number) => right.x + right.size / 2 + ((x - cx) / span) * right.size;
   const py = (y: number) => right.y + right.size / 2 - ((y - cy) / span) * right.size;
   const scale = right.size / span;
   svg.append(
-    node("rect", { x: String(right.x), y: String(right.y), width: String(right.size), height: String(right.size), fill: "#f6f8fa", stroke: "#dfe4ea" }),
+    node("rect", {
+      x: String(right.x),
+      y: String(right.y),
+      width: String(right.size),
+      height: String(right.size),
+      fill: "#f6f8fa",
+      stroke: "#dfe4ea",
+    }),
   );
   for (const b of input.obstacles) {
     const deg = (-quatYaw(b.quaternion) * 180) / Math.PI;
@@ -105,18 +131,55 @@ export function pathChart(input: PlotInput): SVGSVGElement {
   svg.append(
     node("circle", { cx: String(px(0)), cy: String(py(0)), r: "5", fill: "#3e4a59" }),
     text(px(0) + 8, py(0) + 4, "base", "start", "#5f6b7a"),
-    polyline(samples.map((s) => [px(s.simulated[0]), py(s.simulated[1])]), SIMULATED, "", 3),
-    polyline(samples.map((s) => [px(s.planned[0]), py(s.planned[1])]), PLANNED, "5 3"),
-    node("circle", { cx: String(px(input.goal[0])), cy: String(py(input.goal[1])), r: "5", fill: "none", stroke: "#d1384a", "stroke-width": "2" }),
-    text(right.x + right.size / 2, right.y + right.size + 14, "from above (x →, y ↑)", "middle", "#8a94a3"),
+    polyline(
+      samples.map((s) => [px(s.simulated[0]), py(s.simulated[1])]),
+      SIMULATED,
+      "",
+      3,
+    ),
+    polyline(
+      samples.map((s) => [px(s.planned[0]), py(s.planned[1])]),
+      PLANNED,
+      "5 3",
+    ),
+    node("circle", {
+      cx: String(px(input.goal[0])),
+      cy: String(py(input.goal[1])),
+      r: "5",
+      fill: "none",
+      stroke: "#d1384a",
+      "stroke-width": "2",
+    }),
+    text(
+      right.x + right.size / 2,
+      right.y + right.size + 14,
+      "from above (x →, y ↑)",
+      "middle",
+      "#8a94a3",
+    ),
   );
 
   // Legend.
   const ly = HEIGHT - 6;
   svg.append(
-    polyline([[left.x, ly - 4], [left.x + 22, ly - 4]], PLANNED, "5 3"),
+    polyline(
+      [
+        [left.x, ly - 4],
+        [left.x + 22, ly - 4],
+      ],
+      PLANNED,
+      "5 3",
+    ),
     text(left.x + 27, ly, "planned by the server", "start", "#3e4a59"),
-    polyline([[left.x + 170, ly - 4], [left.x + 192, ly - 4]], SIMULATED, "", 3),
+    polyline(
+      [
+        [left.x + 170, ly - 4],
+        [left.x + 192, ly - 4],
+      ],
+      SIMULATED,
+      "",
+      3,
+    ),
     text(left.x + 197, ly, "simulated in the browser", "start", "#3e4a59"),
   );
   return svg;
@@ -127,7 +190,9 @@ export function pathCsv(samples: PathSample[]): string {
   const rows = samples.map((s) =>
     [s.t, ...s.planned, ...s.simulated].map((v) => v.toFixed(6)).join(","),
   );
-  return ["t,planned_x,planned_y,planned_z,browser_x,browser_y,browser_z", ...rows].join("\n") + "\n";
+  return (
+    ["t,planned_x,planned_y,planned_z,browser_x,browser_y,browser_z", ...rows].join("\n") + "\n"
+  );
 }
 
 /** The chart drawn as PNG (twice its size, for sharp print). */
@@ -146,7 +211,10 @@ export async function chartPng(svg: SVGSVGElement): Promise<Blob> {
     ctx.scale(2, 2);
     ctx.drawImage(image, 0, 0, WIDTH, HEIGHT);
     return await new Promise((resolve, reject) =>
-      canvas.toBlob((b) => (b ? resolve(b) : reject(new Error("could not encode the PNG"))), "image/png"),
+      canvas.toBlob(
+        (b) => (b ? resolve(b) : reject(new Error("could not encode the PNG"))),
+        "image/png",
+      ),
     );
   } finally {
     URL.revokeObjectURL(url);
@@ -171,8 +239,21 @@ function node(tag: string, attributes: Record<string, string>): SVGElement & SVG
   return e;
 }
 
-function text(x: number, y: number, content: string, anchor: string, fill: string, weight = "400"): SVGElement {
-  const t = node("text", { x: String(x), y: String(y), "text-anchor": anchor, fill, "font-weight": weight });
+function text(
+  x: number,
+  y: number,
+  content: string,
+  anchor: string,
+  fill: string,
+  weight = "400",
+): SVGElement {
+  const t = node("text", {
+    x: String(x),
+    y: String(y),
+    "text-anchor": anchor,
+    fill,
+    "font-weight": weight,
+  });
   t.textContent = content;
   return t;
 }

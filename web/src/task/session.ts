@@ -21,6 +21,7 @@ import {
   type TaskBox,
   type Vec3,
 } from "./arrangement";
+import { humanize } from "../ui/dom";
 import { TaskEditor } from "./editor";
 import type { MessageKind, Phase, TaskPanel } from "./panel";
 import { chartPng, download, pathChart, pathCsv } from "./plot";
@@ -83,7 +84,12 @@ export class TaskSession {
   private phase: Phase = "editing";
   private start: Arrangement | null = null;
   private held = false;
-  private planner: PlannerState = { status: "idle", message: "", planningTime: null, goalJoints: [] };
+  private planner: PlannerState = {
+    status: "idle",
+    message: "",
+    planningTime: null,
+    goalJoints: [],
+  };
   private runState: RunState | null = null;
   private run: MotionRun | null = null;
   private physics: Promise<PhysicsWorld> | null = null;
@@ -323,9 +329,12 @@ export class TaskSession {
   // --- scene files ---------------------------------------------------------------------
 
   saveScene(): void {
-    const blob = new Blob([sceneFile(this.start && this.phase !== "editing" ? this.start : this.arrangement())], {
-      type: "application/json",
-    });
+    const blob = new Blob(
+      [sceneFile(this.start && this.phase !== "editing" ? this.start : this.arrangement())],
+      {
+        type: "application/json",
+      },
+    );
     download(blob, `${this.robotName}-${this.worldName}-scene.json`);
     this.say("Scene saved as a file.", "ok");
   }
@@ -403,7 +412,9 @@ export class TaskSession {
     const q = new Quaternion();
     inTcp.decompose(p, q, new Vector3());
     // Distance from the tcp to the box: the tcp in the box's frame, outside its extent.
-    const tcpInBox = new Vector3().applyMatrix4(new Matrix4().compose(p, q, new Vector3(1, 1, 1)).invert());
+    const tcpInBox = new Vector3().applyMatrix4(
+      new Matrix4().compose(p, q, new Vector3(1, 1, 1)).invert(),
+    );
     const gap = new Vector3(
       Math.max(0, Math.abs(tcpInBox.x) - box.size[0] / 2),
       Math.max(0, Math.abs(tcpInBox.y) - box.size[1] / 2),
@@ -422,7 +433,8 @@ export class TaskSession {
     const values: Record<string, number> = {};
     for (const name of gripper) {
       const j = robot.joints.find((k) => k.name === name);
-      if (j?.type === "prismatic") values[name] = Math.min(j.upper, Math.max(j.lower, box.size[1] / 2));
+      if (j?.type === "prismatic")
+        values[name] = Math.min(j.upper, Math.max(j.lower, box.size[1] / 2));
     }
     if (Object.keys(values).length) this.host.setJoints(values);
   }
@@ -482,7 +494,10 @@ export class TaskSession {
     return pose;
   }
 
-  private async referenceFor(response: PlanTaskResponse, start: Arrangement): Promise<JointReference> {
+  private async referenceFor(
+    response: PlanTaskResponse,
+    start: Arrangement,
+  ): Promise<JointReference> {
     if (response.trajectory.points.length > 0) return new JointReference(response.trajectory);
     // A ROS system that answers with goal joints only sends the motion on the topic.
     const fromTopic = await new Promise<JointReference | null>((resolve) => {
@@ -526,7 +541,9 @@ export class TaskSession {
     // A reference from elsewhere (another ROS tool) moves a set robot too.
     if ((this.phase === "set" || this.phase === "done") && !this.run) {
       if (this.phase === "done") this.restoreStart();
-      void this.play(reference).catch((err) => this.say(`The motion could not run: ${errorText(err)}`, "error"));
+      void this.play(reference).catch((err) =>
+        this.say(`The motion could not run: ${errorText(err)}`, "error"),
+      );
     }
   }
 
@@ -546,24 +563,32 @@ export class TaskSession {
     planned.push(world.tcpAt(reference.end()));
     this.editor.showPaths(planned, []);
     const driven = new Set(robot.joints.map((j) => j.name));
-    const run = new MotionRun(world, tracker, reference, this.start?.goal ?? this.editor.goal(), (r) => {
-      const values = world.jointValues();
-      this.host.setJoints(Object.fromEntries(Object.entries(values).filter(([n]) => driven.has(n))));
-      const pose = world.objectPose();
-      if (pose) this.editor.moveObject(pose.position, pose.quaternion);
-      this.runState = {
-        status: "moving",
-        finalPosition: null,
-        finalError: null,
-        rmsGap: null,
-        maxGap: null,
-        contacts: [],
-        contactSteps: 0,
-        samples: r.path().length,
-        simTime: world.time - r.started,
-        wallTime: 0,
-      };
-    });
+    const run = new MotionRun(
+      world,
+      tracker,
+      reference,
+      this.start?.goal ?? this.editor.goal(),
+      (r) => {
+        const values = world.jointValues();
+        this.host.setJoints(
+          Object.fromEntries(Object.entries(values).filter(([n]) => driven.has(n))),
+        );
+        const pose = world.objectPose();
+        if (pose) this.editor.moveObject(pose.position, pose.quaternion);
+        this.runState = {
+          status: "moving",
+          finalPosition: null,
+          finalError: null,
+          rmsGap: null,
+          maxGap: null,
+          contacts: [],
+          contactSteps: 0,
+          samples: r.path().length,
+          simTime: world.time - r.started,
+          wallTime: 0,
+        };
+      },
+    );
     this.run = run;
     let result: RunResult;
     try {
@@ -631,7 +656,8 @@ export class TaskSession {
     this.panel.setPhase(this.phase, connected && this.robot !== null && ours);
     if (this.phase === "editing" && this.robot && !ours) {
       this.say(
-        `The planner on this server plans for the ${this.host.plannerRobot().replace(/_/g, " ")}; ` +
+        `The planner on this server plans for the ` +
+          `${humanize(this.host.plannerRobot()).toLowerCase()}; ` +
           "this robot can be arranged but not moved.",
       );
     }
@@ -652,17 +678,22 @@ function summary(r: RunResult): [string, MessageKind] {
     : "no contact with obstacles";
   const reached = r.finalError <= 0.01;
   const text =
-    `${reached ? "Done" : "Finished"}: the hand is ${cm(r.finalError)} from the goal; ${touched}; ` +
+    `${reached ? "Done" : "Finished"}: the hand is ${cm(r.finalError)} from the goal; ` +
+    `${touched}; ` +
     `it followed the plan within ${cm(r.rmsGap)} (RMS).`;
   return [text, reached && r.contacts.length === 0 ? "ok" : "error"];
 }
 
 /** The planner's reason, said plainly for the common cases. */
 function plainReason(message: string): string {
-  if (message.startsWith("goal out of reach")) return `the goal is out of the arm's reach (${message}).`;
-  if (message.startsWith("start in collision")) return `the robot starts touching something (${message}).`;
-  if (message.startsWith("goal in collision")) return `the hand cannot be at the goal without touching something (${message}).`;
-  if (message.startsWith("no path found")) return `no way around the obstacles was found in time (${message}).`;
+  if (message.startsWith("goal out of reach"))
+    return `the goal is out of the arm's reach (${message}).`;
+  if (message.startsWith("start in collision"))
+    return `the robot starts touching something (${message}).`;
+  if (message.startsWith("goal in collision"))
+    return `the hand cannot be at the goal without touching something (${message}).`;
+  if (message.startsWith("no path found"))
+    return `no way around the obstacles was found in time (${message}).`;
   return message || "no reason given.";
 }
 

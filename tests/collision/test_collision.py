@@ -1,0 +1,172 @@
+"""The sphere model: covers shapes, agrees with MuJoCo conservatively, explains contacts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from robotrial.collision.exact import ExactChecker
+from robotrial.collision.model import CollisionChecker, Environment, HeldObject, RobotSpheres
+from robotrial.collision.spheres import box_spheres, cylinder_spheres, shape_spheres
+from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Sphere
+from robotrial.kinematics.chain import Kinematics
+from robotrial.model import load_robot, load_world
+
+
+@pytest.fixture(scope="module")
+def desk_arm():
+    robot = load_robot("desk_arm")
+    kin = Kinematics(robot)
+    return robot, RobotSpheres(kin)
+
+
+def _covered(points: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> bool:
+    d = np.linalg.norm(points[:, None] - centres[None], axis=-1)
+    return bool(np.all(np.any(d <= radii[None] + 1e-9, axis=1)))
+
+
+size = st.floats(0.005, 0.5)
+
+
+@settings(max_examples=40, deadline=None)
+@given(sx=size, sy=size, sz=size)
+def test_box_spheres_cover_the_box(sx: float, sy: float, sz: float) -> None:
+    centres, radii = box_spheres((sx, sy, sz))
+    rng = np.random.default_rng(0)
+    pts = rng.uniform(-0.5, 0.5, (2000, 3)) * [sx, sy, sz]
+    corners = (
+        np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * [sx, sy, sz] / 2
+    )
+    assert _covered(np.vstack([pts, corners]), centres, radii)
+
+
+@settings(max_examples=40, deadline=None)
+@given(r=size, length=size)
+def test_cylinder_spheres_cover_the_cylinder(r: float, length: float) -> None:
+    centres, radii = cylinder_spheres(r, length)
+    rng = np.random.default_rng(0)
+    ang = rng.uniform(0, 2 * np.pi, 2000)
+    rho = r * np.sqrt(rng.uniform(0, 1, 2000))
+    rho[:200] = r  # the rim
+    z = rng.uniform(-length / 2, length / 2, 2000)
+    z[:100] = length / 2
+    pts = np.stack([rho * np.cos(ang), rho * np.sin(ang), z], axis=1)
+    assert _covered(pts, centres, radii)
+
+
+def test_mesh_spheres_cover_the_hull() -> None:
+    import trimesh
+
+    tm = trimesh.creation.icosphere(subdivisions=2, radius=0.1)
+    tm.apply_scale((1.0, 0.5, 2.0))
+    centres, radii = shape_spheres(Mesh(data=MeshData(tm.vertices, tm.faces)))
+    pts, _ = trimesh.sample.sample_surface(tm, 3000, seed=1)
+    assert _covered(np.vstack([pts, tm.vertices]), centres, radii)
+    centres, radii = shape_spheres(Sphere(0.2))
+    assert radii[0] == 0.2
+
+
+def test_self_collision_pairs_disable_adjacent_links(desk_arm) -> None:
+    _, spheres = desk_arm
+    reasons = spheres.reasons
+    assert reasons[("link1", "link2")] == "adjacent"
+    assert reasons[("link6", "gripper_base")] == "rigid"
+    # fingers are not planning joints: they are rigid with the hand
+    assert reasons[("gripper_base", "finger_left_link")] == "rigid"
+    names = [b.name for b in spheres.bodies]
+    assert ("link2", "gripper_base") not in spheres.disabled
+    assert "tcp" not in names  # a link without collision shapes has no spheres
+
+
+def _desk_env(obstacles):
+    world = load_world("desk")
+    env = Environment()
+    for ob in world.static_bodies:
+        env.add(ob.name, ob.geometry, ob.pose)
+    for name, shape, pose in obstacles:
+        env.add(name, shape, pose)
+    return world, env
+
+
+def test_spheres_are_conservative_against_mujoco(desk_arm) -> None:
+    """A configuration the spheres call free is free for MuJoCo's exact shapes too."""
+    _, spheres = desk_arm
+    obstacles = [
+        ("C", Box((0.1, 0.1, 0.2)), Pose((0.2, 0.0, 0.15))),
+        ("tilted", Box((0.2, 0.03, 0.1)), Pose.from_xyz_rpy((-0.1, 0.2, 0.1), (0.3, 0.5, 0.7))),
+        ("pipe", Cylinder(0.03, 0.4), Pose.from_xyz_rpy((0.0, -0.25, 0.2), (1.2, 0.0, 0.4))),
+        ("ball", Sphere(0.05), Pose((-0.2, -0.1, 0.25))),
+    ]
+    world, env = _desk_env(obstacles)
+    checker = CollisionChecker(spheres, env)
+    exact = ExactChecker(checker, world, obstacles)
+    qs = checker.kin.random(np.random.default_rng(0), 1500)
+    fast = checker.valid(qs)
+    slow = np.array([exact.valid(q) for q in qs])
+    assert not np.any(fast & ~slow)
+    # and not hopelessly conservative
+    assert fast.sum() > 0.7 * slow.sum()
+
+
+def test_contacts_name_links_and_obstacles(desk_arm) -> None:
+    _, spheres = desk_arm
+    _, env = _desk_env([("C", Box((0.1, 0.1, 0.2)), Pose((0.2, 0.0, 0.15)))])
+    checker = CollisionChecker(spheres, env)
+    # leaning forward into the box
+    q = np.array([0.0, 1.0, 0.6, 0.0, 0.5, 0.0])
+    assert not checker.valid(q[None])[0]
+    hits = checker.contacts(q)
+    assert any(b == "C" for _, b in hits)
+    assert checker.valid(np.zeros((1, 6)))[0]
+
+
+def test_padding_and_held_object(desk_arm) -> None:
+    _, spheres = desk_arm
+    _, env = _desk_env([])
+    kin = spheres.kin
+    q = np.array([0.0, 0.9, 1.2, 0.0, 1.0, 0.0])
+    tcp_z = kin.link_pose(q)[2, 3]
+    checker = CollisionChecker(spheres, env)
+    assert checker.valid(q[None])[0]
+    # padding larger than the hand's height over the table makes the same pose collide
+    assert not CollisionChecker(spheres, env, padding=tcp_z + 0.05).valid(q[None])[0]
+    # a long box held in the hand reaches down into the table
+    held = HeldObject(Box((0.02, 0.02, 2 * tcp_z + 0.1)), np.eye(4), "tcp")
+    holding = CollisionChecker(spheres, env, held=held, held_touch_at=q)
+    assert not holding.valid(q[None])[0]
+    assert "finger_left_link" in holding.touch_links
+    assert ("object", "table_top") in holding.contacts(q)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.floats(-0.3, 0.3),
+    st.floats(-0.3, 0.3),
+    st.floats(0.0, 0.4),
+    st.floats(-3, 3),
+    st.floats(-3, 3),
+    st.floats(-3, 3),
+)
+def test_compiled_check_matches_numpy_contacts(x, y, z, r, p, w) -> None:
+    """The compiled check and the plain numpy explanation agree, for any box pose."""
+    robot = load_robot("desk_arm")
+    spheres = _shared_spheres(robot)
+    env = Environment()
+    env.add("b", Box((0.1, 0.2, 0.05)), Pose.from_xyz_rpy((x, y, z), (r, p, w)))
+    env.add("c", Cylinder(0.04, 0.3), Pose.from_xyz_rpy((-x, y, z), (p, w, r)))
+    checker = CollisionChecker(spheres, env)
+    qs = spheres.kin.random(np.random.default_rng(0), 60)
+    fast = checker.valid(qs)
+    slow = np.array([not checker.contacts(q) for q in qs])
+    np.testing.assert_array_equal(fast, slow)
+
+
+_SPHERES: dict[str, RobotSpheres] = {}
+
+
+def _shared_spheres(robot) -> RobotSpheres:
+    if robot.name not in _SPHERES:
+        _SPHERES[robot.name] = RobotSpheres(Kinematics(robot))
+    return _SPHERES[robot.name]

@@ -1,5 +1,6 @@
-"""`robotrial bench slam`: GMapping- and Hector-class SLAM in rooms A, B, C and the
-apartment, from the same recordings (the platform paper's experiment, layer 5).
+"""`robotrial bench slam`: GMapping- and Hector-class SLAM in rooms A, B, C, the
+apartment and a bare 40 m corridor, from the same recordings (the platform paper's
+experiment, layer 5).
 
 For each world the simulator drives the mobile manipulator along the trial route at
 0.3 m/s (the paper's speed) and records /scan, /odom, /ground_truth and /tf_static;
@@ -8,7 +9,7 @@ the map built from the true poses with the same grid, which shows what the senso
 the grid alone cost (the floor no SLAM method can beat on room dimensions). The paper's
 finding (Hector fails in the large empty room A, GMapping holds) is checked twice: with
 the LiDAR's full range, and with the usable range cut to `--short-range` metres (what a
-large room looks like to a short-range laser).
+large room looks like to a short-range laser); the corridor is the textbook case.
 """
 
 from __future__ import annotations
@@ -25,9 +26,28 @@ import numpy as np
 
 from robotrial.cli.output import console, print_table, progress
 
-HELP = "SLAM (gmapping, hector) in rooms A, B, C and the apartment: accuracy, ATE, speed"
+HELP = "SLAM (gmapping, hector) in rooms A, B, C, the apartment, a corridor: accuracy, ATE, speed"
 
-WORLDS = ("room_a", "room_b", "room_c", "apartment")
+WORLDS = ("room_a", "room_b", "room_c", "apartment", "corridor")
+
+# A bare corridor, 40 x 2 m, for the case scan matching is known to fail: walls that look
+# the same all along the motion. Its end walls are the only thing that fixes the
+# position along it, and only while they are within the laser's usable range.
+CORRIDOR = {
+    "name": "corridor",
+    "description": "A bare 40 x 2 m corridor",
+    "interior": [[0.0, 0.0], [40.0, 2.0]],
+    "floor": {"size": [42.0, 4.0], "center": [20.0, 1.0], "height": 0.0},
+    "wall_defaults": {"thickness": 0.15, "height": 1.2},
+    "walls": [
+        {"name": "south", "from": [-0.15, -0.075], "to": [40.15, -0.075]},
+        {"name": "north", "from": [-0.15, 2.075], "to": [40.15, 2.075]},
+        {"name": "west", "from": [-0.075, 0.0], "to": [-0.075, 2.0]},
+        {"name": "east", "from": [40.075, 0.0], "to": [40.075, 2.0]},
+    ],
+    "spawns": {"default": [2.0, 1.0, 0.0]},
+}
+CORRIDOR_ROUTE = [(30.0, 1.0)]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -119,6 +139,7 @@ COLUMNS = [
 
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import load_world
+    from robotrial.model.world import world_from_dict
     from robotrial.trials.slam import (
         ROUTES,
         load_recording,
@@ -129,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     )
 
     worlds = [w.strip() for w in args.worlds.split(",") if w.strip()]
-    unknown = [w for w in worlds if w not in ROUTES]
+    unknown = [w for w in worlds if w not in ROUTES and w != "corridor"]
     if unknown:
         console.print(f"[red]bench slam: no route for {unknown}; known: {sorted(ROUTES)}")
         return 2
@@ -148,13 +169,14 @@ def run(args: argparse.Namespace) -> int:
         ("gmapping, lskip=3", "gmapping", {"particles": args.particles, "lskip": 3}),
     ]
     for world_name in worlds:
-        world = load_world(world_name)
+        if world_name == "corridor":
+            world, route = world_from_dict(CORRIDOR, "corridor"), CORRIDOR_ROUTE
+        else:
+            world, route = load_world(world_name), ROUTES[world_name]
         path = folder / f"{world_name}.mcap"
         if args.rerecord or not path.is_file():
             with progress(f"simulating {world_name}", None) as _:
-                record_drive(
-                    world_name, path, duration=240.0, route=ROUTES[world_name], seed=args.seed
-                )
+                record_drive(world, path, duration=240.0, route=route, seed=args.seed)
         rec = load_recording(path)
         if not results["worlds"]:
             _warm_up(rec)
@@ -167,7 +189,7 @@ def run(args: argparse.Namespace) -> int:
         per["odometry"] = {k: odo[k] for k in ("ate", "rpe")}
         rows.append(_row(world_name, "odometry alone (baseline)", per["odometry"]))
         todo = list(variants)
-        if world_name == "room_a":
+        if world_name in ("room_a", "corridor"):
             r = args.short_range
             todo += [
                 (

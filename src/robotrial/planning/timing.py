@@ -13,6 +13,8 @@ import numpy as np
 
 from robotrial.planning.smoothing import densify
 
+ACCEL_MARGIN = 0.85
+
 
 @dataclass
 class Trajectory:
@@ -54,8 +56,10 @@ def time_parameterize(
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(way, axis=0), axis=1))])
     spline = ta.SplineInterpolator(s / s[-1], way, bc_type="clamped")
     vel = constraint.JointVelocityConstraint(np.stack([-vmax, vmax], axis=1))
-    acc = constraint.JointAccelerationConstraint(np.stack([-amax, amax], axis=1))
-    gridpoints = np.linspace(0, 1, int(np.clip(4 * len(way), 100, 1000)))
+    # TOPP-RA holds the limits at grid points; the spline between them may exceed the
+    # acceleration limit slightly, so it is given a margin
+    acc = constraint.JointAccelerationConstraint(np.stack([-amax, amax], axis=1) * ACCEL_MARGIN)
+    gridpoints = np.linspace(0, 1, int(np.clip(4 * len(way), 200, 1500)))
     instance = algo.TOPPRA(
         [vel, acc], spline, gridpoints=gridpoints, parametrizer="ParametrizeConstAccel"
     )

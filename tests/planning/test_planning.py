@@ -1,0 +1,302 @@
+"""Planners on known problems, dense MuJoCo validation, the PlanTask service and its
+explicit failures, random obstacles (hypothesis), and the `robotrial plan` command."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from robotrial.cli import main
+from robotrial.collision.exact import ExactChecker
+from robotrial.collision.model import CollisionChecker, Environment
+from robotrial.geometry import Box
+from robotrial.geometry import Pose as GeoPose
+from robotrial.model import load_robot, load_world
+from robotrial.msgs.geometry_msgs import Point, Pose, Quaternion, Vector3
+from robotrial.msgs.robotrial_msgs import Box as BoxMsg
+from robotrial.msgs.robotrial_msgs import PlanTaskRequest, PlanTaskResponse
+from robotrial.msgs.sensor_msgs import JointState
+from robotrial.planning import PLANNERS, Problem, planner_class
+from robotrial.planning.problems import desk_task
+from robotrial.planning.smoothing import shortcut
+from robotrial.planning.task import TaskPlanner, plan_task
+from robotrial.planning.timing import time_parameterize
+
+START = [-0.785, 0.80, 1.57, 0.0, 0.76, 0.0]  # the hand near (0.15, -0.15, 0.02)
+
+
+@pytest.fixture(scope="module")
+def desk():
+    return desk_task(load_robot("desk_arm"), load_world("desk"))
+
+
+@pytest.fixture(scope="module")
+def planner():
+    return TaskPlanner(load_robot("desk_arm"), load_world("desk"))
+
+
+def _request(
+    goal=(0.18, 0.2, 0.02), start=START, obstacles=None, obj=None, **kw
+) -> PlanTaskRequest:
+    if obstacles is None:
+        obstacles = [
+            BoxMsg(
+                id="C", size=Vector3(0.1, 0.1, 0.2), pose=Pose(Point(0.2, 0, 0.15), Quaternion())
+            )
+        ]
+    return PlanTaskRequest(
+        current_joints=JointState(
+            name=["joint1", "joint2", "joint3", "joint4", "joint5", "joint6"], position=list(start)
+        ),
+        obstacles=obstacles,
+        object=obj or BoxMsg(),
+        ee_goal=Pose(Point(*goal), Quaternion(0, 0, 0, 0)),
+        **kw,
+    )
+
+
+@pytest.mark.parametrize("name", sorted(PLANNERS))
+def test_every_planner_solves_the_desk_task(desk, name: str) -> None:
+    checker = desk.checker()
+    exact = desk.exact(checker)
+    assert not checker.motion_valid(desk.start, desk.goal)  # the box is in the way
+    res = PLANNERS[name]().solve(
+        Problem(desk.start, desk.goal[None], 5.0 if name != "rrt_star" else 0.3, 7), checker
+    )
+    assert res.success, res.stats
+    np.testing.assert_allclose(res.path[0], desk.start)
+    np.testing.assert_allclose(res.path[-1], desk.goal)
+    assert bool(np.all(checker.motions_valid(res.path[:-1], res.path[1:])))
+    assert exact.path_valid(res.path)[0]
+    assert res.stats["planning_time"] > 0 and res.stats["nodes"] >= 2
+
+
+def test_planner_names_in_ompl_spelling() -> None:
+    assert planner_class("RRTConnectkConfigDefault") is PLANNERS["rrt_connect"]
+    assert planner_class("RRT*") is PLANNERS["rrt_star"]
+    assert planner_class("") is PLANNERS["rrt_connect"]
+    with pytest.raises(ValueError, match="unknown planner"):
+        planner_class("chomp")
+
+
+def test_compiled_and_python_rrt_connect_agree_on_validity(desk) -> None:
+    """Any checker works (here MuJoCo itself, through the Python loop)."""
+    exact = desk.exact()
+
+    class MuJoCoChecker:
+        d, lower, upper = desk.kin.d, desk.kin.lower, desk.kin.upper
+
+        def valid(self, qs):
+            return np.array([exact.valid(q) for q in np.atleast_2d(qs)])
+
+        def motions_valid(self, a, b):
+            return np.array(
+                [exact.path_valid(np.array([x, y]))[0] for x, y in zip(a, b, strict=True)]
+            )
+
+    res = PLANNERS["rrt_connect"]().solve(
+        Problem(desk.start, desk.goal[None], 20.0, 3), MuJoCoChecker()
+    )
+    assert res.success and exact.path_valid(res.path)[0]
+
+
+def test_shortcut_keeps_validity_and_shortens(desk) -> None:
+    checker = desk.checker()
+    res = PLANNERS["rrt"]().solve(Problem(desk.start, desk.goal[None], 5.0, 1), checker)
+    short = shortcut(res.path, checker, np.random.default_rng(0))
+    assert res.stats["path_length"] >= np.sum(np.linalg.norm(np.diff(short, axis=0), axis=1)) - 1e-9
+    assert bool(np.all(checker.motions_valid(short[:-1], short[1:])))
+
+
+def test_time_parameterization_respects_limits() -> None:
+    path = np.array([[0.0, 0.0], [1.0, 0.5], [1.5, -0.5]])
+    vmax, amax = np.array([1.0, 2.0]), np.array([2.0, 3.0])
+    traj = time_parameterize(path, vmax, amax)
+    assert np.all(np.diff(traj.t) > 0)
+    assert np.all(np.abs(traj.qd) <= vmax * 1.02)
+    assert np.all(np.abs(traj.qdd) <= amax * 1.05)
+    np.testing.assert_allclose(traj.q[0], path[0])
+    np.testing.assert_allclose(traj.q[-1], path[-1])
+    np.testing.assert_allclose(traj.qd[[0, -1]], 0.0, atol=1e-6)
+
+
+def test_plan_task_answers_the_g2rviewer_request(planner) -> None:
+    result = planner.plan(_request(), seed=0)
+    resp = result.response
+    assert isinstance(resp, PlanTaskResponse)
+    assert resp.success, resp.message
+    traj = resp.trajectory
+    assert traj.joint_names == planner.joint_names
+    times = [p.time_from_start.to_sec() for p in traj.points]
+    assert times[0] == 0 and np.all(np.diff(times) > 0)
+    np.testing.assert_allclose(traj.points[-1].positions, resp.goal_joints)
+    np.testing.assert_allclose(traj.points[0].positions, START, atol=1e-9)
+    tcp = planner.kin.link_pose(np.array(resp.goal_joints))[:3, 3]
+    np.testing.assert_allclose(tcp, [0.18, 0.2, 0.02], atol=1e-3)
+    q = np.array([p.positions for p in traj.points])
+    assert result.exact is not None and result.exact.path_valid(q)[0]
+    qd = np.array([p.velocities for p in traj.points])
+    assert np.all(np.abs(qd) <= planner.vmax * 1.02)
+    assert resp.planning_time > 0
+    # the same through the module function, as the node calls it
+    assert plan_task(planner.robot, _request(), planner.world).success
+
+
+def test_plan_task_carries_an_object_in_the_hand(planner) -> None:
+    tcp = planner.kin.link_pose(np.array(START))
+    held = tcp.copy()
+    held[2, 3] += 0.03  # between the fingers, above the table
+    obj = BoxMsg(
+        id="cup", size=Vector3(0.03, 0.03, 0.05), pose=Pose.from_pose(GeoPose.from_matrix(held))
+    )
+    result = planner.plan(_request(obj=obj, goal=(0.18, 0.2, 0.06)), seed=1)
+    assert result.response.success, result.response.message
+    assert "finger_left_link" in result.checker.touch_links
+    # the object travels with the hand and stays clear of the box and the table
+    q = np.array([p.positions for p in result.response.trajectory.points])
+    assert result.exact.path_valid(q)[0]
+
+
+def test_goal_out_of_reach_says_how_far(planner) -> None:
+    resp = planner.plan(_request(goal=(1.0, 0.2, 0.02))).response
+    assert not resp.success
+    assert "out of reach" in resp.message and " m " in resp.message
+
+
+def test_start_in_collision_names_what_touches(planner) -> None:
+    inside = [
+        BoxMsg(
+            id="crate",
+            size=Vector3(0.2, 0.2, 0.2),
+            pose=Pose(Point(0.15, -0.15, 0.05), Quaternion()),
+        )
+    ]
+    res = planner.plan(_request(obstacles=inside))
+    assert res.failure == "start_in_collision"
+    assert "crate" in res.response.message and "touches" in res.response.message
+
+
+def test_goal_in_collision(planner) -> None:
+    res = planner.plan(_request(goal=(0.2, 0.0, 0.15)))
+    assert res.failure == "goal_in_collision"
+    assert "C" in res.response.message
+
+
+def test_no_path_within_the_time_limit(planner) -> None:
+    # the goal is enclosed in a closed box of walls
+    walls = []
+    for i, (size, xyz) in enumerate(
+        [
+            ((0.2, 0.01, 0.2), (0.18, 0.12, 0.1)),
+            ((0.2, 0.01, 0.2), (0.18, 0.28, 0.1)),
+            ((0.01, 0.2, 0.2), (0.08, 0.2, 0.1)),
+            ((0.01, 0.2, 0.2), (0.28, 0.2, 0.1)),
+            ((0.2, 0.2, 0.01), (0.18, 0.2, 0.2)),
+        ]
+    ):
+        walls.append(
+            BoxMsg(id=f"wall{i}", size=Vector3(*size), pose=Pose(Point(*xyz), Quaternion()))
+        )
+    res = planner.plan(_request(obstacles=walls, time_limit=0.2))
+    assert res.failure in ("timeout", "goal_in_collision")
+    assert not res.response.success
+    if res.failure == "timeout":
+        assert "no path found" in res.response.message and "0.2 s" in res.response.message
+
+
+def test_bad_requests_name_the_field(planner) -> None:
+    req = _request()
+    req.current_joints.position = req.current_joints.position[:3]
+    assert "current_joints" in planner.plan(req).response.message
+    req = _request(start=[5.0, 0, 0, 0, 0, 0])
+    assert "outside its limits" in planner.plan(req).response.message
+    bad = [BoxMsg(id="x", size=Vector3(-0.1, 0.1, 0.1), pose=Pose())]
+    assert "obstacles[0].size" in planner.plan(_request(obstacles=bad)).response.message
+
+
+@settings(
+    max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    st.lists(
+        st.tuples(
+            st.floats(0.03, 0.15),
+            st.floats(0.03, 0.15),
+            st.floats(0.03, 0.15),
+            st.floats(-0.3, 0.3),
+            st.floats(-0.3, 0.3),
+            st.floats(0.0, 0.3),
+            st.floats(-3, 3),
+            st.floats(-3, 3),
+            st.floats(-3, 3),
+        ),
+        min_size=1,
+        max_size=4,
+    ),
+    st.integers(0, 10_000),
+)
+def test_random_obstacles_never_yield_a_colliding_path(desk, boxes, seed) -> None:
+    world = load_world("desk")
+    env = Environment()
+    for ob in world.static_bodies:
+        env.add(ob.name, ob.geometry, ob.pose)
+    obstacles = []
+    for i, (sx, sy, sz, x, y, z, r, p, w) in enumerate(boxes):
+        obstacles.append((f"b{i}", Box((sx, sy, sz)), GeoPose.from_xyz_rpy((x, y, z), (r, p, w))))
+        env.add(*obstacles[-1])
+    checker = CollisionChecker(desk.spheres, env)
+    rng = np.random.default_rng(seed)
+    qs = desk.kin.random(rng, 100)
+    free = qs[checker.valid(qs)]
+    if len(free) < 2:
+        return
+    res = PLANNERS["rrt_connect"]().solve(Problem(free[0], free[1][None], 1.0, seed), checker)
+    if res.success:
+        assert ExactChecker(checker, world, obstacles).path_valid(res.path)[0]
+
+
+def test_cli_plan_prints_json_and_writes_plots(tmp_path, capsys) -> None:
+    code = main(
+        [
+            "plan",
+            "--robot",
+            "desk_arm",
+            "--world",
+            "desk",
+            "--goal",
+            "0.18",
+            "0.2",
+            "0.02",
+            "--start",
+            *map(str, START),
+            "--obstacle",
+            "0.1",
+            "0.1",
+            "0.2",
+            "0.2",
+            "0",
+            "0.15",
+            "--seed",
+            "0",
+            "--json",
+            "--plots",
+            str(tmp_path),
+        ]
+    )
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["success"]
+    assert out["trajectory"]["joint_names"][0] == "joint1"
+    assert out["trajectory"]["points"][-1]["time_from_start"]["sec"] >= 0
+    assert (tmp_path / "joints.png").stat().st_size > 0 and (tmp_path / "ee_path.png").exists()
+
+
+def test_cli_plan_reads_a_rosbridge_request(tmp_path, capsys) -> None:
+    req = tmp_path / "req.json"
+    req.write_text(json.dumps(_request(goal=(1.5, 0, 0)).to_dict()))
+    code = main(["plan", "--robot", "desk_arm", "--request", str(req), "--json", "--no-plots"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 1 and not out["success"] and out["failure"] == "unreachable"

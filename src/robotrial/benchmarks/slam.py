@@ -206,12 +206,47 @@ def run(args: argparse.Namespace) -> int:
             per[label] = s
             rows.append(_row(world_name, label, s))
         results["worlds"][world_name] = per
+    results["targets"] = check_targets(results["worlds"])
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(results, indent=2, default=float))
     print_table("bench slam (ATE and room error in cm, times in ms)", COLUMNS, rows)
+    print_table(
+        "targets (issue 7)",
+        ["target", "worst measured", "met"],
+        [(t["target"], t["worst"], "yes" if t["met"] else "NO") for t in results["targets"]],
+    )
     console.print(f"results: {out}")
     return 0
+
+
+def check_targets(worlds: dict[str, Any]) -> list[dict[str, Any]]:
+    """The issue's targets over the rooms that were run: GMapping room error <= 2 cm and
+    ATE <= 5 cm, <= 10 ms CPU per scan (30 particles); Hector <= 2 ms CPU per scan."""
+    rooms = {w: per for w, per in worlds.items() if w.startswith("room_")}
+    checks = [
+        ("gmapping room dimension error <= 2 cm", "gmapping", ("room", "error"), 0.02, 100, "cm"),
+        ("gmapping ATE <= 5 cm", "gmapping", ("ate", "rmse"), 0.05, 100, "cm"),
+        ("gmapping CPU per scan <= 10 ms", "gmapping", ("cpu_per_scan_ms", "mean"), 10.0, 1, "ms"),
+        (
+            "gmapping CPU per filter update <= 10 ms (stricter reading)",
+            "gmapping",
+            ("cpu_per_update_ms", "mean"),
+            10.0,
+            1,
+            "ms",
+        ),
+        ("hector CPU per scan <= 2 ms", "hector", ("cpu_per_scan_ms", "mean"), 2.0, 1, "ms"),
+    ]
+    out = []
+    for label, method, (a, b), limit, scale, unit in checks:
+        values = [per[method].get(a, {}).get(b) for per in rooms.values() if method in per]
+        values = [v for v in values if isinstance(v, float)]
+        if not values:
+            continue
+        worst = max(values)
+        out.append({"target": label, "worst": f"{worst * scale:.2f} {unit}", "met": worst <= limit})
+    return out
 
 
 def _cpus() -> int:

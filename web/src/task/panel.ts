@@ -247,6 +247,12 @@ export class TaskPanel {
     this.main.dataset.phase = phase;
   }
 
+  /** Show the task's sections (an arm is on screen) or hide them. */
+  setVisible(visible: boolean): void {
+    this.main.hidden = !visible;
+    this.details.hidden = !visible;
+  }
+
   say(text: string, kind: MessageKind = "info"): void {
     this.message.textContent = text;
     this.message.dataset.kind = kind;

@@ -131,6 +131,7 @@ export class TaskSession {
       this.dropPhysics();
     }
     this.editor.group.visible = true;
+    this.panel.setVisible(true);
     this.phase = "editing";
     this.host.lockJoints(false);
     this.editor.setLocked(false);
@@ -140,8 +141,8 @@ export class TaskSession {
       this.panel.showObject(this.editor.object());
       this.panel.showObstacles(this.editor.obstacles());
     }
-    this.showPhase();
     this.say("Arrange the scene, press Set Robot, then Move Robot!");
+    this.showPhase();
     // Fetch the physics model and MuJoCo when the page is idle, so Move Robot! does
     // not wait for them.
     this.bundleFor();
@@ -153,6 +154,8 @@ export class TaskSession {
     this.stop();
     this.robot = null;
     this.editor.group.visible = false;
+    this.panel.setVisible(false);
+    this.plot.hidden = true;
     this.host.viewer.requestRender();
   }
 

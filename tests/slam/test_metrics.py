@@ -50,3 +50,33 @@ def test_rpe_matches_evo_rpe(pair):
     assert rpe(est, ref)["rmse"] == pytest.approx(
         m.get_statistic(metrics.StatisticsType.rmse), rel=1e-6
     )
+
+
+def test_room_dimensions_of_a_drawn_room():
+    """Walls one cell thick: the room measures between the rows of wall cells."""
+    from robotrial.slam.grid import LogOddsGrid
+    from robotrial.trials.slam import room_dimensions
+
+    g = LogOddsGrid(0.05)
+    g.ensure(-1.0, -1.0, 5.0, 4.0, pad=0.0)
+
+    def mark(x: float, y: float) -> None:
+        g.logodds[int((y - g.origin[1]) // 0.05), int((x - g.origin[0]) // 0.05)] = 3.0
+
+    for x in np.arange(0.025, 4.0, 0.05):
+        mark(x, 0.025)
+        mark(x, 2.975)
+    for y in np.arange(0.025, 3.0, 0.05):
+        mark(0.025, y)
+        mark(3.975, y)
+    width, depth, yaw = room_dimensions(g)
+    assert width == pytest.approx(3.95, abs=0.005)
+    assert depth == pytest.approx(2.95, abs=0.005)
+    assert yaw == pytest.approx(0.0, abs=1e-6)
+
+    half = LogOddsGrid(0.05)
+    half.ensure(-1.0, -1.0, 5.0, 4.0, pad=0.0)
+    half.logodds[:] = g.logodds
+    half.logodds[:, 45:] = 0.0  # the east wall never seen
+    with pytest.raises(ValueError, match="opposite walls"):
+        room_dimensions(half)

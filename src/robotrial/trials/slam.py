@@ -595,8 +595,9 @@ def map_accuracy(
 def room_dimensions(grid: LogOddsGrid) -> tuple[float, float, float]:
     """(width along the room's x, depth along its y, yaw of the room's axes in the map)
     measured on the map alone: the room's axes are the rotation that makes occupied
-    cells line up best; each wall's inner face is the mean of the occupied cells within two
-    cells of the outermost dense row of cells on its side."""
+    cells line up best; each wall's inner face is the mean position of the occupied cells in
+    the outermost dense row of cells on its side and in the rows within two cells of it
+    that hold at least a quarter as many."""
     pts = _cell_centres(grid, grid.ros_values() == 100)
     if len(pts) < 20:
         raise ValueError("the map has too few occupied cells to measure a room")
@@ -631,11 +632,15 @@ def _extent(u: np.ndarray, v: np.ndarray, res: float) -> float:
     if len(dense) < 2:
         raise ValueError("could not find two opposite walls on the map")
     faces = []
+    bins = np.clip(np.digitize(u, edges) - 1, 0, len(hist) - 1)
     for k in (dense[0], dense[-1]):
-        centre = 0.5 * (edges[k] + edges[k + 1])
-        # A wall blurred over neighbouring rows (small pose errors) counts as its middle.
-        sel = np.abs(u - centre) <= 2.0 * res
-        faces.append(float(u[sel].mean()))
+        # A wall blurred over neighbouring rows (small pose errors) counts as its middle;
+        # rows holding only a few cells (the ends of the walls across it) do not count.
+        near = np.arange(max(0, k - 2), min(len(hist), k + 3))
+        strong = near[hist[near] >= 0.25 * hist[k]]
+        faces.append(float(u[np.isin(bins, strong)].mean()))
+    if faces[1] - faces[0] < 1.0:
+        raise ValueError("could not find two opposite walls on the map (only one side)")
     return faces[1] - faces[0]
 
 

@@ -31,6 +31,7 @@ from scipy import ndimage
 from robotrial.model.gridmap import world_occupancy
 from robotrial.model.world import World
 from robotrial.ros.slam_node import frame_in, odom_pose, planar, stamp_of, transform_matrix
+from robotrial.sim.lidar import ScanConfig
 from robotrial.slam.gmapping import GMappingSlam, OdometryRequired
 from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.hector import HectorSlam
@@ -38,7 +39,8 @@ from robotrial.slam.params import GMappingParams, HectorParams
 from robotrial.slam.scan import beams, relative, wrap
 
 METHODS = ("gmapping", "hector")
-SCAN_BAND = (-0.2, 0.5)  # sim.lidar.ScanConfig's default height band around the laser
+# The height band (m, around the laser) the simulator flattens into the 2D scan.
+SCAN_BAND = (ScanConfig.min_height, ScanConfig.max_height)
 
 
 @dataclass
@@ -715,18 +717,3 @@ def room_size(world: World) -> tuple[float, float] | None:
 def map_pose_in_world(rec: Recording) -> np.ndarray | None:
     """Where the map frame lies in the world: the true base pose at the first scan."""
     return rec.truth_at(rec.scans[0].stamp)
-
-
-__all__ = [
-    "METHODS",
-    "Recording",
-    "SlamRun",
-    "ate",
-    "load_recording",
-    "make_slam",
-    "map_accuracy",
-    "room_dimensions",
-    "rpe",
-    "run_slam",
-    "score",
-]

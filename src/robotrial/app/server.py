@@ -168,6 +168,7 @@ def create_app(
     uploads_dir: Path | None = None,
     max_upload_bytes: int = MAX_UPLOAD_BYTES,
     live: bool = False,
+    planner: bool = False,
 ) -> FastAPI:
     """The web app, opening on `robot` in `world`.
 
@@ -177,7 +178,9 @@ def create_app(
     `uploads_dir`: where uploaded robots are kept (default: a temporary folder removed
     when the server stops); `max_upload_bytes`: the largest upload taken. `live`: with a
     `bus`, a mobile robot in a room runs as a live platform (simulator and SLAM on the
-    bus, real time; robotrial.app.live) while the server runs.
+    bus, real time; robotrial.app.live) while the server runs. `planner`: with a `bus`
+    and an arm as `robot`, the planning node (robotrial.ros.planning_node) answers
+    `/robotrial/plan_task` for it in `world`, the page's Move Robot!.
     Raises ModelError if `robot` or `world` is not built in.
     """
     try:
@@ -200,6 +203,14 @@ def create_app(
                 bus, robot_model, world_model, Pose(spawn["spawn"]["xyz"], spawn["spawn"]["quat"])
             )
 
+    planning = None
+    if planner and bus is not None:
+        arm = catalog.robot(catalog.default_robot)
+        if robot_kind(arm) == "arm":
+            from robotrial.ros.planning_node import PlanningNode
+
+            planning = PlanningNode(bus, arm, catalog.world(catalog.default_world))
+
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
         if warm:
@@ -211,6 +222,8 @@ def create_app(
         finally:
             if platform is not None:
                 platform.stop()
+            if planning is not None:
+                planning.destroy()
             if scratch is not None:
                 scratch.cleanup()
 

@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
     from robotrial.ros.bus import Bus
 
     try:
-        app = create_app(args.robot, args.world, bus=Bus(), live=True)
+        app = create_app(args.robot, args.world, bus=Bus(), live=True, planner=True)
     except ModelError as exc:
         console.print(f"[red]error:[/red] {exc}")
         return 2

@@ -687,16 +687,21 @@ function summary(r: RunResult): [string, MessageKind] {
   return [text, reached && r.contacts.length === 0 ? "ok" : "error"];
 }
 
-/** The planner's reason, said plainly for the common cases. */
+/** The planner's reason, said plainly for the common cases, with its details. */
 function plainReason(message: string): string {
-  if (message.startsWith("goal out of reach"))
-    return `the goal is out of the arm's reach (${message}).`;
-  if (message.startsWith("start in collision"))
-    return `the robot starts touching something (${message}).`;
-  if (message.startsWith("goal in collision"))
-    return `the hand cannot be at the goal without touching something (${message}).`;
-  if (message.startsWith("no path found"))
-    return `no way around the obstacles was found in time (${message}).`;
+  const plain: Array<[string, string]> = [
+    ["goal out of reach", "the goal is out of the arm's reach"],
+    ["start in collision", "the robot starts out touching something"],
+    ["goal in collision", "the hand cannot be at the goal without touching something"],
+    ["no path found", "no way around the obstacles was found in time"],
+  ];
+  for (const [prefix, said] of plain) {
+    if (!message.startsWith(prefix)) continue;
+    const detail = message.slice(prefix.length).replace(/^[:\s]+/, "").replace(/\.$/, "");
+    if (!detail) return `${said}.`;
+    const shown = prefix === "no path found" ? message : detail;
+    return `${said}. ${shown.charAt(0).toUpperCase()}${shown.slice(1)}.`;
+  }
   return message || "no reason given.";
 }
 

@@ -247,10 +247,28 @@ def test_planner_refusal_scene_file_and_connection(
         page = open_page(browser, server, errors)
         arrange_experiment(page, start_joints, goal=(0.9, 0.0, 0.02))
 
-        # Boxes stay on the table, whatever number is typed.
+        # Boxes stay on the table, whatever number is typed ...
         type_into(page, "[data-obstacle] input[data-field=z] >> nth=0", -30)
         state = page.evaluate("window.robotrial.state()")
         assert state["obstacles"][0]["position"][2] == pytest.approx(0.1)
+        type_into(page, "[data-obstacle] input[data-field=z] >> nth=0", 15)
+        # ... or however far the gizmo's up-down arrow (pure blue) is dragged down.
+        page.click("[data-obstacle] [data-action=select]")
+        pixels = view_pixels(page, artifacts / "web_experiment_gizmo.png")
+        blue = (pixels[..., 2] > 200) & (pixels[..., 0] < 60) & (pixels[..., 1] < 60)
+        ys, xs = np.nonzero(blue)
+        assert len(ys) > 20, "no gizmo drawn on the selected obstacle"
+        upper = ys < np.median(ys)
+        box = page.locator("#view canvas").bounding_box()
+        x, y = box["x"] + xs[upper].mean(), box["y"] + ys[upper].mean()
+        page.mouse.move(x, y)
+        page.mouse.down()
+        for step in range(1, 13):
+            page.mouse.move(x, y + 25 * step)
+        page.mouse.up()
+        dragged = page.evaluate("window.robotrial.state()")["obstacles"][0]
+        assert dragged["position"][2] == pytest.approx(0.1), dragged
+        assert page.locator("[data-obstacle] input[data-field=z]").input_value() == "10.0"
         type_into(page, "[data-obstacle] input[data-field=z] >> nth=0", 15)
 
         # A goal out of reach: the planner says no, in words, and nothing moves.

@@ -20,6 +20,13 @@ export interface ConnectionState {
 }
 
 type TopicName = keyof typeof TOPICS;
+
+/** How the server may thin out a subscription (rosbridge `throttle_rate` and
+ * `queue_length`): at most one message per `throttleMs`, at most `queueLength` waiting. */
+export interface SubscribeRate {
+  throttleMs?: number;
+  queueLength?: number;
+}
 type TopicMessage<N extends TopicName> = MessageTypes[(typeof TOPICS)[N]];
 type ServiceName = keyof typeof SERVICES;
 type Call<N extends ServiceName> = ServiceTypes[(typeof SERVICES)[N]];
@@ -63,11 +70,14 @@ export class RosConnection {
     name: string;
     type: string;
     cb: (m: never) => void;
+    rate?: SubscribeRate;
   }>();
   private readonly live = new Map<object, Topic<unknown>>();
   /** Topics this page publishes on, per name (re-created on a new connection). */
   private readonly publishers = new Map<string, Topic<unknown>>();
   private readonly listeners = new Set<(state: ConnectionState) => void>();
+  /** Service calls waiting for an answer: failed at once when the connection drops. */
+  private readonly pending = new Set<(error: Error) => void>();
 
   /** Connect to `url` (dropping any current connection). */
   open(url: string): void {
@@ -116,18 +126,36 @@ export class RosConnection {
       serviceType: SERVICES[name],
     });
     return new Promise((resolve, reject) => {
+      const fail = (error: Error) => {
+        this.pending.delete(fail);
+        reject(error);
+      };
+      this.pending.add(fail);
       service.callService(
         request,
-        resolve,
-        (error) => reject(new Error(`${name}: ${error}`)),
+        (response) => {
+          this.pending.delete(fail);
+          resolve(response);
+        },
+        (error) => fail(new Error(`${name}: ${error}`)),
         timeoutMs,
       );
     });
   }
 
-  /** Receive a platform topic, now and after every reconnection. */
-  subscribe<N extends TopicName>(name: N, callback: (msg: TopicMessage<N>) => void): void {
-    const entry = { name, type: TOPICS[name] as string, cb: callback as (m: never) => void };
+  /** Receive a platform topic, now and after every reconnection; `rate` lets the
+   * server thin out a fast topic for a slow page. */
+  subscribe<N extends TopicName>(
+    name: N,
+    callback: (msg: TopicMessage<N>) => void,
+    rate?: SubscribeRate,
+  ): void {
+    const entry = {
+      name,
+      type: TOPICS[name] as string,
+      cb: callback as (m: never) => void,
+      rate,
+    };
     this.subscriptions.add(entry);
     if (this.ros && this.status === "connected") this.listen(this.ros, entry);
   }
@@ -177,6 +205,7 @@ export class RosConnection {
 
   private retry(): void {
     if (this.retryTimer !== undefined) return;
+    this.failPending();
     this.live.clear();
     this.publishers.clear();
     this.attempts += 1;
@@ -189,10 +218,24 @@ export class RosConnection {
     }, delay);
   }
 
-  private listen(ros: Ros, entry: { name: string; type: string; cb: (m: never) => void }): void {
-    const topic = new Topic<unknown>({ ros, name: entry.name, messageType: entry.type });
+  private listen(
+    ros: Ros,
+    entry: { name: string; type: string; cb: (m: never) => void; rate?: SubscribeRate },
+  ): void {
+    const topic = new Topic<unknown>({
+      ros,
+      name: entry.name,
+      messageType: entry.type,
+      throttle_rate: entry.rate?.throttleMs ?? 0,
+      queue_length: entry.rate?.queueLength ?? 0,
+    });
     topic.subscribe(entry.cb as (m: unknown) => void);
     this.live.set(entry, topic);
+  }
+
+  private failPending(): void {
+    const error = new Error(`the connection to ${this.url} dropped before the answer came`);
+    for (const fail of [...this.pending]) fail(error);
   }
 
   private shutdown(): void {
@@ -201,6 +244,7 @@ export class RosConnection {
     this.retryAt = null;
     const ros = this.ros;
     this.ros = null;
+    this.failPending();
     this.live.clear();
     this.publishers.clear();
     ros?.close();

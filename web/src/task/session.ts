@@ -32,6 +32,9 @@ import { MotionRun, type RunResult } from "./run";
 const HOLD_DISTANCE = 0.05;
 /** How long to wait for /robotrial/joint_reference when the answer has no trajectory. */
 const REFERENCE_WAIT_MS = 5000;
+/** When to tell the user that planning takes longer than usual, and when to give up (ms). */
+const PATIENCE_MS = 5000;
+const PLAN_TIMEOUT_MS = 120_000;
 /** Speed of the fallback move to the goal joints when no trajectory comes (rad/s). */
 const FALLBACK_SPEED = 0.5;
 
@@ -241,11 +244,18 @@ export class TaskSession {
     this.lastReference = null;
     this.showPhase();
     this.say("Planning a path…");
+    // The first plan after the server starts also prepares the planner: say so.
+    const patience = window.setTimeout(() => {
+      if (this.phase === "planning") {
+        this.say("Still planning… the first plan after the server starts can take a minute.");
+      }
+    }, PATIENCE_MS);
     let response: PlanTaskResponse;
     try {
       response = await this.host.connection.call(
         "/robotrial/plan_task",
         planRequest(arrangement, names),
+        PLAN_TIMEOUT_MS,
       );
     } catch (err) {
       this.planner = { ...this.planner, status: "unreachable", message: errorText(err) };
@@ -253,6 +263,8 @@ export class TaskSession {
       this.showPhase();
       this.say(`Could not reach the planner: ${errorText(err)}`, "error");
       return;
+    } finally {
+      window.clearTimeout(patience);
     }
     if (!response.success) {
       this.planner = {
@@ -697,7 +709,10 @@ function plainReason(message: string): string {
   ];
   for (const [prefix, said] of plain) {
     if (!message.startsWith(prefix)) continue;
-    const detail = message.slice(prefix.length).replace(/^[:\s]+/, "").replace(/\.$/, "");
+    const detail = message
+      .slice(prefix.length)
+      .replace(/^[:\s]+/, "")
+      .replace(/\.$/, "");
     if (!detail) return `${said}.`;
     const shown = prefix === "no path found" ? message : detail;
     return `${said}. ${shown.charAt(0).toUpperCase()}${shown.slice(1)}.`;

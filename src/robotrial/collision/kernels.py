@@ -36,18 +36,6 @@ def _cyl_gap2(x, y, z, inv, k, radius, half_length) -> float:
     return dr * dr + dz * dz
 
 
-@nb.njit(cache=True)
-def world_spheres(poses, sphere_link, sphere_local, out) -> None:
-    """Sphere centres in the world frame from the link poses."""
-    for s in range(sphere_link.shape[0]):
-        li = sphere_link[s]
-        x, y, z = sphere_local[s, 0], sphere_local[s, 1], sphere_local[s, 2]
-        for i in range(3):
-            out[s, i] = (
-                poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
-            )
-
-
 @nb.njit(cache=True, inline="always")
 def _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready) -> None:
     """Move body b's spheres to the world frame, once per configuration (on demand: most
@@ -194,12 +182,40 @@ def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf) -> bool:
     box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env
     poses, centres, bound_c, ready = buf
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
-    world_spheres(poses, body_link, bound_local, bound_c)
-    for i in range(ready.shape[0]):
-        ready[i] = False
+    for b in range(body_link.shape[0]):
+        li = body_link[b]
+        x, y, z = bound_local[b, 0], bound_local[b, 1], bound_local[b, 2]
+        for i in range(3):
+            bound_c[b, i] = (
+                poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
+            )
+        ready[b] = False
+    # bounding-sphere tests stay inline: calling a helper costs about 100 ns in array
+    # reference counting even when the answer is "far apart"
+    n_box, n_cyl, n_sph = box_inv.shape[0], cyl_inv.shape[0], sph_c.shape[0]
     for e in range(env_bodies.shape[0]):
-        if _body_hits_env(
-            env_bodies[e],
+        b = env_bodies[e]
+        bx, by, bz = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2]
+        br = bound_r[b] + pad
+        near = False
+        for k in range(n_box):
+            if _box_gap2(bx, by, bz, box_inv, k, box_half) <= br * br:
+                near = True
+                break
+        if not near:
+            for k in range(n_cyl):
+                if _cyl_gap2(bx, by, bz, cyl_inv, k, cyl_r, cyl_h) <= br * br:
+                    near = True
+                    break
+        if not near:
+            for k in range(n_sph):
+                dx, dy, dz = bx - sph_c[k, 0], by - sph_c[k, 1], bz - sph_c[k, 2]
+                lim = br + sph_r[k]
+                if dx * dx + dy * dy + dz * dz <= lim * lim:
+                    near = True
+                    break
+        if near and _body_hits_env(
+            b,
             sphere_link,
             sphere_local,
             radius,
@@ -221,9 +237,16 @@ def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf) -> bool:
         ):
             return False
     for p in range(pairs.shape[0]):
+        a, b = pairs[p, 0], pairs[p, 1]
+        dx = bound_c[a, 0] - bound_c[b, 0]
+        dy = bound_c[a, 1] - bound_c[b, 1]
+        dz = bound_c[a, 2] - bound_c[b, 2]
+        lim = bound_r[a] + bound_r[b]
+        if dx * dx + dy * dy + dz * dz > lim * lim:
+            continue
         if _bodies_touch(
-            pairs[p, 0],
-            pairs[p, 1],
+            a,
+            b,
             sphere_link,
             sphere_local,
             radius,

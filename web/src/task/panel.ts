@@ -243,6 +243,9 @@ export class TaskPanel {
     this.addButton.disabled = phase !== "editing";
     this.resetButton.disabled = phase === "editing" || busy;
     this.moveButton.disabled = busy || !canPlan;
+    this.moveButton.title = canPlan
+      ? "Plan a path and move the robot"
+      : "Needs a planner: see Connection below";
     this.applyEditable();
     this.main.dataset.phase = phase;
   }

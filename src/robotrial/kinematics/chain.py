@@ -19,7 +19,7 @@ from robotrial.model.robot import RobotModel
 FIXED, REVOLUTE, PRISMATIC = 0, 1, 2
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, out) -> None:
     """World poses of all links for one configuration `q` into `out` (L, 4, 4).
 

@@ -5,9 +5,10 @@ Each particle carries a pose, a log-weight and its own map. When the robot has m
 `linearUpdate` or turned `angularUpdate` (odometry) since the last update:
 
 1. every particle draws its new pose from the odometry motion model (srr, srt, str, stt);
-2. the scan matcher moves that draw to where the scan fits the particle's own map (the
-   improved proposal of Grisetti et al. 2007); a match scoring below `minimumScore` is
-   not trusted and the draw stays;
+2. the scan matcher moves that draw to where the scan fits the particle's own map, with
+   the motion model as a prior (the improved proposal of Grisetti et al. 2007); a match
+   scoring below `minimumScore` is not trusted and the draw stays. Matching and the
+   weights use one scan end point per map cell;
 3. the particle's weight grows by the scan's likelihood on its map (likelihood field,
    `lsigma`, `kernelSize`), tempered by `ogain`;
 4. when the effective sample size falls below `resampleThreshold` * particles, the
@@ -28,6 +29,14 @@ from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.matcher import ScanMatcher, likelihood
 from robotrial.slam.params import GMappingParams
 from robotrial.slam.scan import Beams, compose, relative, transform_points
+
+
+def one_per_cell(points: np.ndarray, cell: float) -> np.ndarray:
+    """The first of the points that fall in each cell of a `cell`-sized grid: a dense
+    scan puts several end points in one map cell, and they constrain the match alike."""
+    keys = np.floor(points / cell).astype(np.int64)
+    _, first = np.unique(keys[:, 0] * 2_000_003 + keys[:, 1], return_index=True)
+    return points[np.sort(first)]
 
 
 class OdometryRequired(ValueError):
@@ -107,7 +116,7 @@ class GMappingSlam:
     def _update(self, scan: Beams, d: np.ndarray) -> None:
         p = self.params
         n = p.particles
-        hits = scan.hits
+        hits = one_per_cell(scan.hits, p.delta)
         stride = p.lskip + 1
         sx, sy, sth = self._motion_sigma(d)
         sigma = (max(sx, sy), max(sx, sy), sth)  # isotropic: the map frame is rotated

@@ -36,7 +36,7 @@ def test_map_matches_the_room(scores, method):
     assert abs(s["room"]["axes_yaw_deg"]) < 1.0
 
 
-def test_gmapping_resamples_and_keeps_particles(scores):
+def test_gmapping_updates_as_the_robot_moves(scores):
     assert scores["gmapping"]["updates"] >= 3
 
 

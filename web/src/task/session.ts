@@ -185,9 +185,9 @@ export class TaskSession {
   setRobot(): void {
     if (this.phase !== "editing" || !this.robot) return;
     this.start = this.arrangement();
+    // The gripper stays as the user left it: the planner models the fingers at their
+    // zero (closed) position, so opening them here would move them where it never looked.
     this.held = this.objectInHand() !== null;
-    if (this.held) this.closeGripper();
-    this.start = this.arrangement();
     this.phase = "set";
     this.host.lockJoints(true);
     this.editor.setLocked(true);
@@ -437,21 +437,6 @@ export class TaskSession {
     ).length();
     if (gap > HOLD_DISTANCE) return null;
     return { position: [p.x, p.y, p.z], quaternion: [q.x, q.y, q.z, q.w] };
-  }
-
-  /** Close the gripper onto the held object (half its width per finger). */
-  private closeGripper(): void {
-    const robot = this.robot;
-    const box = this.editor.object();
-    const gripper = robot?.description.metadata?.gripper?.joints ?? [];
-    if (!robot || !box) return;
-    const values: Record<string, number> = {};
-    for (const name of gripper) {
-      const j = robot.joints.find((k) => k.name === name);
-      if (j?.type === "prismatic")
-        values[name] = Math.min(j.upper, Math.max(j.lower, box.size[1] / 2));
-    }
-    if (Object.keys(values).length) this.host.setJoints(values);
   }
 
   private tcpInBase(): Matrix4 {

@@ -1,9 +1,11 @@
-"""Simulated 3D LiDAR (VLP-16 class) with mujoco.mj_multiRay, and its 2D scan (layer 2).
+"""Simulated 3D LiDAR (VLP-16 class) and its 2D scan (layer 2).
 
 `LidarPattern` is the fixed set of beam directions of a spinning multi-ring LiDAR;
-`Lidar` casts them from a MuJoCo site; `laserscan_from_points` turns a point cloud into a
-planar scan the way ROS's pointcloud_to_laserscan does (a height band, the nearest point
-per angle bin).
+`Lidar` casts them from a MuJoCo site: against a `RayScene` (the environment's geoms),
+primitives in compiled code with mj_multiRay's geometry and meshes with mj_multiRay, or
+against the whole model with mj_multiRay; `laserscan_from_points` turns a point cloud into
+a planar scan the way ROS's pointcloud_to_laserscan does (a height band, the nearest point
+per angle bin), and `Lidar.scan` does the same for a sweep without computing angles.
 """
 
 from __future__ import annotations
@@ -16,6 +18,17 @@ from typing import Any
 import mujoco
 import numba
 import numpy as np
+
+PRIMITIVE_GROUP, MESH_GROUP = 0, 1
+_PLANE, _SPHERE, _CAPSULE, _ELLIPSOID, _CYLINDER, _BOX = (
+    int(mujoco.mjtGeom.mjGEOM_PLANE),
+    int(mujoco.mjtGeom.mjGEOM_SPHERE),
+    int(mujoco.mjtGeom.mjGEOM_CAPSULE),
+    int(mujoco.mjtGeom.mjGEOM_ELLIPSOID),
+    int(mujoco.mjtGeom.mjGEOM_CYLINDER),
+    int(mujoco.mjtGeom.mjGEOM_BOX),
+)
+_PRIMITIVES = {_PLANE, _SPHERE, _CAPSULE, _ELLIPSOID, _CYLINDER, _BOX}
 
 
 @dataclass(frozen=True)
@@ -108,10 +121,12 @@ class RayScene:
     """Some geoms of a model (the environment) copied into a small MuJoCo model of their
     own, to cast rays against.
 
-    mj_multiRay visits every geom of a model for every ray, so casting against a copy that
-    holds only the walls, obstacles and objects (not the robot's visual and collision
-    geoms) is several times faster. Geoms of moving bodies ride on mocap bodies that
-    `sync` puts where the simulation has them.
+    Casting against a copy that holds only the walls, obstacles and objects (not the
+    robot's visual and collision geoms) is several times faster. Geoms of moving bodies
+    ride on mocap bodies that `sync` puts where the simulation has them. Primitive geoms
+    (plane, sphere, capsule, ellipsoid, cylinder, box) go to group `PRIMITIVE_GROUP`, which
+    `cast_primitives` intersects in compiled code; the rest (meshes) to `MESH_GROUP`, left
+    to mj_multiRay.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray) -> None:
@@ -150,10 +165,43 @@ class RayScene:
                         userface=model.mesh_face[fa : fa + fn].reshape(-1).tolist(),
                     )
                 kw["meshname"] = name
+            kw["group"] = PRIMITIVE_GROUP if int(gtype) in _PRIMITIVES else MESH_GROUP
             parent.add_geom(**kw)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
+        groups = self.model.geom_group
+        self.primitives = np.nonzero(groups == PRIMITIVE_GROUP)[0]
+        self.has_meshes = bool(np.any(groups == MESH_GROUP))
+        self.mesh_groups = np.zeros(mujoco.mjNGROUP, dtype=np.uint8)
+        self.mesh_groups[MESH_GROUP] = 1
+        self._type = self.model.geom_type[self.primitives].astype(np.int32)
+        self._size = np.ascontiguousarray(self.model.geom_size[self.primitives])
         self.sync(data)
+
+    def cast_primitives(
+        self,
+        pnt: np.ndarray,
+        rot: np.ndarray,
+        directions: np.ndarray,
+        dist: np.ndarray,
+        geom: np.ndarray,
+    ) -> None:
+        """Nearest hit among the primitive geoms of rays from `pnt` along `rot @ d` for each
+        sensor-frame direction d: distance into `dist` and geom id into `geom` (-1: none),
+        as mj_multiRay would give."""
+        idx = self.primitives
+        _cast_primitives(
+            pnt,
+            rot,
+            directions,
+            self._type,
+            np.ascontiguousarray(self.data.geom_xpos[idx]),
+            np.ascontiguousarray(self.data.geom_xmat[idx]),
+            self._size,
+            idx.astype(np.int32),
+            dist,
+            geom,
+        )
 
     def sync(self, data: mujoco.MjData) -> None:
         """Move the copies of moving geoms to their bodies' current poses."""
@@ -171,8 +219,9 @@ class Lidar:
 
     `geomgroup` selects which geom groups the beams see (MuJoCo's visibility groups);
     `exclude_body` is the body the sensor sits on; or `scene` gives a RayScene to cast
-    against instead of the whole model. `threads` > 1 splits the beams across threads
-    (mj_multiRay releases the GIL; it pays only on an idle multi-core machine).
+    against instead of the whole model. `threads` > 1 splits the beams that mj_multiRay
+    casts (the whole model, or a scene's meshes) across threads (mj_multiRay releases the
+    GIL; it pays only on an idle multi-core machine).
     """
 
     def __init__(
@@ -200,24 +249,35 @@ class Lidar:
         self._dist = np.zeros(self.n)
         self._geom = np.zeros(self.n, dtype=np.int32)
         self._world_vec = np.zeros((self.n, 3))
+        self._mesh_dist = np.zeros(self.n)
+        self._mesh_geom = np.zeros(self.n, dtype=np.int32)
+        self._noise = np.zeros(self.n)
         self.threads = max(1, int(threads))
         self.scene = scene
+        self._last: tuple[np.ndarray, PointCloud] | None = None
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
         bounds = np.linspace(0, self.n, self.threads + 1).astype(int)
         self._parts = list(itertools.pairwise(bounds.tolist()))
 
     def _cast(self, data: mujoco.MjData, pnt: np.ndarray, lo: int, hi: int) -> None:
+        """mj_multiRay for beams lo..hi: against the whole model, or the scene's meshes."""
         scene = self.scene
+        if scene is None:
+            model, geomgroup, exclude = self.model, self.geomgroup, self.exclude_body
+            geom, dist = self._geom, self._dist
+        else:
+            model, data, geomgroup, exclude = scene.model, scene.data, scene.mesh_groups, -1
+            geom, dist = self._mesh_geom, self._mesh_dist
         mujoco.mj_multiRay(
-            self.model if scene is None else scene.model,
-            data if scene is None else scene.data,
+            model,
+            data,
             pnt,
             self._world_vec[lo:hi].reshape(-1),
-            self.geomgroup if scene is None else None,
+            geomgroup,
             True,
-            self.exclude_body if scene is None else -1,
-            self._geom[lo:hi],
-            self._dist[lo:hi],
+            exclude,
+            geom[lo:hi],
+            dist[lo:hi],
             None,
             hi - lo,
             self.pattern.range_max,
@@ -227,18 +287,31 @@ class Lidar:
         """Distance along every beam (ring-major; inf = no return within range)."""
         pnt = data.site_xpos[self.site].copy()
         rot = data.site_xmat[self.site].reshape(3, 3)
-        np.matmul(self.directions, rot.T, out=self._world_vec)
-        if self.scene is not None:
-            self.scene.sync(data)
-        if self._pool is None:
-            self._cast(data, pnt, 0, self.n)
-        else:
-            list(self._pool.map(lambda p: self._cast(data, pnt, *p), self._parts))
-        r = self._dist.copy()
+        scene = self.scene
+        if scene is not None:
+            scene.sync(data)
+            scene.cast_primitives(pnt, rot, self.directions, self._dist, self._geom)
+        if scene is None or scene.has_meshes:
+            np.matmul(self.directions, rot.T, out=self._world_vec)
+            if self._pool is None:
+                self._cast(data, pnt, 0, self.n)
+            else:
+                list(self._pool.map(lambda p: self._cast(data, pnt, *p), self._parts))
+            if scene is not None:
+                _keep_nearer(self._dist, self._geom, self._mesh_dist, self._mesh_geom)
+        noise = None
         if self.pattern.noise > 0 and rng is not None:
-            r += rng.normal(0.0, self.pattern.noise, self.n)
-        bad = (self._geom < 0) | (r < self.pattern.range_min) | (r > self.pattern.range_max)
-        r[bad] = np.inf
+            noise = rng.standard_normal(self.n, out=self._noise)
+        r = np.empty(self.n)
+        _valid_ranges(
+            self._dist,
+            self._geom,
+            noise,
+            self.pattern.noise,
+            self.pattern.range_min,
+            self.pattern.range_max,
+            r,
+        )
         return r
 
     def sweep(
@@ -250,7 +323,39 @@ class Lidar:
         ring = np.empty(self.n, dtype=np.uint16)
         dist = np.empty(self.n, dtype=np.float32)
         k = _returns(self.directions, r, self.n // self.pattern.rings, pts, ring, dist)
-        return PointCloud(stamp, self.frame, pts[:k], ring[:k], dist[:k])
+        self._last = (r, PointCloud(stamp, self.frame, pts[:k], ring[:k], dist[:k]))
+        return self._last[1]
+
+    def scan(self, config: ScanConfig) -> Scan:
+        """The 2D scan of the last sweep: what `laserscan_from_points` makes of its points.
+        When the scan's bins are the beams' azimuths (a full turn from -pi at the LiDAR's
+        step) each return goes to its beam's bin without computing its angle."""
+        if self._last is None:
+            raise ValueError("lidar: scan() needs a sweep first")
+        ranges, cloud = self._last
+        full_turn, nbins = _scan_bins(config)
+        cols = self.n // self.pattern.rings
+        aligned = (
+            full_turn
+            and nbins == cols
+            and abs(config.angle_min + np.pi) < 1e-9
+            and cols * abs(config.angle_increment - 2 * np.pi / cols)
+            < 1e-3 * config.angle_increment
+        )
+        if not aligned:
+            return laserscan_from_points(cloud.points, config, stamp=cloud.stamp, frame=cloud.frame)
+        out = np.full(nbins, np.inf)
+        _flatten_beams(
+            self.directions,
+            ranges,
+            cols,
+            config.min_height,
+            config.max_height,
+            config.range_min,
+            config.range_max,
+            out,
+        )
+        return _make_scan(config, nbins, out, cloud.stamp, cloud.frame)
 
     def close(self) -> None:
         if self._pool is not None:
@@ -280,6 +385,27 @@ def _flatten(points, min_h, max_h, rmin, rmax, angle_min, inc, wrap, out):
             k = 0
         if 0 <= k < nbins and r < out[k]:
             out[k] = r
+
+
+@numba.njit(cache=True)
+def _flatten_beams(directions, ranges, cols, min_h, max_h, rmin, rmax, out):
+    """`_flatten` of the points `_returns` makes from `ranges`, with beam i in bin
+    i % cols (its azimuth's bin)."""
+    for i in range(ranges.shape[0]):
+        r = ranges[i]
+        if not np.isfinite(r):
+            continue
+        z = np.float32(directions[i, 2] * r)
+        if z < min_h or z > max_h:
+            continue
+        x = np.float64(np.float32(directions[i, 0] * r))
+        y = np.float64(np.float32(directions[i, 1] * r))
+        h = np.sqrt(x * x + y * y)
+        if h < rmin or h > rmax:
+            continue
+        k = i % cols
+        if h < out[k]:
+            out[k] = h
 
 
 @numba.njit(cache=True)
@@ -337,10 +463,7 @@ def laserscan_from_points(
     if transform is not None:
         p = p @ transform[:3, :3].T + transform[:3, 3]
     p = np.ascontiguousarray(p).reshape(-1, 3)
-    full_turn = config.angle_max - config.angle_min >= 2 * np.pi - 1e-9
-    nbins = round((config.angle_max - config.angle_min) / config.angle_increment)
-    if not full_turn:
-        nbins += 1
+    full_turn, nbins = _scan_bins(config)
     out = np.full(nbins, np.inf)
     _flatten(
         p,
@@ -353,6 +476,19 @@ def laserscan_from_points(
         full_turn,
         out,
     )
+    return _make_scan(config, nbins, out, stamp, frame)
+
+
+def _scan_bins(config: ScanConfig) -> tuple[bool, int]:
+    """Whether the scan wraps around a full turn, and its number of bins."""
+    full_turn = config.angle_max - config.angle_min >= 2 * np.pi - 1e-9
+    nbins = round((config.angle_max - config.angle_min) / config.angle_increment)
+    return full_turn, nbins if full_turn else nbins + 1
+
+
+def _make_scan(
+    config: ScanConfig, nbins: int, ranges: np.ndarray, stamp: float, frame: str
+) -> Scan:
     return Scan(
         stamp=stamp,
         frame=frame,
@@ -361,5 +497,201 @@ def laserscan_from_points(
         angle_increment=config.angle_increment,
         range_min=config.range_min,
         range_max=config.range_max,
-        ranges=out.astype(np.float32),
+        ranges=ranges.astype(np.float32),
     )
+
+
+_MINVAL = 1e-15
+
+
+@numba.njit(cache=True, inline="always")
+def _quad_roots(a, b, c):
+    """Roots x0 <= x1 of a*x^2 + 2*b*x + c = 0 (a > 0); (-1, -1) without a real pair."""
+    det = b * b - a * c
+    if det < _MINVAL:
+        return -1.0, -1.0
+    det = np.sqrt(det)
+    return (-b - det) / a, (-b + det) / a
+
+
+@numba.njit(cache=True, inline="always")
+def _first(x0, x1):
+    if x0 >= 0:
+        return x0
+    if x1 >= 0:
+        return x1
+    return -1.0
+
+
+@numba.njit(cache=True, inline="always")
+def _closer(best, t):
+    if t >= 0 and (best < 0 or t < best):
+        return t
+    return best
+
+
+@numba.njit(cache=True)
+def _ray_primitive(kind, s0, s1, s2, px, py, pz, vx, vy, vz):
+    """Distance along (vx, vy, vz) from (px, py, pz), both in the geom's frame, to the
+    surface of a primitive geom with MuJoCo's sizes; -1 if it misses."""
+    if kind == _PLANE:
+        if vz > -_MINVAL:
+            return -1.0
+        t = -pz / vz
+        if t < 0:
+            return -1.0
+        if (s0 <= 0 or abs(px + t * vx) <= s0) and (s1 <= 0 or abs(py + t * vy) <= s1):
+            return t
+        return -1.0
+    if kind == _BOX:
+        return _ray_box(s0, s1, s2, px, py, pz, vx, vy, vz)
+    a = vx * vx + vy * vy + vz * vz
+    b = vx * px + vy * py + vz * pz
+    cc = px * px + py * py + pz * pz
+    if kind == _SPHERE:
+        x0, x1 = _quad_roots(a, b, cc - s0 * s0)
+        return _first(x0, x1)
+    if kind == _ELLIPSOID:
+        i0, i1, i2 = 1.0 / (s0 * s0), 1.0 / (s1 * s1), 1.0 / (s2 * s2)
+        x0, x1 = _quad_roots(
+            i0 * vx * vx + i1 * vy * vy + i2 * vz * vz,
+            i0 * vx * px + i1 * vy * py + i2 * vz * pz,
+            i0 * px * px + i1 * py * py + i2 * pz * pz - 1.0,
+        )
+        return _first(x0, x1)
+    # bounding sphere first: most rays miss most cylinders and capsules
+    if kind == _CYLINDER:
+        r2 = s0 * s0 + s1 * s1
+    else:
+        r2 = (s0 + s1) * (s0 + s1)
+    x0, x1 = _quad_roots(a, b, cc - r2)
+    if _first(x0, x1) < 0:
+        return -1.0
+    best = -1.0
+    # round side of a cylinder or capsule, between the flat ends
+    x0, x1 = _quad_roots(vx * vx + vy * vy, vx * px + vy * py, px * px + py * py - s0 * s0)
+    t = _first(x0, x1)
+    if t >= 0 and abs(pz + t * vz) <= s1:
+        best = t
+    if kind == _CYLINDER:
+        if abs(vz) > _MINVAL:
+            for side in (-1.0, 1.0):
+                t = (side * s1 - pz) / vz
+                if t >= 0:
+                    qx, qy = px + t * vx, py + t * vy
+                    if qx * qx + qy * qy <= s0 * s0:
+                        best = _closer(best, t)
+        return best
+    for side in (-1.0, 1.0):  # capsule: the hemispheres beyond each end
+        dz = pz - side * s1
+        x0, x1 = _quad_roots(a, vx * px + vy * py + vz * dz, px * px + py * py + dz * dz - s0 * s0)
+        for t in (x0, x1):
+            if t >= 0 and side * (pz + t * vz) >= s1:
+                best = _closer(best, t)
+    return best
+
+
+@numba.njit(cache=True)
+def _ray_box(s0, s1, s2, px, py, pz, vx, vy, vz):
+    """Distance to a box (half sizes s) centred at the origin, from inside or outside;
+    -1 if the ray misses (slab test)."""
+    near, far = -np.inf, np.inf
+    for p, v, h in ((px, vx, s0), (py, vy, s1), (pz, vz, s2)):
+        if abs(v) > _MINVAL:
+            t1 = (-h - p) / v
+            t2 = (h - p) / v
+            if t1 > t2:
+                t1, t2 = t2, t1
+            if t1 > near:
+                near = t1
+            if t2 < far:
+                far = t2
+        elif abs(p) > h:
+            return -1.0
+    if near > far or far < 0:
+        return -1.0
+    return near if near >= 0 else far
+
+
+@numba.njit(cache=True)
+def _cast_primitives(pnt, rot, directions, kinds, pos, mat, size, ids, dist, geom):
+    """Nearest primitive hit per ray (see RayScene.cast_primitives). Geom by geom, nearest
+    first, skipping rays that already hit something closer than the geom's bounding
+    sphere."""
+    ng = kinds.shape[0]
+    nr = directions.shape[0]
+    lp = np.empty((ng, 3))
+    m = np.empty((ng, 3, 3))  # geom frame <- sensor frame
+    reach = np.empty(ng)  # nearest the geom can be: centre distance - bounding radius
+    for g in range(ng):
+        for i in range(3):
+            acc = 0.0
+            for k in range(3):
+                acc += mat[g, 3 * k + i] * (pnt[k] - pos[g, k])
+            lp[g, i] = acc
+            for j in range(3):
+                acc = 0.0
+                for k in range(3):
+                    acc += mat[g, 3 * k + i] * rot[k, j]
+                m[g, i, j] = acc
+        s0, s1, s2 = size[g, 0], size[g, 1], size[g, 2]
+        if kinds[g] == _PLANE:
+            radius = np.inf
+        elif kinds[g] == _SPHERE:
+            radius = s0
+        elif kinds[g] == _CAPSULE:
+            radius = s0 + s1
+        elif kinds[g] == _CYLINDER:
+            radius = np.sqrt(s0 * s0 + s1 * s1)
+        else:
+            radius = np.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        reach[g] = np.sqrt(lp[g, 0] ** 2 + lp[g, 1] ** 2 + lp[g, 2] ** 2) - radius
+    for r in range(nr):
+        dist[r] = -1.0
+        geom[r] = -1
+    for g in np.argsort(reach):
+        kind = kinds[g]
+        s0, s1, s2 = size[g, 0], size[g, 1], size[g, 2]
+        px, py, pz = lp[g, 0], lp[g, 1], lp[g, 2]
+        m00, m01, m02 = m[g, 0, 0], m[g, 0, 1], m[g, 0, 2]
+        m10, m11, m12 = m[g, 1, 0], m[g, 1, 1], m[g, 1, 2]
+        m20, m21, m22 = m[g, 2, 0], m[g, 2, 1], m[g, 2, 2]
+        lower = reach[g]
+        gid = ids[g]
+        for r in range(nr):
+            best = dist[r]
+            if best >= 0 and best < lower:
+                continue
+            dx, dy, dz = directions[r, 0], directions[r, 1], directions[r, 2]
+            vx = m00 * dx + m01 * dy + m02 * dz
+            vy = m10 * dx + m11 * dy + m12 * dz
+            vz = m20 * dx + m21 * dy + m22 * dz
+            if kind == _BOX:
+                t = _ray_box(s0, s1, s2, px, py, pz, vx, vy, vz)
+            else:
+                t = _ray_primitive(kind, s0, s1, s2, px, py, pz, vx, vy, vz)
+            if t >= 0 and (best < 0 or t < best):
+                dist[r] = t
+                geom[r] = gid
+
+
+@numba.njit(cache=True)
+def _keep_nearer(dist, geom, other_dist, other_geom):
+    """Where the other cast hit something nearer (or the first hit nothing), take it."""
+    for i in range(dist.shape[0]):
+        if other_geom[i] >= 0 and (geom[i] < 0 or other_dist[i] < dist[i]):
+            dist[i] = other_dist[i]
+            geom[i] = other_geom[i]
+
+
+@numba.njit(cache=True)
+def _valid_ranges(dist, geom, noise, sigma, rmin, rmax, out):
+    """Ranges plus sigma * noise (standard normal draws, None: none); inf where nothing
+    was hit or the range falls outside [rmin, rmax]."""
+    for i in range(dist.shape[0]):
+        r = dist[i]
+        if noise is not None:
+            r += sigma * noise[i]
+        if geom[i] < 0 or r < rmin or r > rmax:
+            r = np.inf
+        out[i] = r

@@ -36,7 +36,7 @@ from robotrial.sim.controllers import (
     JointController,
     JointReference,
 )
-from robotrial.sim.lidar import Lidar, LidarPattern, RayScene, ScanConfig, laserscan_from_points
+from robotrial.sim.lidar import Lidar, LidarPattern, RayScene, ScanConfig
 from robotrial.sim.odometry import OdometryNoise, WheelOdometry
 from robotrial.sim.sensors import Camera, Imu, JointStates, OdometryReading, depth_to_points
 from robotrial.sim.tf import TfTree, chain_to_root
@@ -320,7 +320,7 @@ class Simulation:
             cloud = lidar.sweep(self.world.data, self.world.rng, t)
             out = [Reading(name, "points", cloud)]
             if scan is not None:
-                sc = laserscan_from_points(cloud.points, scan, stamp=t, frame=cloud.frame)
+                sc = lidar.scan(scan)
                 sc.scan_time = 1.0 / max(1e-9, self._settings(name).rate_hz or 10.0)
                 out.append(Reading("scan", "scan", sc))
             return out

@@ -185,6 +185,17 @@ export function pathChart(input: PlotInput): SVGSVGElement {
   return svg;
 }
 
+/** The chart as an image element for the page. (An inline SVG over the WebGL view left
+ * a stale rectangle in the view in Chromium with software rendering; an image does not.) */
+export function chartImage(svg: SVGSVGElement): HTMLImageElement {
+  const image = new Image(WIDTH, HEIGHT);
+  image.alt = svg.getAttribute("aria-label") ?? "";
+  image.src = `data:image/svg+xml;charset=utf-8,${encodeURIComponent(
+    new XMLSerializer().serializeToString(svg),
+  )}`;
+  return image;
+}
+
 /** The samples as CSV text: time, planned x y z, browser x y z (s, m). */
 export function pathCsv(samples: PathSample[]): string {
   const rows = samples.map((s) =>

@@ -24,7 +24,7 @@ import {
 import { humanize } from "../ui/dom";
 import { TaskEditor } from "./editor";
 import type { MessageKind, Phase, TaskPanel } from "./panel";
-import { chartPng, download, pathChart, pathCsv } from "./plot";
+import { chartImage, chartPng, download, pathChart, pathCsv } from "./plot";
 import { MotionRun, type RunResult } from "./run";
 
 /** An object this close to the hand (m, from the tcp to the box) is in the hand: the
@@ -624,7 +624,7 @@ export class TaskSession {
     const png = this.plot.querySelector<HTMLButtonElement>("#export-png");
     const chart = this.plot.querySelector<HTMLElement>(".chart");
     if (!csv || !png || !chart) return;
-    chart.replaceChildren(this.chart(result));
+    chart.replaceChildren(chartImage(this.chart(result)));
     this.plot.hidden = false;
   }
 
@@ -670,7 +670,12 @@ export class TaskSession {
 
 /** The message for the end of a run, and whether it is good news. */
 function summary(r: RunResult): [string, MessageKind] {
-  const cm = (m: number) => `${(m * 100).toFixed(1)} cm`;
+  const length = (m: number) =>
+    m < 0.001
+      ? "less than 1 mm"
+      : m < 0.01
+        ? `${(m * 1000).toFixed(1)} mm`
+        : `${(m * 100).toFixed(1)} cm`;
   const touched = r.contacts.length
     ? `it touched ${[...new Set(r.contacts.map((c) => c.b))].join(", ")} (${r.contacts
         .map((c) => c.a)
@@ -678,9 +683,9 @@ function summary(r: RunResult): [string, MessageKind] {
     : "no contact with obstacles";
   const reached = r.finalError <= 0.01;
   const text =
-    `${reached ? "Done" : "Finished"}: the hand is ${cm(r.finalError)} from the goal; ` +
+    `${reached ? "Done" : "Finished"}: the hand is ${length(r.finalError)} from the goal; ` +
     `${touched}; ` +
-    `it followed the plan within ${cm(r.rmsGap)} (RMS).`;
+    `it followed the plan within ${length(r.rmsGap)} (RMS).`;
   return [text, reached && r.contacts.length === 0 ? "ok" : "error"];
 }
 

@@ -149,7 +149,7 @@ export class TaskSession {
     // Fetch the physics model and MuJoCo when the page is idle, so Move Robot! does
     // not wait for them.
     this.bundleFor();
-    requestIdleCallback(() => void mujoco().catch(() => undefined), { timeout: 3000 });
+    whenIdle(() => void mujoco().catch(() => undefined));
   }
 
   /** Nothing to do here (a robot without an arm): hide the task. */
@@ -666,6 +666,12 @@ export class TaskSession {
   private say(text: string, kind: MessageKind = "info"): void {
     this.panel.say(text, kind);
   }
+}
+
+/** Run `task` when the page is idle (soon after the first frame), where browsers can say. */
+function whenIdle(task: () => void): void {
+  if ("requestIdleCallback" in window) requestIdleCallback(task, { timeout: 3000 });
+  else setTimeout(task, 1500);
 }
 
 /** The message for the end of a run, and whether it is good news. */

@@ -185,10 +185,13 @@ class RayScene:
         directions: np.ndarray,
         dist: np.ndarray,
         geom: np.ndarray,
+        columns: int = 0,
     ) -> None:
         """Nearest hit among the primitive geoms of rays from `pnt` along `rot @ d` for each
         sensor-frame direction d: distance into `dist` and geom id into `geom` (-1: none),
-        as mj_multiRay would give."""
+        as mj_multiRay would give. `columns` > 0 says the directions are rings of that many
+        azimuths each, evenly around a full turn from -pi (a LidarPattern's layout); then
+        each geom is tested only by the beams whose azimuths can reach it."""
         idx = self.primitives
         _cast_primitives(
             pnt,
@@ -201,6 +204,7 @@ class RayScene:
             idx.astype(np.int32),
             dist,
             geom,
+            columns,
         )
 
     def sync(self, data: mujoco.MjData) -> None:
@@ -290,7 +294,9 @@ class Lidar:
         scene = self.scene
         if scene is not None:
             scene.sync(data)
-            scene.cast_primitives(pnt, rot, self.directions, self._dist, self._geom)
+            scene.cast_primitives(
+                pnt, rot, self.directions, self._dist, self._geom, self.n // self.pattern.rings
+            )
         if scene is None or scene.has_meshes:
             np.matmul(self.directions, rot.T, out=self._world_vec)
             if self._pool is None:
@@ -614,10 +620,10 @@ def _ray_box(s0, s1, s2, px, py, pz, vx, vy, vz):
 
 
 @numba.njit(cache=True)
-def _cast_primitives(pnt, rot, directions, kinds, pos, mat, size, ids, dist, geom):
+def _cast_primitives(pnt, rot, directions, kinds, pos, mat, size, ids, dist, geom, columns):
     """Nearest primitive hit per ray (see RayScene.cast_primitives). Geom by geom, nearest
     first, skipping rays that already hit something closer than the geom's bounding
-    sphere."""
+    sphere, and (with `columns`) beams outside the geom's azimuth span."""
     ng = kinds.shape[0]
     nr = directions.shape[0]
     lp = np.empty((ng, 3))
@@ -658,21 +664,83 @@ def _cast_primitives(pnt, rot, directions, kinds, pos, mat, size, ids, dist, geo
         m20, m21, m22 = m[g, 2, 0], m[g, 2, 1], m[g, 2, 2]
         lower = reach[g]
         gid = ids[g]
-        for r in range(nr):
-            best = dist[r]
-            if best >= 0 and best < lower:
-                continue
-            dx, dy, dz = directions[r, 0], directions[r, 1], directions[r, 2]
-            vx = m00 * dx + m01 * dy + m02 * dz
-            vy = m10 * dx + m11 * dy + m12 * dz
-            vz = m20 * dx + m21 * dy + m22 * dz
-            if kind == _BOX:
-                t = _ray_box(s0, s1, s2, px, py, pz, vx, vy, vz)
-            else:
-                t = _ray_primitive(kind, s0, s1, s2, px, py, pz, vx, vy, vz)
-            if t >= 0 and (best < 0 or t < best):
-                dist[r] = t
-                geom[r] = gid
+        c_lo, c_hi, rings = 0, nr - 1, 1
+        if columns > 0:
+            rings = nr // columns
+            c_lo, c_hi = _azimuth_columns(kind, s0, s1, s2, lp[g], m[g], columns)
+        for ring in range(rings):
+            for c in range(c_lo, c_hi + 1):
+                r = ring * columns + c % columns if columns > 0 else c
+                best = dist[r]
+                if best >= 0 and best < lower:
+                    continue
+                dx, dy, dz = directions[r, 0], directions[r, 1], directions[r, 2]
+                vx = m00 * dx + m01 * dy + m02 * dz
+                vy = m10 * dx + m11 * dy + m12 * dz
+                vz = m20 * dx + m21 * dy + m22 * dz
+                if kind == _BOX:
+                    t = _ray_box(s0, s1, s2, px, py, pz, vx, vy, vz)
+                else:
+                    t = _ray_primitive(kind, s0, s1, s2, px, py, pz, vx, vy, vz)
+                if t >= 0 and (best < 0 or t < best):
+                    dist[r] = t
+                    geom[r] = gid
+
+
+@numba.njit(cache=True)
+def _azimuth_columns(kind, s0, s1, s2, lp, m, columns):
+    """First and last column (may run past either end: take them modulo `columns`) of the
+    beams whose azimuths, in the sensor frame, can meet a geom's local bounding box.
+    All columns when the sensor's z axis passes through that box (or for a plane)."""
+    full = (0, columns - 1)
+    if kind == _PLANE:
+        return full
+    if kind == _SPHERE:
+        h0 = h1 = h2 = s0
+    elif kind == _CYLINDER:
+        h0, h1, h2 = s0, s0, s1
+    elif kind == _CAPSULE:
+        h0, h1, h2 = s0, s0, s1 + s0
+    else:
+        h0, h1, h2 = s0, s1, s2
+    # the sensor's z line (unbounded both ways) against the box: then every azimuth can hit
+    near, far = -np.inf, np.inf
+    for p, v, h in ((lp[0], m[0, 2], h0), (lp[1], m[1, 2], h1), (lp[2], m[2, 2], h2)):
+        if abs(v) > _MINVAL:
+            t1 = (-h - p) / v
+            t2 = (h - p) / v
+            if t1 > t2:
+                t1, t2 = t2, t1
+            near = max(near, t1)
+            far = min(far, t2)
+        elif abs(p) > h:
+            near, far = 1.0, -1.0
+    if near <= far:
+        return full
+    # otherwise the corners' azimuths span less than half a turn: measure from the first
+    first, lo, hi = 0.0, 0.0, 0.0
+    for k in range(8):
+        d0 = (h0 if k & 1 else -h0) - lp[0]
+        d1 = (h1 if k & 2 else -h1) - lp[1]
+        d2 = (h2 if k & 4 else -h2) - lp[2]
+        a = np.arctan2(
+            m[0, 1] * d0 + m[1, 1] * d1 + m[2, 1] * d2, m[0, 0] * d0 + m[1, 0] * d1 + m[2, 0] * d2
+        )
+        if k == 0:
+            first = a
+            continue
+        rel = a - first
+        if rel > np.pi:
+            rel -= 2 * np.pi
+        elif rel < -np.pi:
+            rel += 2 * np.pi
+        lo, hi = min(lo, rel), max(hi, rel)
+    step = 2 * np.pi / columns
+    c_lo = int(np.floor((first + lo + np.pi) / step)) - 1
+    c_hi = int(np.ceil((first + hi + np.pi) / step)) + 1
+    if c_hi - c_lo + 1 >= columns:
+        return full
+    return c_lo, c_hi
 
 
 @numba.njit(cache=True)

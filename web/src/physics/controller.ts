@@ -87,20 +87,6 @@ export class JointReference {
   byName(values: number[]): Record<string, number> {
     return Object.fromEntries(this.names.map((n, i) => [n, values[i]]));
   }
-
-  /** True when `other` describes the same motion (the same trajectory received twice,
-   * once as the service's answer and once on the topic). */
-  same(other: JointReference): boolean {
-    if (other.names.join() !== this.names.join() || other.times.length !== this.times.length) {
-      return false;
-    }
-    const close = (a: number[], b: number[]) => a.every((v, i) => Math.abs(v - b[i]) < 1e-9);
-    return (
-      close(other.times, this.times) &&
-      close(other.q[0], this.q[0]) &&
-      close(other.q[other.q.length - 1], this.q[this.q.length - 1])
-    );
-  }
 }
 
 /** Drives every actuated joint of a PhysicsWorld towards targets: held values, or a
@@ -144,10 +130,6 @@ export class JointTracker {
     this.reference = reference;
     this.startTime = start;
     this.hold(reference.end());
-  }
-
-  get following(): JointReference | null {
-    return this.reference;
   }
 
   /** Where the reference wants the joints at sim time `t` (its end after it ends). */

@@ -180,12 +180,6 @@ export class PhysicsWorld {
     return Object.fromEntries([...this.joints].map(([n, j]) => [n, qpos[j.qpos]]));
   }
 
-  /** Joint speeds by name (rad/s or m/s). */
-  jointSpeeds(): Record<string, number> {
-    const qvel: Float64Array = this.data.qvel;
-    return Object.fromEntries([...this.joints].map(([n, j]) => [n, qvel[j.dof]]));
-  }
-
   /** (qpos index, dof index, actuator index or -1) of a joint, or undefined. */
   joint(name: string): { qpos: number; dof: number; actuator: number } | undefined {
     return this.joints.get(name);

@@ -197,10 +197,6 @@ export class TaskEditor {
     this.viewer.requestRender();
   }
 
-  get selection(): Pick | null {
-    return this.selected;
-  }
-
   private configureGizmo(): void {
     // The goal is a point: it only moves. Boxes turn about z only, so they stay upright.
     const mode = this.selected?.kind === "goal" ? "translate" : this.mode;

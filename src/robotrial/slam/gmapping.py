@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robotrial.slam.grid import LogOddsGrid
-from robotrial.slam.matcher import ScanMatcher, likelihood
+from robotrial.slam.grid import LogOddsGrid, integrate_many
+from robotrial.slam.matcher import match_particles
 from robotrial.slam.params import GMappingParams
 from robotrial.slam.scan import Beams, compose, relative, transform_points
 
@@ -37,6 +37,26 @@ def one_per_cell(points: np.ndarray, cell: float) -> np.ndarray:
     keys = np.floor(points / cell).astype(np.int64)
     _, first = np.unique(keys[:, 0] * 2_000_003 + keys[:, 1], return_index=True)
     return points[np.sort(first)]
+
+
+def compose_many(poses: np.ndarray, deltas: np.ndarray) -> np.ndarray:
+    """Row-wise `compose` of (N, 3) poses with (N, 3) relative motions."""
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    out = np.empty_like(poses, dtype=np.float64)
+    out[:, 0] = poses[:, 0] + c * deltas[:, 0] - s * deltas[:, 1]
+    out[:, 1] = poses[:, 1] + s * deltas[:, 0] + c * deltas[:, 1]
+    out[:, 2] = (poses[:, 2] + deltas[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    return out
+
+
+def angle_step(scan: Beams) -> float | None:
+    """The typical angle between neighbouring beams of a scan, as seen from the laser
+    (None for fewer than two beams)."""
+    if scan.ends.shape[0] < 2:
+        return None
+    a = np.unwrap(np.arctan2(scan.ends[:, 1] - scan.origin[1], scan.ends[:, 0] - scan.origin[0]))
+    step = float(np.median(np.abs(np.diff(a))))
+    return step if step > 0 else None
 
 
 class OdometryRequired(ValueError):
@@ -62,7 +82,6 @@ class GMappingSlam:
         self.logw = np.zeros(n)
         self.maps: list[LogOddsGrid] = [LogOddsGrid(p.delta)]
         self._map_index = np.zeros(n, dtype=int)
-        self.matcher = ScanMatcher(p.match_levels, p.iterations)
         self._odom_at_update: np.ndarray | None = None
         self._best = 0
         self.history: list[_Step] = []
@@ -120,22 +139,26 @@ class GMappingSlam:
         stride = p.lskip + 1
         sx, sy, sth = self._motion_sigma(d)
         sigma = (max(sx, sy), max(sx, sy), sth)  # isotropic: the map frame is rotated
-        for i in range(n):
-            guess = compose(self.poses[i], self._sample_motion(d))
-            grid = self.maps[self._map_index[i]]
-            pyramid = grid.pyramid(p.match_levels)
-            matched = self.matcher.match(grid, hits[::stride], guess, pyramid, sigma).pose
-            pose = matched
-            score, loglik, _ = likelihood(
-                grid, hits, pose, p.kernelSize, p.sigma, p.lsigma, stride=stride
-            )
-            if score <= p.minimumScore:
-                pose = guess
-                _, loglik, _ = likelihood(
-                    grid, hits, pose, p.kernelSize, p.sigma, p.lsigma, stride=stride
-                )
-            self.poses[i] = pose
-            self.logw[i] += loglik
+        noise = self.rng.normal(size=(n, 3)) * np.asarray(self._motion_sigma(d))
+        guesses = compose_many(self.poses, np.asarray(d, dtype=np.float64) + noise)
+        # The coarse levels of the best particle's map steer every particle's match.
+        ref = self.grid
+        coarse = ref.pyramid(p.match_levels)[1:]
+        self.poses, loglik = match_particles(
+            [self.maps[k] for k in self._map_index],
+            coarse,
+            ref.origin,
+            hits,
+            guesses,
+            sigma,
+            iterations=p.iterations,
+            stride=stride,
+            kernel=p.kernelSize,
+            sigma=p.sigma,
+            lsigma=p.lsigma,
+            min_score=p.minimumScore,
+        )
+        self.logw += loglik
         gain = 1.0 / (p.ogain * n)
         w = np.exp(gain * (self.logw - self.logw.max()))
         w /= w.sum()
@@ -165,9 +188,6 @@ class GMappingSlam:
             p.stt * dth + p.srt * float(np.hypot(dx, dy)),
         )
 
-    def _sample_motion(self, d: np.ndarray) -> np.ndarray:
-        return np.asarray(d, dtype=np.float64) + self.rng.normal(size=3) * self._motion_sigma(d)
-
     def _systematic(self, w: np.ndarray) -> np.ndarray:
         n = w.size
         positions = (self.rng.random() + np.arange(n)) / n
@@ -195,6 +215,11 @@ class GMappingSlam:
         if len(self.maps) == 1 and n > 1:
             self.maps = [self.maps[0].copy() for _ in range(n)]
             self._map_index = np.arange(n)
+        step = angle_step(scan)
+        if step is not None:
+            grids = [self.maps[k] for k in self._map_index]
+            integrate_many(grids, self.poses, scan.origin, scan.ends, scan.hit, step)
+            return
         for i in range(n):
             pose = self.poses[i]
             origin = transform_points(pose, np.array([scan.origin]))[0]

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from robotrial.slam.grid import LogOddsGrid
+from robotrial.slam.grid import LogOddsGrid, touch
 
 
 @numba.njit(cache=True, inline="always")
@@ -34,7 +34,7 @@ def _occ(grid: np.ndarray, r: int, c: int) -> float:
     return 0.5 + 0.5 * v / (1.0 + abs(v))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _coarse(grid: np.ndarray, r: int, c: int, block: int) -> float:
     if block == 1:
         return _occ(grid, r, c)
@@ -47,7 +47,7 @@ def _coarse(grid: np.ndarray, r: int, c: int, block: int) -> float:
     return best
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _sample(
     grid: np.ndarray, ox: float, oy: float, res: float, block: int, x: float, y: float
 ) -> tuple[float, float, float]:
@@ -68,6 +68,34 @@ def _sample(
     return m, du / cres, dv / cres
 
 
+@numba.njit(cache=True, inline="always")
+def _solve3(
+    a00: float,
+    a01: float,
+    a02: float,
+    a11: float,
+    a12: float,
+    a22: float,
+    b0: float,
+    b1: float,
+    b2: float,
+) -> tuple[float, float, float]:
+    # A symmetric positive definite 3x3 system by Cholesky (no allocation, no LAPACK call).
+    l00 = np.sqrt(a00)
+    l10 = a01 / l00
+    l20 = a02 / l00
+    l11 = np.sqrt(max(a11 - l10 * l10, 1e-300))
+    l21 = (a12 - l20 * l10) / l11
+    l22 = np.sqrt(max(a22 - l20 * l20 - l21 * l21, 1e-300))
+    y0 = b0 / l00
+    y1 = (b1 - l10 * y0) / l11
+    y2 = (b2 - l20 * y0 - l21 * y1) / l22
+    x2 = y2 / l22
+    x1 = (y1 - l21 * x2) / l11
+    x0 = (y0 - l10 * x1 - l20 * x2) / l00
+    return x0, x1, x2
+
+
 @numba.njit(cache=True)
 def _gauss_newton(
     grid: np.ndarray,
@@ -82,60 +110,64 @@ def _gauss_newton(
     prior: np.ndarray,
     prior_weight: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, float]:
-    p = pose.copy()
-    hess = np.zeros((3, 3))
+    p0, p1, p2 = pose[0], pose[1], pose[2]
+    h00 = h01 = h02 = h11 = h12 = h22 = 0.0
     cost = 0.0
     max_step = res * block
     pose_tol = 1e-2 * res
     for _ in range(iterations):
-        hess[:, :] = 0.0
-        g = np.zeros(3)
+        h00 = h01 = h02 = h11 = h12 = h22 = 0.0
+        g0 = g1 = g2 = 0.0
         cost = 0.0
-        c = np.cos(p[2])
-        s = np.sin(p[2])
+        c = np.cos(p2)
+        s = np.sin(p2)
         for i in range(0, pts.shape[0], stride):
             px = pts[i, 0]
             py = pts[i, 1]
-            wx = p[0] + c * px - s * py
-            wy = p[1] + s * px + c * py
+            wx = p0 + c * px - s * py
+            wy = p1 + s * px + c * py
             m, dx, dy = _sample(grid, ox, oy, res, block, wx, wy)
             r = 1.0 - m
             cost += r * r
-            j0 = dx
-            j1 = dy
             j2 = dx * (-s * px - c * py) + dy * (c * px - s * py)
-            hess[0, 0] += j0 * j0
-            hess[0, 1] += j0 * j1
-            hess[0, 2] += j0 * j2
-            hess[1, 1] += j1 * j1
-            hess[1, 2] += j1 * j2
-            hess[2, 2] += j2 * j2
-            g[0] += j0 * r
-            g[1] += j1 * r
-            g[2] += j2 * r
-        hess[1, 0] = hess[0, 1]
-        hess[2, 0] = hess[0, 2]
-        hess[2, 1] = hess[1, 2]
-        for k in range(3):
-            hess[k, k] += prior_weight[k]
-            g[k] += prior_weight[k] * (prior[k] - p[k])
-        tr = hess[0, 0] + hess[1, 1] + hess[2, 2]
+            h00 += dx * dx
+            h01 += dx * dy
+            h02 += dx * j2
+            h11 += dy * dy
+            h12 += dy * j2
+            h22 += j2 * j2
+            g0 += dx * r
+            g1 += dy * r
+            g2 += j2 * r
+        h00 += prior_weight[0]
+        h11 += prior_weight[1]
+        h22 += prior_weight[2]
+        g0 += prior_weight[0] * (prior[0] - p0)
+        g1 += prior_weight[1] * (prior[1] - p1)
+        g2 += prior_weight[2] * (prior[2] - p2)
+        tr = h00 + h11 + h22
         if tr <= 1e-12:
             break
-        damped = hess.copy()
-        for k in range(3):
-            damped[k, k] += 1e-6 * tr
-        d = np.linalg.solve(damped, g)
-        lin = np.hypot(d[0], d[1])
+        damp = 1e-6 * tr
+        d0, d1, d2 = _solve3(h00 + damp, h01, h02, h11 + damp, h12, h22 + damp, g0, g1, g2)
+        lin = np.hypot(d0, d1)
         if lin > max_step:
-            d[0] *= max_step / lin
-            d[1] *= max_step / lin
-        if abs(d[2]) > 0.2:
-            d[2] = 0.2 * np.sign(d[2])
-        p += d
-        if lin < pose_tol and abs(d[2]) < 1e-3:
+            d0 *= max_step / lin
+            d1 *= max_step / lin
+        if abs(d2) > 0.2:
+            d2 = 0.2 * np.sign(d2)
+        p0 += d0
+        p1 += d1
+        p2 += d2
+        if lin < pose_tol and abs(d2) < 1e-3:
             break
-    return p, hess, cost
+    out = np.empty(3)
+    out[0], out[1], out[2] = p0, p1, p2
+    hess = np.empty((3, 3))
+    hess[0, 0], hess[0, 1], hess[0, 2] = h00, h01, h02
+    hess[1, 0], hess[1, 1], hess[1, 2] = h01, h11, h12
+    hess[2, 0], hess[2, 1], hess[2, 2] = h02, h12, h22
+    return out, hess, cost
 
 
 @numba.njit(cache=True)
@@ -184,6 +216,128 @@ def _likelihood(
         else:
             loglik += null_likelihood / lsigma
     return score, loglik, found
+
+
+@numba.njit(cache=True)
+def _match_particles(
+    maps: numba.typed.List,
+    origins: np.ndarray,
+    res: float,
+    coarse: numba.typed.List,
+    cox: float,
+    coy: float,
+    match_pts: np.ndarray,
+    pts: np.ndarray,
+    stride: int,
+    guesses: np.ndarray,
+    prior_weight: np.ndarray,
+    iterations: int,
+    kernel: int,
+    sigma: float,
+    lsigma: float,
+    null_likelihood: float,
+    min_score: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    n = guesses.shape[0]
+    poses = np.empty((n, 3))
+    logliks = np.empty(n)
+    for i in range(n):
+        grid = maps[i]
+        ox, oy = origins[i, 0], origins[i, 1]
+        start = guesses[i].copy()
+        pose = start.copy()
+        if grid.size > 0 and match_pts.shape[0] > 0:
+            for level in range(len(coarse), 0, -1):
+                block = 1 << level
+                pose, _, _ = _gauss_newton(
+                    coarse[level - 1],
+                    cox,
+                    coy,
+                    res * block,
+                    1,
+                    match_pts,
+                    block,
+                    pose,
+                    iterations,
+                    start,
+                    prior_weight,
+                )
+            touch(grid)
+            pose, _, _ = _gauss_newton(
+                grid, ox, oy, res, 1, match_pts, 1, pose, iterations, start, prior_weight
+            )
+            pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
+        if grid.size == 0:
+            poses[i] = pose
+            logliks[i] = 0.0
+            continue
+        score, loglik, _ = _likelihood(
+            grid, ox, oy, res, pts, stride, pose, kernel, sigma, lsigma, null_likelihood
+        )
+        if score <= min_score:
+            pose = start
+            _, loglik, _ = _likelihood(
+                grid, ox, oy, res, pts, stride, pose, kernel, sigma, lsigma, null_likelihood
+            )
+        poses[i] = pose
+        logliks[i] = loglik
+    return poses, logliks
+
+
+def match_particles(
+    maps: list[LogOddsGrid],
+    coarse: list[np.ndarray],
+    coarse_origin: tuple[float, float],
+    points: np.ndarray,
+    guesses: np.ndarray,
+    prior_sigma: tuple[float, float, float],
+    iterations: int = 5,
+    stride: int = 1,
+    kernel: int = 1,
+    sigma: float = 0.05,
+    lsigma: float = 0.075,
+    null_likelihood: float = -0.5,
+    min_score: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """GMapping's improved proposal and weights for every particle in one compiled call:
+    particle i's guess (guesses[i], x y yaw) is refined as `ScanMatcher.match` does on
+    `maps[i]` with the motion prior `prior_sigma`, except that the coarse levels
+    (`coarse`, block sizes 2, 4, ..., anchored at `coarse_origin`) are one shared map's
+    (the particles' maps differ by centimetres, less than a coarse cell); then the pose
+    is scored on its own map's likelihood field as `likelihood` does, every `stride`-th
+    point. A match scoring at most `min_score` is not trusted and the guess is kept.
+    Returns (poses (N, 3), log-likelihoods (N,))."""
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
+    res = maps[0].resolution
+    for m in maps:
+        if m.resolution != res:
+            raise ValueError(
+                f"match_particles: maps differ in resolution ({m.resolution} vs {res})"
+            )
+    weight = 1.0 / np.maximum(np.asarray(prior_sigma, dtype=np.float64), 1e-3) ** 2
+    grids = numba.typed.List([m.logodds for m in maps])
+    levels = numba.typed.List([np.ascontiguousarray(c, dtype=np.float32) for c in coarse])
+    if len(levels) == 0:
+        levels = numba.typed.List.empty_list(numba.float32[:, ::1])
+    return _match_particles(
+        grids,
+        np.array([m.origin for m in maps], dtype=np.float64).reshape(-1, 2),
+        res,
+        levels,
+        float(coarse_origin[0]),
+        float(coarse_origin[1]),
+        np.ascontiguousarray(pts[:: max(1, stride)]),
+        pts,
+        max(1, stride),
+        np.ascontiguousarray(guesses, dtype=np.float64).reshape(-1, 3),
+        weight,
+        int(iterations),
+        int(kernel),
+        float(sigma),
+        float(lsigma),
+        float(null_likelihood),
+        float(min_score),
+    )
 
 
 @dataclass(frozen=True)

@@ -50,8 +50,10 @@ def compose_many(poses: np.ndarray, deltas: np.ndarray) -> np.ndarray:
 
 
 def angle_step(scan: Beams) -> float | None:
-    """The typical angle between neighbouring beams of a scan, as seen from the laser
-    (None for fewer than two beams)."""
+    """The angle between neighbouring beams: the scan's own, else the median seen from
+    the laser (None for fewer than two beams)."""
+    if scan.angle_step is not None and scan.angle_step > 0:
+        return scan.angle_step
     if scan.ends.shape[0] < 2:
         return None
     a = np.unwrap(np.arctan2(scan.ends[:, 1] - scan.origin[1], scan.ends[:, 0] - scan.origin[0]))
@@ -148,6 +150,7 @@ class GMappingSlam:
             [self.maps[k] for k in self._map_index],
             coarse,
             ref.origin,
+            hits[:: 2 * stride],
             hits,
             guesses,
             sigma,

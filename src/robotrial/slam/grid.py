@@ -188,15 +188,17 @@ def _trace_fan(
 
 
 @numba.njit(cache=True, nogil=True)
-def touch(grid: np.ndarray) -> float:
-    """Read one value per 64-byte line of the grid, in memory order. Tracing or matching
-    on a grid that is not in the cache (the filter goes through 30 maps in turn) otherwise
-    waits for memory cell by cell, in the beams' scattered order; a sweep in order lets
-    the hardware prefetch it at full bandwidth first. Returns a sum, so it is not skipped."""
-    flat = grid.ravel()
+def touch(grid: np.ndarray, r0: int, r1: int, c0: int, c1: int) -> float:
+    """Read one value per 64-byte line of rows r0..r1 - 1, columns c0..c1 - 1, in memory
+    order. Tracing or matching on a grid that is not in the cache (the filter goes
+    through 30 maps in turn) otherwise waits for memory cell by cell, in the beams'
+    scattered order; a sweep in order lets the hardware prefetch it at full bandwidth
+    first. Returns a sum, so it is not skipped."""
+    rows, cols = grid.shape
     total = 0.0
-    for i in range(0, flat.shape[0], 16):
-        total += flat[i]
+    for r in range(max(0, r0), min(rows, r1)):
+        for c in range(max(0, c0), min(cols, c1), 16):
+            total += grid[r, c]
     return total
 
 
@@ -243,7 +245,13 @@ def _trace_fan_many(
             ey[i] = poses[k, 1] + s * ends[i, 0] + c * ends[i, 1]
         sx = poses[k, 0] + c * sensor[0] - s * sensor[1]
         sy = poses[k, 1] + s * sensor[0] + c * sensor[1]
-        touch(grids[k])
+        touch(
+            grids[k],
+            int((min(sy, ey.min()) - origins[k, 1]) / res),
+            int((max(sy, ey.max()) - origins[k, 1]) / res) + 1,
+            int((min(sx, ex.min()) - origins[k, 0]) / res),
+            int((max(sx, ex.max()) - origins[k, 0]) / res) + 1,
+        )
         _trace_fan(
             grids[k], origins[k, 0], origins[k, 1], res, sx, sy, ex, ey, hit, starts,
             l_free, l_occ, lo, hi,

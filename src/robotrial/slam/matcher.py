@@ -109,12 +109,14 @@ def _gauss_newton(
     iterations: int,
     prior: np.ndarray,
     prior_weight: np.ndarray,
+    tol: float = 1e-2,
 ) -> tuple[np.ndarray, np.ndarray, float]:
+    # Stops when a step moves less than `tol` cells and 1e-3 rad.
     p0, p1, p2 = pose[0], pose[1], pose[2]
     h00 = h01 = h02 = h11 = h12 = h22 = 0.0
     cost = 0.0
     max_step = res * block
-    pose_tol = 1e-2 * res
+    pose_tol = tol * res
     for _ in range(iterations):
         h00 = h01 = h02 = h11 = h12 = h22 = 0.0
         g0 = g1 = g2 = 0.0
@@ -218,6 +220,11 @@ def _likelihood(
     return score, loglik, found
 
 
+# A coarse level only brings the pose into the finer level's reach: it stops at steps
+# under a tenth of its cell.
+COARSE_TOL = 0.1
+
+
 @numba.njit(cache=True)
 def _match_particles(
     maps: numba.typed.List,
@@ -241,6 +248,9 @@ def _match_particles(
     n = guesses.shape[0]
     poses = np.empty((n, 3))
     logliks = np.empty(n)
+    reach = 0.0
+    for i in range(pts.shape[0]):
+        reach = max(reach, np.hypot(pts[i, 0], pts[i, 1]))
     for i in range(n):
         grid = maps[i]
         ox, oy = origins[i, 0], origins[i, 1]
@@ -261,10 +271,18 @@ def _match_particles(
                     iterations,
                     start,
                     prior_weight,
+                    COARSE_TOL,
                 )
-            touch(grid)
+            # The scan lands within its reach (the farthest point) of the pose.
+            touch(
+                grid,
+                int((pose[1] - reach - oy) / res),
+                int((pose[1] + reach - oy) / res) + 1,
+                int((pose[0] - reach - ox) / res),
+                int((pose[0] + reach - ox) / res) + 1,
+            )
             pose, _, _ = _gauss_newton(
-                grid, ox, oy, res, 1, match_pts, 1, pose, iterations, start, prior_weight
+                grid, ox, oy, res, 1, match_pts, 1, pose, iterations, start, prior_weight, 0.05
             )
             pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
         if grid.size == 0:
@@ -288,6 +306,7 @@ def match_particles(
     maps: list[LogOddsGrid],
     coarse: list[np.ndarray],
     coarse_origin: tuple[float, float],
+    match_points: np.ndarray,
     points: np.ndarray,
     guesses: np.ndarray,
     prior_sigma: tuple[float, float, float],
@@ -300,13 +319,14 @@ def match_particles(
     min_score: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """GMapping's improved proposal and weights for every particle in one compiled call:
-    particle i's guess (guesses[i], x y yaw) is refined as `ScanMatcher.match` does on
-    `maps[i]` with the motion prior `prior_sigma`, except that the coarse levels
-    (`coarse`, block sizes 2, 4, ..., anchored at `coarse_origin`) are one shared map's
-    (the particles' maps differ by centimetres, less than a coarse cell); then the pose
-    is scored on its own map's likelihood field as `likelihood` does, every `stride`-th
-    point. A match scoring at most `min_score` is not trusted and the guess is kept.
-    Returns (poses (N, 3), log-likelihoods (N,))."""
+    particle i's guess (guesses[i], x y yaw) is refined as `ScanMatcher.match` does with
+    `match_points` ((N, 2), base frame) on `maps[i]` with the motion prior `prior_sigma`,
+    except that the coarse levels (`coarse`, block sizes 2, 4, ..., anchored at
+    `coarse_origin`) are one shared map's (the particles' maps differ by centimetres,
+    less than a coarse cell); then the pose is scored with every `stride`-th of `points`
+    on its own map's likelihood field as `likelihood` does. A match scoring at most
+    `min_score` is not trusted and the guess is kept. Returns (poses (N, 3),
+    log-likelihoods (N,))."""
     pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
     res = maps[0].resolution
     for m in maps:
@@ -326,7 +346,7 @@ def match_particles(
         levels,
         float(coarse_origin[0]),
         float(coarse_origin[1]),
-        np.ascontiguousarray(pts[:: max(1, stride)]),
+        np.ascontiguousarray(match_points, dtype=np.float64).reshape(-1, 2),
         pts,
         max(1, stride),
         np.ascontiguousarray(guesses, dtype=np.float64).reshape(-1, 3),

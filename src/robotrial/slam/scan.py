@@ -42,12 +42,14 @@ def transform_points(pose: np.ndarray | tuple, points: np.ndarray) -> np.ndarray
 
 @dataclass(frozen=True)
 class Beams:
-    """One scan in the base frame: the laser's position, beam end points (N, 2) and
-    whether each ended on something."""
+    """One scan in the base frame: the laser's position, beam end points (N, 2) in scan
+    order, whether each ended on something, and the angle between neighbouring beams
+    (None when not known)."""
 
     origin: tuple[float, float]
     ends: np.ndarray
     hit: np.ndarray
+    angle_step: float | None = None
 
     @property
     def hits(self) -> np.ndarray:
@@ -78,4 +80,6 @@ def beams(
     ends = np.empty((dist.size, 2))
     ends[:, 0] = laser_pose[0] + dist * np.cos(a)
     ends[:, 1] = laser_pose[1] + dist * np.sin(a)
-    return Beams((float(laser_pose[0]), float(laser_pose[1])), ends, hit[valid])
+    return Beams(
+        (float(laser_pose[0]), float(laser_pose[1])), ends, hit[valid], abs(float(angle_increment))
+    )

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from robotrial.slam.grid import LogOddsGrid
-from robotrial.slam.matcher import ScanMatcher, likelihood
+from robotrial.slam.matcher import ScanMatcher, likelihood, match_particles
 from robotrial.slam.scan import transform_points
 
 # A 4 x 3 m room with a 0.6 m square pillar. Its faces run through cell centres of the
@@ -81,3 +81,19 @@ def test_likelihood_peaks_at_the_true_pose(room_map):
     s1, l1, n1 = likelihood(room_map, scan, true + np.array([0.08, 0.0, 0.0]))
     assert s0 > s1 and l0 > l1 and n0 >= n1
     assert n0 > 0.9 * len(scan)
+
+
+def test_all_particles_matched_at_once_recover_their_offsets(room_map):
+    true = np.array([-0.3, 0.2, 0.1])
+    scan = cast(true, 720)
+    offsets = np.array([(0.10, -0.08, 0.05), (-0.15, 0.05, -0.08), (0.05, 0.05, 0.12)])
+    maps = [room_map.copy() for _ in offsets]
+    coarse = room_map.pyramid(3)[1:]
+    poses, loglik = match_particles(
+        maps, coarse, room_map.origin, scan, scan, true + offsets, (1.0, 1.0, 1.0), 10
+    )
+    assert np.all(np.hypot(*(poses[:, :2] - true[:2]).T) < 0.015)
+    assert np.all(np.abs(poses[:, 2] - true[2]) < 0.01)
+    # The weights are the likelihood of each matched pose on its own map.
+    for pose, ll in zip(poses, loglik, strict=True):
+        assert ll == pytest.approx(likelihood(room_map, scan, pose)[1])

@@ -7,13 +7,16 @@ Each particle carries a pose, a log-weight and its own map. When the robot has m
 1. every particle draws its new pose from the odometry motion model (srr, srt, str, stt);
 2. the scan matcher moves that draw to where the scan fits the particle's own map, with
    the motion model as a prior (the improved proposal of Grisetti et al. 2007); a match
-   scoring below `minimumScore` is not trusted and the draw stays. Matching and the
-   weights use one scan end point per map cell;
+   scoring below `minimumScore` is not trusted and the draw stays. The weights use one
+   scan end point per map cell, the fine level of the match every second of those, the
+   coarse levels the best particle's map (computed once an update);
 3. the particle's weight grows by the scan's likelihood on its map (likelihood field,
    `lsigma`, `kernelSize`), tempered by `ogain`;
 4. when the effective sample size falls below `resampleThreshold` * particles, the
    particles are resampled (systematic), children copying their parent's map;
-5. every particle writes the scan into its map.
+5. every particle writes the scan into its map (a thinned beam fan, `integrate_many`).
+
+Steps 2-3 for all particles are one compiled call (`match_particles`), as is step 5.
 
 Between updates the pose follows odometry from the best particle. The trajectory at the
 end is the best particle's ancestry, so it is consistent with its map.

@@ -120,7 +120,7 @@ def _trace_fan(
     hi: float,
 ) -> None:
     # Beam i has level k = trailing zeros of i (at most K = len(starts) - 1). The beams of
-    # level > k are at most a cell apart closer than starts[k] metres, so a beam of
+    # level > k are at most half a cell apart closer than starts[k] metres, so a beam of
     # level k is traced from there on. A cell at d metres takes 2^j frees, j the lowest
     # level traced at d: it loses about as much as if every beam of the fan crossed it.
     rows, cols = grid.shape
@@ -325,9 +325,11 @@ def _halve(src: np.ndarray) -> np.ndarray:
 
 def fan_starts(resolution: float, angle_step: float, levels: int = 8) -> np.ndarray:
     """Where a beam of each thinning level starts to be traced (m): beams 2^(k+1) steps
-    apart are one cell apart at starts[k]; the top level starts at the sensor."""
+    apart are half a cell apart at starts[k] (a cell apart, lines of cells drawn by
+    Bresenham leave gaps, and the weighted frees of a beam grazing a wall erase it); the
+    top level starts at the sensor."""
     k = np.arange(levels, dtype=np.float64)
-    out = resolution / (2.0 ** (k + 1) * angle_step)
+    out = resolution / (2.0 ** (k + 2) * angle_step)
     out[-1] = 0.0
     return out
 

@@ -12,11 +12,13 @@ Each particle carries a pose, a log-weight and its own map. When the robot has m
    coarse levels the best particle's map (computed once an update);
 3. the particle's weight grows by the scan's likelihood on its map (likelihood field,
    `lsigma`, `kernelSize`), tempered by `ogain`;
-4. when the effective sample size falls below `resampleThreshold` * particles, the
-   particles are resampled (systematic), children copying their parent's map;
-5. every particle writes the scan into its map (a thinned beam fan, `integrate_many`).
+4. every particle writes the scan into its map at its new pose (a thinned beam fan);
+5. when the effective sample size falls below `resampleThreshold` * particles, the
+   particles are resampled (systematic), children copying their parent's map.
 
-Steps 2-3 for all particles are one compiled call (`match_particles`), as is step 5.
+Steps 2-4 for all particles are one compiled call (`match_particles`): each map is
+matched and written while it is in the cache. Writing before resampling gives the maps
+GMapping gets by resampling first, as a child takes its parent's pose and map.
 
 Between updates the pose follows odometry from the best particle. The trajectory at the
 end is the best particle's ancestry, so it is consistent with its map.
@@ -24,7 +26,7 @@ end is the best particle's ancestry, so it is consistent with its map.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -146,6 +148,8 @@ class GMappingSlam:
         sigma = (max(sx, sy), max(sx, sy), sth)  # isotropic: the map frame is rotated
         noise = self.rng.normal(size=(n, 3)) * np.asarray(self._motion_sigma(d))
         guesses = compose_many(self.poses, np.asarray(d, dtype=np.float64) + noise)
+        step = angle_step(scan)
+        fan = replace(scan, angle_step=step) if step is not None else None
         # The coarse levels of the best particle's map steer every particle's match.
         ref = self.grid
         coarse = ref.pyramid(p.match_levels)[1:]
@@ -163,6 +167,7 @@ class GMappingSlam:
             sigma=p.sigma,
             lsigma=p.lsigma,
             min_score=p.minimumScore,
+            scan=fan,
         )
         self.logw += loglik
         gain = 1.0 / (p.ogain * n)
@@ -178,7 +183,8 @@ class GMappingSlam:
             self._resample_maps(parents)
             self._best = int(np.argmax(w[parents]))
             self.resamples += 1
-        self._register(scan)
+        if fan is None:
+            self._register(scan)
         self.history.append(_Step(self.poses.copy(), parents))
         self.updates += 1
 

@@ -221,6 +221,49 @@ def _bounds(poses: np.ndarray, sensor: np.ndarray, ends: np.ndarray) -> np.ndarr
 
 
 @numba.njit(cache=True, nogil=True)
+def trace_at(
+    grid: np.ndarray,
+    ox: float,
+    oy: float,
+    res: float,
+    pose: np.ndarray,
+    sensor: np.ndarray,
+    ends: np.ndarray,
+    hit: np.ndarray,
+    starts: np.ndarray,
+    l_free: float,
+    l_occ: float,
+    lo: float,
+    hi: float,
+    warm: bool,
+) -> bool:
+    """Trace a thinned beam fan (sensor (2,) and ends (N, 2) in the base frame) into the
+    grid at `pose`; with `warm`, read the region in memory order first (see `touch`).
+    Returns False, writing nothing, when the scan reaches past the grid's edge."""
+    rows, cols = grid.shape
+    c = np.cos(pose[2])
+    s = np.sin(pose[2])
+    ex = np.empty(ends.shape[0])
+    ey = np.empty(ends.shape[0])
+    sx = pose[0] + c * sensor[0] - s * sensor[1]
+    sy = pose[1] + s * sensor[0] + c * sensor[1]
+    x0, x1, y0, y1 = sx, sx, sy, sy
+    for i in range(ends.shape[0]):
+        ex[i] = pose[0] + c * ends[i, 0] - s * ends[i, 1]
+        ey[i] = pose[1] + s * ends[i, 0] + c * ends[i, 1]
+        x0, x1 = min(x0, ex[i]), max(x1, ex[i])
+        y0, y1 = min(y0, ey[i]), max(y1, ey[i])
+    c0, c1 = int(np.floor((x0 - ox) / res)), int(np.floor((x1 - ox) / res))
+    r0, r1 = int(np.floor((y0 - oy) / res)), int(np.floor((y1 - oy) / res))
+    if c0 < 0 or r0 < 0 or c1 >= cols or r1 >= rows:
+        return False
+    if warm:
+        touch(grid, r0, r1 + 1, c0, c1 + 1)
+    _trace_fan(grid, ox, oy, res, sx, sy, ex, ey, hit, starts, l_free, l_occ, lo, hi)
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
 def _trace_fan_many(
     grids: numba.typed.List,
     origins: np.ndarray,
@@ -235,26 +278,10 @@ def _trace_fan_many(
     lo: float,
     hi: float,
 ) -> None:
-    ex = np.empty(ends.shape[0])
-    ey = np.empty(ends.shape[0])
     for k in range(poses.shape[0]):
-        c = np.cos(poses[k, 2])
-        s = np.sin(poses[k, 2])
-        for i in range(ends.shape[0]):
-            ex[i] = poses[k, 0] + c * ends[i, 0] - s * ends[i, 1]
-            ey[i] = poses[k, 1] + s * ends[i, 0] + c * ends[i, 1]
-        sx = poses[k, 0] + c * sensor[0] - s * sensor[1]
-        sy = poses[k, 1] + s * sensor[0] + c * sensor[1]
-        touch(
-            grids[k],
-            int((min(sy, ey.min()) - origins[k, 1]) / res),
-            int((max(sy, ey.max()) - origins[k, 1]) / res) + 1,
-            int((min(sx, ex.min()) - origins[k, 0]) / res),
-            int((max(sx, ex.max()) - origins[k, 0]) / res) + 1,
-        )
-        _trace_fan(
-            grids[k], origins[k, 0], origins[k, 1], res, sx, sy, ex, ey, hit, starts,
-            l_free, l_occ, lo, hi,
+        trace_at(
+            grids[k], origins[k, 0], origins[k, 1], res, poses[k], sensor, ends, hit,
+            starts, l_free, l_occ, lo, hi, True,
         )  # fmt: skip
 
 

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from robotrial.slam.grid import LogOddsGrid, touch
+from robotrial.slam.grid import LogOddsGrid, fan_starts, touch, trace_at
+from robotrial.slam.scan import Beams
 
 
 @numba.njit(cache=True, inline="always")
@@ -244,10 +245,17 @@ def _match_particles(
     lsigma: float,
     null_likelihood: float,
     min_score: float,
-) -> tuple[np.ndarray, np.ndarray]:
+    write: bool,
+    sensor: np.ndarray,
+    ends: np.ndarray,
+    hit: np.ndarray,
+    starts: np.ndarray,
+    model: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     n = guesses.shape[0]
     poses = np.empty((n, 3))
     logliks = np.empty(n)
+    written = np.zeros(n, dtype=np.bool_)
     reach = 0.0
     for i in range(pts.shape[0]):
         reach = max(reach, np.hypot(pts[i, 0], pts[i, 1]))
@@ -299,7 +307,13 @@ def _match_particles(
             )
         poses[i] = pose
         logliks[i] = loglik
-    return poses, logliks
+        if write:
+            # The map is in the cache now, from the match.
+            written[i] = trace_at(
+                grid, ox, oy, res, pose, sensor, ends, hit, starts,
+                model[0], model[1], model[2], model[3], False,
+            )  # fmt: skip
+    return poses, logliks, written
 
 
 def match_particles(
@@ -317,6 +331,7 @@ def match_particles(
     lsigma: float = 0.075,
     null_likelihood: float = -0.5,
     min_score: float = 0.0,
+    scan: Beams | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """GMapping's improved proposal and weights for every particle in one compiled call:
     particle i's guess (guesses[i], x y yaw) is refined as `ScanMatcher.match` does with
@@ -325,7 +340,10 @@ def match_particles(
     `coarse_origin`) are one shared map's (the particles' maps differ by centimetres,
     less than a coarse cell); then the pose is scored with every `stride`-th of `points`
     on its own map's likelihood field as `likelihood` does. A match scoring at most
-    `min_score` is not trusted and the guess is kept. Returns (poses (N, 3),
+    `min_score` is not trusted and the guess is kept. With `scan` (beams in scan order
+    with their angle step), the scan is then written into each map at its particle's
+    pose as `LogOddsGrid.integrate(..., angle_step)` does, while the map is still in the
+    cache from the match (the maps must be distinct objects). Returns (poses (N, 3),
     log-likelihoods (N,))."""
     pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
     res = maps[0].resolution
@@ -339,7 +357,27 @@ def match_particles(
     levels = numba.typed.List([np.ascontiguousarray(c, dtype=np.float32) for c in coarse])
     if len(levels) == 0:
         levels = numba.typed.List.empty_list(numba.float32[:, ::1])
-    return _match_particles(
+    write = scan is not None
+    m = maps[0].model
+    if scan is not None:
+        if not (scan.angle_step is not None and scan.angle_step > 0):
+            raise ValueError("match_particles: the scan to write needs its angle step")
+        if len({id(g) for g in maps}) != len(maps):
+            raise ValueError("match_particles: a map appears twice; cannot write the scan")
+        if any(g.model != m for g in maps):
+            raise ValueError("match_particles: the maps differ in their log-odds model")
+        sensor = np.array(scan.origin, dtype=np.float64)
+        ends = np.ascontiguousarray(scan.ends, dtype=np.float64).reshape(-1, 2)
+        hit = np.ascontiguousarray(scan.hit, dtype=np.bool_)
+        starts = fan_starts(res, scan.angle_step)
+    else:
+        sensor, ends, hit, starts = (
+            np.zeros(2),
+            np.zeros((0, 2)),
+            np.zeros(0, np.bool_),
+            np.zeros(1),
+        )
+    poses, logliks, written = _match_particles(
         grids,
         np.array([m.origin for m in maps], dtype=np.float64).reshape(-1, 2),
         res,
@@ -357,7 +395,23 @@ def match_particles(
         float(lsigma),
         float(null_likelihood),
         float(min_score),
+        write,
+        sensor,
+        ends,
+        hit,
+        starts,
+        np.array([m.free, m.occupied, m.clamp_min, m.clamp_max]),
     )
+    if scan is not None:
+        # A scan reaching past a map's edge: grow the map, then write.
+        for k in np.flatnonzero(~written):
+            pose = poses[k]
+            c, s = np.cos(pose[2]), np.sin(pose[2])
+            rot = np.array([[c, -s], [s, c]])
+            maps[k].integrate(
+                pose[:2] + rot @ sensor, pose[:2] + ends @ rot.T, hit, scan.angle_step
+            )
+    return poses, logliks
 
 
 @dataclass(frozen=True)

@@ -112,10 +112,26 @@ def carrot(path: np.ndarray, xy: np.ndarray, lookahead: float) -> tuple[np.ndarr
     seg = np.hypot(*np.diff(path[i:], axis=0).T)
     acc = np.concatenate([[0.0], np.cumsum(seg)])
     j = int(np.searchsorted(acc, lookahead))
+    if j == 0:
+        return path[i], i
     if j >= len(acc):
         return path[-1], i
     a = (lookahead - acc[j - 1]) / max(seg[j - 1], 1e-9)
     return path[i + j - 1] + a * (path[i + j] - path[i + j - 1]), i
+
+
+def _extend(path: np.ndarray, length: float, step: float) -> np.ndarray:
+    """The path continued straight past its end by `length` m, so arcs that would carry
+    the base beyond the goal are not scored as detours (the speed cap stops it there)."""
+    if len(path) < 2:
+        return path
+    d = path[-1] - path[-2]
+    n = float(np.hypot(*d))
+    if n < 1e-9:
+        return path
+    k = max(1, int(length / step))
+    extra = path[-1] + (d / n) * step * np.arange(1, k + 1)[:, None]
+    return np.vstack([path, extra])
 
 
 class DWAPlanner:
@@ -164,9 +180,14 @@ class DWAPlanner:
         traj = rollout(pose, v, w, steps, c.sim_dt)
         # an arc must stay clear for as long as the base needs to stop on it, plus a
         # second; what lies beyond is seen again in later periods
+        # (and no further than just past the goal, where the base will stop)
         horizon = np.abs(v) / c.acc_lim_v + 1.0
         t = c.sim_dt * np.arange(1, steps + 1)
+        relevant = np.ones((len(v), steps), dtype=bool)
+        if goal_distance is not None:
+            relevant = np.abs(v)[:, None] * (t[None, :] - c.sim_dt) <= goal_distance + 0.2
         clear_all = footprint_clearance(costmap, self.footprint, traj)
+        clear_all = np.where(relevant, clear_all, np.inf)
         clear = np.where(t[None, :] <= horizon[:, None], clear_all, np.inf).min(axis=1)
         ok = clear >= c.margin
         late_hit = clear_all.min(axis=1) < c.margin
@@ -175,7 +196,7 @@ class DWAPlanner:
         end = traj[:, -1, :2]
         _, i0 = carrot(path, np.asarray(pose[:2], dtype=float), 0.0)
         reach = c.max_speed * c.sim_time + c.lookahead + 0.5
-        local = path[i0:]
+        local = _extend(path[i0:], reach, costmap.resolution)
         along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(local, axis=0).T))])
         keep = int(np.searchsorted(along, reach)) + 1
         local, along = local[:keep], along[:keep]

@@ -112,6 +112,7 @@ class Navigator:
         self._rotating = False
         self._dirty = False
         self._blocked_since: float | None = None
+        self._command = (0.0, 0.0)
 
     # --- goals -------------------------------------------------------------------------
 
@@ -159,7 +160,17 @@ class Navigator:
     def step(
         self, now: float, pose: tuple[float, float, float], velocity: tuple[float, float]
     ) -> tuple[float, float]:
-        """One control period: the (v, w) command for the base (0, 0 when done)."""
+        """One control period: the (v, w) command for the base (0, 0 when done).
+
+        `velocity` is the measured (odometry) one; the dynamic window is centred on the
+        previous command, which the base follows within its own acceleration limits."""
+        cmd = self._decide(now, pose, velocity)
+        self._command = (float(cmd[0]), float(cmd[1]))
+        return self._command
+
+    def _decide(
+        self, now: float, pose: tuple[float, float, float], velocity: tuple[float, float]
+    ) -> tuple[float, float]:
         if self.status is not Status.ACTIVE or self.goal is None:
             return 0.0, 0.0
         pose_a = np.asarray(pose, dtype=float)
@@ -177,7 +188,7 @@ class Navigator:
                     Status.SUCCEEDED, f"reached the goal ({dist:.2f} m, {abs(err):.2f} rad off)"
                 )
                 return 0.0, 0.0
-            return 0.0, self._turn_rate(err, velocity[1])
+            return 0.0, self._turn_rate(err, self._command[1])
         self._track_progress(now, pose_a)
         if self.status is not Status.ACTIVE:
             return 0.0, 0.0
@@ -189,7 +200,7 @@ class Navigator:
             local = self.global_costmap.window(tuple(pose_a[:2]), self.config.local_size)
             self.local_costmap = local
         t0 = time.perf_counter()
-        res = self.dwa.compute(tuple(pose_a), velocity, self.path, local, goal_distance=dist)
+        res = self.dwa.compute(tuple(pose_a), self._command, self.path, local, goal_distance=dist)
         self.local_times.append(time.perf_counter() - t0)
         self.last_result = res
         if not res.ok:

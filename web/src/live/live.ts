@@ -66,6 +66,9 @@ export interface LiveState {
 const SCAN_COLOR = 0xe0413a;
 const PLAN_COLOR = 0x1f9d55;
 const CMD_PERIOD_MS = 100;
+const RENDER_PERIOD_MS = 100;
+/** Joint states move sliders and wheels: ten updates a second are plenty. */
+const JOINTS_PERIOD_MS = 100;
 /** Heights above the floor (m) that keep the overlays from flickering into it. */
 const MAP_Z = 0.004;
 const PLAN_Z = 0.02;
@@ -94,6 +97,8 @@ export class LiveView {
   private command: [number, number] = [0, 0];
   private readonly held = new Set<string>();
   private cmdTimer: number | undefined;
+  private renderTimer: number | undefined;
+  private lastJoints = -Infinity;
   private pickingGoal = false;
   private readonly section: HTMLElement;
   private readonly statusLine = el("p", { class: "hint", id: "live-status" });
@@ -183,15 +188,25 @@ export class LiveView {
   private subscribe(): void {
     if (this.subscribed) return;
     this.subscribed = true;
-    this.ros.subscribe("/tf_static", (m) => this.tf.add(m));
-    this.ros.subscribe("/tf", (m) => {
-      this.tf.add(m);
-      if (this.active) this.placeRobot();
-    });
-    this.ros.subscribe("/joint_states", (m) => this.active && this.joints(m));
-    this.ros.subscribe("/scan", (m) => this.active && this.scan(m));
-    this.ros.subscribe("/map", (m) => this.active && this.map(m));
-    this.ros.subscribe("/plan", (m) => this.active && this.plan(m));
+    // The platform streams more than a page drawing with software WebGL can take in:
+    // frames come as CBOR, and the server keeps only the newest scan, map and plan
+    // waiting. /tf carries the simulator's joint and odometry transforms and SLAM's
+    // map -> odom in separate messages, so a few of them may wait. (No rosbridge
+    // throttle_rate: joint states are thinned out here instead.)
+    const latest = { queueLength: 1, cbor: true };
+    this.ros.subscribe("/tf_static", (m) => this.tf.add(m), { cbor: true });
+    this.ros.subscribe(
+      "/tf",
+      (m) => {
+        this.tf.add(m);
+        if (this.active) this.placeRobot();
+      },
+      { queueLength: 20, cbor: true },
+    );
+    this.ros.subscribe("/joint_states", (m) => this.active && this.joints(m), latest);
+    this.ros.subscribe("/scan", (m) => this.active && this.scan(m), latest);
+    this.ros.subscribe("/map", (m) => this.active && this.map(m), latest);
+    this.ros.subscribe("/plan", (m) => this.active && this.plan(m), latest);
   }
 
   private placeRobot(): void {
@@ -203,14 +218,21 @@ export class LiveView {
     const position = new Vector3();
     const rotation = new Quaternion();
     base.decompose(position, rotation, new Vector3());
+    // The camera travels with the robot, so it stays in view while it drives.
+    const moved = position.clone().sub(holder.position);
+    this.viewer.camera.position.add(moved);
+    this.viewer.controls.target.add(moved);
     holder.position.copy(position);
     holder.quaternion.copy(rotation);
     const forward = new Vector3(1, 0, 0).applyQuaternion(rotation);
     this.pose = [position.x, position.y, Math.atan2(forward.y, forward.x)];
-    this.viewer.requestRender();
+    this.renderSoon();
   }
 
   private joints(m: JointState): void {
+    const now = performance.now();
+    if (now - this.lastJoints < JOINTS_PERIOD_MS) return;
+    this.lastJoints = now;
     const known = new Set(this.robot?.joints.map((j) => j.name) ?? []);
     const values: Record<string, number> = {};
     m.name.forEach((name, i) => {
@@ -225,28 +247,37 @@ export class LiveView {
     if (!pose) return;
     const xyz: number[] = [];
     const p = new Vector3();
-    m.ranges.forEach((r, i) => {
-      if (r === null || !Number.isFinite(r) || r < m.range_min || r > m.range_max) return;
+    const ranges = m.ranges;
+    for (let i = 0; i < ranges.length; i++) {
+      const r = ranges[i];
+      // rosbridge sends inf and nan as null in JSON
+      if (r === null || !Number.isFinite(r) || r < m.range_min || r > m.range_max) continue;
       const a = m.angle_min + i * m.angle_increment;
       p.set(r * Math.cos(a), r * Math.sin(a), 0).applyMatrix4(pose);
       xyz.push(p.x, p.y, p.z);
-    });
+    }
     const geometry = new BufferGeometry();
     geometry.setAttribute("position", new BufferAttribute(new Float32Array(xyz), 3));
     this.scanPoints.geometry.dispose();
     this.scanPoints.geometry = geometry;
     this.counts.scanPoints = xyz.length / 3;
-    this.viewer.requestRender();
+    this.renderSoon();
   }
 
   private map(m: OccupancyGrid): void {
     const { width, height, resolution, origin } = m.info;
     if (!width || !height) return;
     const pixels = new Uint8Array(width * height * 4);
-    m.data.forEach((v, i) => {
-      const [r, g, b, a] = v < 0 ? [0, 0, 0, 0] : v >= 50 ? [40, 44, 52, 235] : [250, 250, 250, 150];
-      pixels.set([r, g, b, a], i * 4);
-    });
+    const cells = m.data;
+    for (let i = 0; i < width * height; i++) {
+      const v = cells[i];
+      if (v < 0) continue; // unknown: transparent
+      const occupied = v >= 50;
+      pixels[i * 4] = occupied ? 40 : 250;
+      pixels[i * 4 + 1] = occupied ? 44 : 250;
+      pixels[i * 4 + 2] = occupied ? 52 : 250;
+      pixels[i * 4 + 3] = occupied ? 235 : 150;
+    }
     const texture = new DataTexture(pixels, width, height, RGBAFormat);
     texture.magFilter = NearestFilter;
     texture.colorSpace = SRGBColorSpace;
@@ -284,7 +315,7 @@ export class LiveView {
     this.overlay.add(mesh);
     this.mapMesh = mesh;
     this.mapInfo = { width, height, resolution };
-    this.viewer.requestRender();
+    this.renderSoon();
   }
 
   private plan(m: Path): void {
@@ -302,7 +333,17 @@ export class LiveView {
     this.planLine.geometry.dispose();
     this.planLine.geometry = geometry;
     this.counts.plan = m.poses.length;
-    this.viewer.requestRender();
+    this.renderSoon();
+  }
+
+  /** Redraw at most every RENDER_PERIOD_MS: the platform streams faster than a page
+   * drawing with software WebGL can draw, and each frame would delay the next message. */
+  private renderSoon(): void {
+    if (this.renderTimer !== undefined) return;
+    this.renderTimer = window.setTimeout(() => {
+      this.renderTimer = undefined;
+      this.viewer.requestRender();
+    }, RENDER_PERIOD_MS);
   }
 
   // --- navigation goal -------------------------------------------------------------

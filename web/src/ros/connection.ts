@@ -21,11 +21,12 @@ export interface ConnectionState {
 
 type TopicName = keyof typeof TOPICS;
 
-/** How the server may thin out a subscription (rosbridge `throttle_rate` and
- * `queue_length`): at most one message per `throttleMs`, at most `queueLength` waiting. */
+/** How the server sends a fast topic to a slow page: at most `queueLength` messages
+ * waiting (rosbridge `queue_length`; older ones are dropped); `cbor`: binary frames
+ * (numeric arrays arrive as typed arrays, far quicker to decode than JSON). */
 export interface SubscribeRate {
-  throttleMs?: number;
   queueLength?: number;
+  cbor?: boolean;
 }
 type TopicMessage<N extends TopicName> = MessageTypes[(typeof TOPICS)[N]];
 type ServiceName = keyof typeof SERVICES;
@@ -226,8 +227,8 @@ export class RosConnection {
       ros,
       name: entry.name,
       messageType: entry.type,
-      throttle_rate: entry.rate?.throttleMs ?? 0,
       queue_length: entry.rate?.queueLength ?? 0,
+      compression: entry.rate?.cbor ? "cbor" : "none",
     });
     topic.subscribe(entry.cb as (m: unknown) => void);
     this.live.set(entry, topic);

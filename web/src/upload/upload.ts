@@ -85,5 +85,7 @@ export class UploadSection {
     this.message.textContent = text;
     this.message.dataset.status = status;
     this.message.setAttribute("role", status === "error" ? "alert" : "status");
+    // The section sits low in a long panel: bring what the server said into view.
+    if (status !== "loading") this.message.scrollIntoView({ block: "nearest" });
   }
 }

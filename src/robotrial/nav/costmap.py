@@ -56,7 +56,8 @@ class Footprint:
         """Circles that together cover the rectangle: (k, 2) centres in the base frame
         along its long axis and their common radius (m)."""
         long, short = max(self.length, self.width), min(self.length, self.width)
-        k = max(1, int(np.ceil(long / short)))
+        # short segments keep the circles' sideways bulge small (1.4 cm for 0.99 x 0.67)
+        k = max(1, int(np.ceil(3 * long / short)))
         seg = long / k
         offsets = (np.arange(k) + 0.5) * seg - 0.5 * long
         radius = 0.5 * float(np.hypot(seg, short))

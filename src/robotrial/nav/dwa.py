@@ -12,6 +12,7 @@ cells:
                            `lookahead` m further along the path)
          + obstacle_bias * (highest inflation cost along the arc) / 252
          + collision_penalty * (1 if the arc hits something after the stopping horizon)
+         + goal_bias * (closest approach of the arc to the goal, once the goal is in reach)
 
 The footprint is covered by circles (`Footprint.circles`); an arc is admissible when
 every circle stays `margin` clear of obstacles in the costmap's distance field for as
@@ -46,6 +47,7 @@ class DWAConfig:
     path_bias: float = 0.6
     progress_bias: float = 1.0
     heading_bias: float = 0.1
+    goal_bias: float = 2.0
     obstacle_bias: float = 0.3
     collision_penalty: float = 1.0
     lookahead: float = 1.0
@@ -218,6 +220,11 @@ class DWAPlanner:
             + c.obstacle_bias * obst
             + c.collision_penalty * late_hit
         )
+        if goal_distance is not None and goal_distance < reach:
+            # near the goal: pass through it, not beside it (the speed cap stops the base)
+            gp = path[-1]
+            closest = np.hypot(traj[..., 0] - gp[0], traj[..., 1] - gp[1]).min(axis=1)
+            score += c.goal_bias * closest
         score[~ok] = np.inf
         k = int(np.argmin(score))
         return DWAResult(float(v[k]), float(w[k]), True, traj[k], len(v))

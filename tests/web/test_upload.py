@@ -182,5 +182,20 @@ def test_upload_by_http_then_rdtf_route(client: TestClient) -> None:
     assert again.json()["robot"]["name"] == "tower_arm_2"
     glb = client.get(f"/api/robots/{name}.glb")
     assert glb.status_code == 200 and glb.content[:4] == b"glTF"
+    mjcf = client.get(f"/api/robots/{name}/mjcf.json")
+    assert mjcf.status_code == 200 and "<mujoco" in mjcf.json()["xml"]
+    # The RDTF file itself, and a xacro, are robots too.
+    r = client.post("/api/robots/upload", files={"file": ("tower.glb", glb.content)})
+    assert r.status_code == 201 and r.json()["robot"]["joints"] == 1, r.text
+    xacro = URDF.replace(
+        '<robot name="Tower Arm">',
+        '<robot name="crane" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+        '<xacro:property name="reach" value="0.4"/>',
+    ).replace('size="0.06 0.06 0.4"', 'size="0.06 0.06 ${reach}"')
+    xacro = xacro.replace(
+        '<mesh filename="package://tower/meshes/base.stl"/>', "<box size='0.3 0.3 0.1'/>"
+    )
+    r = client.post("/api/robots/upload", files={"file": ("crane.urdf.xacro", xacro.encode())})
+    assert r.status_code == 201 and r.json()["robot"]["name"] == "crane", r.text
     r = client.post("/api/robots/upload", files={"file": ("notes.txt", b"hello")})
     assert r.status_code == 400 and ".zip" in r.json()["detail"]

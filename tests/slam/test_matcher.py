@@ -7,7 +7,7 @@ import pytest
 
 from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.matcher import ScanMatcher, likelihood, match_particles
-from robotrial.slam.scan import transform_points
+from robotrial.slam.scan import Beams, transform_points
 
 # A 4 x 3 m room with a 0.6 m square pillar. Its faces run through cell centres of the
 # 5 cm map: a face on a cell edge would put the map's wall half a cell off, whatever the
@@ -97,3 +97,23 @@ def test_all_particles_matched_at_once_recover_their_offsets(room_map):
     # The weights are the likelihood of each matched pose on its own map.
     for pose, ll in zip(poses, loglik, strict=True):
         assert ll == pytest.approx(likelihood(room_map, scan, pose)[1])
+
+
+def test_particles_write_the_scan_and_maps_grow_to_hold_it(room_map):
+    true = np.array([-0.3, 0.2, 0.1])
+    n = 720
+    scan = cast(true, n)
+    beams = Beams((0.0, 0.0), scan, np.ones(n, bool), 2 * np.pi / n)
+    small = LogOddsGrid(0.05)
+    small.integrate((0.0, 0.0), np.array([[0.5, 0.0]]), np.array([True]))
+    maps = [room_map.copy(), small]
+    guesses = np.array([true, true])
+    poses, _ = match_particles(
+        maps, [], room_map.origin, scan, scan, guesses, (1.0, 1.0, 1.0), scan=beams
+    )
+    for g, pose in zip(maps, poses, strict=True):
+        ends = transform_points(pose, scan)
+        r = np.floor((ends[:, 1] - g.origin[1]) / 0.05).astype(int)
+        c = np.floor((ends[:, 0] - g.origin[0]) / 0.05).astype(int)
+        assert np.all((r >= 0) & (r < g.shape[0]) & (c >= 0) & (c < g.shape[1]))
+        assert np.mean(g.logodds[r, c] > 0) > 0.95

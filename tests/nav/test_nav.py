@@ -215,3 +215,24 @@ def test_full_trial_in_room_b(tmp_path):
         tmp_path / "paths.png", world_map(load_world("room_b")), [r], (1, 1, 0), setup.goal
     )
     assert png.stat().st_size > 1000
+
+
+def test_cli_runs_on_a_map_server_map(tmp_path, capsys):
+    import json
+
+    from robotrial.cli import main
+    from robotrial.model import load_world
+    from robotrial.model.mapfile import OccupancyMap, write_map
+    from robotrial.trials.nav import world_map
+
+    m = world_map(load_world("room_a"))
+    cells = np.where(m.occupied, 100, 0).astype(np.int8)
+    write_map(tmp_path / "room_a", OccupancyMap(cells, m.resolution, (*m.origin, 0.0)))
+    png = tmp_path / "paths.png"
+    argv = ["nav", "--world", "room_a", "--map", str(tmp_path / "room_a.yaml"), "--speed", "1.0"]
+    assert main([*argv, "--json", "--plot", str(png)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["summary"]["successes"] == 1 and out["map"].endswith("room_a.yaml")
+    assert out["runs"][0]["time"] > out["summary"]["shortest_time"]
+    assert png.exists()
+    assert main(["nav", "--world", "nowhere"]) == 2

@@ -386,7 +386,7 @@ def run(args: argparse.Namespace) -> int:
             print_table(
                 "RRTConnect: OMPL+MuJoCo median / ours",
                 ["robot", "problem", "speedup"],
-                [(s["robot"], s["problem"], f"{s['speedup']:.0f}x") for s in report["speedups"]],
+                [(s["robot"], s["problem"], f"{s['speedup']:.1f}x") for s in report["speedups"]],
             )
         if validation:
             v = validation

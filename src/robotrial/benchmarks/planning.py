@@ -477,7 +477,7 @@ def markdown(report: dict[str, Any]) -> str:
             "| --- | --- | --- |",
         ]
         lines += [
-            f"| {s['robot']} | {s['problem']} | {s['speedup']:.0f}x |" for s in report["speedups"]
+            f"| {s['robot']} | {s['problem']} | {s['speedup']:.1f}x |" for s in report["speedups"]
         ]
     v = report.get("validation")
     if v:

@@ -234,7 +234,9 @@ class Session:
         self.closed = False
         self._control: collections.deque[str | bytes] = collections.deque()
         self._wake = asyncio.Event()
-        self._timer: asyncio.TimerHandle | None = None
+        self._timer: asyncio.Handle | None = None
+        # When the timer fires (loop time): uvloop's handles have no when().
+        self._timer_due = 0.0
         self._ops: dict[str, Callable[[dict], Any]] = {
             "advertise": self._advertise,
             "unadvertise": self._unadvertise,
@@ -658,10 +660,12 @@ class Session:
                 return
 
     def _wake_later(self, delay: float) -> None:
-        if self._timer is None or self._timer.when() > self.loop.time() + delay:
+        due = self.loop.time() + delay
+        if self._timer is None or self._timer_due > due:
             if self._timer is not None:
                 self._timer.cancel()
             self._timer = self.loop.call_later(delay, self._timer_fired)
+            self._timer_due = due
 
     def _timer_fired(self) -> None:
         self._timer = None

@@ -1,7 +1,8 @@
 """The live platform view: `robotrial serve` with the mobile manipulator in room A runs
-the simulator (and SLAM) on its bus; the page follows it over rosbridge. It receives
-scans and draws them, keyboard driving moves the robot (its pose from /tf changes), a
-click on the floor sends a navigation goal, and /map arrives as a texture."""
+the simulator, SLAM and navigation on its bus; the page follows it over rosbridge. It
+receives scans and draws them, keyboard driving moves the robot (its pose from /tf
+changes), a click on the floor sends a navigation goal and the plan comes back, and
+/map arrives as a texture."""
 
 from __future__ import annotations
 
@@ -104,9 +105,14 @@ def test_live_view_scan_driving_goal_and_map(
         page.click("#live-goal")
         view = page.locator("#view canvas").bounding_box()
         assert view is not None
-        page.mouse.click(view["x"] + view["width"] * 0.5, view["y"] + view["height"] * 0.7)
+        # The camera looks at the robot from the room's side: low in the view is the
+        # floor between them, a metre or more from the robot.
+        page.mouse.click(view["x"] + view["width"] * 0.5, view["y"] + view["height"] * 0.95)
         goal = page.evaluate("window.robotrial.state().live.goal")
         assert goal is not None and all(map(math.isfinite, goal)), goal
+        assert math.dist(goal, moved[:2]) > 0.8, (goal, moved)
+        # The navigation node plans to it: /plan comes back and is drawn.
+        assert wait_live(page, "(l) => l.plan > 1", 30)["plan"] > 1
 
         # SLAM publishes the map within its update interval.
         grid = wait_live(page, "(l) => l.map", 30)["map"]

@@ -1,16 +1,26 @@
 """The live platform behind the page's live view (layer 5): for a mobile robot in a room,
-the simulator node and the SLAM node run on the server's bus, paced to real time, so
-rosbridge clients (the page, roslibpy, Foxglove) see `/tf`, `/scan`, `/odom`, `/map`
-and can drive through `/cmd_vel`.
+the simulator node, the SLAM node and the navigation node run on the server's bus,
+paced to real time, so rosbridge clients (the page, roslibpy, Foxglove) see `/tf`,
+`/scan`, `/odom`, `/map`, `/plan`, can drive through `/cmd_vel` and send goals on
+`/move_base_simple/goal`.
 
 Cameras are not rendered (they cost more than the rest together without a GPU); the
 LiDAR, its 2D scan, odometry, joint states and TF are.
+
+SLAM's map is for showing: it grows and changes every few seconds, and the navigation
+node (move_base + AMCL, built for a fixed map) would start over on each one. So
+navigation runs on a bus of its own with the world's ground-truth map (the role of a
+map_server with a prior map), in the frame SLAM's map uses (both start at the spawn
+pose); scans, odometry and goals are relayed to it, its velocity commands and plans
+back.
 """
 
 from __future__ import annotations
 
 import logging
 import threading
+
+import numpy as np
 
 from robotrial.app.catalog import robot_kind, world_kind
 from robotrial.geometry import Pose
@@ -42,6 +52,7 @@ class LivePlatform:
         spawn: Pose,
         *,
         slam: bool = True,
+        navigation: bool = True,
         realtime: float = 1.0,
         seed: int = 0,
     ) -> None:
@@ -50,10 +61,12 @@ class LivePlatform:
         self.world = world
         self.spawn = spawn
         self.slam = slam
+        self.navigation = navigation
         self.realtime = realtime
         self.seed = seed
         self.error: str | None = None
         self._nodes: list = []
+        self._relays: list = []
         self._lock = threading.Lock()
         self._stopped = False
         self._thread: threading.Thread | None = None
@@ -78,6 +91,8 @@ class LivePlatform:
             with self._lock:
                 if self._stopped:
                     return
+                if self.navigation:
+                    self._start_navigation(sim)
                 if self.slam:
                     from robotrial.ros.slam_node import SlamNode
                     from robotrial.slam.hector import HectorSlam
@@ -90,10 +105,66 @@ class LivePlatform:
             self.error = f"the live platform could not start: {exc}"
             log.exception("live platform")
 
+    def _start_navigation(self, sim) -> None:
+        """NavNode on a private bus with the ground-truth map, relayed to `self.bus`."""
+        from robotrial.msgs.geometry_msgs import Point, Pose, PoseStamped, Quaternion, Twist
+        from robotrial.msgs.nav_msgs import MapMetaData, OccupancyGrid, Odometry, Path
+        from robotrial.msgs.sensor_msgs import LaserScan
+        from robotrial.msgs.std_msgs import Header
+        from robotrial.ros.nav_node import NavNode
+        from robotrial.trials.nav import footprint_of, world_map
+
+        if abs(self.spawn.quat[2]) > 1e-9 or abs(self.spawn.quat[3]) < 1 - 1e-9:
+            log.warning("live navigation needs a spawn pose without a turn; it is off")
+            return
+        lidar = next((s for s in self.robot.sensors if s.type == "lidar"), None)
+        if lidar is None:
+            return
+        base_inv = np.linalg.inv(sim.world.body_pose(sim.world.base_body))
+        laser = base_inv @ sim.frame_pose(lidar.name)
+        laser_pose = (laser[0, 3], laser[1, 3], float(np.arctan2(laser[1, 0], laser[0, 0])))
+        grid = world_map(self.world)
+        rows, cols = grid.occupied.shape
+        private = Bus()
+        node = NavNode(private, footprint_of(sim), laser_pose=laser_pose)
+        self._nodes.append(node)
+        private.publish(
+            "/map",
+            OccupancyGrid(
+                header=Header(frame_id="map"),
+                info=MapMetaData(
+                    resolution=grid.resolution,
+                    width=cols,
+                    height=rows,
+                    origin=Pose(
+                        Point(
+                            grid.origin[0] - self.spawn.xyz[0], grid.origin[1] - self.spawn.xyz[1]
+                        ),
+                        Quaternion(),
+                    ),
+                ),
+                data=np.where(grid.occupied, 100, 0).astype(np.int8).ravel().tolist(),
+            ),
+            OccupancyGrid,
+        )
+        relays = [
+            (self.bus, private, "/odom", Odometry),
+            (self.bus, private, "/scan", LaserScan),
+            (self.bus, private, "/move_base_simple/goal", PoseStamped),
+            (private, self.bus, "/cmd_vel", Twist),
+            (private, self.bus, "/plan", Path),
+        ]
+        for source, target, topic, cls in relays:
+            pub = target.advertise(topic, cls, node="/navigation_relay")
+            self._relays.append(pub)
+            self._relays.append(source.subscribe(topic, pub.publish, cls, node="/navigation_relay"))
+
     def stop(self) -> None:
         with self._lock:
             self._stopped = True
             nodes, self._nodes = self._nodes, []
+        for relay in self._relays:
+            relay.close()
         for node in reversed(nodes):
             node.destroy()
         if self._thread is not None:

@@ -117,6 +117,11 @@ def test_enter_ar_hit_test_and_tap_places_robot(server: str, browser, artifacts:
     pixels = np.asarray(Image.open(artifacts / "web_ar_placed.png").convert("RGB"), dtype=int)
     assert pixels.std() > 5, "the AR view shows something"
 
+    # The task's buttons ride in the AR bar: Set Robot from there fixes the start.
+    assert page.locator("[data-ar-task='#move-robot']").is_visible()
+    page.click("[data-ar-task='#set-robot']")
+    page.wait_for_function("window.robotrial.state().phase === 'set'", timeout=10_000)
+
     page.click("#ar-exit")
     page.wait_for_function("window.robotrial.state().ar.session === 'available'", timeout=10_000)
     assert not errors, errors

@@ -79,7 +79,17 @@ export class ArView {
 
     const exit = el("button", { type: "button", id: "ar-exit" }, "Leave AR");
     exit.addEventListener("click", () => void this.session?.end());
-    this.overlay.append(this.overlayText, exit);
+    // On a phone only this bar shows over the camera image: it carries the task's
+    // buttons (task/panel.ts) so the task runs in AR.
+    const taskButtons = [
+      ["#set-robot", "Set Robot"],
+      ["#move-robot", "Move Robot!"],
+    ].map(([target, label]) => {
+      const button = el("button", { type: "button", "data-ar-task": target }, label);
+      button.addEventListener("click", () => document.querySelector<HTMLElement>(target)?.click());
+      return button;
+    });
+    this.overlay.append(this.overlayText, ...taskButtons, exit);
     document.body.append(this.overlay);
     panelRoot.append(
       el("section", { class: "ar", id: "ar" }, el("h2", {}, "Augmented reality"), this.note, this.button),
@@ -151,6 +161,9 @@ export class ArView {
     this.viewer.showSurroundings(false);
     this.viewer.scene.visible = false;
     this.overlay.hidden = false;
+    for (const button of this.overlay.querySelectorAll<HTMLButtonElement>("[data-ar-task]")) {
+      button.hidden = true;
+    }
     this.overlayText.textContent = "Looking for the floor…";
     this.set("active");
     renderer.setAnimationLoop((_, frame) => this.frame(frame));
@@ -206,7 +219,10 @@ export class ArView {
     if (this.status !== "active" || !this.reticleSeen || !this.pending) return;
     this.placement = this.pending;
     this.reticle.visible = false;
-    this.overlayText.textContent = "Placed. Use the panel's buttons to run the task.";
+    this.overlayText.textContent = "Placed. Set Robot, then Move Robot!";
+    for (const button of this.overlay.querySelectorAll<HTMLButtonElement>("[data-ar-task]")) {
+      button.hidden = !document.querySelector(button.dataset.arTask ?? "");
+    }
     this.set("placed");
   }
 

@@ -271,61 +271,177 @@ def valid_batch(qs, kin, bodies, env_bodies, pairs, pad, env, buf) -> np.ndarray
 
 
 @nb.njit(cache=True)
-def _bisection_order(n: int) -> np.ndarray:
-    """Indices 1..n-1 coarse to fine (the midpoint first, then the quarter points, ...),
-    so that a blocked motion fails after few checks."""
-    order = np.empty(max(n - 1, 0), dtype=np.int64)
-    seen = np.zeros(n + 1, dtype=np.bool_)
-    seen[0] = True
-    seen[n] = True
-    k = 0
-    parts = 2
-    while parts <= 2 * n:
-        for odd in range(1, parts, 2):
-            i = int(np.floor(odd * n / parts + 0.5))
-            if 0 < i < n and not seen[i]:
-                seen[i] = True
-                order[k] = i
-                k += 1
-        parts *= 2
-    for i in range(1, n):
-        if not seen[i]:
-            order[k] = i
-            k += 1
-    return order
+def config_clearance(
+    q, cap, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
+) -> float:
+    """How long (in units of the motion's parameter, at most `cap`) the configuration
+    `q` surely stays free while bodies move no faster than `body_speed` (m per unit,
+    one per body) and pairs approach no faster than `pair_speed` (one per pair): the
+    smallest gap over speed. -1 when `q` is in contact. Bounding spheres that cannot
+    make it within `cap` are not opened."""
+    parent, origin, jtype, axis, src, mult, offset, const = kin
+    sphere_link, sphere_local, radius, body_start, body_end, body_link, bound_local, bound_r = (
+        bodies
+    )
+    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env
+    poses, centres, bound_c, ready = buf
+    fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
+    for b in range(body_link.shape[0]):
+        li = body_link[b]
+        x, y, z = bound_local[b, 0], bound_local[b, 1], bound_local[b, 2]
+        for i in range(3):
+            bound_c[b, i] = (
+                poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
+            )
+        ready[b] = False
+    best = cap
+    n_box, n_cyl = box_inv.shape[0], cyl_inv.shape[0]
+    for e in range(env_bodies.shape[0]):
+        b = env_bodies[e]
+        v = body_speed[b]
+        bx, by, bz = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2]
+        br = bound_r[b] + pad
+        for k in range(n_box + n_cyl + sph_c.shape[0]):
+            g = _shape_gap(
+                bx, by, bz, k, n_box, n_cyl, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r
+            )
+            if g - br > best * v:
+                continue
+            _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
+            for s in range(body_start[b], body_end[b]):
+                g = _shape_gap(
+                    centres[s, 0],
+                    centres[s, 1],
+                    centres[s, 2],
+                    k,
+                    n_box,
+                    n_cyl,
+                    box_inv,
+                    box_half,
+                    cyl_inv,
+                    cyl_r,
+                    cyl_h,
+                    sph_c,
+                    sph_r,
+                ) - (radius[s] + pad)
+                if g <= 0.0:
+                    return -1.0
+                if g < best * v:
+                    best = g / v
+    for p in range(pairs.shape[0]):
+        a, b = pairs[p, 0], pairs[p, 1]
+        v = pair_speed[p]
+        dx = bound_c[a, 0] - bound_c[b, 0]
+        dy = bound_c[a, 1] - bound_c[b, 1]
+        dz = bound_c[a, 2] - bound_c[b, 2]
+        if np.sqrt(dx * dx + dy * dy + dz * dz) - bound_r[a] - bound_r[b] > best * v:
+            continue
+        _place(a, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
+        _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
+        for i in range(body_start[a], body_end[a]):
+            for j in range(body_start[b], body_end[b]):
+                dx = centres[i, 0] - centres[j, 0]
+                dy = centres[i, 1] - centres[j, 1]
+                dz = centres[i, 2] - centres[j, 2]
+                g = np.sqrt(dx * dx + dy * dy + dz * dz) - radius[i] - radius[j]
+                if g <= 0.0:
+                    return -1.0
+                if g < best * v:
+                    best = g / v
+    return best
+
+
+@nb.njit(cache=True, inline="always")
+def _shape_gap(
+    x, y, z, k, n_box, n_cyl, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r
+) -> float:
+    """Distance from a point to environment shape k (boxes, then cylinders, then
+    spheres; 0 inside)."""
+    if k < n_box:
+        return np.sqrt(_box_gap2(x, y, z, box_inv, k, box_half))
+    if k < n_box + n_cyl:
+        return np.sqrt(_cyl_gap2(x, y, z, cyl_inv, k - n_box, cyl_r, cyl_h))
+    c = k - n_box - n_cyl
+    dx, dy, dz = x - sph_c[c, 0], y - sph_c[c, 1], z - sph_c[c, 2]
+    return max(np.sqrt(dx * dx + dy * dy + dz * dz) - sph_r[c], 0.0)
 
 
 @nb.njit(cache=True)
-def segment_valid(a, b, resolution, kin, bodies, env_bodies, pairs, pad, env, buf, q) -> bool:
-    """Is the straight motion a -> b free? `b` is checked, `a` is assumed free; samples
-    no farther apart than `resolution` per joint, midpoint first. `buf` and `q` are
+def segment_valid(
+    a, b, resolution, body_rate, pair_rate, kin, bodies, env_bodies, pairs, pad, env, buf, q
+) -> bool:
+    """Is the straight motion a -> b free? `b` is checked, `a` is assumed free.
+
+    Sub-intervals are split coarse to fine (midpoint first, so a blocked motion fails
+    after few checks) until each is either no longer than `resolution` per joint or
+    proved free by the clearance at its ends: a body moves at most body_rate[b] . |dq|
+    metres over a motion dq (pair_rate likewise for two bodies closing in), so an
+    interval that the end clearances cover cannot hold a contact. `buf` and `q` are
     scratch space."""
     d = a.shape[0]
     span = 0.0
     for j in range(d):
         span = max(span, abs(b[j] - a[j]) / resolution[j])
     n = max(int(np.ceil(span)), 1)
-    if not config_valid(b, kin, bodies, env_bodies, pairs, pad, env, buf):
+    body_speed = np.zeros(body_rate.shape[0])
+    pair_speed = np.zeros(pair_rate.shape[0])
+    for j in range(d):
+        dq = abs(b[j] - a[j])
+        for i in range(body_rate.shape[0]):
+            body_speed[i] += body_rate[i, j] * dq
+        for i in range(pair_rate.shape[0]):
+            pair_speed[i] += pair_rate[i, j] * dq
+    args = (kin, bodies, env_bodies, pairs, pad, env, buf)
+    c_b = config_clearance(b, 1.0, body_speed, pair_speed, *args)
+    if c_b < 0.0:
         return False
-    if n == 1:
+    if n == 1 or c_b >= 1.0:
         return True
-    for i in _bisection_order(n):
-        t = i / n
+    c_a = max(config_clearance(a, 1.0, body_speed, pair_speed, *args), 0.0)
+    # a queue of intervals (t0, t1, clearance at t0, clearance at t1), breadth first
+    iv = np.empty((4 * n + 8, 4))
+    iv[0, 0], iv[0, 1], iv[0, 2], iv[0, 3] = 0.0, 1.0, c_a, c_b
+    head, tail = 0, 1
+    shortest = 1.0 / n
+    while head < tail:
+        t0, t1, c0, c1 = iv[head, 0], iv[head, 1], iv[head, 2], iv[head, 3]
+        head += 1
+        if c0 + c1 >= t1 - t0 or t1 - t0 <= shortest:
+            continue
+        t = 0.5 * (t0 + t1)
         for j in range(d):
             q[j] = a[j] + t * (b[j] - a[j])
-        if not config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf):
+        c = config_clearance(q, 0.5 * (t1 - t0), body_speed, pair_speed, *args)
+        if c < 0.0:
             return False
+        iv[tail, 0], iv[tail, 1], iv[tail, 2], iv[tail, 3] = t0, t, c0, c
+        iv[tail + 1, 0], iv[tail + 1, 1], iv[tail + 1, 2], iv[tail + 1, 3] = t, t1, c, c1
+        tail += 2
     return True
 
 
 @nb.njit(cache=True)
-def motions_valid(a, b, resolution, kin, bodies, env_bodies, pairs, pad, env, buf) -> np.ndarray:
+def motions_valid(
+    a, b, resolution, body_rate, pair_rate, kin, bodies, env_bodies, pairs, pad, env, buf
+) -> np.ndarray:
     """For each row i: is the straight joint-space motion a[i] -> b[i] free? Ends excluded
     for `a` (assumed valid), included for `b`."""
     q = np.empty(a.shape[1])
     out = np.empty(a.shape[0], dtype=np.bool_)
     for m in range(a.shape[0]):
         out[m] = segment_valid(
-            a[m], b[m], resolution, kin, bodies, env_bodies, pairs, pad, env, buf, q
+            a[m],
+            b[m],
+            resolution,
+            body_rate,
+            pair_rate,
+            kin,
+            bodies,
+            env_bodies,
+            pairs,
+            pad,
+            env,
+            buf,
+            q,
         )
     return out

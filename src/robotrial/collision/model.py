@@ -147,6 +147,7 @@ class RobotSpheres:
         qs = kin.random(rng, 200)
         poses = kin.fk(qs)
         self._reach(poses)
+        self._poses = poses
         lever = np.full(kin.d, 1e-3)
         for k in range(len(kin.link_names)):
             s = kin.src[k]
@@ -165,6 +166,26 @@ class RobotSpheres:
                 lever[s] = max(lever[s], float(r.max()) * abs(kin.mult[k]))
         # the sampled maximum may miss the true one by a little: keep a margin
         return step / (1.1 * lever)
+
+    def arms(self, body: Body, padding: float = 0.0) -> np.ndarray:
+        """(links,) how far a surface point of `body` (spheres grown by `padding`) may move
+        per unit of each link's joint: the farthest it gets from the joint's origin (the
+        sampled maximum plus 10 %) for a revolute joint, 1 for a prismatic one, 0 for
+        joints that do not move it. Times |mult| (mimic joints)."""
+        kin = self.kin
+        lb = kin.link_index[body.link]
+        out = np.zeros(len(kin.link_names))
+        m = self._poses[:, lb]
+        world = np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]
+        for k in range(len(kin.link_names)):
+            if kin.src[k] < 0 or not kin.ancestors[lb, k]:
+                continue
+            if kin.jtype[k] == PRISMATIC:
+                out[k] = abs(kin.mult[k])
+                continue
+            r = np.linalg.norm(world - self._poses[:, k, None, :3, 3], axis=-1) + body.radii
+            out[k] = 1.1 * (float(r.max()) + padding) * abs(kin.mult[k])
+        return out
 
 
 @dataclass
@@ -300,6 +321,7 @@ class CollisionChecker:
             dtype=np.int64,
         )
         self._env = self._reachable_env()
+        self._travel = self._travel_bounds()
         self._buf = kernels.buffers(self.kin._args(), self._bodies)
 
     def _reachable_env(self) -> tuple:
@@ -316,6 +338,25 @@ class CollisionChecker:
             <= reach
         ]
         return self.env.arrays(keep)
+
+    def _travel_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(bodies, d) and (pairs, d): metres per unit of each planning joint that a body
+        may move in the world, and that two bodies may move toward each other (joints
+        that move both carry them rigidly and do not count)."""
+        kin = self.kin
+        arms = np.array([self.robot.arms(b, self.padding) for b in self.bodies])
+        to_joint = np.zeros((len(kin.link_names), kin.d))
+        for k in range(len(kin.link_names)):
+            if kin.src[k] >= 0:
+                to_joint[k, kin.src[k]] = 1.0
+        links = [kin.link_index[b.link] for b in self.bodies]
+        pair = np.array(
+            [
+                np.where(kin.ancestors[links[i]] & kin.ancestors[links[j]], 0.0, arms[i] + arms[j])
+                for i, j in self.pairs
+            ]
+        ).reshape(-1, arms.shape[1])
+        return np.ascontiguousarray(arms @ to_joint), np.ascontiguousarray(pair @ to_joint)
 
     def _pack(self) -> None:
         link_index = self.kin.link_index
@@ -372,9 +413,11 @@ class CollisionChecker:
 
     def kernel_args(self) -> tuple:
         """What compiled planners pass to `kernels.segment_valid` after the two ends:
-        resolution, kinematics, bodies, env bodies, pairs, padding, environment."""
+        resolution, body and pair travel bounds, kinematics, bodies, env bodies, pairs,
+        padding, environment, scratch."""
         return (
             self.resolution,
+            *self._travel,
             self.kin._args(),
             self._bodies,
             self.env_bodies,
@@ -387,12 +430,13 @@ class CollisionChecker:
     def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) bool: which straight segments a[i] -> b[i] are free (a[i] assumed free).
 
-        Samples each segment at the robot's resolution, midpoint first, and stops at the
-        first contact."""
+        Splits each segment midpoint first down to the robot's resolution, skips parts
+        that the clearance at their ends proves free, and stops at the first contact."""
         return kernels.motions_valid(
             np.ascontiguousarray(np.atleast_2d(a), dtype=float),
             np.ascontiguousarray(np.atleast_2d(b), dtype=float),
             self.resolution,
+            *self._travel,
             self.kin._args(),
             self._bodies,
             self.env_bodies,

@@ -68,6 +68,8 @@ def _grow(
     step,
     iters,
     resolution,
+    body_rate,
+    pair_rate,
     kin,
     bodies,
     env_bodies,
@@ -99,7 +101,19 @@ def _grow(
         near = _nearest(tq, nt, target)
         _steer(tq[near], target, step, q_new)
         if segment_valid(
-            tq[near], q_new, resolution, kin, bodies, env_bodies, pairs, pad, env, buf, scratch
+            tq[near],
+            q_new,
+            resolution,
+            body_rate,
+            pair_rate,
+            kin,
+            bodies,
+            env_bodies,
+            pairs,
+            pad,
+            env,
+            buf,
+            scratch,
         ):
             tq[nt] = q_new
             tpar[nt] = near
@@ -112,6 +126,8 @@ def _grow(
                     uq[k],
                     q_next,
                     resolution,
+                    body_rate,
+                    pair_rate,
                     kin,
                     bodies,
                     env_bodies,

@@ -674,3 +674,24 @@ def test_rosapi_answers() -> None:
         assert resp["result"] is False and "not known" in resp["values"]
 
     run(main)
+
+
+def test_a_session_whose_sends_fail_ends_and_frees_its_subscriptions() -> None:
+    async def main() -> None:
+        bus = Bus()
+        server = RosbridgeServer(bus)
+
+        async def broken_send(frame: str | bytes) -> None:
+            raise ConnectionResetError("the peer went away")
+
+        session = server.open_session(broken_send)
+        await session.receive(
+            json.dumps({"op": "subscribe", "topic": "/n", "type": "std_msgs/Int32"})
+        )
+        bus.publish("/n", {"data": 1}, "std_msgs/msg/Int32")
+        await asyncio.wait_for(session.ended.wait(), 2.0)
+        assert session.closed
+        assert session not in server.sessions
+        assert session.subscriptions == {}
+
+    run(main)

@@ -232,6 +232,7 @@ class Session:
         self.level = LEVELS["error"]
         self.fragments = Reassembly(self.limits.max_message_bytes)
         self.closed = False
+        self.ended = asyncio.Event()  # set once closed, so the transport can drop the socket
         self._control: collections.deque[str | bytes] = collections.deque()
         self._wake = asyncio.Event()
         self._timer: asyncio.Handle | None = None
@@ -693,6 +694,7 @@ class Session:
         self._writer.cancel()
         self.node.destroy()
         self.server.sessions.discard(self)
+        self.ended.set()
 
 
 def _same_type(a: str, b: str) -> bool | None:

@@ -16,7 +16,7 @@ from starlette.websockets import WebSocketDisconnect, WebSocketState
 
 from robotrial.msgs import Dialect
 from robotrial.ros.bus import Bus
-from robotrial.ros.rosbridge.protocol import Limits, RosbridgeServer
+from robotrial.ros.rosbridge.protocol import Limits, RosbridgeServer, Session
 
 log = logging.getLogger(__name__)
 
@@ -36,6 +36,9 @@ async def run_session(server: RosbridgeServer, websocket: WebSocket) -> None:
             await websocket.send_bytes(frame)
 
     session = server.open_session(send)
+    # A session can end on its own (its writer failed); then the socket is closed too, so
+    # the client sees the disconnect and can reconnect.
+    watcher = asyncio.ensure_future(_close_when_ended(session, websocket))
     try:
         while True:
             message = await websocket.receive()
@@ -49,12 +52,22 @@ async def run_session(server: RosbridgeServer, websocket: WebSocket) -> None:
     except (WebSocketDisconnect, RuntimeError, asyncio.CancelledError):
         pass
     finally:
+        watcher.cancel()
         await session.close()
         if websocket.application_state == WebSocketState.CONNECTED:
             try:
                 await websocket.close()
             except Exception:
                 log.debug("closing the WebSocket of %s failed", session.name)
+
+
+async def _close_when_ended(session: Session, websocket: WebSocket) -> None:
+    await session.ended.wait()
+    if websocket.application_state == WebSocketState.CONNECTED:
+        try:
+            await websocket.close(code=1011)
+        except Exception:
+            log.debug("closing the WebSocket of %s failed", session.name)
 
 
 def add_rosbridge_route(

@@ -52,6 +52,15 @@ class DWAConfig:
     collision_penalty: float = 1.0
     lookahead: float = 1.0
     margin: float = 0.03
+    narrow_speed: float = 0.3
+    narrow_clearance: float = 0.25
+    open_clearance: float = 0.4
+    curve_factor: float = 0.8
+    narrow_path_gain: float = 5.0
+    narrow_approach: float = 1.5
+    narrow_lookahead: float = 0.8
+    goal_heading_bias: float = 0.0
+    goal_heading_range: float = 1.0
 
     def __post_init__(self) -> None:
         for k in ("max_speed", "max_yaw_rate", "acc_lim_v", "acc_lim_w", "period", "sim_time"):
@@ -159,6 +168,70 @@ class DWAPlanner:
         vv, ww = np.meshgrid(vs, ws, indexing="ij")
         return vv.ravel(), ww.ravel()
 
+    def path_speed(
+        self, pose: tuple[float, float, float], path: np.ndarray, costmap: Costmap
+    ) -> float:
+        """The speed (m/s) from which the base can still slow down, at `acc_lim_v`, to
+        what each point of the path ahead allows: `narrow_speed` where the path's
+        clearance (distance to the nearest obstacle beyond the inscribed radius) is
+        below `narrow_clearance`, rising to the top speed at `open_clearance`, and no faster than
+        `curve_factor * max_yaw_rate / curvature` where the path bends."""
+        c = self.config
+        _, i0 = carrot(path, np.asarray(pose[:2], dtype=float), 0.0)
+        ahead = path[i0:]
+        if len(ahead) < 2:
+            return c.max_speed
+        seg = np.hypot(*np.diff(ahead, axis=0).T)
+        s = np.concatenate([[0.0], np.cumsum(seg)])
+        reach = c.max_speed**2 / (2 * 0.8 * c.acc_lim_v) + 0.5
+        n = int(np.searchsorted(s, reach)) + 1
+        ahead, s = ahead[:n], s[:n]
+        clear = costmap.distance_at(ahead) - self.footprint.inscribed_radius
+        frac = np.clip(
+            (clear - c.narrow_clearance) / max(c.open_clearance - c.narrow_clearance, 1e-6),
+            0.0,
+            1.0,
+        )
+        # a path point inside the inscribed radius is an obstacle newly in the way, which
+        # the arcs' scoring steers around, not a passage to hold to
+        frac[clear < 0.0] = 1.0
+        allowed = c.narrow_speed + (c.max_speed - c.narrow_speed) * frac
+        # slow already `narrow_approach` m before a narrow stretch, to line up with it
+        within = (s[None, :] >= s[:, None]) & (s[None, :] <= s[:, None] + c.narrow_approach)
+        allowed = np.where(within, allowed[None, :], np.inf).min(axis=1)
+        k = max(1, round(0.15 / max(float(np.median(seg)), 1e-3)))
+        idx = np.arange(k, len(ahead) - k)
+        if len(idx):
+            # heading change between the path's stretches k points before and after
+            before = ahead[idx] - ahead[idx - k]
+            after = ahead[idx + k] - ahead[idx]
+            turn = np.abs(
+                _wrap(np.arctan2(after[:, 1], after[:, 0]) - np.arctan2(before[:, 1], before[:, 0]))
+            )
+            kappa = turn / np.maximum(0.5 * (s[idx + k] - s[idx - k]), 1e-3)
+            v_curve = c.curve_factor * c.max_yaw_rate / np.maximum(kappa, 1e-6)
+            allowed[idx] = np.minimum(allowed[idx], v_curve)
+        allowed = np.maximum(allowed, c.narrow_speed * 0.5)
+        return float(np.min(np.sqrt(allowed**2 + 2 * 0.8 * c.acc_lim_v * s)))
+
+    def path_passable(
+        self, pose: tuple[float, float, float], path: np.ndarray, costmap: Costmap
+    ) -> bool:
+        """Whether the footprint, facing along the path, fits everywhere on the next
+        `narrow_approach + lookahead` m of it (False: something new blocks the path and
+        the arcs must leave it)."""
+        c = self.config
+        _, i0 = carrot(path, np.asarray(pose[:2], dtype=float), 0.0)
+        ahead = path[i0:]
+        if len(ahead) < 2:
+            return True
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ahead, axis=0).T))])
+        n = int(np.searchsorted(s, c.narrow_approach + c.lookahead)) + 1
+        ahead = ahead[: max(n, 2)]
+        d = np.diff(ahead, axis=0)
+        poses = np.column_stack([ahead[1:], np.arctan2(d[:, 1], d[:, 0])])
+        return bool(footprint_clearance(costmap, self.footprint, poses).min() >= 0.0)
+
     def compute(
         self,
         pose: tuple[float, float, float],
@@ -166,15 +239,26 @@ class DWAPlanner:
         path: np.ndarray,
         costmap: Costmap,
         goal_distance: float | None = None,
+        goal_yaw: float | None = None,
     ) -> DWAResult:
         """The best admissible (v, w); `ok` is False (and the command a stop) when every
         sampled arc would hit something. `goal_distance` (m) caps the speed so the base
-        can stop at the goal."""
+        can stop at the goal; `goal_yaw` (rad) lets the base turn toward the goal's
+        heading on its way in."""
         c = self.config
         path = np.asarray(path, dtype=float).reshape(-1, 2)
         if len(path) == 0:
             raise ValueError("DWA: the global path is empty")
-        v_cap = c.max_speed
+        v_path = self.path_speed(pose, path, costmap)
+        v_cap = min(c.max_speed, v_path)
+        # where the path ahead is narrow, hold to it more tightly (doorways are entered
+        # along their axis, not at a slant)
+        narrow = 0.0
+        if c.max_speed > c.narrow_speed and self.path_passable(pose, path, costmap):
+            narrow = 1.0 - float(
+                np.clip((v_path - c.narrow_speed) / (c.max_speed - c.narrow_speed), 0.0, 1.0)
+            )
+        path_bias = c.path_bias * (1.0 + c.narrow_path_gain * narrow)
         if goal_distance is not None:
             v_cap = min(v_cap, max(0.05, np.sqrt(2 * 0.8 * c.acc_lim_v * max(goal_distance, 0.0))))
         v, w = self.window(float(velocity[0]), float(velocity[1]), v_cap)
@@ -206,7 +290,8 @@ class DWAPlanner:
         j = np.argmin(d, axis=1)
         dpath = d[np.arange(len(j)), j]
         progress = along[j]
-        tj = np.minimum(np.searchsorted(along, along[j] + c.lookahead), len(local) - 1)
+        lookahead = c.lookahead - narrow * max(c.lookahead - c.narrow_lookahead, 0.0)
+        tj = np.minimum(np.searchsorted(along, along[j] + lookahead), len(local) - 1)
         target = local[tj]
         to_target = np.arctan2(target[:, 1] - end[:, 1], target[:, 0] - end[:, 0])
         heading = np.abs(_wrap(to_target - traj[:, -1, 2]))
@@ -214,7 +299,7 @@ class DWAPlanner:
         obst = costmap.cost_at(traj[..., :2]).max(axis=1).astype(float)
         obst = np.minimum(obst, MAX_INFLATED) / MAX_INFLATED
         score = (
-            c.path_bias * dpath
+            path_bias * dpath
             - c.progress_bias * progress
             + c.heading_bias * heading
             + c.obstacle_bias * obst
@@ -225,6 +310,10 @@ class DWAPlanner:
             gp = path[-1]
             closest = np.hypot(traj[..., 0] - gp[0], traj[..., 1] - gp[1]).min(axis=1)
             score += c.goal_bias * closest
+        if goal_yaw is not None and goal_distance is not None and c.goal_heading_bias > 0:
+            # on the way in, turn toward the goal's heading so less is left to do there
+            near = max(0.0, 1.0 - goal_distance / c.goal_heading_range)
+            score += c.goal_heading_bias * near * np.abs(_wrap(goal_yaw - traj[:, -1, 2]))
         score[~ok] = np.inf
         k = int(np.argmin(score))
         return DWAResult(float(v[k]), float(w[k]), True, traj[k], len(v))

@@ -200,7 +200,9 @@ class Navigator:
             local = self.global_costmap.window(tuple(pose_a[:2]), self.config.local_size)
             self.local_costmap = local
         t0 = time.perf_counter()
-        res = self.dwa.compute(tuple(pose_a), self._command, self.path, local, goal_distance=dist)
+        res = self.dwa.compute(
+            tuple(pose_a), self._command, self.path, local, goal_distance=dist, goal_yaw=goal[2]
+        )
         self.local_times.append(time.perf_counter() - t0)
         self.last_result = res
         if not res.ok:

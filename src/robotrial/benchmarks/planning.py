@@ -38,6 +38,7 @@ OMPL_NAMES = {"rrt": "RRT", "rrt_connect": "RRTConnect", "rrt_star": "RRTstar", 
 TABLE2_PLANNERS = ["rrt", "rrt_connect", "rrt_star", "prm", "prm_star", "sbl", "est", "biest"]
 HARD_SCENES = ["shelf", "cage", "under_table"]
 MOVEIT_SEGMENT_FRACTION = 0.005  # MoveIt's longest_valid_segment_fraction default
+EQUAL = "ompl+mujoco eq-res"  # OMPL with a motion resolution equivalent to ours
 
 
 def panda_path() -> str:
@@ -99,27 +100,43 @@ def _ours(
     limit: float,
     star_time: float,
 ) -> dict[str, Any]:
-    times, lengths, ok, bad = [], [], 0, 0
+    times, cpu, lengths, ok, bad = [], [], [], 0, 0
     # one untimed run first: numba compiles (or loads its cache) on the first call
     PLANNERS[name]().solve(Problem(prob.start, prob.goal[None], 0.05, 12345), checker)
     for seed in range(runs):
         cls = PLANNERS[name]
         planner = cls()
-        res = planner.solve(
-            Problem(prob.start, prob.goal[None], star_time if name == "rrt_star" else limit, seed),
-            checker,
+        problem = Problem(
+            prob.start, prob.goal[None], star_time if name == "rrt_star" else limit, seed
         )
+        c0 = time.process_time()
+        res = planner.solve(problem, checker)
+        cpu.append(time.process_time() - c0)
         times.append(res.planning_time)
         if res.success:
             ok += 1
             lengths.append(res.stats["path_length"])
             if not exact.path_valid(res.path)[0]:
                 bad += 1
-    return _summary(times, ok, runs, lengths, bad)
+    return _summary(times, cpu, ok, runs, lengths, bad)
+
+
+def equivalent_fraction(checker: CollisionChecker) -> float:
+    """OMPL's segment fraction whose longest valid segment equals our finest per-joint
+    step: then OMPL samples every motion at least as densely as our sphere model's
+    floor (15 mm of sphere travel per step of the most proximal joint)."""
+    extent = float(np.linalg.norm(np.asarray(checker.upper) - np.asarray(checker.lower)))
+    return float(np.min(checker.resolution)) / extent
 
 
 def _ompl(
-    prob: PlanningProblem, exact: ExactChecker, name: str, runs: int, limit: float, star_time: float
+    prob: PlanningProblem,
+    exact: ExactChecker,
+    name: str,
+    runs: int,
+    limit: float,
+    star_time: float,
+    fraction: float = MOVEIT_SEGMENT_FRACTION,
 ) -> dict[str, Any]:
     from ompl import base as ob
     from ompl import geometric as og
@@ -143,8 +160,8 @@ def _ompl(
 
     ss.setStateValidityChecker(valid)
     si = ss.getSpaceInformation()
-    # MoveIt's default: motions checked every 0.5 % of the space's largest extent
-    si.setStateValidityCheckingResolution(MOVEIT_SEGMENT_FRACTION)
+    # a motion is checked every `fraction` of the space's extent (the diagonal)
+    si.setStateValidityCheckingResolution(fraction)
     start, goal = space.allocState(), space.allocState()
     for i in range(d):
         start[i] = float(prob.start[i])
@@ -153,13 +170,14 @@ def _ompl(
     planner = getattr(og, OMPL_NAMES[name])(si)
     ss.setPlanner(planner)
     ss.setup()
-    times, lengths, ok, bad = [], [], 0, 0
+    times, cpu, lengths, ok, bad = [], [], [], 0, 0
     for seed in range(runs):
         ss.clear()
         ou.RNG.setSeed(seed + 1)
-        t0 = time.perf_counter()
+        c0, t0 = time.process_time(), time.perf_counter()
         status = ss.solve(star_time if name == "rrt_star" else limit)
         times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
         if ss.haveExactSolutionPath() and "Exact" in str(status):
             ok += 1
             path = ss.getSolutionPath()
@@ -167,10 +185,12 @@ def _ompl(
                 [[path.getState(k)[i] for i in range(d)] for k in range(path.getStateCount())]
             )
             lengths.append(float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))))
-    return _summary(times, ok, runs, lengths, bad)
+            if not exact.path_valid(pts)[0]:
+                bad += 1
+    return _summary(times, cpu, ok, runs, lengths, bad)
 
 
-def _summary(times, ok, runs, lengths, bad) -> dict[str, Any]:
+def _summary(times, cpu, ok, runs, lengths, bad) -> dict[str, Any]:
     t = np.array(times)
     return {
         "runs": runs,
@@ -179,6 +199,7 @@ def _summary(times, ok, runs, lengths, bad) -> dict[str, Any]:
         "median_s": float(np.median(t)),
         "min_s": float(t.min()),
         "max_s": float(t.max()),
+        "median_cpu_s": float(np.median(cpu)),
         "path_length": float(np.mean(lengths)) if lengths else None,
         "invalid_paths": bad,
     }
@@ -290,9 +311,9 @@ def run(args: argparse.Namespace) -> int:
     results: list[dict[str, Any]] = []
     problems = _problems(args.quick)
     total = sum(
-        (len(TABLE2_PLANNERS) + (0 if args.no_ompl else len(OMPL_NAMES)))
+        (len(TABLE2_PLANNERS) + (0 if args.no_ompl else len(OMPL_NAMES) + 1))
         if t2
-        else (2 if not args.no_ompl else 1)
+        else (3 if not args.no_ompl else 1)
         for _, _, t2 in problems
     )
     with progress("planning benchmark", total, enabled=show) as advance:
@@ -323,10 +344,24 @@ def run(args: argparse.Namespace) -> int:
                         "problem": prob.name,
                         "library": "ompl+mujoco",
                         "planner": name,
+                        "fraction": MOVEIT_SEGMENT_FRACTION,
                         **r,
                     }
                 )
                 advance()
+            fraction = equivalent_fraction(checker)
+            r = _ompl(prob, exact, "rrt_connect", n, args.time_limit, args.rrt_star_time, fraction)
+            results.append(
+                {
+                    "robot": robot_name,
+                    "problem": prob.name,
+                    "library": EQUAL,
+                    "planner": "rrt_connect",
+                    "fraction": fraction,
+                    **r,
+                }
+            )
+            advance()
     validation = random_desk_validation(args.validate, show=show) if args.validate else None
     report = {
         "date": date.today().isoformat(),
@@ -385,8 +420,11 @@ def run(args: argparse.Namespace) -> int:
         if report["speedups"]:
             print_table(
                 "RRTConnect: OMPL+MuJoCo median / ours",
-                ["robot", "problem", "speedup"],
-                [(s["robot"], s["problem"], f"{s['speedup']:.1f}x") for s in report["speedups"]],
+                ["robot", "problem", "vs default", "(cpu)", "vs equal res", "(cpu)"],
+                [
+                    (s["robot"], s["problem"], *(_x(s, k) for k in SPEEDUP_KEYS))
+                    for s in report["speedups"]
+                ],
             )
         if validation:
             v = validation
@@ -397,17 +435,29 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+SPEEDUP_KEYS = ("default", "default_cpu", "equal", "equal_cpu")
+
+
+def _x(row: dict[str, Any], key: str) -> str:
+    return f"{row[key]:.1f}x" if key in row else "-"
+
+
 def _speedups(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """RRTConnect: OMPL's median time over ours, wall clock and CPU, against OMPL at
+    MoveIt's default resolution and at the equivalent one."""
     out = []
     key = {(r["robot"], r["problem"], r["library"], r["planner"]): r for r in results}
     for (robot, problem, lib, planner), r in key.items():
         if lib != "robotrial" or planner != "rrt_connect":
             continue
-        o = key.get((robot, problem, "ompl+mujoco", planner))
-        if o:
-            out.append(
-                {"robot": robot, "problem": problem, "speedup": o["median_s"] / r["median_s"]}
-            )
+        row: dict[str, Any] = {"robot": robot, "problem": problem}
+        for name, other in (("default", "ompl+mujoco"), ("equal", EQUAL)):
+            o = key.get((robot, problem, other, planner))
+            if o:
+                row[name] = o["median_s"] / r["median_s"]
+                row[f"{name}_cpu"] = o["median_cpu_s"] / max(r["median_cpu_s"], 1e-9)
+        if len(row) > 2:
+            out.append(row)
     return out
 
 
@@ -427,7 +477,12 @@ def markdown(report: dict[str, Any]) -> str:
         "Ours: `robotrial.planning` with the compiled sphere checker; every returned path is "
         "then checked densely with MuJoCo (column *bad*). OMPL: the `ompl` package's planners "
         "with MuJoCo as the state validity callback, motions checked every 0.5 % of the "
-        "joint space's extent (MoveIt's default `longest_valid_segment_fraction`).",
+        "joint space's extent (MoveIt's default `longest_valid_segment_fraction`); "
+        f"*{EQUAL}*: OMPL's RRTConnect with motions checked as finely as our floor "
+        "(the fraction in the last column: our finest per-joint step over the extent). "
+        "Times are of the solve call only (ours: `Planner.solve`, with its start, goal and "
+        "direct-motion checks; OMPL: `SimpleSetup.solve`). Every returned path of both "
+        "libraries is checked densely with MuJoCo (column *bad*).",
         "",
         "## Table 2 of the platform paper, reproduced",
         "",
@@ -458,26 +513,34 @@ def markdown(report: dict[str, Any]) -> str:
         "## All runs",
         "",
         "| robot | problem | library | planner | success | mean s | median s | min s | max s "
-        "| path length (rad) | bad |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| median CPU s | path length (rad) | bad | OMPL fraction |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for r in res:
         pl = f"{r['path_length']:.2f}" if r["path_length"] is not None else "-"
+        frac = f"{r['fraction']:.5f}" if "fraction" in r else "-"
         lines.append(
             f"| {r['robot']} | {r['problem']} | {r['library']} | {r['planner']} "
             f"| {r['success']:.0%} | {r['mean_s']:.5f} | {r['median_s']:.5f} | {r['min_s']:.5f} "
-            f"| {r['max_s']:.5f} | {pl} | {r['invalid_paths']} |"
+            f"| {r['max_s']:.5f} | {r['median_cpu_s']:.5f} | {pl} | {r['invalid_paths']} "
+            f"| {frac} |"
         )
     if report["speedups"]:
         lines += [
             "",
-            "## RRTConnect speed-up over OMPL + MuJoCo (median / median)",
+            "## RRTConnect speed-up over OMPL + MuJoCo (OMPL's median / ours)",
             "",
-            "| robot | problem | speed-up |",
-            "| --- | --- | --- |",
+            "Against OMPL at MoveIt's default resolution and at the equivalent one, in wall "
+            "clock and in CPU time of the process.",
+            "",
+            "| robot | problem | vs default | (CPU) | vs equal resolution | (CPU) |",
+            "| --- | --- | --- | --- | --- | --- |",
         ]
         lines += [
-            f"| {s['robot']} | {s['problem']} | {s['speedup']:.1f}x |" for s in report["speedups"]
+            f"| {s['robot']} | {s['problem']} | "
+            + " | ".join(_x(s, k) for k in SPEEDUP_KEYS)
+            + " |"
+            for s in report["speedups"]
         ]
     v = report.get("validation")
     if v:

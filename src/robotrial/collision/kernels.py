@@ -302,14 +302,17 @@ def config_clearance(
         bx, by, bz = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2]
         br = bound_r[b] + pad
         for k in range(n_box + n_cyl + sph_c.shape[0]):
-            g = _shape_gap(
+            reach = br + best * v
+            g2 = _shape_gap2(
                 bx, by, bz, k, n_box, n_cyl, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r
             )
-            if g - br > best * v:
+            if g2 > reach * reach:
                 continue
             _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
             for s in range(body_start[b], body_end[b]):
-                g = _shape_gap(
+                r = radius[s] + pad
+                reach = r + best * v
+                g2 = _shape_gap2(
                     centres[s, 0],
                     centres[s, 1],
                     centres[s, 2],
@@ -323,18 +326,20 @@ def config_clearance(
                     cyl_h,
                     sph_c,
                     sph_r,
-                ) - (radius[s] + pad)
-                if g <= 0.0:
+                )
+                if g2 > reach * reach:
+                    continue
+                if g2 <= r * r:
                     return -1.0
-                if g < best * v:
-                    best = g / v
+                best = (np.sqrt(g2) - r) / v
     for p in range(pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
         v = pair_speed[p]
         dx = bound_c[a, 0] - bound_c[b, 0]
         dy = bound_c[a, 1] - bound_c[b, 1]
         dz = bound_c[a, 2] - bound_c[b, 2]
-        if np.sqrt(dx * dx + dy * dy + dz * dz) - bound_r[a] - bound_r[b] > best * v:
+        reach = bound_r[a] + bound_r[b] + best * v
+        if dx * dx + dy * dy + dz * dz > reach * reach:
             continue
         _place(a, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
         _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
@@ -343,27 +348,31 @@ def config_clearance(
                 dx = centres[i, 0] - centres[j, 0]
                 dy = centres[i, 1] - centres[j, 1]
                 dz = centres[i, 2] - centres[j, 2]
-                g = np.sqrt(dx * dx + dy * dy + dz * dz) - radius[i] - radius[j]
-                if g <= 0.0:
+                r = radius[i] + radius[j]
+                reach = r + best * v
+                g2 = dx * dx + dy * dy + dz * dz
+                if g2 > reach * reach:
+                    continue
+                if g2 <= r * r:
                     return -1.0
-                if g < best * v:
-                    best = g / v
+                best = (np.sqrt(g2) - r) / v
     return best
 
 
 @nb.njit(cache=True, inline="always")
-def _shape_gap(
+def _shape_gap2(
     x, y, z, k, n_box, n_cyl, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r
 ) -> float:
-    """Distance from a point to environment shape k (boxes, then cylinders, then
-    spheres; 0 inside)."""
+    """Squared distance from a point to environment shape k (boxes, then cylinders,
+    then spheres; 0 inside)."""
     if k < n_box:
-        return np.sqrt(_box_gap2(x, y, z, box_inv, k, box_half))
+        return _box_gap2(x, y, z, box_inv, k, box_half)
     if k < n_box + n_cyl:
-        return np.sqrt(_cyl_gap2(x, y, z, cyl_inv, k - n_box, cyl_r, cyl_h))
+        return _cyl_gap2(x, y, z, cyl_inv, k - n_box, cyl_r, cyl_h)
     c = k - n_box - n_cyl
     dx, dy, dz = x - sph_c[c, 0], y - sph_c[c, 1], z - sph_c[c, 2]
-    return max(np.sqrt(dx * dx + dy * dy + dz * dz) - sph_r[c], 0.0)
+    g = max(np.sqrt(dx * dx + dy * dy + dz * dz) - sph_r[c], 0.0)
+    return g * g
 
 
 @nb.njit(cache=True)
@@ -398,24 +407,26 @@ def segment_valid(
     if n == 1 or c_b >= 1.0:
         return True
     c_a = max(config_clearance(a, 1.0, body_speed, pair_speed, *args), 0.0)
-    # a queue of intervals (t0, t1, clearance at t0, clearance at t1), breadth first
-    iv = np.empty((4 * n + 8, 4))
-    iv[0, 0], iv[0, 1], iv[0, 2], iv[0, 3] = 0.0, 1.0, c_a, c_b
+    # a queue of intervals between samples i0 < i1 of the n-step grid with the clearance
+    # at each end, breadth first; an interval of one step needs nothing more
+    iv = np.empty((2 * n + 2, 2), dtype=np.int64)
+    cl = np.empty((2 * n + 2, 2))
+    iv[0, 0], iv[0, 1], cl[0, 0], cl[0, 1] = 0, n, c_a, c_b
     head, tail = 0, 1
-    shortest = 1.0 / n
     while head < tail:
-        t0, t1, c0, c1 = iv[head, 0], iv[head, 1], iv[head, 2], iv[head, 3]
+        i0, i1, c0, c1 = iv[head, 0], iv[head, 1], cl[head, 0], cl[head, 1]
         head += 1
-        if c0 + c1 >= t1 - t0 or t1 - t0 <= shortest:
+        if i1 - i0 <= 1 or c0 + c1 >= (i1 - i0) / n:
             continue
-        t = 0.5 * (t0 + t1)
+        im = (i0 + i1) // 2
+        t = im / n
         for j in range(d):
             q[j] = a[j] + t * (b[j] - a[j])
-        c = config_clearance(q, 0.5 * (t1 - t0), body_speed, pair_speed, *args)
+        c = config_clearance(q, 0.5 * (i1 - i0) / n, body_speed, pair_speed, *args)
         if c < 0.0:
             return False
-        iv[tail, 0], iv[tail, 1], iv[tail, 2], iv[tail, 3] = t0, t, c0, c
-        iv[tail + 1, 0], iv[tail + 1, 1], iv[tail + 1, 2], iv[tail + 1, 3] = t, t1, c, c1
+        iv[tail, 0], iv[tail, 1], cl[tail, 0], cl[tail, 1] = i0, im, c0, c
+        iv[tail + 1, 0], iv[tail + 1, 1], cl[tail + 1, 0], cl[tail + 1, 1] = im, i1, c, c1
         tail += 2
     return True
 

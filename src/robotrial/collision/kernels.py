@@ -376,10 +376,13 @@ def _shape_gap2(
 
 
 @nb.njit(cache=True)
-def segment_valid(
-    a, b, resolution, body_rate, pair_rate, kin, bodies, env_bodies, pairs, pad, env, buf, q
-) -> bool:
-    """Is the straight motion a -> b free? `b` is checked, `a` is assumed free.
+def segment_clearance(
+    a, b, c_a, resolution, body_rate, pair_rate, kin, bodies, env_bodies, pairs, pad, env, buf, q
+) -> float:
+    """Is the straight motion a -> b free? -1 when not, else the clearance at `b` in units
+    of this motion (at most 1). `b` is checked, `a` is assumed free; `c_a` is its
+    clearance for this motion when known (from the previous step of a straight walk),
+    negative to compute it.
 
     Sub-intervals are split coarse to fine (midpoint first, so a blocked motion fails
     after few checks) until each is either no longer than `resolution` per joint or
@@ -402,11 +405,10 @@ def segment_valid(
             pair_speed[i] += pair_rate[i, j] * dq
     args = (kin, bodies, env_bodies, pairs, pad, env, buf)
     c_b = config_clearance(b, 1.0, body_speed, pair_speed, *args)
-    if c_b < 0.0:
-        return False
-    if n == 1 or c_b >= 1.0:
-        return True
-    c_a = max(config_clearance(a, 1.0, body_speed, pair_speed, *args), 0.0)
+    if c_b < 0.0 or n == 1 or c_b >= 1.0:
+        return c_b
+    if c_a < 0.0:
+        c_a = max(config_clearance(a, 1.0, body_speed, pair_speed, *args), 0.0)
     # a queue of intervals between samples i0 < i1 of the n-step grid with the clearance
     # at each end, breadth first; an interval of one step needs nothing more
     iv = np.empty((2 * n + 2, 2), dtype=np.int64)
@@ -424,11 +426,11 @@ def segment_valid(
             q[j] = a[j] + t * (b[j] - a[j])
         c = config_clearance(q, 0.5 * (i1 - i0) / n, body_speed, pair_speed, *args)
         if c < 0.0:
-            return False
+            return -1.0
         iv[tail, 0], iv[tail, 1], cl[tail, 0], cl[tail, 1] = i0, im, c0, c
         iv[tail + 1, 0], iv[tail + 1, 1], cl[tail + 1, 0], cl[tail + 1, 1] = im, i1, c, c1
         tail += 2
-    return True
+    return c_b
 
 
 @nb.njit(cache=True)
@@ -440,9 +442,10 @@ def motions_valid(
     q = np.empty(a.shape[1])
     out = np.empty(a.shape[0], dtype=np.bool_)
     for m in range(a.shape[0]):
-        out[m] = segment_valid(
+        out[m] = 0.0 <= segment_clearance(
             a[m],
             b[m],
+            -1.0,
             resolution,
             body_rate,
             pair_rate,

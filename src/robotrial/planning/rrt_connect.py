@@ -15,7 +15,7 @@ from typing import Any
 import numba as nb
 import numpy as np
 
-from robotrial.collision.kernels import segment_valid
+from robotrial.collision.kernels import segment_clearance
 from robotrial.planning.base import Checker, Planner, Problem, Tree, sample, steer
 
 CHUNK = 256  # iterations per compiled call between deadline checks
@@ -37,6 +37,14 @@ def _nearest(tq, n, q) -> int:
         if d2 < best_d:
             best, best_d = i, d2
     return best
+
+
+@nb.njit(cache=True, inline="always")
+def _distance(a, b) -> float:
+    d2 = 0.0
+    for j in range(a.shape[0]):
+        d2 += (b[j] - a[j]) ** 2
+    return np.sqrt(d2)
 
 
 @nb.njit(cache=True, inline="always")
@@ -100,9 +108,10 @@ def _grow(
             target[j] = lower[j] + np.random.random() * (upper[j] - lower[j])  # noqa: NPY002
         near = _nearest(tq, nt, target)
         _steer(tq[near], target, step, q_new)
-        if segment_valid(
+        if 0.0 <= segment_clearance(
             tq[near],
             q_new,
+            -1.0,
             resolution,
             body_rate,
             pair_rate,
@@ -120,11 +129,16 @@ def _grow(
             new = nt
             nt += 1
             k = _nearest(uq, nu, q_new)
+            c_k = -1.0  # clearance at uq[k] along the walk, in units of one step
             while nu < cap:
                 reached = _steer(uq[k], q_new, step, q_next)
-                if not segment_valid(
+                length = _distance(uq[k], q_next)
+                if c_k >= 0.0 and length > 0.0:
+                    c_k *= step / length  # the walk's last step may be shorter
+                c_k = segment_clearance(
                     uq[k],
                     q_next,
+                    c_k,
                     resolution,
                     body_rate,
                     pair_rate,
@@ -136,7 +150,8 @@ def _grow(
                     env,
                     buf,
                     scratch,
-                ):
+                )
+                if c_k < 0.0:
                     break
                 uq[nu] = q_next
                 upar[nu] = k

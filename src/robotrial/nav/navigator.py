@@ -45,7 +45,9 @@ class Recovery(Enum):
 
 @dataclass(frozen=True)
 class NavigatorConfig:
-    """Tolerances (m, rad), timing (s), local window size (m) and the sub-planners."""
+    """Tolerances (m, rad), timing (s), local window size (m) and the sub-planners.
+    `turn_yaw_rate` (rad/s) and `turn_acc` (rad/s^2) bound the final turn in place to
+    the goal's heading (None: the DWA's limits)."""
 
     planner: str = "dijkstra"
     xy_tolerance: float = 0.15
@@ -60,6 +62,8 @@ class NavigatorConfig:
     backup_distance: float = 0.3
     backup_speed: float = 0.15
     max_no_path: int = 3
+    turn_yaw_rate: float | None = None
+    turn_acc: float | None = None
     obstacle_range: float = 3.0
 
 
@@ -214,14 +218,25 @@ class Navigator:
                 self._start_recovery(now, pose_a)
             return 0.0, 0.0
         self._blocked_since = None
+        if (
+            dist <= 2 * self.config.xy_tolerance
+            and abs(res.v) < 0.05
+            and abs(float(velocity[0])) < 0.05
+        ):
+            # stopped beside the goal: a skid-steer base cannot close a sideways gap
+            # without a detour, so finish with the turn to the goal's heading
+            self._rotating = True
+            return 0.0, self._turn_rate(_wrap(goal[2] - pose_a[2]), self._command[1])
         return res.v, res.w
 
     def _turn_rate(self, err: float, w0: float) -> float:
         c = self.config.dwa
+        rate = self.config.turn_yaw_rate or c.max_yaw_rate
+        acc = self.config.turn_acc or c.acc_lim_w
         # the fastest rate from which the turn can still stop on the heading
-        w_stop = np.sqrt(2 * 0.8 * c.acc_lim_w * abs(err))
-        w = np.sign(err) * min(c.max_yaw_rate, w_stop, max(0.15, 2.0 * abs(err)))
-        return float(np.clip(w, w0 - c.acc_lim_w * c.period, w0 + c.acc_lim_w * c.period))
+        w_stop = np.sqrt(2 * 0.8 * acc * abs(err))
+        w = np.sign(err) * min(rate, w_stop, max(0.15, 4.0 * abs(err)))
+        return float(np.clip(w, w0 - acc * c.period, w0 + acc * c.period))
 
     def _plan(self, now: float, pose: np.ndarray) -> bool:
         if self._dirty:

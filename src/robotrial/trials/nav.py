@@ -34,6 +34,7 @@ from robotrial.nav.dwa import DWAConfig
 from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
 from robotrial.nav.planners import path_length, shortest_path
 from robotrial.sim import SimOptions, Simulation, StreamSettings
+from robotrial.sim.controllers import DriveLimits
 
 PAPER_TABLE1 = {
     "room_a": {
@@ -245,9 +246,14 @@ def start_pose(world: World, start: str | tuple[float, float, float]) -> tuple[f
 
 
 def navigator_config(
-    speed: float, max_yaw_rate: float, max_accel: float, planner: str
+    speed: float,
+    max_yaw_rate: float,
+    max_accel: float,
+    planner: str,
+    max_yaw_accel: float = 2.0,
 ) -> NavigatorConfig:
-    """The navigation stack's settings for a top speed (m/s)."""
+    """The navigation stack's settings for a top speed (m/s); the final turn in place
+    uses the base's own yaw rate and acceleration limits."""
     yaw_rate = min(max_yaw_rate, max(0.8, 1.6 * speed))
     dwa = DWAConfig(
         max_speed=speed,
@@ -256,8 +262,12 @@ def navigator_config(
         acc_lim_w=2.0,
         sim_time=max(1.5, 1.2 + speed),
         lookahead=max(0.8, 1.5 * speed),
+        goal_heading_bias=0.5,
+        goal_heading_range=1.5,
     )
-    return NavigatorConfig(planner=planner, dwa=dwa)
+    return NavigatorConfig(
+        planner=planner, dwa=dwa, turn_yaw_rate=max_yaw_rate, turn_acc=max_yaw_accel
+    )
 
 
 def run_once(
@@ -300,14 +310,10 @@ def _drive(
     start: tuple[float, float, float],
     wall0: float,
 ) -> RunResult:
-    drive = sim.robot.metadata.get("drive", {}) or {}
-    max_speed = float(drive.get("max_speed", 1.0))
-    speed = min(setup.speed, max_speed)
+    limits = DriveLimits.from_metadata(sim.robot.metadata.get("drive", {}) or {})
+    speed = min(setup.speed, limits.max_speed)
     config = navigator_config(
-        speed,
-        float(drive.get("max_yaw_rate", 2.0)),
-        float(drive.get("max_accel", 1.0)),
-        setup.planner,
+        speed, limits.max_yaw_rate, limits.max_accel, setup.planner, limits.max_yaw_accel
     )
     footprint = footprint_of(sim)
     nav = Navigator(

@@ -97,6 +97,33 @@ def test_dwa_drives_around_a_box_ahead():
     assert abs(pose[1] - 3.0) < 0.3, "back near the path after the box"
 
 
+def test_dwa_slows_for_a_doorway_and_passes_it_at_full_top_speed():
+    fp = Footprint(0.99, 0.67)
+    occ = np.zeros((100, 160), dtype=bool)  # 8 x 5 m at 0.05 m
+    occ[:, 99:101] = True  # a thin wall at x = 5 m ...
+    occ[40:60, 99:101] = False  # ... with a 1 m doorway, y 2 .. 3 m
+    cm = Costmap(occ, (0.0, 0.0), 0.05, fp, Inflation(1.0, 3.0))
+    path = Dijkstra().plan(cm, (1.0, 3.1), (7.0, 2.5))
+    dwa = DWAPlanner(fp, DWAConfig(max_speed=1.0, max_yaw_rate=1.6, acc_lim_w=2.0, sim_time=2.2))
+    assert dwa.path_speed((1.0, 3.1, 0.0), path, cm) == pytest.approx(1.0)
+    pose, vel = np.array([1.0, 3.1, 0.0]), (1.0, 0.0)
+    door_speeds = []
+    for _ in range(400):
+        res = dwa.compute(
+            tuple(pose), vel, path, cm, goal_distance=float(np.hypot(7.0 - pose[0], 2.5 - pose[1]))
+        )
+        assert res.ok, f"stuck at {pose}"
+        vel = (res.v, res.w)
+        pose = compose(pose, _arc(res.v, res.w, 0.05))
+        assert footprint_clearance(cm, fp, pose[None]).min() > 0.0
+        if 4.5 < pose[0] < 5.5:
+            door_speeds.append(res.v)
+        if pose[0] > 6.0:
+            break
+    assert pose[0] > 6.0, f"the robot did not pass the doorway: {pose}"
+    assert max(door_speeds) < 0.6, "slowed down for the doorway"
+
+
 def _arc(v: float, w: float, dt: float) -> np.ndarray:
     if abs(w) < 1e-9:
         return np.array([v * dt, 0.0, 0.0])

@@ -17,8 +17,10 @@ cells:
 The footprint is covered by circles (`Footprint.circles`); an arc is admissible when
 every circle stays `margin` clear of obstacles in the costmap's distance field for as
 long as the base needs to stop on it, plus a second. Near the
-goal the speed is capped so that the base can stop on it. All arcs are scored at once
-with numpy.
+goal the speed is capped so that the base can stop on it, and the path ahead caps it
+too (`path_speed`): slow where the path is narrow or bends, braking in time. Where a
+narrow stretch lies ahead the arcs are held closer to the path, so doorways are entered
+along their axis. All arcs are scored at once with numpy.
 """
 
 from __future__ import annotations

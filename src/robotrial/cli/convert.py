@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from robotrial.cli.output import add_json_flag, print_json
+from robotrial.cli.robot_source import add_robot_source_arguments, load_robot_from_args
 
 HELP = "convert a robot (URDF, xacro, RDTF) or a world to RDTF/glTF (.glb) or MJCF (.xml)"
 FORMATS = {".glb": "glb", ".xml": "mjcf"}
@@ -35,21 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="OUT",
         help="file to write: .glb (RDTF, or glTF scene for a world) or .xml (MJCF)",
     )
-    parser.add_argument(
-        "--package-path",
-        "-p",
-        action="append",
-        default=[],
-        metavar="P",
-        help="folder searched for package:// URIs (repeatable; before ROS_PACKAGE_PATH)",
-    )
-    parser.add_argument(
-        "--xacro-arg",
-        action="append",
-        default=[],
-        metavar="NAME:=VALUE",
-        help="argument for a .xacro file (repeatable)",
-    )
+    add_robot_source_arguments(parser)
     parser.add_argument("--world", action="store_true", help="IN is a world, not a robot")
     parser.add_argument(
         "--base",
@@ -68,26 +55,8 @@ def _size(n: int) -> str:
     return str(n)
 
 
-def _load_robot(args: argparse.Namespace):
-    from robotrial.model import load_robot
-    from robotrial.model.robot import ModelError
-    from robotrial.model.urdf import load_urdf
-
-    if not args.xacro_arg:
-        return load_robot(args.input, package_paths=args.package_path)
-    xargs = {}
-    for item in args.xacro_arg:
-        name, sep, value = item.partition(":=")
-        if not sep or not name.strip():
-            raise ModelError(f"--xacro-arg {item!r}: expected NAME:=VALUE")
-        xargs[name.strip()] = value
-    if not str(args.input).endswith(".xacro"):
-        raise ModelError(f"--xacro-arg given, but {args.input} is not a .xacro file")
-    return load_urdf(args.input, package_paths=args.package_path, xacro_args=xargs)
-
-
 def _convert_robot(args: argparse.Namespace, out: Path, fmt: str) -> dict[str, Any]:
-    model = _load_robot(args)
+    model = load_robot_from_args(args)
     result: dict[str, Any] = {
         "input": str(args.input),
         "kind": "robot",

@@ -15,50 +15,16 @@ from typing import Any
 from rich.console import Console
 
 from robotrial.cli.output import add_json_flag, print_json, print_table
-from robotrial.model import load_robot
+from robotrial.cli.robot_source import add_robot_source_arguments, load_robot_from_args
 from robotrial.model.robot import ModelError, RobotModel
-from robotrial.model.urdf import load_urdf
 
 HELP = "show a robot's links, joints, mass, DOF, end effector, sensors and loader repairs"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("input", metavar="IN", help="built-in robot name, .urdf, .xacro or .glb")
-    parser.add_argument(
-        "--package-path",
-        "-p",
-        action="append",
-        default=[],
-        metavar="P",
-        help="folder searched for package:// URIs (repeatable; before ROS_PACKAGE_PATH)",
-    )
-    parser.add_argument(
-        "--xacro-arg",
-        action="append",
-        default=[],
-        metavar="NAME:=VALUE",
-        help="argument for a .xacro file (repeatable)",
-    )
+    add_robot_source_arguments(parser)
     add_json_flag(parser)
-
-
-def _xacro_args(items: list[str]) -> dict[str, str]:
-    out = {}
-    for item in items:
-        name, sep, value = item.partition(":=")
-        if not sep or not name.strip():
-            raise ModelError(f"--xacro-arg {item!r}: expected NAME:=VALUE")
-        out[name.strip()] = value
-    return out
-
-
-def _load(args: argparse.Namespace) -> RobotModel:
-    xargs = _xacro_args(args.xacro_arg)
-    if xargs:
-        if not str(args.input).endswith(".xacro"):
-            raise ModelError(f"--xacro-arg given, but {args.input} is not a .xacro file")
-        return load_urdf(args.input, package_paths=args.package_path, xacro_args=xargs)
-    return load_robot(args.input, package_paths=args.package_path)
 
 
 def summary(model: RobotModel) -> dict[str, Any]:
@@ -119,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         with warnings.catch_warnings():
             # repairs are listed in the output; the loader's warnings would repeat them
             warnings.simplefilter("ignore")
-            model = _load(args)
+            model = load_robot_from_args(args)
     except (ModelError, ValueError, OSError, KeyError) as exc:
         msg = " ".join(str(exc).split())
         print(f"robotrial info: error: {msg}", file=sys.stderr)

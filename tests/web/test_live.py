@@ -8,11 +8,7 @@ from __future__ import annotations
 
 import io
 import math
-import socket
-import subprocess
-import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import httpx
@@ -25,31 +21,9 @@ pytestmark = [pytest.mark.browser, pytest.mark.timeout(120)]
 
 
 @pytest.fixture
-def server(tmp_path: Path) -> Iterator[str]:
-    """`robotrial serve --robot mobile_manipulator --world room_a` on a free port."""
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    log = tmp_path / "serve.log"
-    command = [Path(sys.executable).with_name("robotrial"), "serve", "--port", str(port)]
-    command += ["--robot", "mobile_manipulator", "--world", "room_a"]
-    with log.open("w") as errors:
-        proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=errors)
-    url = f"http://127.0.0.1:{port}/"
-    try:
-        deadline = time.monotonic() + 20
-        while True:
-            try:
-                httpx.get(url + "api/config", timeout=1).raise_for_status()
-                break
-            except httpx.HTTPError:
-                assert proc.poll() is None, f"serve exited: {log.read_text()}"
-                assert time.monotonic() < deadline, "serve did not answer within 20 s"
-                time.sleep(0.1)
-        yield url
-    finally:
-        proc.terminate()
-        proc.wait(10)
+def server(serve) -> str:
+    """`robotrial serve --robot mobile_manipulator --world room_a`."""
+    return serve("--robot", "mobile_manipulator", "--world", "room_a")
 
 
 def wait_live(page: Page, condition: str, seconds: float, arg: object = None) -> dict:

@@ -6,10 +6,6 @@ server's refusals (size, zip-slip) through FastAPI's TestClient."""
 from __future__ import annotations
 
 import io
-import socket
-import subprocess
-import sys
-import time
 import zipfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -58,33 +54,9 @@ def tower_zip() -> bytes:
 
 
 @pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    """`robotrial serve` (the desk arm) on a free loopback port."""
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    log = tmp_path_factory.mktemp("upload") / "serve.log"
-    with log.open("w") as errors:
-        proc = subprocess.Popen(
-            [Path(sys.executable).with_name("robotrial"), "serve", "--port", str(port)],
-            stdout=subprocess.DEVNULL,
-            stderr=errors,
-        )
-    url = f"http://127.0.0.1:{port}/"
-    try:
-        deadline = time.monotonic() + 20
-        while True:
-            try:
-                httpx.get(url + "api/config", timeout=1).raise_for_status()
-                break
-            except httpx.HTTPError:
-                assert proc.poll() is None, f"serve exited: {log.read_text()}"
-                assert time.monotonic() < deadline, "serve did not answer within 20 s"
-                time.sleep(0.1)
-        yield url
-    finally:
-        proc.terminate()
-        proc.wait(10)
+def server(serve) -> str:
+    """`robotrial serve` (the desk arm)."""
+    return serve()
 
 
 def wait_ready(page: Page, robot: str) -> dict:

@@ -5,13 +5,9 @@ from __future__ import annotations
 
 import io
 import json
-import subprocess
-import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
-import httpx
 import numpy as np
 import pytest
 from PIL import Image
@@ -26,33 +22,9 @@ VIEWPORT = {"width": 1280, "height": 800}
 
 
 @pytest.fixture
-def server(port: int, tmp_path: Path) -> Iterator[str]:
-    """`robotrial serve` on a free loopback port; yields the URL it prints."""
-    log = tmp_path / "serve.log"
-    with log.open("w") as errors:
-        proc = subprocess.Popen(
-            [Path(sys.executable).with_name("robotrial"), "serve", "--port", str(port)],
-            stdout=subprocess.PIPE,
-            stderr=errors,
-            text=True,
-        )
-    try:
-        line = proc.stdout.readline() if proc.stdout else ""
-        url = f"http://127.0.0.1:{port}/"
-        assert url in line, f"serve printed {line!r}; stderr: {log.read_text()}"
-        deadline = time.monotonic() + 20
-        while True:
-            try:
-                httpx.get(url + "api/config", timeout=1).raise_for_status()
-                break
-            except httpx.HTTPError:
-                assert proc.poll() is None, f"serve exited: {log.read_text()}"
-                assert time.monotonic() < deadline, "serve did not answer within 20 s"
-                time.sleep(0.1)
-        yield url
-    finally:
-        proc.terminate()
-        proc.wait(10)
+def server(serve) -> str:
+    """`robotrial serve` (the desk arm on the desk)."""
+    return serve()
 
 
 def wait_ready(page: Page, robot: str, world: str) -> dict:

@@ -1,0 +1,49 @@
+"""Fixtures of the browser tests: the real `robotrial serve` in a subprocess."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+
+@pytest.fixture(scope="module")
+def serve(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Callable[..., str]]:
+    """Start `robotrial serve ARGS...` on a free loopback port and return the page's URL,
+    once the server prints that URL and answers /api/config; stopped at the module's end."""
+    procs: list[subprocess.Popen] = []
+
+    def start(*args: str, timeout: float = 30.0) -> str:
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            port = s.getsockname()[1]
+        log = tmp_path_factory.mktemp("serve") / "serve.log"
+        command = [Path(sys.executable).with_name("robotrial"), "serve", "--port", str(port)]
+        with log.open("w") as errors:
+            proc = subprocess.Popen(
+                [*command, *args], stdout=subprocess.PIPE, stderr=errors, text=True
+            )
+        procs.append(proc)
+        url = f"http://127.0.0.1:{port}/"
+        line = proc.stdout.readline() if proc.stdout else ""
+        assert url in line, f"serve printed {line!r}; stderr: {log.read_text()}"
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                httpx.get(url + "api/config", timeout=1).raise_for_status()
+                return url
+            except httpx.HTTPError:
+                assert proc.poll() is None, f"serve exited: {log.read_text()}"
+                assert time.monotonic() < deadline, f"serve did not answer within {timeout} s"
+                time.sleep(0.1)
+
+    yield start
+    for proc in procs:
+        proc.terminate()
+        proc.wait(10)

@@ -47,6 +47,26 @@ class LogOddsModel:
         )
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _update_end(
+    grid: np.ndarray,
+    r: int,
+    c: int,
+    hit: bool,
+    l_free: float,
+    l_occ: float,
+    lo: float,
+    hi: float,
+) -> None:
+    """The beam's end cell: occupied evidence where it hit, free where it ran out."""
+    if hit:
+        v = grid[r, c] + l_occ
+        grid[r, c] = hi if v > hi else v
+    else:
+        v = grid[r, c] + l_free
+        grid[r, c] = lo if v < lo else v
+
+
 @numba.njit(cache=True, nogil=True)
 def _trace(
     grid: np.ndarray,
@@ -94,12 +114,7 @@ def _trace(
                 err += dc
                 r += step_r
         if 0 <= r1 < rows and 0 <= c1 < cols:
-            if hit[i]:
-                v = grid[r1, c1] + l_occ
-                grid[r1, c1] = hi if v > hi else v
-            else:
-                v = grid[r1, c1] + l_free
-                grid[r1, c1] = lo if v < lo else v
+            _update_end(grid, r1, c1, hit[i], l_free, l_occ, lo, hi)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -179,12 +194,7 @@ def _trace_fan(
                 if j > 0:
                     j -= 1
         if 0 <= r1 < rows and 0 <= c1 < cols:
-            if hit[i]:
-                v = grid[r1, c1] + l_occ
-                grid[r1, c1] = hi if v > hi else v
-            else:
-                v = grid[r1, c1] + l_free
-                grid[r1, c1] = lo if v < lo else v
+            _update_end(grid, r1, c1, hit[i], l_free, l_occ, lo, hi)
 
 
 @numba.njit(cache=True, nogil=True)

@@ -3,6 +3,11 @@
 A body is a run of spheres fixed to one link (or to the object held in the hand) plus
 a bounding sphere used to skip far-apart pairs. The kernels compute the link poses,
 move the spheres, and stop at the first contact.
+
+The kernels called per configuration are compiled without numba's reference counting
+(`_nrt=False`) and allocate nothing (scratch comes from `buffers`): with some thirty
+arrays in play, the atomic reference counts of their arguments cost more than the
+geometry did.
 """
 
 from __future__ import annotations
@@ -160,18 +165,25 @@ def _bodies_touch(
     return False
 
 
-def buffers(kin, bodies) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Scratch space for `config_valid`: link poses, sphere centres, body bounds, flags."""
+def buffers(kin, bodies, n_pairs: int, queue: int) -> tuple:
+    """Scratch space for the kernels: link poses, sphere centres, body bounds, which
+    bodies have their spheres placed, body and pair speeds of a motion, and a queue of
+    `queue` intervals for `segment_clearance`. The kernels allocate nothing: they are
+    compiled without reference counting, which would cost more than the geometry."""
     n_bodies = bodies[5].shape[0]
     return (
         np.empty((kin[0].shape[0], 4, 4)),
         np.empty((bodies[0].shape[0], 3)),
         np.empty((n_bodies, 3)),
         np.zeros(n_bodies, dtype=np.bool_),
+        np.empty(n_bodies),
+        np.empty(max(n_pairs, 1)),
+        np.empty((queue, 2), dtype=np.int64),
+        np.empty((queue, 2)),
     )
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True, _nrt=False)
 def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf) -> bool:
     """True when configuration `q` is free of self and environment contacts. `buf` is
     scratch space from `buffers`."""
@@ -180,7 +192,7 @@ def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf) -> bool:
         bodies
     )
     box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env
-    poses, centres, bound_c, ready = buf
+    poses, centres, bound_c, ready = buf[0], buf[1], buf[2], buf[3]
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
     for b in range(body_link.shape[0]):
         li = body_link[b]
@@ -190,8 +202,7 @@ def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf) -> bool:
                 poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
             )
         ready[b] = False
-    # bounding-sphere tests stay inline: calling a helper costs about 100 ns in array
-    # reference counting even when the answer is "far apart"
+    # bounding-sphere tests first, inline: most bodies are far from every shape
     n_box, n_cyl, n_sph = box_inv.shape[0], cyl_inv.shape[0], sph_c.shape[0]
     for e in range(env_bodies.shape[0]):
         b = env_bodies[e]
@@ -270,7 +281,7 @@ def valid_batch(qs, kin, bodies, env_bodies, pairs, pad, env, buf) -> np.ndarray
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def config_clearance(
     q, cap, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
 ) -> float:
@@ -284,7 +295,7 @@ def config_clearance(
         bodies
     )
     box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env
-    poses, centres, bound_c, ready = buf
+    poses, centres, bound_c, ready = buf[0], buf[1], buf[2], buf[3]
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
     for b in range(body_link.shape[0]):
         li = body_link[b]
@@ -375,7 +386,7 @@ def _shape_gap2(
     return g * g
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
 def segment_clearance(
     a, b, c_a, resolution, body_rate, pair_rate, kin, bodies, env_bodies, pairs, pad, env, buf, q
 ) -> float:
@@ -395,24 +406,33 @@ def segment_clearance(
     for j in range(d):
         span = max(span, abs(b[j] - a[j]) / resolution[j])
     n = max(int(np.ceil(span)), 1)
-    body_speed = np.zeros(body_rate.shape[0])
-    pair_speed = np.zeros(pair_rate.shape[0])
+    body_speed, pair_speed, iv, cl = buf[4], buf[5], buf[6], buf[7]
+    body_speed[:] = 0.0
+    pair_speed[:] = 0.0
     for j in range(d):
         dq = abs(b[j] - a[j])
         for i in range(body_rate.shape[0]):
             body_speed[i] += body_rate[i, j] * dq
         for i in range(pair_rate.shape[0]):
             pair_speed[i] += pair_rate[i, j] * dq
-    args = (kin, bodies, env_bodies, pairs, pad, env, buf)
-    c_b = config_clearance(b, 1.0, body_speed, pair_speed, *args)
+    c_b = config_clearance(
+        b, 1.0, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
+    )
     if c_b < 0.0 or n == 1 or c_b >= 1.0:
         return c_b
     if c_a < 0.0:
-        c_a = max(config_clearance(a, 1.0, body_speed, pair_speed, *args), 0.0)
+        c_a = max(
+            config_clearance(
+                a, 1.0, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
+            ),
+            0.0,
+        )
     # a queue of intervals between samples i0 < i1 of the n-step grid with the clearance
     # at each end, breadth first; an interval of one step needs nothing more
-    iv = np.empty((2 * n + 2, 2), dtype=np.int64)
-    cl = np.empty((2 * n + 2, 2))
+    if 2 * n + 2 > iv.shape[0]:  # longer than any motion inside the joint limits
+        return _grid_walk(
+            a, b, n, c_b, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, q
+        )
     iv[0, 0], iv[0, 1], cl[0, 0], cl[0, 1] = 0, n, c_a, c_b
     head, tail = 0, 1
     while head < tail:
@@ -424,12 +444,43 @@ def segment_clearance(
         t = im / n
         for j in range(d):
             q[j] = a[j] + t * (b[j] - a[j])
-        c = config_clearance(q, 0.5 * (i1 - i0) / n, body_speed, pair_speed, *args)
+        c = config_clearance(
+            q,
+            0.5 * (i1 - i0) / n,
+            body_speed,
+            pair_speed,
+            kin,
+            bodies,
+            env_bodies,
+            pairs,
+            pad,
+            env,
+            buf,
+        )
         if c < 0.0:
             return -1.0
         iv[tail, 0], iv[tail, 1], cl[tail, 0], cl[tail, 1] = i0, im, c0, c
         iv[tail + 1, 0], iv[tail + 1, 1], cl[tail + 1, 0], cl[tail + 1, 1] = im, i1, c, c1
         tail += 2
+    return c_b
+
+
+@nb.njit(cache=True, _nrt=False)
+def _grid_walk(
+    a, b, n, c_b, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, q
+) -> float:
+    """`segment_clearance` without its queue: every sample of the n-step grid in turn."""
+    for i in range(1, n):
+        t = i / n
+        for j in range(a.shape[0]):
+            q[j] = a[j] + t * (b[j] - a[j])
+        if (
+            config_clearance(
+                q, 0.0, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
+            )
+            < 0.0
+        ):
+            return -1.0
     return c_b
 
 

@@ -322,7 +322,10 @@ class CollisionChecker:
         )
         self._env = self._reachable_env()
         self._travel = self._travel_bounds()
-        self._buf = kernels.buffers(self.kin._args(), self._bodies)
+        longest = int(np.ceil(np.max((self.kin.upper - self.kin.lower) / self.resolution)))
+        self._buf = kernels.buffers(
+            self.kin._args(), self._bodies, len(self.pairs), 2 * longest + 4
+        )
 
     def _reachable_env(self) -> tuple:
         """The environment arrays without shapes no moving body can reach (table legs,

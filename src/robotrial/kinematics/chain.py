@@ -23,15 +23,82 @@ FIXED, REVOLUTE, PRISMATIC = 0, 1, 2
 def fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, out) -> None:
     """World poses of all links for one configuration `q` into `out` (L, 4, 4).
 
-    Written on 3x3 rotations and translations (about 80 flops a link, not a 4x4 product).
+    Written on 3x3 rotations and translations in scalars, without array views (each
+    view costs an atomic reference count): the collision checks call it millions of
+    times.
     """
     n_links = parent.shape[0]
-    out[0, :, :] = origin[0]
-    local = np.empty((3, 4))
+    for i in range(4):
+        for j in range(4):
+            out[0, i, j] = origin[0, i, j]
     for k in range(1, n_links):
-        o = origin[k]
-        # local = origin[k] @ motion(q), 3x4
-        if jtype[k] == REVOLUTE:
+        pk = parent[k]
+        # a = parent rotation @ joint origin (3x4)
+        a00 = (
+            out[pk, 0, 0] * origin[k, 0, 0]
+            + out[pk, 0, 1] * origin[k, 1, 0]
+            + out[pk, 0, 2] * origin[k, 2, 0]
+        )
+        a01 = (
+            out[pk, 0, 0] * origin[k, 0, 1]
+            + out[pk, 0, 1] * origin[k, 1, 1]
+            + out[pk, 0, 2] * origin[k, 2, 1]
+        )
+        a02 = (
+            out[pk, 0, 0] * origin[k, 0, 2]
+            + out[pk, 0, 1] * origin[k, 1, 2]
+            + out[pk, 0, 2] * origin[k, 2, 2]
+        )
+        a10 = (
+            out[pk, 1, 0] * origin[k, 0, 0]
+            + out[pk, 1, 1] * origin[k, 1, 0]
+            + out[pk, 1, 2] * origin[k, 2, 0]
+        )
+        a11 = (
+            out[pk, 1, 0] * origin[k, 0, 1]
+            + out[pk, 1, 1] * origin[k, 1, 1]
+            + out[pk, 1, 2] * origin[k, 2, 1]
+        )
+        a12 = (
+            out[pk, 1, 0] * origin[k, 0, 2]
+            + out[pk, 1, 1] * origin[k, 1, 2]
+            + out[pk, 1, 2] * origin[k, 2, 2]
+        )
+        a20 = (
+            out[pk, 2, 0] * origin[k, 0, 0]
+            + out[pk, 2, 1] * origin[k, 1, 0]
+            + out[pk, 2, 2] * origin[k, 2, 0]
+        )
+        a21 = (
+            out[pk, 2, 0] * origin[k, 0, 1]
+            + out[pk, 2, 1] * origin[k, 1, 1]
+            + out[pk, 2, 2] * origin[k, 2, 1]
+        )
+        a22 = (
+            out[pk, 2, 0] * origin[k, 0, 2]
+            + out[pk, 2, 1] * origin[k, 1, 2]
+            + out[pk, 2, 2] * origin[k, 2, 2]
+        )
+        t0 = (
+            out[pk, 0, 0] * origin[k, 0, 3]
+            + out[pk, 0, 1] * origin[k, 1, 3]
+            + out[pk, 0, 2] * origin[k, 2, 3]
+            + out[pk, 0, 3]
+        )
+        t1 = (
+            out[pk, 1, 0] * origin[k, 0, 3]
+            + out[pk, 1, 1] * origin[k, 1, 3]
+            + out[pk, 1, 2] * origin[k, 2, 3]
+            + out[pk, 1, 3]
+        )
+        t2 = (
+            out[pk, 2, 0] * origin[k, 0, 3]
+            + out[pk, 2, 1] * origin[k, 1, 3]
+            + out[pk, 2, 2] * origin[k, 2, 3]
+            + out[pk, 2, 3]
+        )
+        jt = jtype[k]
+        if jt == REVOLUTE:
             s_ = src[k]
             v = mult[k] * q[s_] + offset[k] if s_ >= 0 else const[k]
             x, y, z = axis[k, 0], axis[k, 1], axis[k, 2]
@@ -40,36 +107,31 @@ def fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, out) -> 
             r00, r01, r02 = t * x * x + c, t * x * y - s * z, t * x * z + s * y
             r10, r11, r12 = t * x * y + s * z, t * y * y + c, t * y * z - s * x
             r20, r21, r22 = t * x * z - s * y, t * y * z + s * x, t * z * z + c
-            for i in range(3):
-                local[i, 0] = o[i, 0] * r00 + o[i, 1] * r10 + o[i, 2] * r20
-                local[i, 1] = o[i, 0] * r01 + o[i, 1] * r11 + o[i, 2] * r21
-                local[i, 2] = o[i, 0] * r02 + o[i, 1] * r12 + o[i, 2] * r22
-                local[i, 3] = o[i, 3]
-        elif jtype[k] == PRISMATIC:
-            s_ = src[k]
-            v = mult[k] * q[s_] + offset[k] if s_ >= 0 else const[k]
-            for i in range(3):
-                local[i, 0] = o[i, 0]
-                local[i, 1] = o[i, 1]
-                local[i, 2] = o[i, 2]
-                local[i, 3] = o[i, 3] + v * (
-                    o[i, 0] * axis[k, 0] + o[i, 1] * axis[k, 1] + o[i, 2] * axis[k, 2]
-                )
+            out[k, 0, 0] = a00 * r00 + a01 * r10 + a02 * r20
+            out[k, 0, 1] = a00 * r01 + a01 * r11 + a02 * r21
+            out[k, 0, 2] = a00 * r02 + a01 * r12 + a02 * r22
+            out[k, 1, 0] = a10 * r00 + a11 * r10 + a12 * r20
+            out[k, 1, 1] = a10 * r01 + a11 * r11 + a12 * r21
+            out[k, 1, 2] = a10 * r02 + a11 * r12 + a12 * r22
+            out[k, 2, 0] = a20 * r00 + a21 * r10 + a22 * r20
+            out[k, 2, 1] = a20 * r01 + a21 * r11 + a22 * r21
+            out[k, 2, 2] = a20 * r02 + a21 * r12 + a22 * r22
         else:
-            for i in range(3):
-                for j in range(4):
-                    local[i, j] = o[i, j]
-        p = out[parent[k]]
-        w = out[k]
-        for i in range(3):
-            p0, p1, p2 = p[i, 0], p[i, 1], p[i, 2]
-            for j in range(3):
-                w[i, j] = p0 * local[0, j] + p1 * local[1, j] + p2 * local[2, j]
-            w[i, 3] = p0 * local[0, 3] + p1 * local[1, 3] + p2 * local[2, 3] + p[i, 3]
-        w[3, 0] = 0.0
-        w[3, 1] = 0.0
-        w[3, 2] = 0.0
-        w[3, 3] = 1.0
+            if jt == PRISMATIC:
+                s_ = src[k]
+                v = mult[k] * q[s_] + offset[k] if s_ >= 0 else const[k]
+                x, y, z = axis[k, 0], axis[k, 1], axis[k, 2]
+                t0 += v * (a00 * x + a01 * y + a02 * z)
+                t1 += v * (a10 * x + a11 * y + a12 * z)
+                t2 += v * (a20 * x + a21 * y + a22 * z)
+            out[k, 0, 0], out[k, 0, 1], out[k, 0, 2] = a00, a01, a02
+            out[k, 1, 0], out[k, 1, 1], out[k, 1, 2] = a10, a11, a12
+            out[k, 2, 0], out[k, 2, 1], out[k, 2, 2] = a20, a21, a22
+        out[k, 0, 3], out[k, 1, 3], out[k, 2, 3] = t0, t1, t2
+        out[k, 3, 0] = 0.0
+        out[k, 3, 1] = 0.0
+        out[k, 3, 2] = 0.0
+        out[k, 3, 3] = 1.0
 
 
 @nb.njit(cache=True, parallel=False)

@@ -9,21 +9,26 @@ iterations between time checks; with any other checker it runs in Python.
 
 from __future__ import annotations
 
+import random
 import time
 from typing import Any
 
 import numba as nb
 import numpy as np
 
-from robotrial.collision.kernels import segment_clearance
-from robotrial.planning.base import Checker, Planner, Problem, Tree, sample, steer
+from robotrial.collision.kernels import config_valid, segment_clearance
+from robotrial.planning.base import (
+    Checker,
+    Planner,
+    PlanResult,
+    Problem,
+    Tree,
+    path_length,
+    sample,
+    steer,
+)
 
 CHUNK = 256  # iterations per compiled call between deadline checks
-
-
-@nb.njit(cache=True)
-def _seed(seed: int) -> None:
-    np.random.seed(seed)  # noqa: NPY002 (numba has only the legacy generator)
 
 
 @nb.njit(cache=True, inline="always")
@@ -55,7 +60,8 @@ def _steer(a, b, step, out) -> bool:
         d2 += (b[j] - a[j]) ** 2
     dist = np.sqrt(d2)
     if dist <= step:
-        out[:] = b
+        for j in range(a.shape[0]):
+            out[j] = b[j]
         return True
     f = step / dist
     for j in range(a.shape[0]):
@@ -63,8 +69,56 @@ def _steer(a, b, step, out) -> bool:
     return False
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=False)
+def _begin(
+    work,
+    start,
+    goals,
+    tq,
+    uq,
+    counts,
+    seed,
+    resolution,
+    body_rate,
+    pair_rate,
+    kin,
+    bodies,
+    env_bodies,
+    pairs,
+    pad,
+    env,
+    buf,
+) -> int:
+    """Seed the generator, check the ends and the direct motion; fill the roots of the
+    start tree tq and the goal tree uq (the free goals). Returns 0 to go on, 1 when the
+    direct motion start -> first free goal is free, -2 for a start in contact, -3 when
+    no goal is free."""
+    np.random.seed(seed)  # noqa: NPY002 (numba has only the legacy generator)
+    scratch = work[0]
+    args = (kin, bodies, env_bodies, pairs, pad, env, buf)
+    if not config_valid(start, *args):
+        return -2
+    for j in range(start.shape[0]):
+        tq[0, j] = start[j]
+    ng = 0
+    for g in range(goals.shape[0]):
+        if config_valid(goals[g], *args):
+            for j in range(start.shape[0]):
+                uq[ng, j] = goals[g, j]
+            ng += 1
+    counts[0], counts[1], counts[2] = 1, ng, 0
+    if ng == 0:
+        return -3
+    if 0.0 <= segment_clearance(
+        start, uq[0], -1.0, resolution, body_rate, pair_rate, *args, scratch
+    ):
+        return 1
+    return 0
+
+
+@nb.njit(cache=True, _nrt=False)
 def _grow(
+    work,
     tq,
     tpar,
     uq,
@@ -92,11 +146,8 @@ def _grow(
     t_is_start): status 1 when node i_t of t and node i_u of u are the same point (the
     trees met), 0 when the iterations ran out, -1 when a tree is full.
     """
+    scratch, target, q_new, q_next = work[0], work[1], work[2], work[3]
     d = lower.shape[0]
-    scratch = np.empty(d)
-    target = np.empty(d)
-    q_new = np.empty(d)
-    q_next = np.empty(d)
     nt, nu = counts[0], counts[1]
     cap = tq.shape[0]
     for _ in range(iters):
@@ -124,7 +175,8 @@ def _grow(
             buf,
             scratch,
         ):
-            tq[nt] = q_new
+            for j in range(d):
+                tq[nt, j] = q_new[j]
             tpar[nt] = near
             new = nt
             nt += 1
@@ -153,7 +205,8 @@ def _grow(
                 )
                 if c_k < 0.0:
                     break
-                uq[nu] = q_next
+                for j in range(d):
+                    uq[nu, j] = q_next[j]
                 upar[nu] = k
                 k = nu
                 nu += 1
@@ -172,26 +225,49 @@ def _grow(
 class RRTConnect(Planner):
     name = "rrt_connect"
 
+    def solve(self, problem: Problem, checker: Checker) -> PlanResult:
+        """With the sphere checker, the whole query (end checks, direct motion, the
+        tree loop) runs compiled; one call to the kernel for every `CHUNK` iterations."""
+        if not hasattr(checker, "kernel_args"):
+            return super().solve(problem, checker)
+        t0 = time.perf_counter()
+        args = checker.kernel_args()  # type: ignore[attr-defined]
+        d = checker.d
+        cap = max(1024, len(problem.goals))
+        trees = [np.empty((cap, d)), np.empty((cap, d))]
+        parents = [np.full(cap, -1, dtype=np.int64), np.full(cap, -1, dtype=np.int64)]
+        counts = np.zeros(3, dtype=np.int64)
+        seed = problem.seed if problem.seed is not None else random.getrandbits(31)
+        work = np.empty((4, d))
+        status = _begin(
+            work, problem.start, problem.goals, trees[0], trees[1], counts, seed & 0x7FFFFFFF, *args
+        )
+        if status == -2:
+            return PlanResult(False, problem.start[None], "invalid_start", {"planning_time": 0.0})
+        if status == -3:
+            stats = {"planning_time": time.perf_counter() - t0}
+            return PlanResult(False, problem.start[None], "invalid_goal", stats)
+        if status == 1:
+            path, stats = np.array([problem.start, trees[1][0]]), {"direct": True}
+        else:
+            path, stats = self._grow_trees(
+                checker, work, trees, parents, counts, t0 + problem.time_limit, args
+            )
+        stats = {"planner": self.name, **stats, "planning_time": time.perf_counter() - t0}
+        if path is None:
+            return PlanResult(False, problem.start[None], "timeout", stats)
+        stats["path_length"] = path_length(path)
+        return PlanResult(True, path, "solved", stats)
+
     def _solve(
         self, problem: Problem, checker: Checker, rng: np.random.Generator, deadline: float
     ) -> tuple[np.ndarray | None, dict[str, Any]]:
-        if hasattr(checker, "kernel_args"):
-            return self._solve_compiled(problem, checker, rng, deadline)
         return self._solve_python(problem, checker, rng, deadline)
 
-    def _solve_compiled(self, problem, checker, rng, deadline):
+    def _grow_trees(self, checker, work, trees, parents, counts, deadline, args):
         step = self.step_size(checker)
         d = checker.d
-        cap = 4096
-        trees = [np.empty((cap, d)), np.empty((cap, d))]
-        parents = [np.full(cap, -1, dtype=np.int64), np.full(cap, -1, dtype=np.int64)]
-        trees[0][0] = problem.start
-        ng = len(problem.goals)
-        trees[1][:ng] = problem.goals
-        n = [1, ng]  # nodes in trees[0] (start) and trees[1] (goals)
-        counts = np.zeros(3, dtype=np.int64)
-        _seed(int(rng.integers(1 << 31)))
-        args = checker.kernel_args()  # type: ignore[attr-defined]
+        n = [int(counts[0]), int(counts[1])]  # nodes in trees[0] (start) and trees[1] (goals)
         lower = np.asarray(checker.lower, dtype=float)
         upper = np.asarray(checker.upper, dtype=float)
         t = 0  # the tree extended first in the next chunk
@@ -199,6 +275,7 @@ class RRTConnect(Planner):
             u = 1 - t
             counts[0], counts[1] = n[t], n[u]
             status, it, iu, t_is_start = _grow(
+                work,
                 trees[t],
                 parents[t],
                 trees[u],
@@ -221,10 +298,10 @@ class RRTConnect(Planner):
                 b = _branch(trees[1], parents[1], i_goal)[::-1]
                 return np.vstack([a, b[1:]]), stats
             if status == -1:
+                cap = len(trees[0])
                 for k in (0, 1):
                     trees[k] = np.vstack([trees[k], np.empty((cap, d))])
                     parents[k] = np.concatenate([parents[k], np.full(cap, -1, dtype=np.int64)])
-                cap *= 2
             if time.perf_counter() >= deadline:
                 return None, stats
 

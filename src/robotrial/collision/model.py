@@ -324,7 +324,7 @@ class CollisionChecker:
         self._travel = self._travel_bounds()
         longest = int(np.ceil(np.max((self.kin.upper - self.kin.lower) / self.resolution)))
         self._buf = kernels.buffers(
-            self.kin._args(), self._bodies, len(self.pairs), 2 * longest + 4
+            self._kin_args, self._bodies, len(self.pairs), 2 * longest + 4
         )
 
     def _reachable_env(self) -> tuple:
@@ -362,20 +362,24 @@ class CollisionChecker:
         return np.ascontiguousarray(arms @ to_joint), np.ascontiguousarray(pair @ to_joint)
 
     def _pack(self) -> None:
+        """The kernels' arrays: spheres and bounds in the frames of the collapsed tree
+        (only the links a planning joint moves; `Kinematics.collapsed`)."""
+        self._kin_args, node, rel = self.kin.collapsed()
         link_index = self.kin.link_index
         starts, ends, link, local, radius, body_link, bound_local, bound_r = ([] for _ in range(8))
         n = 0
         for b in self.bodies:
             li = link_index[b.link]
+            m = rel[li]
             starts.append(n)
             n += len(b.radii)
             ends.append(n)
-            link.extend([li] * len(b.radii))
-            local.append(b.centres)
+            link.extend([node[li]] * len(b.radii))
+            local.append(b.centres @ m[:3, :3].T + m[:3, 3])
             radius.append(b.radii)
             c = 0.5 * (b.centres.min(axis=0) + b.centres.max(axis=0))
-            body_link.append(li)
-            bound_local.append(c)
+            body_link.append(node[li])
+            bound_local.append(m[:3, :3] @ c + m[:3, 3])
             bound_r.append(float(np.max(np.linalg.norm(b.centres - c, axis=1) + b.radii)))
         self._bodies = (
             np.array(link, dtype=np.int64),
@@ -405,7 +409,7 @@ class CollisionChecker:
         q = np.ascontiguousarray(np.atleast_2d(np.asarray(qs, dtype=float)))
         return kernels.valid_batch(
             q,
-            self.kin._args(),
+            self._kin_args,
             self._bodies,
             self.env_bodies,
             self.pairs,
@@ -421,7 +425,7 @@ class CollisionChecker:
         return (
             self.resolution,
             *self._travel,
-            self.kin._args(),
+            self._kin_args,
             self._bodies,
             self.env_bodies,
             self.pairs,
@@ -440,7 +444,7 @@ class CollisionChecker:
             np.ascontiguousarray(np.atleast_2d(b), dtype=float),
             self.resolution,
             *self._travel,
-            self.kin._args(),
+            self._kin_args,
             self._bodies,
             self.env_bodies,
             self.pairs,

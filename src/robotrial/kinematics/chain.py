@@ -285,6 +285,40 @@ class Kinematics:
             self.const,
         )
 
+    def collapsed(self) -> tuple[tuple, np.ndarray, np.ndarray]:
+        """The same tree with only the links a planning variable moves (and the root):
+        every other link rides rigidly on its nearest such ancestor. Returns the kernel
+        arguments of the smaller tree, the node of each link in it, and each link's
+        constant pose in its node's frame (L, 4, 4). The collision checks compute the
+        few moving frames and place the rest through these constants."""
+        n_links = len(self.link_names)
+        node = np.zeros(n_links, dtype=np.int64)
+        rel = np.tile(np.eye(4), (n_links, 1, 1))
+        keep = [0]
+        for k in range(1, n_links):
+            if self.jtype[k] != FIXED and self.src[k] >= 0:
+                node[k] = len(keep)
+                keep.append(k)
+                continue
+            p = self.parent[k]
+            node[k] = node[p]
+            rel[k] = rel[p] @ self.origin[k] @ _joint_motion(
+                self.jtype[k], self.axis[k], self.const[k]
+            )
+        idx = np.array(keep)
+        origin = np.array([rel[self.parent[k]] @ self.origin[k] for k in keep[1:]])
+        args = (
+            np.concatenate([[-1], node[self.parent[idx[1:]]]]).astype(np.int64),
+            np.concatenate([self.origin[:1], origin.reshape(-1, 4, 4)]),
+            self.jtype[idx].copy(),
+            self.axis[idx].copy(),
+            self.src[idx].copy(),
+            self.mult[idx].copy(),
+            self.offset[idx].copy(),
+            self.const[idx].copy(),
+        )
+        return args, node, rel
+
     def check_q(self, q: np.ndarray) -> np.ndarray:
         a = np.ascontiguousarray(np.asarray(q, dtype=float))
         if a.shape[-1] != self.d:
@@ -331,6 +365,19 @@ class Kinematics:
     def random(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """`n` configurations drawn uniformly inside the joint limits."""
         return rng.uniform(self.lower, self.upper, size=(n, self.d))
+
+
+def _joint_motion(jtype: int, axis: np.ndarray, value: float) -> np.ndarray:
+    """The 4x4 motion of a joint of type `jtype` about/along unit `axis` by `value`."""
+    m = np.eye(4)
+    if jtype == REVOLUTE:
+        x, y, z = axis
+        c, s = np.cos(value), np.sin(value)
+        k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+        m[:3, :3] = np.eye(3) + s * k + (1.0 - c) * (k @ k)
+    elif jtype == PRISMATIC:
+        m[:3, 3] = value * np.asarray(axis)
+    return m
 
 
 def fk(model: RobotModel, q: Sequence[float] | Mapping[str, float]) -> dict[str, np.ndarray]:

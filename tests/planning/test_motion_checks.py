@@ -65,3 +65,29 @@ def test_motion_checks_agree_with_dense_sampling(spheres: RobotSpheres, case: st
             else:
                 rejected += 1
     assert accepted > 10 and rejected > 10  # both answers were exercised
+
+
+def test_pairs_marked_never_touching_stay_apart(spheres: RobotSpheres) -> None:
+    """A body that one or two joints move and that cannot reach a shape is left out of
+    clearances; over random configurations its spheres indeed never touch that shape."""
+    env = Environment()
+    env.add("table", Box((1.0, 1.0, 0.05)), Pose((0.0, 0.0, -0.03)))
+    env.add("post", Cylinder(0.03, 0.4), Pose((-0.2, 0.25, 0.2)))
+    checker = CollisionChecker(spheres, env)
+    never = checker._env[7]
+    assert never.any(), "the first link turning above the table should be marked"
+    kin = spheres.kin
+    qs = kin.random(np.random.default_rng(3), 3000)
+    poses = kin.fk(qs)
+    kinds = ["box", "cylinder"]  # the kernels' order: boxes, then cylinders
+    for e, k in zip(*np.nonzero(never), strict=True):
+        body = checker.bodies[checker.env_bodies[e]]
+        m = poses[:, kin.link_index[body.link]]
+        pts = np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]
+        local = pts - env.poses[k][:3, 3]
+        if kinds[k] == "box":
+            gap = np.linalg.norm(np.maximum(np.abs(local) - env.dims[k], 0.0), axis=-1)
+        else:
+            radial = np.maximum(np.linalg.norm(local[..., :2], axis=-1) - env.dims[k][0], 0.0)
+            gap = np.hypot(radial, np.maximum(np.abs(local[..., 2]) - env.dims[k][1], 0.0))
+        assert np.all(gap > body.radii), f"{body.name} touches {env.names[k]}"

@@ -191,7 +191,7 @@ def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf) -> bool:
     sphere_link, sphere_local, radius, body_start, body_end, body_link, bound_local, bound_r = (
         bodies
     )
-    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env
+    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env[:7]
     poses, centres, bound_c, ready = buf[0], buf[1], buf[2], buf[3]
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
     for b in range(body_link.shape[0]):
@@ -294,7 +294,7 @@ def config_clearance(
     sphere_link, sphere_local, radius, body_start, body_end, body_link, bound_local, bound_r = (
         bodies
     )
-    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env
+    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r, never = env
     poses, centres, bound_c, ready = buf[0], buf[1], buf[2], buf[3]
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
     for b in range(body_link.shape[0]):
@@ -313,6 +313,8 @@ def config_clearance(
         bx, by, bz = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2]
         br = bound_r[b] + pad
         for k in range(n_box + n_cyl + sph_c.shape[0]):
+            if never[e, k]:
+                continue
             reach = br + best * v
             g2 = _shape_gap2(
                 bx, by, bz, k, n_box, n_cyl, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r

@@ -302,8 +302,8 @@ class Kinematics:
                 continue
             p = self.parent[k]
             node[k] = node[p]
-            rel[k] = rel[p] @ self.origin[k] @ _joint_motion(
-                self.jtype[k], self.axis[k], self.const[k]
+            rel[k] = (
+                rel[p] @ self.origin[k] @ _joint_motion(self.jtype[k], self.axis[k], self.const[k])
             )
         idx = np.array(keep)
         origin = np.array([rel[self.parent[k]] @ self.origin[k] for k in keep[1:]])

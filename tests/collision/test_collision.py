@@ -9,8 +9,7 @@ from hypothesis import strategies as st
 
 from robotrial.collision.exact import ExactChecker
 from robotrial.collision.model import CollisionChecker, Environment, HeldObject, RobotSpheres
-from robotrial.collision.spheres import box_spheres, cylinder_spheres, shape_spheres
-from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Sphere
+from robotrial.geometry import Box, Cylinder, Pose, Sphere
 from robotrial.kinematics.chain import Kinematics
 from robotrial.model import load_robot, load_world
 
@@ -25,47 +24,6 @@ def desk_arm():
 def _covered(points: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> bool:
     d = np.linalg.norm(points[:, None] - centres[None], axis=-1)
     return bool(np.all(np.any(d <= radii[None] + 1e-9, axis=1)))
-
-
-size = st.floats(0.005, 0.5)
-
-
-@settings(max_examples=40, deadline=None)
-@given(sx=size, sy=size, sz=size)
-def test_box_spheres_cover_the_box(sx: float, sy: float, sz: float) -> None:
-    centres, radii = box_spheres((sx, sy, sz))
-    rng = np.random.default_rng(0)
-    pts = rng.uniform(-0.5, 0.5, (2000, 3)) * [sx, sy, sz]
-    corners = (
-        np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * [sx, sy, sz] / 2
-    )
-    assert _covered(np.vstack([pts, corners]), centres, radii)
-
-
-@settings(max_examples=40, deadline=None)
-@given(r=size, length=size)
-def test_cylinder_spheres_cover_the_cylinder(r: float, length: float) -> None:
-    centres, radii = cylinder_spheres(r, length)
-    rng = np.random.default_rng(0)
-    ang = rng.uniform(0, 2 * np.pi, 2000)
-    rho = r * np.sqrt(rng.uniform(0, 1, 2000))
-    rho[:200] = r  # the rim
-    z = rng.uniform(-length / 2, length / 2, 2000)
-    z[:100] = length / 2
-    pts = np.stack([rho * np.cos(ang), rho * np.sin(ang), z], axis=1)
-    assert _covered(pts, centres, radii)
-
-
-def test_mesh_spheres_cover_the_hull() -> None:
-    import trimesh
-
-    tm = trimesh.creation.icosphere(subdivisions=2, radius=0.1)
-    tm.apply_scale((1.0, 0.5, 2.0))
-    centres, radii = shape_spheres(Mesh(data=MeshData(tm.vertices, tm.faces)))
-    pts, _ = trimesh.sample.sample_surface(tm, 3000, seed=1)
-    assert _covered(np.vstack([pts, tm.vertices]), centres, radii)
-    centres, radii = shape_spheres(Sphere(0.2))
-    assert radii[0] == 0.2
 
 
 def test_self_collision_pairs_disable_adjacent_links(desk_arm) -> None:

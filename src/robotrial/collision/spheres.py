@@ -1,149 +1,467 @@
 """Sphere approximations of shapes: the planner's view of a robot's links (layer 2).
 
-Every sphere set COVERS its shape (never cuts a corner), so a configuration the spheres
-call free is free for the exact shapes too; that keeps the planner's answers valid
-under MuJoCo's exact check. Boxes and cylinders are cut into near-cubic cells, one
-sphere per cell; spheres are themselves; meshes are covered through their convex hull
-(what MuJoCo collides with), clustered in cells of the hull's surface points.
+Every sphere set COVERS its shape's surface exactly (never cuts a corner), so a
+configuration the spheres call free is free for the exact shapes too; that keeps the
+planner's answers valid under MuJoCo's exact check. Meshes are covered through their
+convex hull (what MuJoCo collides with).
+
+The cover has a bounded bulge: a sphere centred at depth h inside a convex shape (h is
+the distance to its surface) with radius h + b stays within b of the shape, since it is
+the inscribed ball B(c, h) grown by b. Candidate centres lie on a grid inside the shape;
+the surface is cut into small triangles, and a sphere covers a triangle when it holds
+its three corners (a ball is convex), so covering every triangle covers the whole
+surface, not just samples of it. A greedy set cover picks the centre that covers the
+most uncovered triangles (and interior grid points, so the cover is solid too) until
+all are covered; the tolerance b starts at 5 mm and grows until the cover fits the
+sphere budget. Finally each sphere shrinks to what its share of the surface needs.
 """
 
 from __future__ import annotations
 
+import hashlib
+from functools import lru_cache
+
+import numba as nb
 import numpy as np
 
 from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
 from robotrial.model.robot import CollisionSphere, RobotModel
 
+FIRST_BULGE = 0.005  # m: the tightest tolerance tried
+BULGE_GROWTH = 1.25  # the tolerance grows by this factor until the cover fits the budget
+CANDIDATES = 2000  # about this many grid points in the shape's bounding box
+PATCHES = 1000  # cut the surface into about this many patches
+INTERIOR = 500  # interior grid points the cover must hold too
+REFINE_ROUNDS = 8  # rounds of moving the chosen centres to lower the bulge
+POLISH_ROUNDS = 2  # rounds of moving the centres off the grid
+POLISH_STEP = 2e-4  # m: the finest move when polishing a centre
+SAG = 2e-4  # m: how far a cylinder's curved surface may stand off its polygon
 
-def _cells(extent: np.ndarray, max_cells: int) -> np.ndarray:
-    """Number of cells along each axis of a box with full `extent`, cells near-cubic."""
-    counts = np.ones(3, dtype=int)
-    while int(np.prod(counts)) < max_cells:
-        cell = extent / counts
-        i = int(np.argmax(cell))
-        if cell[i] <= 1.6 * np.min(extent / counts):  # cells are already near-cubic
+
+class _Convex:
+    """A convex shape as the cover needs it: its surface as small patches of triangles
+    (each patch given by its corners; the true surface may stand off the triangles by
+    `margin`), and candidate centres on a grid inside with their depths."""
+
+    def __init__(
+        self,
+        vertices: np.ndarray,
+        faces: np.ndarray,
+        margin: float,
+        lo: np.ndarray,
+        hi: np.ndarray,
+        depth,
+    ) -> None:
+        tris = np.asarray(vertices, dtype=float)[np.asarray(faces)]
+        area = 0.5 * np.linalg.norm(
+            np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1
+        )
+        extent = np.maximum(hi - lo, 1e-9)
+        edge = float(np.clip(np.sqrt(area.sum() / PATCHES), 0.002, 0.5 * extent.max()))
+        tris = _split(tris[area > 0], edge)
+        # patches: the triangles whose centroids share a cell of side `edge`; each patch
+        # is held by its distinct corners
+        cell = np.floor((tris.mean(axis=1) - lo) / edge).astype(np.int64)
+        cell -= cell.min(axis=0)
+        dims = cell.max(axis=0) + 1
+        _, patch = np.unique(
+            (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2], return_inverse=True
+        )
+        corners, owner = tris.reshape(-1, 3), np.repeat(patch.ravel(), 3)
+        order = np.lexsort((corners[:, 2], corners[:, 1], corners[:, 0], owner))
+        corners, owner = corners[order], owner[order]
+        new = np.r_[True, np.any(np.diff(corners, axis=0) != 0, axis=1) | (np.diff(owner) != 0)]
+        self.vertices, owner = corners[new], owner[new]
+        self.patch_start = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
+        self.margin = margin
+        # per-axis odd counts put a grid plane through the middle of thin shapes
+        step = float(np.cbrt(np.prod(extent) / CANDIDATES))
+        counts = 2 * np.ceil(extent / (2 * step)).astype(int) + 1
+        axes = [np.linspace(lo[i], hi[i], counts[i]) for i in range(3)]
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        h = depth(grid)
+        inside = h >= 0.0
+        self.centres, self.depth = grid[inside], h[inside]
+        self.depth_of = depth
+        self.step = step
+
+
+def _split(tris: np.ndarray, edge: float) -> np.ndarray:
+    """Cut triangles (T, 3, 3) in two across their longest side until no side is longer
+    than `edge`; the pieces tile the same surface."""
+    done = []
+    while len(tris):
+        sides = np.linalg.norm(tris - np.roll(tris, -1, axis=1), axis=2)  # side i: corner i to i+1
+        longest = np.argmax(sides, axis=1)
+        big = sides[np.arange(len(tris)), longest] > edge
+        done.append(tris[~big])
+        tris, longest = tris[big], longest[big]
+        # rotate corners so the longest side runs from corner 0 to corner 1
+        order = (longest[:, None] + np.arange(3)[None, :]) % 3
+        t = np.take_along_axis(tris, order[:, :, None], axis=1)
+        mid = 0.5 * (t[:, 0] + t[:, 1])
+        tris = np.concatenate(
+            [np.stack([t[:, 0], mid, t[:, 2]], 1), np.stack([mid, t[:, 1], t[:, 2]], 1)]
+        )
+    return np.concatenate(done)
+
+
+def _polyhedron_depth(normals: np.ndarray, offsets: np.ndarray):
+    """Depth function of the convex polyhedron {x : normals @ x <= offsets}."""
+
+    def depth(p: np.ndarray) -> np.ndarray:
+        return np.min(offsets[None, :] - p @ normals.T, axis=1)
+
+    return depth
+
+
+@nb.njit(cache=True)
+def _group_need(centres, points, start, margin):
+    """(centres, groups): the radius a sphere at each centre needs to hold each group of
+    points (points[start[g]:start[g + 1]]) plus that group's margin."""
+    n, g = len(centres), len(start) - 1
+    out = np.empty((g, n))
+    for k in range(g):
+        for i in range(n):
+            far = 0.0
+            for j in range(start[k], start[k + 1]):
+                dx = points[j, 0] - centres[i, 0]
+                dy = points[j, 1] - centres[i, 1]
+                dz = points[j, 2] - centres[i, 2]
+                far = max(far, dx * dx + dy * dy + dz * dz)
+            out[k, i] = np.sqrt(far) + margin[k]
+    return out
+
+
+@nb.njit(cache=True)
+def _greedy(need, reach, budget):
+    """Centres (indices) whose spheres of radius `reach` hold every group; empty if more
+    than `budget` are needed or some group fits no sphere. `need` is (groups, centres).
+    Hardest first: take the uncovered group the fewest spheres can hold, and of those
+    spheres the one that holds the most uncovered groups (corners before faces, as one
+    covers a line from its end)."""
+    g, n = need.shape
+    counts = np.zeros(n, dtype=np.int64)
+    holders = np.zeros(g, dtype=np.int64)
+    for k in range(g):
+        for i in range(n):
+            if need[k, i] <= reach[i]:
+                counts[i] += 1
+                holders[k] += 1
+        if holders[k] == 0:
+            return np.empty(0, dtype=np.int64)
+    order = np.argsort(holders, kind="mergesort")
+    uncovered = np.ones(g, dtype=np.bool_)
+    chosen = np.empty(budget, dtype=np.int64)
+    m = 0
+    for hard in order:
+        if not uncovered[hard]:
+            continue
+        if m == budget:
+            return np.empty(0, dtype=np.int64)
+        best, most = -1, -1
+        for i in range(n):
+            if need[hard, i] <= reach[i] and counts[i] > most:
+                best, most = i, counts[i]
+        chosen[m] = best
+        m += 1
+        for k in range(g):
+            if uncovered[k] and need[k, best] <= reach[best]:
+                uncovered[k] = False
+                for i in range(n):
+                    if need[k, i] <= reach[i]:
+                        counts[i] -= 1
+    return chosen[:m]
+
+
+@nb.njit(cache=True)
+def _refine(need, h, chosen, rounds):
+    """Move the chosen centres to lower the worst bulge: give every group to the sphere
+    that holds it with the least bulge, then move each sphere to the candidate whose
+    bulge over its groups is least; repeat. Returns the centres and each group's owner."""
+    g, n = need.shape
+    k = len(chosen)
+    cur = chosen.copy()
+    owner = np.zeros(g, dtype=np.int64)
+    for _ in range(rounds):
+        for q in range(g):
+            best, who = np.inf, 0
+            for j in range(k):
+                v = need[q, cur[j]] - h[cur[j]]
+                if v < best:
+                    best, who = v, j
+            owner[q] = who
+        moved = False
+        for j in range(k):
+            worst = np.full(n, -np.inf)
+            for q in range(g):
+                if owner[q] == j:
+                    for i in range(n):
+                        worst[i] = max(worst[i], need[q, i])
+            best_i, best = cur[j], np.inf
+            for i in range(n):
+                if worst[i] > -np.inf and worst[i] - h[i] < best - 1e-12:
+                    best_i, best = i, worst[i] - h[i]
+            if best_i != cur[j]:
+                cur[j] = best_i
+                moved = True
+        if not moved:
             break
-        counts[i] += 1
-    return counts
+    for q in range(g):
+        best, who = np.inf, 0
+        for j in range(k):
+            v = need[q, cur[j]] - h[cur[j]]
+            if v < best:
+                best, who = v, j
+        owner[q] = who
+    return cur, owner
 
 
-def box_spheres(size, max_spheres: int = 16) -> tuple[np.ndarray, np.ndarray]:
-    """Centres (n, 3) and radii (n,) of spheres covering a box centred at the origin.
+class _Fit:
+    """One shape's cover problem: the radius each candidate centre needs for each group
+    (a surface patch, or an interior grid point, so the cover is solid as well)."""
 
-    The box is cut into cells as thick as its smallest edge across, about as wide along
-    its middle edge, and thin (half the smallest edge) along its longest edge, so each
-    sphere hugs the cross-section rather than a cube around it.
-    """
+    def __init__(self, shape: _Convex) -> None:
+        cand, h = shape.centres, shape.depth
+        deep = np.flatnonzero(h > 0)
+        interior = cand[deep[:: max(len(deep) // INTERIOR, 1)]]
+        points = np.vstack([shape.vertices, interior])
+        start = np.concatenate(
+            [shape.patch_start, len(shape.vertices) + np.arange(len(interior) + 1)]
+        )
+        margin = np.r_[np.full(len(shape.patch_start), shape.margin), np.zeros(len(interior))]
+        self.shape, self.points, self.start, self.margin = shape, points, start, margin
+        self.centres, self.depth = cand, h
+        self.need = _group_need(cand, points, start, margin)
+        self._tried: dict[tuple[int, int], np.ndarray] = {}
+
+    def greedy(self, step: int, budget: int) -> np.ndarray:
+        """Chosen centres at tolerance step `step` (empty if over `budget`)."""
+        key = (step, budget)
+        if key not in self._tried:
+            reach = self.depth + FIRST_BULGE * BULGE_GROWTH**step
+            self._tried[key] = _greedy(self.need, reach, budget)
+        return self._tried[key]
+
+    def finish(self, chosen: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Centres and radii: the chosen grid centres moved to lower the bulge, then off
+        the grid (each sphere to the centre of least bulge over its own groups), every
+        sphere shrunk to what its groups need."""
+        idx, _ = _refine(self.need, self.depth, chosen, REFINE_ROUNDS)
+        centres = self.centres[idx]
+        for _ in range(POLISH_ROUNDS):
+            need = _group_need(centres, self.points, self.start, self.margin)
+            owner = np.argmin(need - self.shape.depth_of(centres)[None, :], axis=1)
+            for k in range(len(centres)):
+                mine = np.flatnonzero(owner == k)
+                if len(mine):
+                    centres[k] = self._polish(centres[k], mine)
+        need = _group_need(centres, self.points, self.start, self.margin)
+        owner = np.argmin(need - self.shape.depth_of(centres)[None, :], axis=1)
+        radii = np.array([np.max(need[owner == k, k], initial=0.0) for k in range(len(centres))])
+        keep = radii > 0.0
+        return centres[keep], radii[keep]
+
+    def _polish(self, centre: np.ndarray, groups: np.ndarray) -> np.ndarray:
+        """Pattern search from `centre` for the point inside the shape where a sphere
+        holding `groups` bulges least."""
+        pts = np.concatenate([self.points[self.start[g] : self.start[g + 1]] for g in groups])
+        pad = np.repeat(self.margin[groups], np.diff(self.start)[groups])
+        moves = np.vstack([np.eye(3), -np.eye(3)])
+
+        def bulge(c: np.ndarray) -> np.ndarray:
+            d = np.sqrt(((pts[None, :, :] - c[:, None, :]) ** 2).sum(-1)) + pad[None, :]
+            h = self.shape.depth_of(c)
+            return np.where(h >= 0.0, d.max(axis=1) - h, np.inf)
+
+        best = float(bulge(centre[None])[0])
+        step = 0.5 * self.shape.step
+        while step > POLISH_STEP:
+            trial = centre[None, :] + step * moves
+            score = bulge(trial)
+            i = int(np.argmin(score))
+            if score[i] < best:
+                centre, best = trial[i], float(score[i])
+            else:
+                step *= 0.5
+        return centre
+
+
+def _shared_cover(shapes: list[_Convex], budget: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Covers of several shapes (one link's) with one tolerance: the smallest step of the
+    schedule at which all of them together need at most `budget` spheres (or one sphere
+    each, if there are more shapes than that)."""
+    fits = [_Fit(s) for s in shapes]
+    widest = max(float(np.max(s.vertices.max(0) - s.vertices.min(0))) for s in shapes)
+    # past this step one sphere holds any of the shapes
+    last = int(np.ceil(np.log(max(widest, FIRST_BULGE) / FIRST_BULGE) / np.log(BULGE_GROWTH)))
+    last = max(last, 0) + 1
+
+    def attempt(step: int) -> list[np.ndarray] | None:
+        out, used = [], 0
+        for f in fits:
+            chosen = f.greedy(step, budget)
+            if not len(chosen) or used + len(chosen) > budget:
+                return None
+            used += len(chosen)
+            out.append(chosen)
+        return out
+
+    # the count falls as the tolerance grows: find the first step that fits by doubling
+    # the step index, then bisecting
+    lo, hi = -1, 0
+    found = attempt(hi)
+    while found is None and hi < last:
+        lo, hi = hi, min(2 * hi + 1, last)
+        found = attempt(hi)
+    if found is None:
+        found = [f.greedy(last, 1) for f in fits]
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        trial = attempt(mid)
+        if trial is None:
+            lo = mid
+        else:
+            hi, found = mid, trial
+    return [f.finish(chosen) for f, chosen in zip(fits, found, strict=True)]
+
+
+def _box(size: tuple[float, float, float]) -> _Convex:
+    import trimesh
+
     extent = np.asarray(size, dtype=float)
-    order = np.argsort(extent)
-    s0, s1, s2 = extent[order]
-    k1 = max(round(float(s1) / max(float(s0), 1e-9)), 1)
-    k2 = max(int(np.ceil(s2 / max(0.5 * s0, 1e-9))), 1)
-    while k1 * k2 > max_spheres and k2 > 1:
-        k2 -= 1
-    while k1 * k2 > max_spheres and k1 > 1:
-        k1 -= 1
-    counts = np.ones(3, dtype=int)
-    counts[order[1]], counts[order[2]] = k1, k2
-    cell = extent / counts
-    axes = [(-extent[i] / 2 + cell[i] * (np.arange(counts[i]) + 0.5)) for i in range(3)]
-    centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    radius = 0.5 * float(np.linalg.norm(cell))
-    return centres, np.full(len(centres), radius)
+    half = extent / 2
+    tm = trimesh.creation.box(extents=extent)
+    normals = np.vstack([np.eye(3), -np.eye(3)])
+    offsets = np.concatenate([half, half])
+    return _Convex(tm.vertices, tm.faces, 0.0, -half, half, _polyhedron_depth(normals, offsets))
 
 
-def cylinder_spheres(
-    radius: float, length: float, max_spheres: int = 16
-) -> tuple[np.ndarray, np.ndarray]:
-    """Spheres covering a cylinder along z centred at the origin.
+def _cylinder(radius: float, length: float) -> _Convex:
+    import trimesh
 
-    A long cylinder gets one sphere per thin slice (half a radius thick, so each sphere
-    is barely wider than the cylinder); a flat one (a disc) gets a grid of square cells
-    as wide as it is thick, keeping the cells that meet the disc.
-    """
-    if length >= radius:
-        n = int(np.clip(np.ceil(2 * length / max(radius, 1e-6)), 1, max_spheres))
-        h = length / n
-        z = -length / 2 + h * (np.arange(n) + 0.5)
-        centres = np.zeros((n, 3))
-        centres[:, 2] = z
-        return centres, np.full(n, float(np.hypot(radius, h / 2)))
-    cell = max(length, 1e-6)
-    while True:
-        k = int(np.ceil(2 * radius / cell))
-        grid = -k * cell / 2 + cell * (np.arange(k) + 0.5)
-        x, y = np.meshgrid(grid, grid, indexing="ij")
-        # distance from the disc's axis to the nearest point of each cell
-        near = np.hypot(np.maximum(np.abs(x) - cell / 2, 0), np.maximum(np.abs(y) - cell / 2, 0))
-        keep = near <= radius
-        if keep.sum() <= max_spheres:
-            break
-        cell *= 1.25
-    centres = np.stack([x[keep], y[keep], np.zeros(int(keep.sum()))], axis=1)
-    r = 0.5 * float(np.sqrt(2 * cell * cell + length * length))
-    return centres, np.full(len(centres), r)
+    # a polygon with its corners on the circle: the true surface stands off its flat
+    # sides by at most the sagitta, which every sphere keeps in hand as a margin
+    sections = int(np.clip(np.ceil(np.pi / np.arccos(1.0 - min(SAG / radius, 1.0))), 8, 256))
+    sag = radius * (1.0 - np.cos(np.pi / sections))
+    tm = trimesh.creation.cylinder(radius=radius, height=length, sections=sections)
+
+    def depth(p: np.ndarray) -> np.ndarray:
+        return np.minimum(radius - np.hypot(p[:, 0], p[:, 1]), length / 2 - np.abs(p[:, 2]))
+
+    half = np.array([radius, radius, length / 2])
+    return _Convex(tm.vertices, tm.faces, float(sag), -half, half, depth)
 
 
-def point_spheres(points: np.ndarray, max_spheres: int = 12) -> tuple[np.ndarray, np.ndarray]:
-    """Spheres covering a point cloud: the points' bounding box cut into near-cubic
-    cells; one sphere per occupied cell, centred on its points, reaching the farthest."""
-    pts = np.asarray(points, dtype=float)
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    extent = np.maximum(hi - lo, 1e-6)
-    counts = _cells(extent, max_spheres)
-    idx = np.minimum(((pts - lo) / extent * counts).astype(int), counts - 1)
-    key = (idx[:, 0] * counts[1] + idx[:, 1]) * counts[2] + idx[:, 2]
-    centres, radii = [], []
-    for k in np.unique(key):
-        cell_pts = pts[key == k]
-        c = 0.5 * (cell_pts.min(axis=0) + cell_pts.max(axis=0))
-        centres.append(c)
-        radii.append(float(np.max(np.linalg.norm(cell_pts - c, axis=1))))
-    return np.array(centres), np.array(radii)
-
-
-def _hull_points(mesh: Mesh) -> np.ndarray:
-    """Points on the surface of a mesh's (scaled) convex hull, dense enough to cover it."""
+def _hull(mesh: Mesh) -> _Convex:
+    """The (scaled) convex hull of a mesh: what MuJoCo collides with."""
     import trimesh
 
     if mesh.data is not None:
         tm = trimesh.Trimesh(mesh.data.vertices, mesh.data.faces, process=False)
     else:
-        loaded = trimesh.load(mesh.filename, force="mesh")
+        try:
+            loaded = trimesh.load(mesh.filename, force="mesh")
+        except (OSError, ValueError) as err:
+            raise ValueError(f"cannot read mesh {mesh.filename!r}: {err}") from err
         tm = loaded if isinstance(loaded, trimesh.Trimesh) else loaded.to_mesh()
     tm.apply_scale(np.asarray(mesh.scale))
+    if len(tm.vertices) < 4:
+        raise ValueError(f"mesh {mesh.filename or '(in memory)'} has fewer than 4 vertices")
     hull = tm.convex_hull
-    rng = np.random.default_rng(0)
-    pts, _ = trimesh.sample.sample_surface(hull, 3000, seed=int(rng.integers(1 << 31)))
-    return np.vstack([hull.vertices, pts])
+    normals = np.asarray(hull.face_normals)
+    offsets = np.einsum("ij,ij->i", normals, hull.triangles[:, 0])
+    lo, hi = hull.bounds
+    return _Convex(hull.vertices, hull.faces, 0.0, lo, hi, _polyhedron_depth(normals, offsets))
 
 
-def shape_spheres(shape: Shape, max_spheres: int = 16) -> tuple[np.ndarray, np.ndarray]:
-    """Spheres (centres in the shape's frame, radii) that cover `shape`."""
-    if isinstance(shape, Sphere):
-        return np.zeros((1, 3)), np.array([float(shape.radius)])
+_MESHES: dict[tuple, Mesh] = {}  # a mesh by its key, so covers can be cached by key
+
+
+def _key(shape: Shape) -> tuple:
+    """A hashable description of a box, cylinder or mesh (bad dimensions rejected)."""
     if isinstance(shape, Box):
-        return box_spheres(shape.size, max_spheres)
+        size = tuple(float(s) for s in shape.size)
+        if len(size) != 3 or min(size) <= 0:
+            raise ValueError(f"box size must be three positive lengths, got {shape.size!r}")
+        return ("box", size)
     if isinstance(shape, Cylinder):
-        return cylinder_spheres(shape.radius, shape.length, max_spheres)
+        if shape.radius <= 0 or shape.length <= 0:
+            raise ValueError(
+                f"cylinder needs positive radius and length, got {shape.radius}, {shape.length}"
+            )
+        return ("cylinder", float(shape.radius), float(shape.length))
     if isinstance(shape, Mesh):
-        pts = _hull_points(shape)
-        centres, radii = point_spheres(pts, max_spheres)
-        # surface samples leave gaps between them; widen each sphere by the sample spacing
-        area = np.ptp(pts, axis=0)
-        spacing = float(
-            np.sqrt(2 * (area[0] * area[1] + area[1] * area[2] + area[0] * area[2]) / len(pts))
-        )
-        return centres, radii + spacing
+        if shape.data is not None:
+            raw = shape.data.vertices.tobytes() + shape.data.faces.tobytes()
+            source = hashlib.sha1(raw).hexdigest()
+        else:
+            source = shape.filename
+        key = ("mesh", source, tuple(shape.scale))
+        _MESHES.setdefault(key, shape)
+        return key
     raise TypeError(f"no sphere cover for shape {shape!r}")
 
 
-def link_spheres(model: RobotModel, max_per_shape: int = 16) -> list[CollisionSphere]:
-    """Spheres covering every collision shape of every link, in the links' frames."""
+@lru_cache(maxsize=64)
+def _convex(key: tuple) -> _Convex:
+    if key[0] == "box":
+        return _box(key[1])
+    if key[0] == "cylinder":
+        return _cylinder(key[1], key[2])
+    return _hull(_MESHES[key])
+
+
+@lru_cache(maxsize=256)
+def _covers(keys: tuple[tuple, ...], budget: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    return _shared_cover([_convex(k) for k in keys], budget)
+
+
+def _spheres_of(shapes: list[Shape], budget: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Covers (centres in each shape's frame, radii) of shapes sharing one tolerance and
+    at most `budget` spheres (spheres are themselves and count one each)."""
+    solid = [i for i, s in enumerate(shapes) if not isinstance(s, Sphere)]
+    out = [(np.zeros((1, 3)), np.array([float(getattr(s, "radius", 0.0))])) for s in shapes]
+    if solid:
+        keys = tuple(_key(shapes[i]) for i in solid)
+        left = max(int(budget) - (len(shapes) - len(solid)), 1)
+        for i, (c, r) in zip(solid, _covers(keys, left), strict=True):
+            out[i] = (c.copy(), r.copy())
+    return out
+
+
+def box_spheres(size, max_spheres: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Centres (n, 3) and radii (n,) of spheres covering a box centred at the origin."""
+    return _spheres_of([Box(tuple(size))], max_spheres)[0]
+
+
+def cylinder_spheres(
+    radius: float, length: float, max_spheres: int = 16
+) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres covering a cylinder along z centred at the origin."""
+    return _spheres_of([Cylinder(radius, length)], max_spheres)[0]
+
+
+def shape_spheres(shape: Shape, max_spheres: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Spheres (centres in the shape's frame, radii) that cover `shape`; a mesh is
+    covered through its convex hull."""
+    return _spheres_of([shape], max_spheres)[0]
+
+
+def link_spheres(model: RobotModel, max_per_shape: int = 20) -> list[CollisionSphere]:
+    """Spheres covering every collision shape of every link, in the links' frames.
+
+    The shapes of one link share one tolerance and `max_per_shape` spheres between them,
+    so a link of many small parts (a finger) costs no more than a link of one."""
     out: list[CollisionSphere] = []
     for link in model.links:
-        for col in link.collisions:
-            centres, radii = shape_spheres(col.geometry, max_per_shape)
+        if not link.collisions:
+            continue
+        try:
+            covers = _spheres_of([c.geometry for c in link.collisions], max_per_shape)
+        except ValueError as err:
+            raise ValueError(f"link {link.name!r}: {err}") from err
+        for col, (centres, radii) in zip(link.collisions, covers, strict=True):
             m = col.origin.matrix()
             world = centres @ m[:3, :3].T + m[:3, 3]
             out.extend(

@@ -37,8 +37,9 @@ class RobotSpheres:
     """A robot's side of the collision model, computed once per robot and joint group.
 
     Link pairs are disabled the way an SRDF does it: pairs that no planning joint
-    separates or that one planning joint joins (adjacent), pairs in contact at the zero
-    configuration, and pairs that never touch in `samples` random configurations.
+    separates or that one planning joint joins (adjacent), pairs whose real collision
+    shapes (MuJoCo) are in contact at the zero configuration, and pairs that never touch
+    in `samples` random configurations (neither as spheres nor as real shapes).
     """
 
     def __init__(
@@ -109,20 +110,26 @@ class RobotSpheres:
                     reasons[(names[i], names[j])] = "adjacent"
                 elif kin.parent[gi] >= 0 and group[kin.parent[gi]] == gj:
                     reasons[(names[i], names[j])] = "adjacent"
+        from robotrial.collision.exact import link_contacts
+
         rng = np.random.default_rng(seed)
         zero = np.clip(np.zeros(kin.d), kin.lower, kin.upper)[None]
-        touch_zero = self._sample_contacts(zero)[0]
+        qs = kin.random(rng, max(samples // 500, 1) * 500)
         seen = np.zeros((len(names), len(names)), dtype=bool)
-        for _ in range(max(samples // 500, 1)):
-            seen |= np.any(self._sample_contacts(kin.random(rng, 500)), axis=0)
+        for chunk in np.split(qs, len(qs) // 500):
+            seen |= np.any(self._sample_contacts(chunk), axis=0)
+        # the real shapes decide, as a MoveIt setup does: the spheres bulge past them
+        touch_zero = link_contacts(kin, zero)
+        touching = link_contacts(kin, qs)
         for i in range(len(names)):
             for j in range(i + 1, len(names)):
                 key = (names[i], names[j])
                 if key in reasons:
                     continue
-                if touch_zero[i, j]:
+                links = (min(names[i], names[j]), max(names[i], names[j]))
+                if links in touch_zero:
                     reasons[key] = "default"
-                elif not seen[i, j]:
+                elif not seen[i, j] or links not in touching:
                     reasons[key] = "never"
         return set(reasons), reasons
 

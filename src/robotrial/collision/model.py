@@ -156,27 +156,15 @@ class RobotSpheres:
         self._reach(poses)
         self._poses = poses
         lever = np.full(kin.d, 1e-3)
-        for k in range(len(kin.link_names)):
-            s = kin.src[k]
-            if s < 0:
-                continue
-            if kin.jtype[k] == PRISMATIC:
-                lever[s] = max(lever[s], abs(kin.mult[k]))
-                continue
-            for b in self.bodies:
-                lb = kin.link_index[b.link]
-                if not kin.ancestors[lb, k]:
-                    continue
-                m = poses[:, lb]
-                world = np.einsum("nij,sj->nsi", m[:, :3, :3], b.centres) + m[:, None, :3, 3]
-                r = np.linalg.norm(world - poses[:, k, None, :3, 3], axis=-1) + b.radii
-                lever[s] = max(lever[s], float(r.max()) * abs(kin.mult[k]))
-        # the sampled maximum may miss the true one by a little: keep a margin
-        return step / (1.1 * lever)
+        for b in self.bodies:
+            arms = self.arms(b)  # with its margin for the sampled maximum
+            for k in np.nonzero(arms)[0]:
+                lever[kin.src[k]] = max(lever[kin.src[k]], arms[k])
+        return step / lever
 
     def arms(self, body: Body, padding: float = 0.0) -> np.ndarray:
         """(links,) how far a surface point of `body` (spheres grown by `padding`) may move
-        per unit of each link's joint: the farthest it gets from the joint's origin (the
+        per unit of each link's joint: the farthest it gets from the joint's axis (the
         sampled maximum plus 10 %) for a revolute joint, 1 for a prismatic one, 0 for
         joints that do not move it. Times |mult| (mimic joints)."""
         kin = self.kin
@@ -190,7 +178,9 @@ class RobotSpheres:
             if kin.jtype[k] == PRISMATIC:
                 out[k] = abs(kin.mult[k])
                 continue
-            r = np.linalg.norm(world - self._poses[:, k, None, :3, 3], axis=-1) + body.radii
+            u = self._poses[:, k, :3, :3] @ kin.axis[k]
+            arm = np.cross(world - self._poses[:, k, None, :3, 3], u[:, None, :])
+            r = np.linalg.norm(arm, axis=-1) + body.radii
             out[k] = 1.1 * (float(r.max()) + padding) * abs(kin.mult[k])
         return out
 

@@ -156,11 +156,24 @@ class RobotSpheres:
         self._reach(poses)
         self._poses = poses
         lever = np.full(kin.d, 1e-3)
-        for b in self.bodies:
-            arms = self.arms(b)  # with its margin for the sampled maximum
-            for k in np.nonzero(arms)[0]:
-                lever[kin.src[k]] = max(lever[kin.src[k]], arms[k])
-        return step / lever
+        for k in range(len(kin.link_names)):
+            s = kin.src[k]
+            if s < 0:
+                continue
+            if kin.jtype[k] == PRISMATIC:
+                lever[s] = max(lever[s], abs(kin.mult[k]))
+                continue
+            for b in self.bodies:
+                lb = kin.link_index[b.link]
+                if not kin.ancestors[lb, k]:
+                    continue
+                m = poses[:, lb]
+                world = np.einsum("nij,sj->nsi", m[:, :3, :3], b.centres) + m[:, None, :3, 3]
+                # from the joint's origin, not its axis: a finer grid than the travel needs
+                r = np.linalg.norm(world - poses[:, k, None, :3, 3], axis=-1) + b.radii
+                lever[s] = max(lever[s], float(r.max()) * abs(kin.mult[k]))
+        # the sampled maximum may miss the true one by a little: keep a margin
+        return step / (1.1 * lever)
 
     def arms(self, body: Body, padding: float = 0.0) -> np.ndarray:
         """(links,) how far a surface point of `body` (spheres grown by `padding`) may move

@@ -90,7 +90,7 @@ def _begin(
     buf,
 ) -> int:
     """Seed the generator, check the ends and the direct motion; fill the roots of the
-    start tree tq and the goal tree uq (the free goals). Returns 0 to go on, 1 when the
+    start tree tq and the goal tree uq (the free goals). Returns 0 to go on, 2 when the
     direct motion start -> first free goal is free, -2 for a start in contact, -3 when
     no goal is free."""
     np.random.seed(seed)  # noqa: NPY002 (numba has only the legacy generator)
@@ -112,12 +112,16 @@ def _begin(
     if 0.0 <= segment_clearance(
         start, uq[0], -1.0, resolution, body_rate, pair_rate, *args, scratch
     ):
-        return 1
+        return 2
     return 0
 
 
 @nb.njit(cache=True, _nrt=False)
 def _grow(
+    first,
+    start,
+    goals,
+    seed,
     work,
     tq,
     tpar,
@@ -144,8 +148,32 @@ def _grow(
 
     counts = [n_t, n_u, iterations done] is updated in place. Returns (status, i_t, i_u,
     t_is_start): status 1 when node i_t of t and node i_u of u are the same point (the
-    trees met), 0 when the iterations ran out, -1 when a tree is full.
+    trees met), 0 when the iterations ran out, -1 when a tree is full. With `first`,
+    `_begin` runs before (tq the start tree, uq the goal tree) and its statuses other
+    than 0 come back as they are (1: the direct motion is free).
     """
+    if first:
+        status = _begin(
+            work,
+            start,
+            goals,
+            tq,
+            uq,
+            counts,
+            seed,
+            resolution,
+            body_rate,
+            pair_rate,
+            kin,
+            bodies,
+            env_bodies,
+            pairs,
+            pad,
+            env,
+            buf,
+        )
+        if status != 0:
+            return status, 0, 0, t_is_start
     scratch, target, q_new, q_next = work[0], work[1], work[2], work[3]
     d = lower.shape[0]
     nt, nu = counts[0], counts[1]
@@ -227,54 +255,31 @@ class RRTConnect(Planner):
 
     def solve(self, problem: Problem, checker: Checker) -> PlanResult:
         """With the sphere checker, the whole query (end checks, direct motion, the
-        tree loop) runs compiled; one call to the kernel for every `CHUNK` iterations."""
+        tree loop, the path) runs compiled; one call to the kernel for every `CHUNK`
+        iterations."""
         if not hasattr(checker, "kernel_args"):
             return super().solve(problem, checker)
         t0 = time.perf_counter()
+        deadline = t0 + problem.time_limit
         args = checker.kernel_args()  # type: ignore[attr-defined]
         d = checker.d
         cap = max(1024, len(problem.goals))
         trees = [np.empty((cap, d)), np.empty((cap, d))]
         parents = [np.full(cap, -1, dtype=np.int64), np.full(cap, -1, dtype=np.int64)]
         counts = np.zeros(3, dtype=np.int64)
-        seed = problem.seed if problem.seed is not None else random.getrandbits(31)
+        seed = (problem.seed if problem.seed is not None else random.getrandbits(31)) & 0x7FFFFFFF
         work = np.empty((4, d))
-        status = _begin(
-            work, problem.start, problem.goals, trees[0], trees[1], counts, seed & 0x7FFFFFFF, *args
-        )
-        if status == -2:
-            return PlanResult(False, problem.start[None], "invalid_start", {"planning_time": 0.0})
-        if status == -3:
-            stats = {"planning_time": time.perf_counter() - t0}
-            return PlanResult(False, problem.start[None], "invalid_goal", stats)
-        if status == 1:
-            path, stats = np.array([problem.start, trees[1][0]]), {"direct": True}
-        else:
-            path, stats = self._grow_trees(
-                checker, work, trees, parents, counts, t0 + problem.time_limit, args
-            )
-        stats = {"planner": self.name, **stats, "planning_time": time.perf_counter() - t0}
-        if path is None:
-            return PlanResult(False, problem.start[None], "timeout", stats)
-        stats["path_length"] = path_length(path)
-        return PlanResult(True, path, "solved", stats)
-
-    def _solve(
-        self, problem: Problem, checker: Checker, rng: np.random.Generator, deadline: float
-    ) -> tuple[np.ndarray | None, dict[str, Any]]:
-        return self._solve_python(problem, checker, rng, deadline)
-
-    def _grow_trees(self, checker, work, trees, parents, counts, deadline, args):
         step = self.step_size(checker)
-        d = checker.d
-        n = [int(counts[0]), int(counts[1])]  # nodes in trees[0] (start) and trees[1] (goals)
-        lower = np.asarray(checker.lower, dtype=float)
-        upper = np.asarray(checker.upper, dtype=float)
+        lower, upper = checker.lower, checker.upper
         t = 0  # the tree extended first in the next chunk
+        first = True
         while True:
             u = 1 - t
-            counts[0], counts[1] = n[t], n[u]
             status, it, iu, t_is_start = _grow(
+                first,
+                problem.start,
+                problem.goals,
+                seed,
                 work,
                 trees[t],
                 parents[t],
@@ -288,22 +293,42 @@ class RRTConnect(Planner):
                 CHUNK,
                 *args,
             )
+            first = False
+            if status == -2:
+                stats = {"planning_time": 0.0}
+                return PlanResult(False, problem.start[None], "invalid_start", stats)
+            if status == -3:
+                stats = {"planning_time": time.perf_counter() - t0}
+                return PlanResult(False, problem.start[None], "invalid_goal", stats)
             # the kernel swaps roles as it goes; its last "t" is the start tree or not
             t = 0 if t_is_start else 1
-            n[t], n[1 - t] = int(counts[0]), int(counts[1])
-            stats = {"iterations": int(counts[2]), "nodes": n[0] + n[1]}
+            stats = {"iterations": int(counts[2]), "nodes": int(counts[0] + counts[1])}
+            if status == 2:
+                path = np.array([problem.start, trees[1][0]])
+                return self._solved(path, path_length(path), {"direct": True}, t0)
             if status == 1:
                 i_start, i_goal = (it, iu) if t == 0 else (iu, it)
-                a = _branch(trees[0], parents[0], i_start)
-                b = _branch(trees[1], parents[1], i_goal)[::-1]
-                return np.vstack([a, b[1:]]), stats
+                out = np.empty((len(trees[0]) + len(trees[1]), d))
+                n, length = _join(trees[0], parents[0], i_start, trees[1], parents[1], i_goal, out)
+                return self._solved(out[:n].copy(), length, stats, t0)
             if status == -1:
-                cap = len(trees[0])
+                grow = len(trees[0])
                 for k in (0, 1):
-                    trees[k] = np.vstack([trees[k], np.empty((cap, d))])
-                    parents[k] = np.concatenate([parents[k], np.full(cap, -1, dtype=np.int64)])
+                    trees[k] = np.vstack([trees[k], np.empty((grow, d))])
+                    parents[k] = np.concatenate([parents[k], np.full(grow, -1, dtype=np.int64)])
             if time.perf_counter() >= deadline:
-                return None, stats
+                stats = {"planner": self.name, **stats, "planning_time": time.perf_counter() - t0}
+                return PlanResult(False, problem.start[None], "timeout", stats)
+
+    def _solved(self, path: np.ndarray, length: float, stats: dict, t0: float) -> PlanResult:
+        stats = {"planner": self.name, **stats, "planning_time": time.perf_counter() - t0}
+        stats["path_length"] = length
+        return PlanResult(True, path, "solved", stats)
+
+    def _solve(
+        self, problem: Problem, checker: Checker, rng: np.random.Generator, deadline: float
+    ) -> tuple[np.ndarray | None, dict[str, Any]]:
+        return self._solve_python(problem, checker, rng, deadline)
 
     def _solve_python(self, problem, checker, rng, deadline):
         step = self.step_size(checker)
@@ -334,9 +359,27 @@ class RRTConnect(Planner):
         return None, {"iterations": it, "nodes": ta.n + tb.n}
 
 
-def _branch(q: np.ndarray, parent: np.ndarray, i: int) -> np.ndarray:
-    out = []
+@nb.njit(cache=True, _nrt=False)
+def _join(tq0, par0, i0, tq1, par1, i1, out) -> tuple[int, float]:
+    """Write the path root of tree 0 -> node i0 = node i1 -> root of tree 1 into `out`;
+    returns its number of points and its joint-space length."""
+    n = 0
+    i = i0
+    while i >= 0:  # count the start branch, then write it backwards
+        n += 1
+        i = par0[i]
+    i = i0
+    for k in range(n - 1, -1, -1):
+        for j in range(tq0.shape[1]):
+            out[k, j] = tq0[i, j]
+        i = par0[i]
+    i = par1[i1]
     while i >= 0:
-        out.append(q[i])
-        i = int(parent[i])
-    return np.array(out[::-1])
+        for j in range(tq1.shape[1]):
+            out[n, j] = tq1[i, j]
+        n += 1
+        i = par1[i]
+    length = 0.0
+    for k in range(1, n):
+        length += _distance(out[k - 1], out[k])
+    return n, length

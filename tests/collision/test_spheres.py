@@ -145,7 +145,7 @@ def panda():
 def test_panda_links_get_tight_covers(panda) -> None:
     spheres = link_spheres(panda)
     per_link = Counter(s.link for s in spheres)
-    assert max(per_link.values()) <= 20
+    assert max(per_link.values()) <= 12
     # the long middle links were one 14.5 cm sphere each: now several that hug the hull
     for name in ("panda_link3", "panda_link4"):
         assert per_link[name] >= 8
@@ -160,7 +160,7 @@ def test_panda_links_get_tight_covers(panda) -> None:
         pts, _ = trimesh.sample.sample_surface(hull, 20000, seed=3)
         assert len(_uncovered(np.vstack([pts, hull.vertices]), centres, radii)) == 0
     # the four boxes of a finger share one budget
-    assert per_link["panda_leftfinger"] <= 20
+    assert per_link["panda_leftfinger"] <= 12
 
 
 def test_pose_spheres_move_with_the_pose() -> None:

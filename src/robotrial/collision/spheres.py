@@ -1,19 +1,21 @@
 """Sphere approximations of shapes: the planner's view of a robot's links (layer 2).
 
-Every sphere set COVERS its shape's surface exactly (never cuts a corner), so a
+Every cover holds its whole shape (surface exactly, interior at grid points), so a
 configuration the spheres call free is free for the exact shapes too; that keeps the
 planner's answers valid under MuJoCo's exact check. Meshes are covered through their
-convex hull (what MuJoCo collides with).
+convex hull (what MuJoCo collides with); boxes, cylinders and hulls go the same way.
 
 The cover has a bounded bulge: a sphere centred at depth h inside a convex shape (h is
 the distance to its surface) with radius h + b stays within b of the shape, since it is
-the inscribed ball B(c, h) grown by b. Candidate centres lie on a grid inside the shape;
-the surface is cut into small triangles, and a sphere covers a triangle when it holds
-its three corners (a ball is convex), so covering every triangle covers the whole
-surface, not just samples of it. A greedy set cover picks the centre that covers the
-most uncovered triangles (and interior grid points, so the cover is solid too) until
-all are covered; the tolerance b starts at 5 mm and grows until the cover fits the
-sphere budget. Finally each sphere shrinks to what its share of the surface needs.
+the inscribed ball B(c, h) grown by b. Candidate centres lie on a grid inside the shape.
+The surface is cut into small triangles gathered in patches, and a sphere holds a patch
+when it holds the patch's corners (a ball is convex), so covering every patch covers
+the whole surface, not just samples of it. A greedy set cover takes the hardest patch
+first (the one the fewest candidates can hold) and the candidate holding it that holds
+the most; the tolerance b starts at 5 mm and grows in steps of 10 % until the cover fits
+the sphere budget. Then the centres move to lower the bulge (on the grid, then off it)
+and every sphere shrinks to what its share of the surface needs. The shapes of one
+link share one tolerance and one budget.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
 from robotrial.model.robot import CollisionSphere, RobotModel
 
 FIRST_BULGE = 0.005  # m: the tightest tolerance tried
-BULGE_GROWTH = 1.25  # the tolerance grows by this factor until the cover fits the budget
+BULGE_GROWTH = 1.1  # the tolerance grows by this factor until the cover fits the budget
 CANDIDATES = 2000  # about this many grid points in the shape's bounding box
 PATCHES = 1000  # cut the surface into about this many patches
 INTERIOR = 500  # interior grid points the cover must hold too
@@ -448,7 +450,7 @@ def shape_spheres(shape: Shape, max_spheres: int = 16) -> tuple[np.ndarray, np.n
     return _spheres_of([shape], max_spheres)[0]
 
 
-def link_spheres(model: RobotModel, max_per_shape: int = 20) -> list[CollisionSphere]:
+def link_spheres(model: RobotModel, max_per_shape: int = 12) -> list[CollisionSphere]:
     """Spheres covering every collision shape of every link, in the links' frames.
 
     The shapes of one link share one tolerance and `max_per_shape` spheres between them,

@@ -179,5 +179,10 @@ def test_bad_shapes_are_named() -> None:
         shape_spheres(Cylinder(-0.1, 0.2))
     with pytest.raises(ValueError, match=r"no_such_mesh\.stl"):
         shape_spheres(Mesh(filename="/nonexistent/no_such_mesh.stl"))
+    flat = MeshData(
+        np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float), [[0, 1, 2], [0, 2, 3]]
+    )
+    with pytest.raises(ValueError, match="flat"):
+        shape_spheres(Mesh(data=flat))
     with pytest.raises(TypeError, match="no sphere cover"):
         shape_spheres("box")  # type: ignore[arg-type]

@@ -81,7 +81,10 @@ class _Convex:
         counts = 2 * np.ceil(extent / (2 * step)).astype(int) + 1
         axes = [np.linspace(lo[i], hi[i], counts[i]) for i in range(3)]
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        h = depth(grid)
+        # the corners' mean lies inside too, so a slab thinner than the grid still has
+        # a candidate
+        grid = np.vstack([grid, self.vertices.mean(axis=0)])
+        h = np.maximum(depth(grid), np.r_[np.full(len(grid) - 1, -np.inf), 0.0])
         inside = h >= 0.0
         self.centres, self.depth = grid[inside], h[inside]
         self.depth_of = depth
@@ -370,7 +373,13 @@ def _hull(mesh: Mesh) -> _Convex:
     tm.apply_scale(np.asarray(mesh.scale))
     if len(tm.vertices) < 4:
         raise ValueError(f"mesh {mesh.filename or '(in memory)'} has fewer than 4 vertices")
-    hull = tm.convex_hull
+    name = mesh.filename or "(in memory)"
+    try:
+        hull = tm.convex_hull
+    except Exception as err:  # qhull refuses flat or degenerate point sets
+        raise ValueError(f"mesh {name}: no convex hull ({err})") from err
+    if not float(hull.volume) > 1e-12:
+        raise ValueError(f"mesh {name} is flat: its convex hull encloses no volume")
     normals = np.asarray(hull.face_normals)
     offsets = np.einsum("ij,ij->i", normals, hull.triangles[:, 0])
     lo, hi = hull.bounds

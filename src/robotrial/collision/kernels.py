@@ -409,6 +409,7 @@ def segment_clearance(
         span = max(span, abs(b[j] - a[j]) / resolution[j])
     n = max(int(np.ceil(span)), 1)
     body_speed, pair_speed, iv, cl = buf[4], buf[5], buf[6], buf[7]
+    args = (kin, bodies, env_bodies, pairs, pad, env, buf)
     body_speed[:] = 0.0
     pair_speed[:] = 0.0
     for j in range(d):
@@ -417,24 +418,15 @@ def segment_clearance(
             body_speed[i] += body_rate[i, j] * dq
         for i in range(pair_rate.shape[0]):
             pair_speed[i] += pair_rate[i, j] * dq
-    c_b = config_clearance(
-        b, 1.0, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
-    )
+    c_b = config_clearance(b, 1.0, body_speed, pair_speed, *args)
     if c_b < 0.0 or n == 1 or c_b >= 1.0:
         return c_b
     if c_a < 0.0:
-        c_a = max(
-            config_clearance(
-                a, 1.0, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
-            ),
-            0.0,
-        )
+        c_a = max(config_clearance(a, 1.0, body_speed, pair_speed, *args), 0.0)
     # a queue of intervals between samples i0 < i1 of the n-step grid with the clearance
     # at each end, breadth first; an interval of one step needs nothing more
     if 2 * n + 2 > iv.shape[0]:  # longer than any motion inside the joint limits
-        return _grid_walk(
-            a, b, n, c_b, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, q
-        )
+        return _grid_walk(a, b, n, c_b, body_speed, pair_speed, args, q)
     iv[0, 0], iv[0, 1], cl[0, 0], cl[0, 1] = 0, n, c_a, c_b
     head, tail = 0, 1
     while head < tail:
@@ -446,19 +438,7 @@ def segment_clearance(
         t = im / n
         for j in range(d):
             q[j] = a[j] + t * (b[j] - a[j])
-        c = config_clearance(
-            q,
-            0.5 * (i1 - i0) / n,
-            body_speed,
-            pair_speed,
-            kin,
-            bodies,
-            env_bodies,
-            pairs,
-            pad,
-            env,
-            buf,
-        )
+        c = config_clearance(q, 0.5 * (i1 - i0) / n, body_speed, pair_speed, *args)
         if c < 0.0:
             return -1.0
         iv[tail, 0], iv[tail, 1], cl[tail, 0], cl[tail, 1] = i0, im, c0, c
@@ -468,20 +448,13 @@ def segment_clearance(
 
 
 @nb.njit(cache=True, _nrt=False)
-def _grid_walk(
-    a, b, n, c_b, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, q
-) -> float:
+def _grid_walk(a, b, n, c_b, body_speed, pair_speed, args, q) -> float:
     """`segment_clearance` without its queue: every sample of the n-step grid in turn."""
     for i in range(1, n):
         t = i / n
         for j in range(a.shape[0]):
             q[j] = a[j] + t * (b[j] - a[j])
-        if (
-            config_clearance(
-                q, 0.0, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
-            )
-            < 0.0
-        ):
+        if config_clearance(q, 0.0, body_speed, pair_speed, *args) < 0.0:
             return -1.0
     return c_b
 

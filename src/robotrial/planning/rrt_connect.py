@@ -70,53 +70,6 @@ def _steer(a, b, step, out) -> bool:
 
 
 @nb.njit(cache=True, _nrt=False)
-def _begin(
-    work,
-    start,
-    goals,
-    tq,
-    uq,
-    counts,
-    seed,
-    resolution,
-    body_rate,
-    pair_rate,
-    kin,
-    bodies,
-    env_bodies,
-    pairs,
-    pad,
-    env,
-    buf,
-) -> int:
-    """Seed the generator, check the ends and the direct motion; fill the roots of the
-    start tree tq and the goal tree uq (the free goals). Returns 0 to go on, 2 when the
-    direct motion start -> first free goal is free, -2 for a start in contact, -3 when
-    no goal is free."""
-    np.random.seed(seed)  # noqa: NPY002 (numba has only the legacy generator)
-    scratch = work[0]
-    args = (kin, bodies, env_bodies, pairs, pad, env, buf)
-    if not config_valid(start, *args):
-        return -2
-    for j in range(start.shape[0]):
-        tq[0, j] = start[j]
-    ng = 0
-    for g in range(goals.shape[0]):
-        if config_valid(goals[g], *args):
-            for j in range(start.shape[0]):
-                uq[ng, j] = goals[g, j]
-            ng += 1
-    counts[0], counts[1], counts[2] = 1, ng, 0
-    if ng == 0:
-        return -3
-    if 0.0 <= segment_clearance(
-        start, uq[0], -1.0, resolution, body_rate, pair_rate, *args, scratch
-    ):
-        return 2
-    return 0
-
-
-@nb.njit(cache=True, _nrt=False)
 def _grow(
     first,
     start,
@@ -148,34 +101,33 @@ def _grow(
 
     counts = [n_t, n_u, iterations done] is updated in place. Returns (status, i_t, i_u,
     t_is_start): status 1 when node i_t of t and node i_u of u are the same point (the
-    trees met), 0 when the iterations ran out, -1 when a tree is full. With `first`,
-    `_begin` runs before (tq the start tree, uq the goal tree) and its statuses other
-    than 0 come back as they are (1: the direct motion is free).
+    trees met), 0 when the iterations ran out, -1 when a tree is full. With `first`, the
+    query starts here: seed the generator, check the ends, fill the roots of tq (the
+    start) and uq (the free goals), try the direct motion; status 2 when that motion is
+    free, -2 for a start in contact, -3 when no goal is free.
     """
-    if first:
-        status = _begin(
-            work,
-            start,
-            goals,
-            tq,
-            uq,
-            counts,
-            seed,
-            resolution,
-            body_rate,
-            pair_rate,
-            kin,
-            bodies,
-            env_bodies,
-            pairs,
-            pad,
-            env,
-            buf,
-        )
-        if status != 0:
-            return status, 0, 0, t_is_start
+    args = (kin, bodies, env_bodies, pairs, pad, env, buf)
     scratch, target, q_new, q_next = work[0], work[1], work[2], work[3]
     d = lower.shape[0]
+    if first:
+        np.random.seed(seed)  # noqa: NPY002 (numba has only the legacy generator)
+        if not config_valid(start, *args):
+            return -2, 0, 0, t_is_start
+        for j in range(d):
+            tq[0, j] = start[j]
+        ng = 0
+        for g in range(goals.shape[0]):
+            if config_valid(goals[g], *args):
+                for j in range(d):
+                    uq[ng, j] = goals[g, j]
+                ng += 1
+        counts[0], counts[1], counts[2] = 1, ng, 0
+        if ng == 0:
+            return -3, 0, 0, t_is_start
+        if 0.0 <= segment_clearance(
+            start, uq[0], -1.0, resolution, body_rate, pair_rate, *args, scratch
+        ):
+            return 2, 0, 0, t_is_start
     nt, nu = counts[0], counts[1]
     cap = tq.shape[0]
     for _ in range(iters):
@@ -188,20 +140,7 @@ def _grow(
         near = _nearest(tq, nt, target)
         _steer(tq[near], target, step, q_new)
         if 0.0 <= segment_clearance(
-            tq[near],
-            q_new,
-            -1.0,
-            resolution,
-            body_rate,
-            pair_rate,
-            kin,
-            bodies,
-            env_bodies,
-            pairs,
-            pad,
-            env,
-            buf,
-            scratch,
+            tq[near], q_new, -1.0, resolution, body_rate, pair_rate, *args, scratch
         ):
             for j in range(d):
                 tq[nt, j] = q_new[j]
@@ -216,20 +155,7 @@ def _grow(
                 if c_k >= 0.0 and length > 0.0:
                     c_k *= step / length  # the walk's last step may be shorter
                 c_k = segment_clearance(
-                    uq[k],
-                    q_next,
-                    c_k,
-                    resolution,
-                    body_rate,
-                    pair_rate,
-                    kin,
-                    bodies,
-                    env_bodies,
-                    pairs,
-                    pad,
-                    env,
-                    buf,
-                    scratch,
+                    uq[k], q_next, c_k, resolution, body_rate, pair_rate, *args, scratch
                 )
                 if c_k < 0.0:
                     break

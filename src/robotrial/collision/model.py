@@ -330,9 +330,9 @@ class CollisionChecker:
             [i for i, b in enumerate(bodies) if self.kin.moving[self.kin.link_index[b.link]]],
             dtype=np.int64,
         )
-        self._env = self._reachable_env()
         self._travel = self._travel_bounds()
-        self._env = (*self._env, self._never_touching())
+        env_arrays = self._reachable_env()
+        self._env = (*env_arrays, self._never_touching(env_arrays))
         longest = int(np.ceil(np.max((self.kin.upper - self.kin.lower) / self.resolution)))
         self._buf = kernels.buffers(self._kin_args, self._bodies, len(self.pairs), 2 * longest + 4)
 
@@ -351,15 +351,14 @@ class CollisionChecker:
         ]
         return self.env.arrays(keep)
 
-    def _never_touching(self, samples: int = 512) -> np.ndarray:
+    def _never_touching(self, env: tuple, samples: int = 512) -> np.ndarray:
         """(env bodies, shapes) True where a body that only one or two planning joints
         move cannot reach the shape anywhere in those joints' ranges (a first link turning
         above the table it stands on). The joints are swept on a grid; between grid points
         a body moves at most its travel bound times half a step, which the gap must
         exceed. Clearances then ignore those pairs: they would otherwise set the pace of
         every motion check while never being in danger."""
-        box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = self._env[:7]
-        n_shapes = len(box_inv) + len(cyl_inv) + len(sph_c)
+        n_shapes = len(env[0]) + len(env[2]) + len(env[5])  # boxes, cylinders, spheres
         out = np.zeros((len(self.env_bodies), n_shapes), dtype=bool)
         rates = self._travel[0]
         kin = self.kin
@@ -381,7 +380,7 @@ class CollisionChecker:
                 np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]
             ).reshape(-1, 3)
             radii = np.tile(body.radii, len(qs)) + self.padding
-            gaps = _shape_gaps(pts, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r)
+            gaps = _shape_gaps(pts, *env)
             out[e] = np.min(gaps - radii[:, None], axis=0) > margin
         return out
 
@@ -535,42 +534,40 @@ class CollisionChecker:
         return out
 
 
+def _local_gaps(local: np.ndarray, kind: str, dims: np.ndarray) -> np.ndarray:
+    """(n,) distance from points given in a shape's frame to the shape (0 inside): a box
+    of half extents dims, a cylinder along z (dims: radius, half length), a sphere."""
+    if kind == "box":
+        return np.linalg.norm(np.maximum(np.abs(local) - dims[:3], 0.0), axis=1)
+    if kind == "cylinder":
+        dr = np.maximum(np.linalg.norm(local[:, :2], axis=1) - dims[0], 0.0)
+        return np.hypot(dr, np.maximum(np.abs(local[:, 2]) - dims[1], 0.0))
+    return np.maximum(np.linalg.norm(local, axis=1) - dims[0], 0.0)
+
+
 def _shape_gaps(pts, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r) -> np.ndarray:
     """(points, shapes) distance from each point to each kernel shape (boxes, cylinders,
     spheres in the kernels' order; 0 inside)."""
-    cols = []
-    for inv, half in zip(box_inv, box_half, strict=True):
-        local = pts @ inv[:3, :3].T + inv[:3, 3]
-        cols.append(np.linalg.norm(np.maximum(np.abs(local) - half, 0.0), axis=1))
-    for inv, r, h in zip(cyl_inv, cyl_r, cyl_h, strict=True):
-        local = pts @ inv[:3, :3].T + inv[:3, 3]
-        dr = np.maximum(np.linalg.norm(local[:, :2], axis=1) - r, 0.0)
-        cols.append(np.hypot(dr, np.maximum(np.abs(local[:, 2]) - h, 0.0)))
-    for c, r in zip(sph_c, sph_r, strict=True):
-        cols.append(np.maximum(np.linalg.norm(pts - c, axis=1) - r, 0.0))
+    cols = [
+        _local_gaps(pts @ inv[:3, :3].T + inv[:3, 3], "box", half)
+        for inv, half in zip(box_inv, box_half, strict=True)
+    ]
+    cols += [
+        _local_gaps(pts @ inv[:3, :3].T + inv[:3, 3], "cylinder", np.array([r, h]))
+        for inv, r, h in zip(cyl_inv, cyl_r, cyl_h, strict=True)
+    ]
+    cols += [
+        _local_gaps(pts - c, "sphere", np.array([r])) for c, r in zip(sph_c, sph_r, strict=True)
+    ]
     return np.stack(cols, axis=1)
 
 
 def _distance(p: np.ndarray, kind: str, pose: np.ndarray, dims: np.ndarray) -> float:
     """Distance from point p to an environment shape (0 inside)."""
     inv = np.linalg.inv(pose)
-    local = inv[:3, :3] @ p + inv[:3, 3]
-    if kind == "box":
-        return float(np.linalg.norm(np.maximum(np.abs(local) - dims, 0.0)))
-    if kind == "cylinder":
-        dr = max(float(np.linalg.norm(local[:2])) - dims[0], 0.0)
-        return float(np.hypot(dr, max(abs(local[2]) - dims[1], 0.0)))
-    return max(float(np.linalg.norm(local)) - dims[0], 0.0)
+    return float(_local_gaps((inv[:3, :3] @ p + inv[:3, 3])[None], kind, dims)[0])
 
 
 def _touches(c: np.ndarray, r: np.ndarray, kind: str, pose: np.ndarray, dims: np.ndarray) -> bool:
     inv = np.linalg.inv(pose)
-    local = c @ inv[:3, :3].T + inv[:3, 3]
-    if kind == "box":
-        gap = np.maximum(np.abs(local) - dims, 0.0)
-        return bool(np.any(np.linalg.norm(gap, axis=1) <= r))
-    if kind == "cylinder":
-        dr = np.maximum(np.linalg.norm(local[:, :2], axis=1) - dims[0], 0.0)
-        dz = np.maximum(np.abs(local[:, 2]) - dims[1], 0.0)
-        return bool(np.any(np.hypot(dr, dz) <= r))
-    return bool(np.any(np.linalg.norm(local, axis=1) <= r + dims[0]))
+    return bool(np.any(_local_gaps(c @ inv[:3, :3].T + inv[:3, 3], kind, dims) <= r))

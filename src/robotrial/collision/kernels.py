@@ -356,7 +356,15 @@ def config_clearance(
             continue
         _place(a, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
         _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
+        bx, by, bz, brad = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2], bound_r[b]
         for i in range(body_start[a], body_end[a]):
+            # a sphere of a that cannot reach b's bounding sphere in time skips b's spheres
+            dx = centres[i, 0] - bx
+            dy = centres[i, 1] - by
+            dz = centres[i, 2] - bz
+            reach = radius[i] + brad + best * v
+            if dx * dx + dy * dy + dz * dz > reach * reach:
+                continue
             for j in range(body_start[b], body_end[b]):
                 dx = centres[i, 0] - centres[j, 0]
                 dy = centres[i, 1] - centres[j, 1]

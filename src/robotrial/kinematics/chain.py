@@ -103,6 +103,14 @@ def fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, out) -> 
             v = mult[k] * q[s_] + offset[k] if s_ >= 0 else const[k]
             x, y, z = axis[k, 0], axis[k, 1], axis[k, 2]
             c, s = np.cos(v), np.sin(v)
+            if x == 0.0 and y == 0.0:  # about z, as most joint frames are set up
+                s *= z
+                out[k, 0, 0], out[k, 0, 1], out[k, 0, 2] = a00 * c + a01 * s, a01 * c - a00 * s, a02
+                out[k, 1, 0], out[k, 1, 1], out[k, 1, 2] = a10 * c + a11 * s, a11 * c - a10 * s, a12
+                out[k, 2, 0], out[k, 2, 1], out[k, 2, 2] = a20 * c + a21 * s, a21 * c - a20 * s, a22
+                out[k, 0, 3], out[k, 1, 3], out[k, 2, 3] = t0, t1, t2
+                out[k, 3, 0], out[k, 3, 1], out[k, 3, 2], out[k, 3, 3] = 0.0, 0.0, 0.0, 1.0
+                continue
             t = 1.0 - c
             r00, r01, r02 = t * x * x + c, t * x * y - s * z, t * x * z + s * y
             r10, r11, r12 = t * x * y + s * z, t * y * y + c, t * y * z - s * x

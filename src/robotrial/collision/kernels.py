@@ -58,6 +58,20 @@ def _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, r
 
 
 @nb.njit(cache=True, inline="always")
+def _bounds(poses, body_link, bound_local, bound_c, ready) -> None:
+    """Place every body's bounding sphere in the world; no body has its spheres placed
+    yet (`_place` does that on demand)."""
+    for b in range(body_link.shape[0]):
+        li = body_link[b]
+        x, y, z = bound_local[b, 0], bound_local[b, 1], bound_local[b, 2]
+        for i in range(3):
+            bound_c[b, i] = (
+                poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
+            )
+        ready[b] = False
+
+
+@nb.njit(cache=True, inline="always")
 def _body_hits_env(
     b,
     sphere_link,
@@ -79,46 +93,37 @@ def _body_hits_env(
     bound_c,
     ready,
 ):
-    """Does body `b` touch any environment shape (boxes, cylinders, spheres)? Arrays come
-    one by one: unpacking tuples in a helper costs reference counting on every call."""
+    """Does body `b` touch any environment shape (boxes, cylinders, spheres)? Its
+    bounding sphere first: most bodies are far from every shape. Arrays come one by one:
+    unpacking tuples in a helper costs reference counting on every call."""
+    n_box, n_cyl = box_inv.shape[0], cyl_inv.shape[0]
     bx, by, bz = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2]
     br = bound_r[b] + pad
-    for k in range(box_inv.shape[0]):
-        if _box_gap2(bx, by, bz, box_inv, k, box_half) > br * br:
+    for k in range(n_box + n_cyl + sph_c.shape[0]):
+        g2 = _shape_gap2(
+            bx, by, bz, k, n_box, n_cyl, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r
+        )
+        if g2 > br * br:
             continue
         _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
         for s in range(body_start[b], body_end[b]):
             r = radius[s] + pad
-            if (
-                _box_gap2(centres[s, 0], centres[s, 1], centres[s, 2], box_inv, k, box_half)
-                <= r * r
-            ):
-                return True
-    for k in range(cyl_inv.shape[0]):
-        if _cyl_gap2(bx, by, bz, cyl_inv, k, cyl_r, cyl_h) > br * br:
-            continue
-        _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
-        for s in range(body_start[b], body_end[b]):
-            r = radius[s] + pad
-            if (
-                _cyl_gap2(centres[s, 0], centres[s, 1], centres[s, 2], cyl_inv, k, cyl_r, cyl_h)
-                <= r * r
-            ):
-                return True
-    for k in range(sph_c.shape[0]):
-        dx = bx - sph_c[k, 0]
-        dy = by - sph_c[k, 1]
-        dz = bz - sph_c[k, 2]
-        lim = br + sph_r[k]
-        if dx * dx + dy * dy + dz * dz > lim * lim:
-            continue
-        _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
-        for s in range(body_start[b], body_end[b]):
-            dx = centres[s, 0] - sph_c[k, 0]
-            dy = centres[s, 1] - sph_c[k, 1]
-            dz = centres[s, 2] - sph_c[k, 2]
-            lim = radius[s] + pad + sph_r[k]
-            if dx * dx + dy * dy + dz * dz <= lim * lim:
+            g2 = _shape_gap2(
+                centres[s, 0],
+                centres[s, 1],
+                centres[s, 2],
+                k,
+                n_box,
+                n_cyl,
+                box_inv,
+                box_half,
+                cyl_inv,
+                cyl_r,
+                cyl_h,
+                sph_c,
+                sph_r,
+            )
+            if g2 <= r * r:
                 return True
     return False
 
@@ -194,38 +199,10 @@ def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf) -> bool:
     box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env[:7]
     poses, centres, bound_c, ready = buf[0], buf[1], buf[2], buf[3]
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
-    for b in range(body_link.shape[0]):
-        li = body_link[b]
-        x, y, z = bound_local[b, 0], bound_local[b, 1], bound_local[b, 2]
-        for i in range(3):
-            bound_c[b, i] = (
-                poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
-            )
-        ready[b] = False
-    # bounding-sphere tests first, inline: most bodies are far from every shape
-    n_box, n_cyl, n_sph = box_inv.shape[0], cyl_inv.shape[0], sph_c.shape[0]
+    _bounds(poses, body_link, bound_local, bound_c, ready)
     for e in range(env_bodies.shape[0]):
         b = env_bodies[e]
-        bx, by, bz = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2]
-        br = bound_r[b] + pad
-        near = False
-        for k in range(n_box):
-            if _box_gap2(bx, by, bz, box_inv, k, box_half) <= br * br:
-                near = True
-                break
-        if not near:
-            for k in range(n_cyl):
-                if _cyl_gap2(bx, by, bz, cyl_inv, k, cyl_r, cyl_h) <= br * br:
-                    near = True
-                    break
-        if not near:
-            for k in range(n_sph):
-                dx, dy, dz = bx - sph_c[k, 0], by - sph_c[k, 1], bz - sph_c[k, 2]
-                lim = br + sph_r[k]
-                if dx * dx + dy * dy + dz * dz <= lim * lim:
-                    near = True
-                    break
-        if near and _body_hits_env(
+        if _body_hits_env(
             b,
             sphere_link,
             sphere_local,
@@ -248,16 +225,9 @@ def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf) -> bool:
         ):
             return False
     for p in range(pairs.shape[0]):
-        a, b = pairs[p, 0], pairs[p, 1]
-        dx = bound_c[a, 0] - bound_c[b, 0]
-        dy = bound_c[a, 1] - bound_c[b, 1]
-        dz = bound_c[a, 2] - bound_c[b, 2]
-        lim = bound_r[a] + bound_r[b]
-        if dx * dx + dy * dy + dz * dz > lim * lim:
-            continue
         if _bodies_touch(
-            a,
-            b,
+            pairs[p, 0],
+            pairs[p, 1],
             sphere_link,
             sphere_local,
             radius,
@@ -297,14 +267,7 @@ def config_clearance(
     box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r, never = env
     poses, centres, bound_c, ready = buf[0], buf[1], buf[2], buf[3]
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
-    for b in range(body_link.shape[0]):
-        li = body_link[b]
-        x, y, z = bound_local[b, 0], bound_local[b, 1], bound_local[b, 2]
-        for i in range(3):
-            bound_c[b, i] = (
-                poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
-            )
-        ready[b] = False
+    _bounds(poses, body_link, bound_local, bound_c, ready)
     best = cap
     n_box, n_cyl = box_inv.shape[0], cyl_inv.shape[0]
     for e in range(env_bodies.shape[0]):

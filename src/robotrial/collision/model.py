@@ -446,11 +446,10 @@ class CollisionChecker:
     def upper(self) -> np.ndarray:
         return self.kin.upper
 
-    def valid(self, qs: np.ndarray) -> np.ndarray:
-        """(N,) bool: which configurations of (N, d) are free."""
-        q = np.ascontiguousarray(np.atleast_2d(np.asarray(qs, dtype=float)))
-        return kernels.valid_batch(
-            q,
+    def _config_args(self) -> tuple:
+        """What every configuration kernel takes after the configuration: kinematics,
+        bodies, env bodies, pairs, padding, environment, scratch."""
+        return (
             self._kin_args,
             self._bodies,
             self.env_bodies,
@@ -460,21 +459,16 @@ class CollisionChecker:
             self._buf,
         )
 
+    def valid(self, qs: np.ndarray) -> np.ndarray:
+        """(N,) bool: which configurations of (N, d) are free."""
+        q = np.ascontiguousarray(np.atleast_2d(np.asarray(qs, dtype=float)))
+        return kernels.valid_batch(q, *self._config_args())
+
     def kernel_args(self) -> tuple:
-        """What compiled planners pass to `kernels.segment_valid` after the two ends:
-        resolution, body and pair travel bounds, kinematics, bodies, env bodies, pairs,
-        padding, environment, scratch."""
-        return (
-            self.resolution,
-            *self._travel,
-            self._kin_args,
-            self._bodies,
-            self.env_bodies,
-            self.pairs,
-            self.padding,
-            self._env,
-            self._buf,
-        )
+        """What the motion kernels (`kernels.segment_clearance`, `kernels.motions_valid`)
+        take after the motion itself: resolution, body and pair travel bounds, then the
+        configuration kernels' arguments."""
+        return (self.resolution, *self._travel, *self._config_args())
 
     def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) bool: which straight segments a[i] -> b[i] are free (a[i] assumed free).
@@ -484,15 +478,7 @@ class CollisionChecker:
         return kernels.motions_valid(
             np.ascontiguousarray(np.atleast_2d(a), dtype=float),
             np.ascontiguousarray(np.atleast_2d(b), dtype=float),
-            self.resolution,
-            *self._travel,
-            self._kin_args,
-            self._bodies,
-            self.env_bodies,
-            self.pairs,
-            self.padding,
-            self._env,
-            self._buf,
+            *self.kernel_args(),
         )
 
     def motion_valid(self, a: np.ndarray, b: np.ndarray) -> bool:

@@ -189,13 +189,7 @@ def _refine(need, h, chosen, rounds):
     cur = chosen.copy()
     owner = np.zeros(g, dtype=np.int64)
     for _ in range(rounds):
-        for q in range(g):
-            best, who = np.inf, 0
-            for j in range(k):
-                v = need[q, cur[j]] - h[cur[j]]
-                if v < best:
-                    best, who = v, j
-            owner[q] = who
+        _assign(need, h, cur, owner)
         moved = False
         for j in range(k):
             worst = np.full(n, -np.inf)
@@ -212,14 +206,20 @@ def _refine(need, h, chosen, rounds):
                 moved = True
         if not moved:
             break
-    for q in range(g):
+    _assign(need, h, cur, owner)
+    return cur, owner
+
+
+@nb.njit(cache=True)
+def _assign(need, h, cur, owner) -> None:
+    """Give every group q to the chosen centre that holds it with the least bulge."""
+    for q in range(need.shape[0]):
         best, who = np.inf, 0
-        for j in range(k):
+        for j in range(cur.shape[0]):
             v = need[q, cur[j]] - h[cur[j]]
             if v < best:
                 best, who = v, j
         owner[q] = who
-    return cur, owner
 
 
 class _Fit:

@@ -8,7 +8,7 @@ import pytest
 
 from robotrial.benchmarks.planning import panda_path
 from robotrial.geometry import Box, Pose
-from robotrial.kinematics.chain import Kinematics, fk
+from robotrial.kinematics.chain import Kinematics, fk, sincos
 from robotrial.kinematics.ik import solve_ik
 from robotrial.kinematics.reference import link_poses
 from robotrial.model import load_robot
@@ -77,6 +77,15 @@ def test_fk_matches_reference(name: str) -> None:
             np.testing.assert_allclose(poses[i], ref[link], atol=1e-12)
     single = fk(robot, qs[0])
     np.testing.assert_allclose(single[kin.tip_name], batch[0, kin.tip], atol=1e-12)
+
+
+def test_sincos_matches_libm_over_joint_ranges() -> None:
+    rng = np.random.default_rng(2)
+    quarter = np.arange(-16, 17) * np.pi / 4  # where the reduction changes quadrant
+    angles = np.concatenate([rng.uniform(-4 * np.pi, 4 * np.pi, 2000), quarter, quarter + 1e-9])
+    got = np.array([sincos(float(v)) for v in angles])
+    np.testing.assert_allclose(got[:, 0], np.sin(angles), rtol=0, atol=4e-15)
+    np.testing.assert_allclose(got[:, 1], np.cos(angles), rtol=0, atol=4e-15)
 
 
 @pytest.mark.parametrize("name", ROBOTS)

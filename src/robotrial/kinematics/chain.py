@@ -19,6 +19,44 @@ from robotrial.model.robot import RobotModel
 FIXED, REVOLUTE, PRISMATIC = 0, 1, 2
 
 
+_PIO2_HI, _PIO2_LO = 1.5707963267948966, 6.123233995736766e-17  # pi/2 = hi + lo
+# Taylor coefficients of (sin r - r) / r^3 and (cos r - 1) / r^2 in powers of r^2
+_S = (-1 / 6, 1 / 120, -1 / 5040, 1 / 362880, -1 / 39916800, 1 / 6227020800, -1 / 1307674368000)
+_C = (
+    -1 / 2,
+    1 / 24,
+    -1 / 720,
+    1 / 40320,
+    -1 / 3628800,
+    1 / 479001600,
+    -1 / 87178291200,
+    1 / 20922789888000,
+)
+
+
+@nb.njit(cache=True, inline="always")
+def sincos(v: float) -> tuple[float, float]:
+    """(sin v, cos v) in one pass: v is reduced to [-pi/4, pi/4], where the series above
+    reach double precision (error 2e-15 for joint angles, 1e-12 at |v| = 1e4). The two
+    libm calls it replaces cost two thirds of a forward kinematics pass."""
+    k = np.floor(v * (1.0 / _PIO2_HI) + 0.5)
+    r = (v - k * _PIO2_HI) - k * _PIO2_LO
+    x = r * r
+    x2 = x * x
+    x4 = x2 * x2
+    ps = (_S[0] + _S[1] * x) + x2 * (_S[2] + _S[3] * x) + x4 * (_S[4] + _S[5] * x + x2 * _S[6])
+    pc = (
+        (_C[0] + _C[1] * x)
+        + x2 * (_C[2] + _C[3] * x)
+        + x4 * ((_C[4] + _C[5] * x) + x2 * (_C[6] + _C[7] * x))
+    )
+    sr, cr = r + r * x * ps, 1.0 + x * pc
+    quadrant = int(k) & 3
+    odd = quadrant & 1 == 1  # selects, not branches: the quadrant is unpredictable
+    a, b = (cr, sr) if odd else (sr, cr)
+    return (1 - (quadrant & 2)) * a, (1 - ((quadrant + 1) & 2)) * b
+
+
 @nb.njit(cache=True, inline="always")
 def fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, out) -> None:
     """World poses of all links for one configuration `q` into `out` (L, 4, 4).
@@ -102,7 +140,7 @@ def fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, out) -> 
             s_ = src[k]
             v = mult[k] * q[s_] + offset[k] if s_ >= 0 else const[k]
             x, y, z = axis[k, 0], axis[k, 1], axis[k, 2]
-            c, s = np.cos(v), np.sin(v)
+            s, c = sincos(v)
             if x == 0.0 and y == 0.0:  # about z, as most joint frames are set up
                 s *= z
                 out[k, 0, 0], out[k, 0, 1], out[k, 0, 2] = a00 * c + a01 * s, a01 * c - a00 * s, a02

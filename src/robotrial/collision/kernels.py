@@ -366,7 +366,7 @@ def segment_clearance(
     """Is the straight motion a -> b free? -1 when not, else the clearance at `b` in units
     of this motion (at most 1). `b` is checked, `a` is assumed free; `c_a` is its
     clearance for this motion when known (from the previous step of a straight walk),
-    negative to compute it.
+    negative to compute it when needed.
 
     Sub-intervals are split coarse to fine (midpoint first, so a blocked motion fails
     after few checks) until each is either no longer than `resolution` per joint or
@@ -392,8 +392,6 @@ def segment_clearance(
     c_b = config_clearance(b, 1.0, body_speed, pair_speed, *args)
     if c_b < 0.0 or n == 1 or c_b >= 1.0:
         return c_b
-    if c_a < 0.0:
-        c_a = max(config_clearance(a, 1.0, body_speed, pair_speed, *args), 0.0)
     # a queue of intervals between samples i0 < i1 of the n-step grid with the clearance
     # at each end, breadth first; an interval of one step needs nothing more
     if 2 * n + 2 > iv.shape[0]:  # longer than any motion inside the joint limits
@@ -403,7 +401,13 @@ def segment_clearance(
     while head < tail:
         i0, i1, c0, c1 = iv[head, 0], iv[head, 1], cl[head, 0], cl[head, 1]
         head += 1
-        if i1 - i0 <= 1 or c0 + c1 >= (i1 - i0) / n:
+        if i1 - i0 <= 1:
+            continue
+        if c0 < 0.0 and i1 < n:
+            # a's clearance, left unknown until an interval shorter than the motion
+            # needs it: a blocked motion often fails at its midpoint first
+            c0 = max(config_clearance(a, i1 / n, body_speed, pair_speed, *args), 0.0)
+        if c0 + c1 >= (i1 - i0) / n:
             continue
         im = (i0 + i1) // 2
         t = im / n

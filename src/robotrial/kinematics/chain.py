@@ -58,6 +58,16 @@ def sincos(v: float) -> tuple[float, float]:
 
 
 @nb.njit(cache=True, inline="always")
+def _rc(out, pk, i, origin, k, j) -> float:
+    """Row i of link pk's rotation times column j of link k's joint origin."""
+    return (
+        out[pk, i, 0] * origin[k, 0, j]
+        + out[pk, i, 1] * origin[k, 1, j]
+        + out[pk, i, 2] * origin[k, 2, j]
+    )
+
+
+@nb.njit(cache=True, inline="always")
 def fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, out) -> None:
     """World poses of all links for one configuration `q` into `out` (L, 4, 4).
 
@@ -72,69 +82,18 @@ def fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, out) -> 
     for k in range(1, n_links):
         pk = parent[k]
         # a = parent rotation @ joint origin (3x4)
-        a00 = (
-            out[pk, 0, 0] * origin[k, 0, 0]
-            + out[pk, 0, 1] * origin[k, 1, 0]
-            + out[pk, 0, 2] * origin[k, 2, 0]
-        )
-        a01 = (
-            out[pk, 0, 0] * origin[k, 0, 1]
-            + out[pk, 0, 1] * origin[k, 1, 1]
-            + out[pk, 0, 2] * origin[k, 2, 1]
-        )
-        a02 = (
-            out[pk, 0, 0] * origin[k, 0, 2]
-            + out[pk, 0, 1] * origin[k, 1, 2]
-            + out[pk, 0, 2] * origin[k, 2, 2]
-        )
-        a10 = (
-            out[pk, 1, 0] * origin[k, 0, 0]
-            + out[pk, 1, 1] * origin[k, 1, 0]
-            + out[pk, 1, 2] * origin[k, 2, 0]
-        )
-        a11 = (
-            out[pk, 1, 0] * origin[k, 0, 1]
-            + out[pk, 1, 1] * origin[k, 1, 1]
-            + out[pk, 1, 2] * origin[k, 2, 1]
-        )
-        a12 = (
-            out[pk, 1, 0] * origin[k, 0, 2]
-            + out[pk, 1, 1] * origin[k, 1, 2]
-            + out[pk, 1, 2] * origin[k, 2, 2]
-        )
-        a20 = (
-            out[pk, 2, 0] * origin[k, 0, 0]
-            + out[pk, 2, 1] * origin[k, 1, 0]
-            + out[pk, 2, 2] * origin[k, 2, 0]
-        )
-        a21 = (
-            out[pk, 2, 0] * origin[k, 0, 1]
-            + out[pk, 2, 1] * origin[k, 1, 1]
-            + out[pk, 2, 2] * origin[k, 2, 1]
-        )
-        a22 = (
-            out[pk, 2, 0] * origin[k, 0, 2]
-            + out[pk, 2, 1] * origin[k, 1, 2]
-            + out[pk, 2, 2] * origin[k, 2, 2]
-        )
-        t0 = (
-            out[pk, 0, 0] * origin[k, 0, 3]
-            + out[pk, 0, 1] * origin[k, 1, 3]
-            + out[pk, 0, 2] * origin[k, 2, 3]
-            + out[pk, 0, 3]
-        )
-        t1 = (
-            out[pk, 1, 0] * origin[k, 0, 3]
-            + out[pk, 1, 1] * origin[k, 1, 3]
-            + out[pk, 1, 2] * origin[k, 2, 3]
-            + out[pk, 1, 3]
-        )
-        t2 = (
-            out[pk, 2, 0] * origin[k, 0, 3]
-            + out[pk, 2, 1] * origin[k, 1, 3]
-            + out[pk, 2, 2] * origin[k, 2, 3]
-            + out[pk, 2, 3]
-        )
+        a00 = _rc(out, pk, 0, origin, k, 0)
+        a01 = _rc(out, pk, 0, origin, k, 1)
+        a02 = _rc(out, pk, 0, origin, k, 2)
+        a10 = _rc(out, pk, 1, origin, k, 0)
+        a11 = _rc(out, pk, 1, origin, k, 1)
+        a12 = _rc(out, pk, 1, origin, k, 2)
+        a20 = _rc(out, pk, 2, origin, k, 0)
+        a21 = _rc(out, pk, 2, origin, k, 1)
+        a22 = _rc(out, pk, 2, origin, k, 2)
+        t0 = _rc(out, pk, 0, origin, k, 3) + out[pk, 0, 3]
+        t1 = _rc(out, pk, 1, origin, k, 3) + out[pk, 1, 3]
+        t2 = _rc(out, pk, 2, origin, k, 3) + out[pk, 2, 3]
         jt = jtype[k]
         if jt == REVOLUTE:
             s_ = src[k]
@@ -146,22 +105,20 @@ def fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, out) -> 
                 out[k, 0, 0], out[k, 0, 1], out[k, 0, 2] = a00 * c + a01 * s, a01 * c - a00 * s, a02
                 out[k, 1, 0], out[k, 1, 1], out[k, 1, 2] = a10 * c + a11 * s, a11 * c - a10 * s, a12
                 out[k, 2, 0], out[k, 2, 1], out[k, 2, 2] = a20 * c + a21 * s, a21 * c - a20 * s, a22
-                out[k, 0, 3], out[k, 1, 3], out[k, 2, 3] = t0, t1, t2
-                out[k, 3, 0], out[k, 3, 1], out[k, 3, 2], out[k, 3, 3] = 0.0, 0.0, 0.0, 1.0
-                continue
-            t = 1.0 - c
-            r00, r01, r02 = t * x * x + c, t * x * y - s * z, t * x * z + s * y
-            r10, r11, r12 = t * x * y + s * z, t * y * y + c, t * y * z - s * x
-            r20, r21, r22 = t * x * z - s * y, t * y * z + s * x, t * z * z + c
-            out[k, 0, 0] = a00 * r00 + a01 * r10 + a02 * r20
-            out[k, 0, 1] = a00 * r01 + a01 * r11 + a02 * r21
-            out[k, 0, 2] = a00 * r02 + a01 * r12 + a02 * r22
-            out[k, 1, 0] = a10 * r00 + a11 * r10 + a12 * r20
-            out[k, 1, 1] = a10 * r01 + a11 * r11 + a12 * r21
-            out[k, 1, 2] = a10 * r02 + a11 * r12 + a12 * r22
-            out[k, 2, 0] = a20 * r00 + a21 * r10 + a22 * r20
-            out[k, 2, 1] = a20 * r01 + a21 * r11 + a22 * r21
-            out[k, 2, 2] = a20 * r02 + a21 * r12 + a22 * r22
+            else:
+                t = 1.0 - c
+                r00, r01, r02 = t * x * x + c, t * x * y - s * z, t * x * z + s * y
+                r10, r11, r12 = t * x * y + s * z, t * y * y + c, t * y * z - s * x
+                r20, r21, r22 = t * x * z - s * y, t * y * z + s * x, t * z * z + c
+                out[k, 0, 0] = a00 * r00 + a01 * r10 + a02 * r20
+                out[k, 0, 1] = a00 * r01 + a01 * r11 + a02 * r21
+                out[k, 0, 2] = a00 * r02 + a01 * r12 + a02 * r22
+                out[k, 1, 0] = a10 * r00 + a11 * r10 + a12 * r20
+                out[k, 1, 1] = a10 * r01 + a11 * r11 + a12 * r21
+                out[k, 1, 2] = a10 * r02 + a11 * r12 + a12 * r22
+                out[k, 2, 0] = a20 * r00 + a21 * r10 + a22 * r20
+                out[k, 2, 1] = a20 * r01 + a21 * r11 + a22 * r21
+                out[k, 2, 2] = a20 * r02 + a21 * r12 + a22 * r22
         else:
             if jt == PRISMATIC:
                 s_ = src[k]
@@ -174,10 +131,7 @@ def fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, out) -> 
             out[k, 1, 0], out[k, 1, 1], out[k, 1, 2] = a10, a11, a12
             out[k, 2, 0], out[k, 2, 1], out[k, 2, 2] = a20, a21, a22
         out[k, 0, 3], out[k, 1, 3], out[k, 2, 3] = t0, t1, t2
-        out[k, 3, 0] = 0.0
-        out[k, 3, 1] = 0.0
-        out[k, 3, 2] = 0.0
-        out[k, 3, 3] = 1.0
+        out[k, 3, 0], out[k, 3, 1], out[k, 3, 2], out[k, 3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
 @nb.njit(cache=True, parallel=False)

@@ -74,7 +74,7 @@ def test_pairs_marked_never_touching_stay_apart(spheres: RobotSpheres) -> None:
     env.add("table", Box((1.0, 1.0, 0.05)), Pose((0.0, 0.0, -0.03)))
     env.add("post", Cylinder(0.03, 0.4), Pose((-0.2, 0.25, 0.2)))
     checker = CollisionChecker(spheres, env)
-    never = checker._env[7]
+    never = checker.never_touching
     assert never.any(), "the first link turning above the table should be marked"
     kin = spheres.kin
     qs = kin.random(np.random.default_rng(3), 3000)

@@ -2,7 +2,9 @@
 
 A body is a run of spheres fixed to one link (or to the object held in the hand) plus
 a bounding sphere used to skip far-apart pairs. The kernels compute the link poses,
-move the spheres, and stop at the first contact.
+move the spheres, and stop at the first contact. Sphere centres are stored one row per
+axis so that the gaps of a body's spheres to one shape are computed side by side
+(SIMD).
 
 The kernels called per configuration are compiled without numba's reference counting
 (`_nrt=False`) and allocate nothing (scratch comes from `buffers`): with some thirty
@@ -17,174 +19,213 @@ import numpy as np
 
 from robotrial.kinematics.chain import fk_single
 
-
-@nb.njit(cache=True, inline="always")
-def _box_gap2(x, y, z, inv, k, half) -> float:
-    """Squared distance from point (x, y, z) to box k (0 inside); indices, not views,
-    keep the inner loop free of array-view bookkeeping."""
-    d2 = 0.0
-    for i in range(3):
-        u = inv[k, i, 0] * x + inv[k, i, 1] * y + inv[k, i, 2] * z + inv[k, i, 3]
-        e = abs(u) - half[k, i]
-        if e > 0.0:
-            d2 += e * e
-    return d2
+# the per-sphere gap loops vectorise (SIMD) when LLVM may assume no NaNs and fuse
+# multiply-adds; the geometry has no NaNs
+_FAST = {"nnan", "nsz", "reassoc", "contract", "arcp"}
+_FAR = 1e30  # a gap larger than any scene
 
 
 @nb.njit(cache=True, inline="always")
-def _cyl_gap2(x, y, z, inv, k, radius, half_length) -> float:
-    u = inv[k, 0, 0] * x + inv[k, 0, 1] * y + inv[k, 0, 2] * z + inv[k, 0, 3]
-    v = inv[k, 1, 0] * x + inv[k, 1, 1] * y + inv[k, 1, 2] * z + inv[k, 1, 3]
-    w = inv[k, 2, 0] * x + inv[k, 2, 1] * y + inv[k, 2, 2] * z + inv[k, 2, 3]
-    dr = max(np.sqrt(u * u + v * v) - radius[k], 0.0)
-    dz = max(abs(w) - half_length[k], 0.0)
-    return dr * dr + dz * dz
+def _least(gaps, s0, s1) -> float:
+    """The smallest of gaps[s0:s1], over four independent minima (numba's min-reductions
+    do not vectorise; the gaps themselves do)."""
+    m0 = m1 = m2 = m3 = _FAR
+    s = s0
+    while s + 4 <= s1:
+        m0 = min(m0, gaps[s])
+        m1 = min(m1, gaps[s + 1])
+        m2 = min(m2, gaps[s + 2])
+        m3 = min(m3, gaps[s + 3])
+        s += 4
+    while s < s1:
+        m0 = min(m0, gaps[s])
+        s += 1
+    return min(min(m0, m1), min(m2, m3))
 
 
 @nb.njit(cache=True, inline="always")
-def _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready) -> None:
+def _spheres_to_box(centres, radius, s0, s1, inv, k, half, gaps) -> float:
+    """Smallest surface gap from spheres s0..s1 (world centres, one row per axis) to
+    box k; negative when one overlaps it. `gaps` is scratch, one per sphere."""
+    r00, r01, r02, r03 = inv[k, 0, 0], inv[k, 0, 1], inv[k, 0, 2], inv[k, 0, 3]
+    r10, r11, r12, r13 = inv[k, 1, 0], inv[k, 1, 1], inv[k, 1, 2], inv[k, 1, 3]
+    r20, r21, r22, r23 = inv[k, 2, 0], inv[k, 2, 1], inv[k, 2, 2], inv[k, 2, 3]
+    h0, h1, h2 = half[k, 0], half[k, 1], half[k, 2]
+    cx, cy, cz = centres[0], centres[1], centres[2]
+    for s in range(s0, s1):
+        x, y, z = cx[s], cy[s], cz[s]
+        u = max(abs(r00 * x + r01 * y + r02 * z + r03) - h0, 0.0)
+        v = max(abs(r10 * x + r11 * y + r12 * z + r13) - h1, 0.0)
+        w = max(abs(r20 * x + r21 * y + r22 * z + r23) - h2, 0.0)
+        gaps[s] = np.sqrt(u * u + v * v + w * w) - radius[s]
+    return _least(gaps, s0, s1)
+
+
+@nb.njit(cache=True, inline="always")
+def _spheres_to_cyl(centres, radius, s0, s1, inv, k, cyl_r, cyl_h, gaps) -> float:
+    r00, r01, r02, r03 = inv[k, 0, 0], inv[k, 0, 1], inv[k, 0, 2], inv[k, 0, 3]
+    r10, r11, r12, r13 = inv[k, 1, 0], inv[k, 1, 1], inv[k, 1, 2], inv[k, 1, 3]
+    r20, r21, r22, r23 = inv[k, 2, 0], inv[k, 2, 1], inv[k, 2, 2], inv[k, 2, 3]
+    rad, hl = cyl_r[k], cyl_h[k]
+    cx, cy, cz = centres[0], centres[1], centres[2]
+    for s in range(s0, s1):
+        x, y, z = cx[s], cy[s], cz[s]
+        u = r00 * x + r01 * y + r02 * z + r03
+        v = r10 * x + r11 * y + r12 * z + r13
+        w = r20 * x + r21 * y + r22 * z + r23
+        dr = max(np.sqrt(u * u + v * v) - rad, 0.0)
+        dz = max(abs(w) - hl, 0.0)
+        gaps[s] = np.sqrt(dr * dr + dz * dz) - radius[s]
+    return _least(gaps, s0, s1)
+
+
+@nb.njit(cache=True, inline="always")
+def _spheres_to_point(centres, radius, s0, s1, px, py, pz, extra, gaps) -> float:
+    """Smallest surface gap from spheres s0..s1 to a sphere at (px, py, pz) of radius
+    `extra` (also the pairs' inner loop)."""
+    cx, cy, cz = centres[0], centres[1], centres[2]
+    for s in range(s0, s1):
+        dx, dy, dz = cx[s] - px, cy[s] - py, cz[s] - pz
+        gaps[s] = np.sqrt(dx * dx + dy * dy + dz * dz) - radius[s] - extra
+    return _least(gaps, s0, s1)
+
+
+@nb.njit(cache=True, inline="always")
+def _point_gap2(k, env, x, y, z) -> float:
+    """Squared distance from point (x, y, z) to environment shape k (0 inside)."""
+    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env[:7]
+    n_box, n_cyl = box_inv.shape[0], cyl_inv.shape[0]
+    if k < n_box:
+        inv, half = box_inv, box_half
+        u = max(
+            abs(inv[k, 0, 0] * x + inv[k, 0, 1] * y + inv[k, 0, 2] * z + inv[k, 0, 3]) - half[k, 0],
+            0.0,
+        )
+        v = max(
+            abs(inv[k, 1, 0] * x + inv[k, 1, 1] * y + inv[k, 1, 2] * z + inv[k, 1, 3]) - half[k, 1],
+            0.0,
+        )
+        w = max(
+            abs(inv[k, 2, 0] * x + inv[k, 2, 1] * y + inv[k, 2, 2] * z + inv[k, 2, 3]) - half[k, 2],
+            0.0,
+        )
+        return u * u + v * v + w * w
+    if k < n_box + n_cyl:
+        c, inv = k - n_box, cyl_inv
+        u = inv[c, 0, 0] * x + inv[c, 0, 1] * y + inv[c, 0, 2] * z + inv[c, 0, 3]
+        v = inv[c, 1, 0] * x + inv[c, 1, 1] * y + inv[c, 1, 2] * z + inv[c, 1, 3]
+        w = inv[c, 2, 0] * x + inv[c, 2, 1] * y + inv[c, 2, 2] * z + inv[c, 2, 3]
+        dr = max(np.sqrt(u * u + v * v) - cyl_r[c], 0.0)
+        dz = max(abs(w) - cyl_h[c], 0.0)
+        return dr * dr + dz * dz
+    c = k - n_box - n_cyl
+    dx, dy, dz = x - sph_c[c, 0], y - sph_c[c, 1], z - sph_c[c, 2]
+    g = max(np.sqrt(dx * dx + dy * dy + dz * dz) - sph_r[c], 0.0)
+    return g * g
+
+
+@nb.njit(cache=True, inline="always")
+def _shape_gaps(k, env, centres, radius, s0, s1, gaps) -> float:
+    """Surface gaps from spheres s0..s1 to environment shape k (boxes, then cylinders,
+    then spheres) into `gaps`; returns the smallest."""
+    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env[:7]
+    n_box, n_cyl = box_inv.shape[0], cyl_inv.shape[0]
+    if k < n_box:
+        return _spheres_to_box(centres, radius, s0, s1, box_inv, k, box_half, gaps)
+    if k < n_box + n_cyl:
+        return _spheres_to_cyl(centres, radius, s0, s1, cyl_inv, k - n_box, cyl_r, cyl_h, gaps)
+    c = k - n_box - n_cyl
+    return _spheres_to_point(
+        centres, radius, s0, s1, sph_c[c, 0], sph_c[c, 1], sph_c[c, 2], sph_r[c], gaps
+    )
+
+
+@nb.njit(cache=True, inline="always")
+def _place(b, poses, body_link, sphere_local, body_start, body_end, centres, ready) -> None:
     """Move body b's spheres to the world frame, once per configuration (on demand: most
     bodies are far from everything and never need their spheres)."""
     if ready[b]:
         return
     ready[b] = True
+    li = body_link[b]
+    r00, r01, r02, t0 = poses[li, 0, 0], poses[li, 0, 1], poses[li, 0, 2], poses[li, 0, 3]
+    r10, r11, r12, t1 = poses[li, 1, 0], poses[li, 1, 1], poses[li, 1, 2], poses[li, 1, 3]
+    r20, r21, r22, t2 = poses[li, 2, 0], poses[li, 2, 1], poses[li, 2, 2], poses[li, 2, 3]
     for s in range(body_start[b], body_end[b]):
-        li = sphere_link[s]
-        x, y, z = sphere_local[s, 0], sphere_local[s, 1], sphere_local[s, 2]
-        for i in range(3):
-            centres[s, i] = (
-                poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
-            )
+        x, y, z = sphere_local[0, s], sphere_local[1, s], sphere_local[2, s]
+        centres[0, s] = r00 * x + r01 * y + r02 * z + t0
+        centres[1, s] = r10 * x + r11 * y + r12 * z + t1
+        centres[2, s] = r20 * x + r21 * y + r22 * z + t2
 
 
 @nb.njit(cache=True, inline="always")
 def _bounds(poses, body_link, bound_local, bound_c, ready) -> None:
-    """Place every body's bounding sphere in the world; no body has its spheres placed
-    yet (`_place` does that on demand)."""
+    """Place every body's bounding sphere in the world (x, y and z rows); no body has
+    its spheres placed yet (`_place` does that on demand)."""
     for b in range(body_link.shape[0]):
         li = body_link[b]
         x, y, z = bound_local[b, 0], bound_local[b, 1], bound_local[b, 2]
         for i in range(3):
-            bound_c[b, i] = (
+            bound_c[i, b] = (
                 poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
             )
         ready[b] = False
 
 
 @nb.njit(cache=True, inline="always")
-def _body_hits_env(
-    b,
-    sphere_link,
-    sphere_local,
-    radius,
-    body_start,
-    body_end,
-    bound_r,
-    pad,
-    box_inv,
-    box_half,
-    cyl_inv,
-    cyl_r,
-    cyl_h,
-    sph_c,
-    sph_r,
-    poses,
-    centres,
-    bound_c,
-    ready,
-):
-    """Does body `b` touch any environment shape (boxes, cylinders, spheres)? Its
-    bounding sphere first: most bodies are far from every shape. Arrays come one by one:
-    unpacking tuples in a helper costs reference counting on every call."""
-    n_box, n_cyl = box_inv.shape[0], cyl_inv.shape[0]
-    bx, by, bz = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2]
-    br = bound_r[b] + pad
-    for k in range(n_box + n_cyl + sph_c.shape[0]):
-        g2 = _shape_gap2(
-            bx, by, bz, k, n_box, n_cyl, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r
-        )
-        if g2 > br * br:
-            continue
-        _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
-        for s in range(body_start[b], body_end[b]):
-            r = radius[s] + pad
-            g2 = _shape_gap2(
-                centres[s, 0],
-                centres[s, 1],
-                centres[s, 2],
-                k,
-                n_box,
-                n_cyl,
-                box_inv,
-                box_half,
-                cyl_inv,
-                cyl_r,
-                cyl_h,
-                sph_c,
-                sph_r,
-            )
-            if g2 <= r * r:
-                return True
-    return False
-
-
-@nb.njit(cache=True, inline="always")
-def _bodies_touch(
-    a,
-    b,
-    sphere_link,
-    sphere_local,
-    radius,
-    body_start,
-    body_end,
-    bound_r,
-    poses,
-    centres,
-    bound_c,
-    ready,
-) -> bool:
-    dx = bound_c[a, 0] - bound_c[b, 0]
-    dy = bound_c[a, 1] - bound_c[b, 1]
-    dz = bound_c[a, 2] - bound_c[b, 2]
-    lim = bound_r[a] + bound_r[b]
-    if dx * dx + dy * dy + dz * dz > lim * lim:
-        return False
-    _place(a, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
-    _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
-    bx, by, bz, brad = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2], bound_r[b]
+def _pair_gap(a, b, reach, radius, body_start, body_end, bound_r, centres, bound_c, gaps) -> float:
+    """Smallest surface gap between the placed spheres of bodies a and b, over the
+    spheres of a that come within `reach` of b's bounding sphere (the others are
+    farther than that from all of b)."""
+    bx, by, bz, brad = bound_c[0, b], bound_c[1, b], bound_c[2, b], bound_r[b]
+    m = _FAR
+    s0, s1 = body_start[b], body_end[b]
     for i in range(body_start[a], body_end[a]):
-        # skip spheres of a that miss b's bounding sphere
-        dx = centres[i, 0] - bx
-        dy = centres[i, 1] - by
-        dz = centres[i, 2] - bz
-        lim = radius[i] + brad
-        if dx * dx + dy * dy + dz * dz > lim * lim:
+        x, y, z = centres[0, i], centres[1, i], centres[2, i]
+        lim = radius[i] + brad + reach
+        if (x - bx) ** 2 + (y - by) ** 2 + (z - bz) ** 2 > lim * lim:
             continue
-        for j in range(body_start[b], body_end[b]):
-            dx = centres[i, 0] - centres[j, 0]
-            dy = centres[i, 1] - centres[j, 1]
-            dz = centres[i, 2] - centres[j, 2]
-            lim = radius[i] + radius[j]
-            if dx * dx + dy * dy + dz * dz <= lim * lim:
-                return True
-    return False
+        m = min(m, _spheres_to_point(centres, radius, s0, s1, x, y, z, radius[i], gaps))
+    return m
 
 
-def buffers(kin, bodies, n_pairs: int, queue: int) -> tuple:
-    """Scratch space for the kernels: link poses, sphere centres, body bounds, which
-    bodies have their spheres placed, body and pair speeds of a motion, and a queue of
-    `queue` intervals for `segment_clearance`. The kernels allocate nothing: they are
-    compiled without reference counting, which would cost more than the geometry."""
-    n_bodies = bodies[5].shape[0]
+_SHAPE_BITS = 20  # env item: body << 20 | shape
+_PAIR = 1 << 40  # pair item: _PAIR + pair
+
+
+def item_lists(never: np.ndarray, n_pairs: int) -> tuple[np.ndarray, np.ndarray]:
+    """What a clearance query looks at, as item numbers: env body e against shape k is
+    e << 20 | k, pair p is 2^40 + p. Returns all items (for configurations anywhere)
+    and the items without the body-shape pairs `never` marks as out of reach inside
+    the joint limits (for motions)."""
+    e, k = np.indices(never.shape).reshape(2, -1)
+    env = (e << _SHAPE_BITS) | k
+    pairs = _PAIR + np.arange(n_pairs, dtype=np.int64)
+    every = np.concatenate([env, pairs]).astype(np.int64)
+    reachable = np.concatenate([env[~never.ravel()], pairs]).astype(np.int64)
+    return every, reachable
+
+
+def buffers(kin, bodies, n_items: int, n_pairs: int, queue: int) -> tuple:
+    """Scratch space for the kernels: link poses, sphere centres (x, y and z rows),
+    body bounds (rows), which bodies have their spheres placed, body and pair speeds of
+    a motion, a queue of `queue` intervals for `segment_clearance` (ends, clearances at
+    the ends, where their item list is), one gap per sphere, and a pool for the item
+    lists. The kernels allocate nothing: they are compiled without reference counting,
+    which would cost more than the geometry."""
+    n_bodies = bodies[4].shape[0]
     return (
         np.empty((kin[0].shape[0], 4, 4)),
-        np.empty((bodies[0].shape[0], 3)),
-        np.empty((n_bodies, 3)),
+        np.empty((3, bodies[1].shape[0])),
+        np.empty((3, n_bodies)),
         np.zeros(n_bodies, dtype=np.bool_),
-        np.empty(n_bodies),
-        np.empty(max(n_pairs, 1)),
+        np.zeros(n_bodies),
+        np.zeros(max(n_pairs, 1)),
         np.empty((queue, 2), dtype=np.int64),
         np.empty((queue, 2)),
+        np.empty(bodies[1].shape[0]),
+        np.empty((queue, 2), dtype=np.int64),
+        np.empty(min(queue * max(n_items, 1), 1 << 16), dtype=np.int64),
     )
 
 
@@ -192,55 +233,27 @@ def buffers(kin, bodies, n_pairs: int, queue: int) -> tuple:
 def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf) -> bool:
     """True when configuration `q` is free of self and environment contacts. `buf` is
     scratch space from `buffers`."""
-    parent, origin, jtype, axis, src, mult, offset, const = kin
-    sphere_link, sphere_local, radius, body_start, body_end, body_link, bound_local, bound_r = (
-        bodies
+    every = env[7]
+    c, _ = _clearance(
+        q,
+        0.0,
+        -1.0,
+        buf[4],
+        buf[5],
+        kin,
+        bodies,
+        env_bodies,
+        pairs,
+        pad,
+        env,
+        buf,
+        every,
+        0,
+        every.shape[0],
+        buf[10],
+        0,
     )
-    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env[:7]
-    poses, centres, bound_c, ready = buf[0], buf[1], buf[2], buf[3]
-    fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
-    _bounds(poses, body_link, bound_local, bound_c, ready)
-    for e in range(env_bodies.shape[0]):
-        b = env_bodies[e]
-        if _body_hits_env(
-            b,
-            sphere_link,
-            sphere_local,
-            radius,
-            body_start,
-            body_end,
-            bound_r,
-            pad,
-            box_inv,
-            box_half,
-            cyl_inv,
-            cyl_r,
-            cyl_h,
-            sph_c,
-            sph_r,
-            poses,
-            centres,
-            bound_c,
-            ready,
-        ):
-            return False
-    for p in range(pairs.shape[0]):
-        if _bodies_touch(
-            pairs[p, 0],
-            pairs[p, 1],
-            sphere_link,
-            sphere_local,
-            radius,
-            body_start,
-            body_end,
-            bound_r,
-            poses,
-            centres,
-            bound_c,
-            ready,
-        ):
-            return False
-    return True
+    return c >= 0.0
 
 
 @nb.njit(cache=True)
@@ -258,105 +271,104 @@ def config_clearance(
     """How long (in units of the motion's parameter, at most `cap`) the configuration
     `q` surely stays free while bodies move no faster than `body_speed` (m per unit,
     one per body) and pairs approach no faster than `pair_speed` (one per pair): the
-    smallest gap over speed. -1 when `q` is in contact. Bounding spheres that cannot
-    make it within `cap` are not opened."""
-    parent, origin, jtype, axis, src, mult, offset, const = kin
-    sphere_link, sphere_local, radius, body_start, body_end, body_link, bound_local, bound_r = (
-        bodies
+    smallest gap over speed. -1 when `q` is in contact. For configurations inside the
+    joint limits (it skips what `never` rules out there)."""
+    reachable = env[8]
+    c, _ = _clearance(
+        q,
+        cap,
+        -1.0,
+        body_speed,
+        pair_speed,
+        kin,
+        bodies,
+        env_bodies,
+        pairs,
+        pad,
+        env,
+        buf,
+        reachable,
+        0,
+        reachable.shape[0],
+        buf[10],
+        0,
     )
-    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r, never = env
-    poses, centres, bound_c, ready = buf[0], buf[1], buf[2], buf[3]
+    return c
+
+
+@nb.njit(cache=True, _nrt=False, fastmath=_FAST)
+def _clearance(
+    q,
+    cap,
+    keep,
+    body_speed,
+    pair_speed,
+    kin,
+    bodies,
+    env_bodies,
+    pairs,
+    pad,
+    env,
+    buf,
+    items,
+    i0,
+    i1,
+    out,
+    o0,
+) -> tuple[float, int]:
+    """`config_clearance` over items[i0:i1] only. The items whose bounding spheres are
+    within `keep` times their speed are written to out[o0:] (for the intervals around
+    `q`: see `segment_clearance`); returns the clearance and the end of that list.
+    Bounding spheres that cannot make it within `cap` are not opened."""
+    parent, origin, jtype, axis, src, mult, offset, const = kin
+    sphere_local, radius, body_start, body_end, body_link, bound_local, bound_r = bodies
+    poses, centres, bound_c, ready, gaps = buf[0], buf[1], buf[2], buf[3], buf[8]
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
     _bounds(poses, body_link, bound_local, bound_c, ready)
     best = cap
-    n_box, n_cyl = box_inv.shape[0], cyl_inv.shape[0]
-    for e in range(env_bodies.shape[0]):
-        b = env_bodies[e]
-        v = body_speed[b]
-        bx, by, bz = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2]
-        br = bound_r[b] + pad
-        for k in range(n_box + n_cyl + sph_c.shape[0]):
-            if never[e, k]:
+    moving = cap > 0.0
+    record = keep >= 0.0
+    o = o0
+    for it in range(i0, i1):
+        item = items[it]
+        if item < _PAIR:
+            e = item >> _SHAPE_BITS
+            k = item & ((1 << _SHAPE_BITS) - 1)
+            b = env_bodies[e]
+            v = body_speed[b] if moving else 0.0
+            r = bound_r[b] + pad
+            g2 = _point_gap2(k, env, bound_c[0, b], bound_c[1, b], bound_c[2, b])
+            if record and g2 <= (r + keep * v) ** 2:
+                out[o] = item
+                o += 1
+            if g2 > (r + best * v) ** 2:
                 continue
-            reach = br + best * v
-            g2 = _shape_gap2(
-                bx, by, bz, k, n_box, n_cyl, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r
+            _place(b, poses, body_link, sphere_local, body_start, body_end, centres, ready)
+            gap = _shape_gaps(k, env, centres, radius, body_start[b], body_end[b], gaps) - pad
+        else:
+            p = item - _PAIR
+            a, b = pairs[p, 0], pairs[p, 1]
+            v = pair_speed[p] if moving else 0.0
+            dx = bound_c[0, a] - bound_c[0, b]
+            dy = bound_c[1, a] - bound_c[1, b]
+            dz = bound_c[2, a] - bound_c[2, b]
+            g2 = dx * dx + dy * dy + dz * dz
+            r = bound_r[a] + bound_r[b]
+            if record and g2 <= (r + keep * v) ** 2:
+                out[o] = item
+                o += 1
+            if g2 > (r + best * v) ** 2:
+                continue
+            _place(a, poses, body_link, sphere_local, body_start, body_end, centres, ready)
+            _place(b, poses, body_link, sphere_local, body_start, body_end, centres, ready)
+            gap = _pair_gap(
+                a, b, best * v, radius, body_start, body_end, bound_r, centres, bound_c, gaps
             )
-            if g2 > reach * reach:
-                continue
-            _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
-            for s in range(body_start[b], body_end[b]):
-                r = radius[s] + pad
-                reach = r + best * v
-                g2 = _shape_gap2(
-                    centres[s, 0],
-                    centres[s, 1],
-                    centres[s, 2],
-                    k,
-                    n_box,
-                    n_cyl,
-                    box_inv,
-                    box_half,
-                    cyl_inv,
-                    cyl_r,
-                    cyl_h,
-                    sph_c,
-                    sph_r,
-                )
-                if g2 > reach * reach:
-                    continue
-                if g2 <= r * r:
-                    return -1.0
-                best = (np.sqrt(g2) - r) / v
-    for p in range(pairs.shape[0]):
-        a, b = pairs[p, 0], pairs[p, 1]
-        v = pair_speed[p]
-        dx = bound_c[a, 0] - bound_c[b, 0]
-        dy = bound_c[a, 1] - bound_c[b, 1]
-        dz = bound_c[a, 2] - bound_c[b, 2]
-        reach = bound_r[a] + bound_r[b] + best * v
-        if dx * dx + dy * dy + dz * dz > reach * reach:
-            continue
-        _place(a, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
-        _place(b, poses, sphere_link, sphere_local, body_start, body_end, centres, ready)
-        bx, by, bz, brad = bound_c[b, 0], bound_c[b, 1], bound_c[b, 2], bound_r[b]
-        for i in range(body_start[a], body_end[a]):
-            # a sphere of a that cannot reach b's bounding sphere in time skips b's spheres
-            dx = centres[i, 0] - bx
-            dy = centres[i, 1] - by
-            dz = centres[i, 2] - bz
-            reach = radius[i] + brad + best * v
-            if dx * dx + dy * dy + dz * dz > reach * reach:
-                continue
-            for j in range(body_start[b], body_end[b]):
-                dx = centres[i, 0] - centres[j, 0]
-                dy = centres[i, 1] - centres[j, 1]
-                dz = centres[i, 2] - centres[j, 2]
-                r = radius[i] + radius[j]
-                reach = r + best * v
-                g2 = dx * dx + dy * dy + dz * dz
-                if g2 > reach * reach:
-                    continue
-                if g2 <= r * r:
-                    return -1.0
-                best = (np.sqrt(g2) - r) / v
-    return best
-
-
-@nb.njit(cache=True, inline="always")
-def _shape_gap2(
-    x, y, z, k, n_box, n_cyl, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r
-) -> float:
-    """Squared distance from a point to environment shape k (boxes, then cylinders,
-    then spheres; 0 inside)."""
-    if k < n_box:
-        return _box_gap2(x, y, z, box_inv, k, box_half)
-    if k < n_box + n_cyl:
-        return _cyl_gap2(x, y, z, cyl_inv, k - n_box, cyl_r, cyl_h)
-    c = k - n_box - n_cyl
-    dx, dy, dz = x - sph_c[c, 0], y - sph_c[c, 1], z - sph_c[c, 2]
-    g = max(np.sqrt(dx * dx + dy * dy + dz * dz) - sph_r[c], 0.0)
-    return g * g
+        if gap <= 0.0:
+            return -1.0, o
+        if gap < best * v:
+            best = gap / v
+    return best, o
 
 
 @nb.njit(cache=True, _nrt=False)
@@ -372,14 +384,19 @@ def segment_clearance(
     after few checks) until each is either no longer than `resolution` per joint or
     proved free by the clearance at its ends: a body moves at most body_rate[b] . |dq|
     metres over a motion dq (pair_rate likewise for two bodies closing in), so an
-    interval that the end clearances cover cannot hold a contact. `buf` and `q` are
-    scratch space."""
+    interval that the end clearances cover cannot hold a contact.
+
+    The check at the midpoint of an interval of half length h also lists the items
+    (body-shape and body-body pairs) within 1.5 h of their speed: nothing else can come
+    within h / 2 of its speed anywhere inside the interval, the most the checks inside
+    it ask for, so those checks look at that list alone. `buf` and `q` are scratch
+    space."""
     d = a.shape[0]
     span = 0.0
     for j in range(d):
         span = max(span, abs(b[j] - a[j]) / resolution[j])
     n = max(int(np.ceil(span)), 1)
-    body_speed, pair_speed, iv, cl = buf[4], buf[5], buf[6], buf[7]
+    body_speed, pair_speed, iv, cl, lists, pool = buf[4], buf[5], buf[6], buf[7], buf[9], buf[10]
     args = (kin, bodies, env_bodies, pairs, pad, env, buf)
     body_speed[:] = 0.0
     pair_speed[:] = 0.0
@@ -393,13 +410,21 @@ def segment_clearance(
     if c_b < 0.0 or n == 1 or c_b >= 1.0:
         return c_b
     # a queue of intervals between samples i0 < i1 of the n-step grid with the clearance
-    # at each end, breadth first; an interval of one step needs nothing more
+    # at each end and their items (pool[l0:l1]), breadth first; an interval of one step
+    # needs nothing more
     if 2 * n + 2 > iv.shape[0]:  # longer than any motion inside the joint limits
         return _grid_walk(a, b, n, c_b, body_speed, pair_speed, args, q)
+    reachable = env[8]
+    n_items = reachable.shape[0]
+    for i in range(n_items):
+        pool[i] = reachable[i]
+    used = n_items
     iv[0, 0], iv[0, 1], cl[0, 0], cl[0, 1] = 0, n, c_a, c_b
+    lists[0, 0], lists[0, 1] = 0, n_items
     head, tail = 0, 1
     while head < tail:
         i0, i1, c0, c1 = iv[head, 0], iv[head, 1], cl[head, 0], cl[head, 1]
+        l0, l1 = lists[head, 0], lists[head, 1]
         head += 1
         if i1 - i0 <= 1:
             continue
@@ -413,11 +438,21 @@ def segment_clearance(
         t = im / n
         for j in range(d):
             q[j] = a[j] + t * (b[j] - a[j])
-        c = config_clearance(q, 0.5 * (i1 - i0) / n, body_speed, pair_speed, *args)
+        h = 0.5 * (i1 - i0) / n
+        if used + l1 - l0 <= pool.shape[0]:
+            c, end = _clearance(
+                q, h, 1.5 * h, body_speed, pair_speed, *args, pool, l0, l1, pool, used
+            )
+            k0, k1, used = used, end, end
+        else:  # the pool is full: the halves keep this interval's list
+            c, _ = _clearance(q, h, -1.0, body_speed, pair_speed, *args, pool, l0, l1, pool, 0)
+            k0, k1 = l0, l1
         if c < 0.0:
             return -1.0
         iv[tail, 0], iv[tail, 1], cl[tail, 0], cl[tail, 1] = i0, im, c0, c
         iv[tail + 1, 0], iv[tail + 1, 1], cl[tail + 1, 0], cl[tail + 1, 1] = im, i1, c, c1
+        lists[tail, 0], lists[tail, 1] = k0, k1
+        lists[tail + 1, 0], lists[tail + 1, 1] = k0, k1
         tail += 2
     return c_b
 

@@ -332,9 +332,13 @@ class CollisionChecker:
         )
         self._travel = self._travel_bounds()
         env_arrays = self._reachable_env()
-        self._env = (*env_arrays, self._never_touching(env_arrays))
+        self.never_touching = self._never_touching(env_arrays)
+        items = kernels.item_lists(self.never_touching, len(self.pairs))
+        self._env = (*env_arrays, *items)
         longest = int(np.ceil(np.max((self.kin.upper - self.kin.lower) / self.resolution)))
-        self._buf = kernels.buffers(self._kin_args, self._bodies, len(self.pairs), 2 * longest + 4)
+        self._buf = kernels.buffers(
+            self._kin_args, self._bodies, len(items[1]), len(self.pairs), 2 * longest + 4
+        )
 
     def _reachable_env(self) -> tuple:
         """The environment arrays without shapes no moving body can reach (table legs,
@@ -408,7 +412,7 @@ class CollisionChecker:
         (only the links a planning joint moves; `Kinematics.collapsed`)."""
         self._kin_args, node, rel = self.kin.collapsed()
         link_index = self.kin.link_index
-        starts, ends, link, local, radius, body_link, bound_local, bound_r = ([] for _ in range(8))
+        starts, ends, local, radius, body_link, bound_local, bound_r = ([] for _ in range(7))
         n = 0
         for b in self.bodies:
             li = link_index[b.link]
@@ -416,7 +420,6 @@ class CollisionChecker:
             starts.append(n)
             n += len(b.radii)
             ends.append(n)
-            link.extend([node[li]] * len(b.radii))
             local.append(b.centres @ m[:3, :3].T + m[:3, 3])
             radius.append(b.radii)
             c = 0.5 * (b.centres.min(axis=0) + b.centres.max(axis=0))
@@ -424,8 +427,7 @@ class CollisionChecker:
             bound_local.append(m[:3, :3] @ c + m[:3, 3])
             bound_r.append(float(np.max(np.linalg.norm(b.centres - c, axis=1) + b.radii)))
         self._bodies = (
-            np.array(link, dtype=np.int64),
-            np.ascontiguousarray(np.vstack(local)),
+            np.ascontiguousarray(np.vstack(local).T),  # one row per axis
             np.concatenate(radius),
             np.array(starts, dtype=np.int64),
             np.array(ends, dtype=np.int64),

@@ -9,8 +9,10 @@ iterations between time checks; with any other checker it runs in Python.
 
 from __future__ import annotations
 
+import math
 import random
 import time
+import weakref
 from typing import Any
 
 import numba as nb
@@ -23,7 +25,6 @@ from robotrial.planning.base import (
     PlanResult,
     Problem,
     Tree,
-    path_length,
     sample,
     steer,
 )
@@ -115,11 +116,13 @@ def _grow(
             return -2, 0, 0, t_is_start
         for j in range(d):
             tq[0, j] = start[j]
+        tpar[0] = -1
         ng = 0
         for g in range(goals.shape[0]):
             if config_valid(goals[g], *args):
                 for j in range(d):
                     uq[ng, j] = goals[g, j]
+                upar[ng] = -1
                 ng += 1
         counts[0], counts[1], counts[2] = 1, ng, 0
         if ng == 0:
@@ -176,6 +179,39 @@ def _grow(
     return 0, 0, 0, t_is_start
 
 
+class _Workspace:
+    """The compiled loop's trees, kept with their checker between queries (allocating
+    them anew cost a tenth of a short query). Like the checker's own scratch space,
+    one query at a time per checker."""
+
+    def __init__(self, checker: Checker, goals: int) -> None:
+        d = checker.d
+        cap = max(1024, goals)
+        self.trees = [np.empty((cap, d)), np.empty((cap, d))]
+        self.parents = [np.full(cap, -1, dtype=np.int64), np.full(cap, -1, dtype=np.int64)]
+        self.counts = np.zeros(3, dtype=np.int64)
+        self.work = np.empty((4, d))
+        extent = np.asarray(checker.upper) - np.asarray(checker.lower)
+        self.default_step = 0.2 * float(np.linalg.norm(extent))  # as Planner.step_size
+
+    def grow(self) -> None:
+        """Double both trees (a query filled one)."""
+        for k in (0, 1):
+            n, d = self.trees[k].shape
+            self.trees[k] = np.vstack([self.trees[k], np.empty((n, d))])
+            self.parents[k] = np.concatenate([self.parents[k], np.full(n, -1, dtype=np.int64)])
+
+
+_WORKSPACES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _workspace(checker: Checker, goals: int) -> _Workspace:
+    ws = _WORKSPACES.get(checker)
+    if ws is None or len(ws.trees[0]) < goals:
+        ws = _WORKSPACES[checker] = _Workspace(checker, goals)
+    return ws
+
+
 class RRTConnect(Planner):
     name = "rrt_connect"
 
@@ -183,19 +219,16 @@ class RRTConnect(Planner):
         """With the sphere checker, the whole query (end checks, direct motion, the
         tree loop, the path) runs compiled; one call to the kernel for every `CHUNK`
         iterations."""
-        if not hasattr(checker, "kernel_args"):
+        args = getattr(checker, "kernel_args", None)
+        if args is None:
             return super().solve(problem, checker)
         t0 = time.perf_counter()
         deadline = t0 + problem.time_limit
-        args = checker.kernel_args()  # type: ignore[attr-defined]
-        d = checker.d
-        cap = max(1024, len(problem.goals))
-        trees = [np.empty((cap, d)), np.empty((cap, d))]
-        parents = [np.full(cap, -1, dtype=np.int64), np.full(cap, -1, dtype=np.int64)]
-        counts = np.zeros(3, dtype=np.int64)
+        args = args()
+        ws = _workspace(checker, len(problem.goals))
+        trees, parents, counts, work = ws.trees, ws.parents, ws.counts, ws.work
         seed = (problem.seed if problem.seed is not None else random.getrandbits(31)) & 0x7FFFFFFF
-        work = np.empty((4, d))
-        step = self.step_size(checker)
+        step = self.range if self.range > 0 else ws.default_step
         lower, upper = checker.lower, checker.upper
         t = 0  # the tree extended first in the next chunk
         first = True
@@ -231,17 +264,14 @@ class RRTConnect(Planner):
             stats = {"iterations": int(counts[2]), "nodes": int(counts[0] + counts[1])}
             if status == 2:
                 path = np.array([problem.start, trees[1][0]])
-                return self._solved(path, path_length(path), {"direct": True}, t0)
+                return self._solved(path, math.dist(*path), {"direct": True}, t0)
             if status == 1:
                 i_start, i_goal = (it, iu) if t == 0 else (iu, it)
-                out = np.empty((len(trees[0]) + len(trees[1]), d))
+                out = np.empty((len(trees[0]) + len(trees[1]), checker.d))
                 n, length = _join(trees[0], parents[0], i_start, trees[1], parents[1], i_goal, out)
                 return self._solved(out[:n].copy(), length, stats, t0)
             if status == -1:
-                grow = len(trees[0])
-                for k in (0, 1):
-                    trees[k] = np.vstack([trees[k], np.empty((grow, d))])
-                    parents[k] = np.concatenate([parents[k], np.full(grow, -1, dtype=np.int64)])
+                ws.grow()
             if time.perf_counter() >= deadline:
                 stats = {"planner": self.name, **stats, "planning_time": time.perf_counter() - t0}
                 return PlanResult(False, problem.start[None], "timeout", stats)

@@ -25,6 +25,8 @@ from robotrial.kinematics.chain import fk_single
 # geometry has none): 9 % less time, the same answers on the benchmark problems
 _FAST = {"nnan", "nsz", "reassoc", "contract", "arcp"}
 _FAR = 1e30  # a gap larger than any scene
+# The per-sphere loops count with unsigned integers: a signed index may be negative
+# (numba then counts from the end), which turns SIMD loads into gathers.
 
 
 @nb.njit(cache=True, inline="always")
@@ -54,7 +56,7 @@ def _spheres_to_box(centres, radius, s0, s1, inv, k, half, gaps) -> float:
     r20, r21, r22, r23 = inv[k, 2, 0], inv[k, 2, 1], inv[k, 2, 2], inv[k, 2, 3]
     h0, h1, h2 = half[k, 0], half[k, 1], half[k, 2]
     cx, cy, cz = centres[0], centres[1], centres[2]
-    for s in range(s0, s1):
+    for s in range(np.uint64(s0), np.uint64(s1)):
         x, y, z = cx[s], cy[s], cz[s]
         u = max(abs(r00 * x + r01 * y + r02 * z + r03) - h0, 0.0)
         v = max(abs(r10 * x + r11 * y + r12 * z + r13) - h1, 0.0)
@@ -70,7 +72,7 @@ def _spheres_to_cyl(centres, radius, s0, s1, inv, k, cyl_r, cyl_h, gaps) -> floa
     r20, r21, r22, r23 = inv[k, 2, 0], inv[k, 2, 1], inv[k, 2, 2], inv[k, 2, 3]
     rad, hl = cyl_r[k], cyl_h[k]
     cx, cy, cz = centres[0], centres[1], centres[2]
-    for s in range(s0, s1):
+    for s in range(np.uint64(s0), np.uint64(s1)):
         x, y, z = cx[s], cy[s], cz[s]
         u = r00 * x + r01 * y + r02 * z + r03
         v = r10 * x + r11 * y + r12 * z + r13
@@ -86,7 +88,7 @@ def _spheres_to_point(centres, radius, s0, s1, px, py, pz, extra, gaps) -> float
     """Smallest surface gap from spheres s0..s1 to a sphere at (px, py, pz) of radius
     `extra` (also the pairs' inner loop)."""
     cx, cy, cz = centres[0], centres[1], centres[2]
-    for s in range(s0, s1):
+    for s in range(np.uint64(s0), np.uint64(s1)):
         dx, dy, dz = cx[s] - px, cy[s] - py, cz[s] - pz
         gaps[s] = np.sqrt(dx * dx + dy * dy + dz * dz) - radius[s] - extra
     return _least(gaps, s0, s1)
@@ -153,7 +155,7 @@ def _place(b, poses, body_link, sphere_local, body_start, body_end, centres, rea
     r00, r01, r02, t0 = poses[li, 0, 0], poses[li, 0, 1], poses[li, 0, 2], poses[li, 0, 3]
     r10, r11, r12, t1 = poses[li, 1, 0], poses[li, 1, 1], poses[li, 1, 2], poses[li, 1, 3]
     r20, r21, r22, t2 = poses[li, 2, 0], poses[li, 2, 1], poses[li, 2, 2], poses[li, 2, 3]
-    for s in range(body_start[b], body_end[b]):
+    for s in range(np.uint64(body_start[b]), np.uint64(body_end[b])):
         x, y, z = sphere_local[0, s], sphere_local[1, s], sphere_local[2, s]
         centres[0, s] = r00 * x + r01 * y + r02 * z + t0
         centres[1, s] = r10 * x + r11 * y + r12 * z + t1

@@ -342,9 +342,9 @@ def _clearance(
             v = body_speed[b] if moving else 0.0
             r = bound_r[b] + pad
             g2 = _point_gap2(k, env, bound_c[0, b], bound_c[1, b], bound_c[2, b])
-            if record and g2 <= (r + keep * v) ** 2:
+            if record:  # without a branch on the distance: it is unpredictable
                 out[o] = item
-                o += 1
+                o += g2 <= (r + keep * v) ** 2
             if g2 > (r + best * v) ** 2:
                 continue
             _place(b, poses, body_link, sphere_local, body_start, body_end, centres, ready)
@@ -358,9 +358,9 @@ def _clearance(
             dz = bound_c[2, a] - bound_c[2, b]
             g2 = dx * dx + dy * dy + dz * dz
             r = bound_r[a] + bound_r[b]
-            if record and g2 <= (r + keep * v) ** 2:
+            if record:  # without a branch on the distance: it is unpredictable
                 out[o] = item
-                o += 1
+                o += g2 <= (r + keep * v) ** 2
             if g2 > (r + best * v) ** 2:
                 continue
             _place(a, poses, body_link, sphere_local, body_start, body_end, centres, ready)

@@ -449,54 +449,34 @@ def segment_clearance(
         for j in range(d):
             q[j] = a[j] + t * (b[j] - a[j])
         h = 0.5 * (i1 - i0) / n
-        if used + l1 - l0 <= pool.shape[0]:
-            c, end = _clearance(
-                q,
-                h,
-                1.5 * h,
-                body_speed,
-                pair_speed,
-                kin,
-                bodies,
-                env_bodies,
-                pairs,
-                pad,
-                env,
-                buf,
-                pool,
-                l0,
-                l1,
-                pool,
-                used,
-            )
-            k0, k1, used = used, end, end
-        else:  # the pool is full: the halves keep this interval's list
-            c, _ = _clearance(
-                q,
-                h,
-                -1.0,
-                body_speed,
-                pair_speed,
-                kin,
-                bodies,
-                env_bodies,
-                pairs,
-                pad,
-                env,
-                buf,
-                pool,
-                l0,
-                l1,
-                pool,
-                0,
-            )
-            k0, k1 = l0, l1
+        room = used + l1 - l0 <= pool.shape[0]  # else the halves keep this list
+        c, end = _clearance(
+            q,
+            h,
+            1.5 * h if room else -1.0,
+            body_speed,
+            pair_speed,
+            kin,
+            bodies,
+            env_bodies,
+            pairs,
+            pad,
+            env,
+            buf,
+            pool,
+            l0,
+            l1,
+            pool,
+            used,
+        )
+        if room:
+            l0, l1, used = used, end, end
         if c < 0.0:
             return -1.0
         iv[tail, 0], iv[tail, 1], cl[tail, 0], cl[tail, 1] = i0, im, c0, c
         iv[tail + 1, 0], iv[tail + 1, 1], cl[tail + 1, 0], cl[tail + 1, 1] = im, i1, c, c1
-        lists[tail, 0], lists[tail, 1] = k0, k1
-        lists[tail + 1, 0], lists[tail + 1, 1] = k0, k1
+        lists[tail, 0], lists[tail, 1] = l0, l1
+        lists[tail + 1, 0], lists[tail + 1, 1] = l0, l1
         tail += 2
     return c_b
 

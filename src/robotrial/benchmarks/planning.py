@@ -61,7 +61,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--runs", type=int, default=50, help="runs per planner on the Table 2 problems"
     )
     parser.add_argument(
-        "--hard-runs", type=int, default=20, help="runs per planner on the harder scenes"
+        "--hard-runs", type=int, default=100, help="runs per planner on the harder scenes"
     )
     parser.add_argument("--time-limit", type=float, default=10.0, help="s per run")
     parser.add_argument(

@@ -322,8 +322,9 @@ def _clearance(
 ) -> tuple[float, int]:
     """`config_clearance` over items[i0:i1] only. The items whose bounding spheres are
     within `keep` times their speed are written to out[o0:] (for the intervals around
-    `q`: see `segment_clearance`); returns the clearance and the end of that list.
-    Bounding spheres that cannot make it within `cap` are not opened."""
+    `q`: see `segment_clearance`; none when `keep` is negative); returns the clearance
+    and the end of that list. Bounding spheres that cannot make it within `cap` are not
+    opened."""
     parent, origin, jtype, axis, src, mult, offset, const = kin
     sphere_local, radius, body_start, body_end, body_link, bound_local, bound_r = bodies
     poses, centres, bound_c, ready, gaps = buf[0], buf[1], buf[2], buf[3], buf[8]

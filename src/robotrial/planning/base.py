@@ -135,9 +135,7 @@ class Planner:
         self.goal_bias = float(goal_bias)
 
     def step_size(self, checker: Checker) -> float:
-        if self.range > 0:
-            return self.range
-        return 0.2 * float(np.linalg.norm(np.asarray(checker.upper) - np.asarray(checker.lower)))
+        return self.range if self.range > 0 else default_range(checker)
 
     def solve(self, problem: Problem, checker: Checker) -> PlanResult:
         t0 = time.perf_counter()
@@ -168,6 +166,11 @@ class Planner:
         self, problem: Problem, checker: Checker, rng: np.random.Generator, deadline: float
     ) -> tuple[np.ndarray | None, dict[str, Any]]:
         raise NotImplementedError
+
+
+def default_range(checker: Checker) -> float:
+    """0.2 x the joint space's diagonal: OMPL's default longest edge."""
+    return 0.2 * float(np.linalg.norm(np.asarray(checker.upper) - np.asarray(checker.lower)))
 
 
 def steer(a: np.ndarray, b: np.ndarray, step: float) -> np.ndarray:

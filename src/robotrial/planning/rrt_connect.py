@@ -25,6 +25,7 @@ from robotrial.planning.base import (
     PlanResult,
     Problem,
     Tree,
+    default_range,
     sample,
     steer,
 )
@@ -191,8 +192,7 @@ class _Workspace:
         self.parents = [np.full(cap, -1, dtype=np.int64), np.full(cap, -1, dtype=np.int64)]
         self.counts = np.zeros(3, dtype=np.int64)
         self.work = np.empty((4, d))
-        extent = np.asarray(checker.upper) - np.asarray(checker.lower)
-        self.default_step = 0.2 * float(np.linalg.norm(extent))  # as Planner.step_size
+        self.default_range = default_range(checker)
 
     def grow(self) -> None:
         """Double both trees (a query filled one)."""
@@ -228,7 +228,7 @@ class RRTConnect(Planner):
         ws = _workspace(checker, len(problem.goals))
         trees, parents, counts, work = ws.trees, ws.parents, ws.counts, ws.work
         seed = (problem.seed if problem.seed is not None else random.getrandbits(31)) & 0x7FFFFFFF
-        step = self.range if self.range > 0 else ws.default_step
+        step = self.range if self.range > 0 else ws.default_range
         lower, upper = checker.lower, checker.upper
         t = 0  # the tree extended first in the next chunk
         first = True

@@ -213,8 +213,8 @@ def item_lists(never: np.ndarray, n_pairs: int) -> tuple[np.ndarray, np.ndarray]
 def buffers(kin, bodies, n_items: int, n_pairs: int, queue: int) -> tuple:
     """Scratch space for the kernels: link poses, sphere centres (x, y and z rows),
     body bounds (rows), which bodies have their spheres placed, body and pair speeds of
-    a motion, a queue of `queue` intervals for `segment_clearance` (ends, clearances at
-    the ends, where their item list is), one gap per sphere, and a pool for the item
+    a motion, a ring of `queue` stretches for `segment_clearance` (where they start
+    and end, where their item list is), one gap per sphere, and a pool for the item
     lists. The kernels allocate nothing: they are compiled without reference counting,
     which would cost more than the geometry."""
     n_bodies = bodies[4].shape[0]
@@ -225,10 +225,9 @@ def buffers(kin, bodies, n_items: int, n_pairs: int, queue: int) -> tuple:
         np.zeros(n_bodies, dtype=np.bool_),
         np.zeros(n_bodies),
         np.zeros(max(n_pairs, 1)),
-        np.empty((queue, 2), dtype=np.int64),
         np.empty((queue, 2)),
-        np.empty(bodies[1].shape[0]),
         np.empty((queue, 2), dtype=np.int64),
+        np.empty(bodies[1].shape[0]),
         np.empty(min(queue * max(n_items, 1), 1 << 16), dtype=np.int64),
     )
 
@@ -272,7 +271,7 @@ def _listed_clearance(
     q, cap, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, items
 ) -> float:
     """The clearance over all of `items`. Not inlined: the motion check inlines only its
-    midpoint query, and each inlined copy of the query costs compile time (a cold start
+    centre query, and each inlined copy of the query costs compile time (a cold start
     compiled for 74 s with four copies, 35 s with two)."""
     c, _ = _clearance(
         q,
@@ -290,7 +289,7 @@ def _listed_clearance(
         items,
         0,
         items.shape[0],
-        buf[10],
+        buf[9],
         0,
     )
     return c
@@ -381,23 +380,22 @@ def segment_clearance(
     clearance for this motion when known (from the previous step of a straight walk),
     negative to compute it when needed.
 
-    Sub-intervals are split coarse to fine (midpoint first, so a blocked motion fails
-    after few checks) until each is either no longer than `resolution` per joint or
-    proved free by the clearance at its ends: a body moves at most body_rate[b] . |dq|
-    metres over a motion dq (pair_rate likewise for two bodies closing in), so an
-    interval that the end clearances cover cannot hold a contact.
+    A body moves at most body_rate[b] . |dq| metres over a motion dq (pair_rate likewise
+    for two bodies closing in), so a configuration whose clearance is c proves the
+    stretch within c of it free. The stretches not yet proved free are checked at their
+    centres, coarse to fine (a blocked motion fails after few checks), until each is
+    proved free or no longer than `resolution` per joint between two free ends.
 
-    The check at the midpoint of an interval of half length h also lists the items
-    (body-shape and body-body pairs) within 1.5 h of their speed: nothing else can come
-    within h / 2 of its speed anywhere inside the interval, the most the checks inside
-    it ask for, so those checks look at that list alone. `buf` and `q` are scratch
-    space."""
+    The check at the centre of a stretch of half length w also lists the items
+    (body-shape and body-body pairs) within w of their speed: the checks inside the
+    stretch ask for at most their distance to its border, so nothing else can answer
+    them, and they look at that list alone. `buf` and `q` are scratch space."""
     d = a.shape[0]
     span = 0.0
     for j in range(d):
         span = max(span, abs(b[j] - a[j]) / resolution[j])
     n = max(int(np.ceil(span)), 1)
-    body_speed, pair_speed, iv, cl, lists, pool = buf[4], buf[5], buf[6], buf[7], buf[9], buf[10]
+    body_speed, pair_speed, ring, lists, pool = buf[4], buf[5], buf[6], buf[7], buf[9]
     body_speed[:] = 0.0
     pair_speed[:] = 0.0
     for j in range(d):
@@ -411,46 +409,53 @@ def segment_clearance(
     )
     if c_b < 0.0 or n == 1 or c_b >= 1.0:
         return c_b
-    # a queue of intervals between samples i0 < i1 of the n-step grid with the clearance
-    # at each end and their items (pool[l0:l1]), breadth first; an interval of one step
-    # needs nothing more
-    if 2 * n + 2 > iv.shape[0]:  # longer than any motion inside the joint limits
+    floor = 1.0 / n  # a stretch this short between two free ends needs nothing more
+    cap = ring.shape[0]
+    if n + 2 > cap:  # longer than any motion inside the joint limits
         return _grid_walk(
             a, b, n, c_b, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, q
         )
+    # a ring of the stretches (x0, x1) left to prove, breadth first, each with its item
+    # list pool[l0:l1]; x0 < 0 marks a stretch from `a` whose clearance is not known
+    # yet (a blocked motion often fails at its centre first). They are disjoint and
+    # longer than `floor`, so fewer than n are ever waiting.
     reachable = env[8]
     n_items = reachable.shape[0]
     for i in range(n_items):
         pool[i] = reachable[i]
     used = n_items
-    iv[0, 0], iv[0, 1], cl[0, 0], cl[0, 1] = 0, n, c_a, c_b
+    x_end = 1.0 - c_b
+    if c_a >= x_end:
+        return c_b
+    ring[0, 0], ring[0, 1] = c_a if c_a >= 0.0 else -1.0, x_end
     lists[0, 0], lists[0, 1] = 0, n_items
     head, tail = 0, 1
     while head < tail:
-        i0, i1, c0, c1 = iv[head, 0], iv[head, 1], cl[head, 0], cl[head, 1]
-        l0, l1 = lists[head, 0], lists[head, 1]
+        slot = head % cap
+        x0, x1 = ring[slot, 0], ring[slot, 1]
+        l0, l1 = lists[slot, 0], lists[slot, 1]
         head += 1
-        if i1 - i0 <= 1:
-            continue
-        if c0 < 0.0 and i1 < n:
-            # a's clearance, left unknown until an interval shorter than the motion
-            # needs it: a blocked motion often fails at its midpoint first
-            c0 = config_clearance(
-                a, i1 / n, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
+        unknown = x0 < 0.0
+        if unknown and x1 < x_end:
+            x0 = max(
+                config_clearance(
+                    a, x1, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
+                ),
+                0.0,
             )
-            c0 = max(c0, 0.0)
-        if c0 + c1 >= (i1 - i0) / n:
-            continue
-        im = (i0 + i1) // 2
-        t = im / n
+            unknown = False
+            if x1 - x0 <= floor:
+                continue
+        x0 = max(x0, 0.0)
+        m = 0.5 * (x0 + x1)
+        w = 0.5 * (x1 - x0)
         for j in range(d):
-            q[j] = a[j] + t * (b[j] - a[j])
-        h = 0.5 * (i1 - i0) / n
-        room = used + l1 - l0 <= pool.shape[0]  # else the halves keep this list
+            q[j] = a[j] + m * (b[j] - a[j])
+        room = used + l1 - l0 <= pool.shape[0]  # else the parts keep this list
         c, end = _clearance(
             q,
-            h,
-            1.5 * h if room else -1.0,
+            w,
+            w if room else -1.0,
             body_speed,
             pair_speed,
             kin,
@@ -470,11 +475,18 @@ def segment_clearance(
             l0, l1, used = used, end, end
         if c < 0.0:
             return -1.0
-        iv[tail, 0], iv[tail, 1], cl[tail, 0], cl[tail, 1] = i0, im, c0, c
-        iv[tail + 1, 0], iv[tail + 1, 1], cl[tail + 1, 0], cl[tail + 1, 1] = im, i1, c, c1
-        lists[tail, 0], lists[tail, 1] = l0, l1
-        lists[tail + 1, 0], lists[tail + 1, 1] = l0, l1
-        tail += 2
+        if c >= w:
+            continue
+        if m - c - x0 > floor:
+            slot = tail % cap
+            ring[slot, 0], ring[slot, 1] = -1.0 if unknown else x0, m - c
+            lists[slot, 0], lists[slot, 1] = l0, l1
+            tail += 1
+        if x1 - m - c > floor:
+            slot = tail % cap
+            ring[slot, 0], ring[slot, 1] = m + c, x1
+            lists[slot, 0], lists[slot, 1] = l0, l1
+            tail += 1
     return c_b
 
 

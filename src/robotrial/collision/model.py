@@ -337,7 +337,7 @@ class CollisionChecker:
         self._env = (*env_arrays, *items)
         longest = int(np.ceil(np.max((self.kin.upper - self.kin.lower) / self.resolution)))
         self._buf = kernels.buffers(
-            self._kin_args, self._bodies, len(items[1]), len(self.pairs), 2 * longest + 4
+            self._kin_args, self._bodies, len(items[1]), len(self.pairs), longest + 4
         )
 
     def _reachable_env(self) -> tuple:
@@ -475,8 +475,8 @@ class CollisionChecker:
     def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) bool: which straight segments a[i] -> b[i] are free (a[i] assumed free).
 
-        Splits each segment midpoint first down to the robot's resolution, skips parts
-        that the clearance at their ends proves free, and stops at the first contact."""
+        Proves each segment free stretch by stretch from the clearance of configurations
+        along it, down to the robot's resolution, and stops at the first contact."""
         return kernels.motions_valid(
             np.ascontiguousarray(np.atleast_2d(a), dtype=float),
             np.ascontiguousarray(np.atleast_2d(b), dtype=float),

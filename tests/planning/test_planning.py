@@ -300,3 +300,11 @@ def test_cli_plan_reads_a_rosbridge_request(tmp_path, capsys) -> None:
     code = main(["plan", "--robot", "desk_arm", "--request", str(req), "--json", "--no-plots"])
     out = json.loads(capsys.readouterr().out)
     assert code == 1 and not out["success"] and out["failure"] == "unreachable"
+
+
+def test_warm_plans_from_a_free_configuration(planner) -> None:
+    # a server calls this at start: a plan that stopped before the tree search would
+    # leave the first user's request to compile the planner
+    result = planner.warm()
+    assert result is not None and result.response.success, result and result.response.message
+    assert len(result.response.trajectory.points) >= 2

@@ -42,6 +42,7 @@ from robotrial.model import library
 from robotrial.model.robot import ModelError
 
 if TYPE_CHECKING:
+    from robotrial.planning.task import TaskPlanner
     from robotrial.ros.bus import Bus
 
 STATIC_DIR = Path(__file__).parent / "static"
@@ -214,7 +215,8 @@ def create_app(
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
         if warm:
-            threading.Thread(target=_warm, args=(catalog,), daemon=True).start()
+            task = planning.planner if planning is not None else None
+            threading.Thread(target=_warm, args=(catalog, task), daemon=True).start()
         if platform is not None:
             platform.start()
         try:
@@ -398,8 +400,15 @@ def _glb(asset: Asset, request: Request) -> Response:
     return Response(asset.data, media_type=GLB_MEDIA_TYPE, headers=headers)
 
 
-def _warm(catalog: Catalog) -> None:
+def _warm(catalog: Catalog, task: TaskPlanner | None) -> None:
+    """Build the default robot's and world's files, then plan once so that the planner's
+    compiled kernels are ready before the first Move Robot!"""
     try:
         catalog.warm()
     except Exception as exc:  # the request that needs the file reports the error
         log.warning("could not prepare the default robot and world: %s", exc)
+    if task is not None:
+        try:
+            task.warm()
+        except Exception as exc:  # the first request compiles then, and reports errors
+            log.warning("could not warm the planner: %s", exc)

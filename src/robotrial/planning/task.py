@@ -30,7 +30,10 @@ from robotrial.kinematics.ik import solve_ik
 from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
 from robotrial.msgs.builtin_interfaces import Duration
+from robotrial.msgs.geometry_msgs import Point, Quaternion
+from robotrial.msgs.geometry_msgs import Pose as PoseMsg
 from robotrial.msgs.robotrial_msgs import PlanTaskRequest, PlanTaskResponse
+from robotrial.msgs.sensor_msgs import JointState
 from robotrial.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
 from robotrial.planning import planner_class
 from robotrial.planning.base import Problem, path_length
@@ -161,6 +164,23 @@ class TaskPlanner:
         return np.clip(q, self.kin.lower, self.kin.upper)
 
     # --- the service -------------------------------------------------------------
+
+    def warm(self, tries: int = 200) -> TaskResult | None:
+        """Answer one request between two free configurations of this world: numba
+        compiles the kernels on their first use (half a minute after an install), and a
+        server does this at start so that the first user does not wait. None when two
+        free configurations did not turn up in `tries` samples."""
+        checker = CollisionChecker(self.spheres, self.world_env, self.padding)
+        qs = np.random.default_rng(0).uniform(self.kin.lower, self.kin.upper, (tries, self.kin.d))
+        free = qs[checker.valid(qs)]
+        if len(free) < 2:
+            return None
+        hand = self.kin.link_pose(free[1])[:3, 3]
+        request = PlanTaskRequest(
+            current_joints=JointState(name=list(self.joint_names), position=list(free[0])),
+            ee_goal=PoseMsg(Point(*hand), Quaternion(0, 0, 0, 0)),
+        )
+        return self.plan(request, seed=0)
 
     def plan(self, request: PlanTaskRequest, seed: int | None = None) -> TaskResult:
         """Answer one request (never raises for a bad request: the response says why)."""

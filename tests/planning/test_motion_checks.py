@@ -4,12 +4,15 @@ and still reject every blocked one they are asked about."""
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 import pytest
 
+from robotrial.benchmarks.planning import panda_path
+from robotrial.collision import kernels
 from robotrial.collision.model import CollisionChecker, Environment, HeldObject, RobotSpheres
 from robotrial.geometry import Box, Cylinder, Pose
-from robotrial.kinematics.chain import Kinematics
+from robotrial.kinematics.chain import Kinematics, fk_single
 from robotrial.model import load_robot
 
 
@@ -91,3 +94,59 @@ def test_pairs_marked_never_touching_stay_apart(spheres: RobotSpheres) -> None:
             radial = np.maximum(np.linalg.norm(local[..., :2], axis=-1) - env.dims[k][0], 0.0)
             gap = np.hypot(radial, np.maximum(np.abs(local[..., 2]) - env.dims[k][1], 0.0))
         assert np.all(gap > body.radii), f"{body.name} touches {env.names[k]}"
+
+
+@nb.njit
+def _speeds(q, dq, kin, bodies, pairs, buf):
+    """The motion checks' speeds at `q` along `dq`: per body, per pair (its second body
+    seen from its first), and the sphere centres."""
+    parent, origin, jtype, axis, src, mult, offset, const = kin
+    poses, centres, bound_c, ready, motion = buf[0], buf[1], buf[2], buf[3], buf[10]
+    fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
+    kernels._bounds(poses, bodies[4], bodies[5], bound_c, ready)
+    for b in range(bodies[4].shape[0]):
+        kernels._place(b, poses, bodies[4], bodies[0], bodies[2], bodies[3], centres, ready)
+    for j in range(dq.shape[0]):
+        motion[6, j] = dq[j]
+    kernels._twists(kin, poses, motion)
+    body = np.empty(bodies[4].shape[0])
+    for b in range(body.shape[0]):
+        body[b] = kernels._body_speed(b, poses, bodies[4], bound_c, bodies[6], motion)
+    pair = np.empty(pairs.shape[0])
+    for p in range(pair.shape[0]):
+        a, b = pairs[p, 0], pairs[p, 1]
+        pair[p] = kernels._pair_speed(a, b, poses, bodies[4], bound_c, bodies[6], motion)
+    return body, pair, centres.copy()
+
+
+@pytest.mark.parametrize("robot", ["desk_arm", "panda"])
+def test_speeds_at_a_configuration_bound_the_spheres_motion(robot: str) -> None:
+    """Inside a stretch the motion check trusts each body's speed at the configuration
+    it looks at, grown by its bound on acceleration. Measured by finite differences
+    along random motions: no sphere moves faster, no pair of spheres closes in faster,
+    and no speed changes faster than that."""
+    spheres = RobotSpheres(Kinematics(load_robot(panda_path() if robot == "panda" else robot)))
+    args = CollisionChecker(spheres, Environment()).kernel_args()
+    body_rate, kin, bodies, pairs, buf = args[1], args[3], args[4], args[6], args[-1]
+    starts, ends = bodies[2], bodies[3]
+    rng = np.random.default_rng(11)
+    h = 1e-4
+    for _ in range(200):
+        q = spheres.kin.random(rng, 1)[0]
+        dq = rng.normal(size=q.shape) * rng.uniform(0.05, 1.0)
+        body, pair, c0 = _speeds(q, dq, kin, bodies, pairs, buf)
+        cp = _speeds(q + h * dq, dq, kin, bodies, pairs, buf)[2]
+        cm = _speeds(q - h * dq, dq, kin, bodies, pairs, buf)[2]
+        velocity = (cp - cm) / (2 * h)
+        accel = np.linalg.norm((cp - 2 * c0 + cm) / h**2, axis=0)
+        swing = bodies[7] @ np.abs(dq)
+        growth = body_rate @ (np.abs(dq) * (np.abs(dq) + 2 * swing))
+        for b in range(len(body)):
+            s = slice(starts[b], ends[b])
+            assert np.linalg.norm(velocity[:, s], axis=0).max() <= body[b] * 1.001 + 1e-9
+            assert accel[s].max() <= growth[b] * 1.01 + 1e-6
+        for p, (i, j) in enumerate(pairs):
+            gaps = c0[:, starts[i] : ends[i], None] - c0[:, None, starts[j] : ends[j]]
+            rel = velocity[:, starts[i] : ends[i], None] - velocity[:, None, starts[j] : ends[j]]
+            closing = -np.sum(gaps * rel, axis=0) / np.linalg.norm(gaps, axis=0)
+            assert closing.max() <= pair[p] * 1.001 + 1e-9

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from robotrial.kinematics.chain import fk_single
+from robotrial.kinematics.chain import PRISMATIC, REVOLUTE, fk_single
 
 # the motion and configuration checks may fuse multiply-adds and assume no NaNs (the
 # geometry has none): 9 % less time, the same answers on the benchmark problems
@@ -193,6 +193,77 @@ def _pair_gap(a, b, reach, radius, body_start, body_end, bound_r, centres, bound
     return m
 
 
+@nb.njit(cache=True, inline="always")
+def _twists(kin, poses, motion) -> None:
+    """Each node's angular (rows 0-2) and origin's linear (rows 3-5) velocity per unit
+    of the motion (row 6: the change of each planning joint) at the configuration
+    whose link poses `poses` holds."""
+    parent, jtype, axis, src, mult = kin[0], kin[2], kin[3], kin[4], kin[5]
+    for i in range(6):
+        motion[i, 0] = 0.0
+    for k in range(1, parent.shape[0]):
+        p = parent[k]
+        wx, wy, wz = motion[0, p], motion[1, p], motion[2, p]
+        dx = poses[k, 0, 3] - poses[p, 0, 3]
+        dy = poses[k, 1, 3] - poses[p, 1, 3]
+        dz = poses[k, 2, 3] - poses[p, 2, 3]
+        vx = motion[3, p] + wy * dz - wz * dy
+        vy = motion[4, p] + wz * dx - wx * dz
+        vz = motion[5, p] + wx * dy - wy * dx
+        rate = mult[k] * motion[6, src[k]] if src[k] >= 0 else 0.0
+        ax, ay, az = axis[k, 0], axis[k, 1], axis[k, 2]
+        ux = rate * (poses[k, 0, 0] * ax + poses[k, 0, 1] * ay + poses[k, 0, 2] * az)
+        uy = rate * (poses[k, 1, 0] * ax + poses[k, 1, 1] * ay + poses[k, 1, 2] * az)
+        uz = rate * (poses[k, 2, 0] * ax + poses[k, 2, 1] * ay + poses[k, 2, 2] * az)
+        if jtype[k] == REVOLUTE:
+            wx, wy, wz = wx + ux, wy + uy, wz + uz
+        elif jtype[k] == PRISMATIC:
+            vx, vy, vz = vx + ux, vy + uy, vz + uz
+        motion[0, k], motion[1, k], motion[2, k] = wx, wy, wz
+        motion[3, k], motion[4, k], motion[5, k] = vx, vy, vz
+
+
+@nb.njit(cache=True, inline="always")
+def _body_speed(b, poses, body_link, bound_c, bound_r, motion) -> float:
+    """How fast (per unit of the motion) body b's spheres move at this configuration:
+    at most its bounding sphere's centre speed plus its radius times the spin."""
+    li = body_link[b]
+    dx = bound_c[0, b] - poses[li, 0, 3]
+    dy = bound_c[1, b] - poses[li, 1, 3]
+    dz = bound_c[2, b] - poses[li, 2, 3]
+    wx, wy, wz = motion[0, li], motion[1, li], motion[2, li]
+    vx = motion[3, li] + wy * dz - wz * dy
+    vy = motion[4, li] + wz * dx - wx * dz
+    vz = motion[5, li] + wx * dy - wy * dx
+    return np.sqrt(vx * vx + vy * vy + vz * vz) + np.sqrt(wx * wx + wy * wy + wz * wz) * bound_r[b]
+
+
+@nb.njit(cache=True, inline="always")
+def _pair_speed(a, b, poses, body_link, bound_c, bound_r, motion) -> float:
+    """How fast (per unit of the motion) body b's spheres approach body a's at this
+    configuration: b's velocity in the frame that moves with a's link (turning about
+    a's spheres does not change their distance to anything)."""
+    la, lb = body_link[a], body_link[b]
+    x, y, z = bound_c[0, b], bound_c[1, b], bound_c[2, b]
+    ax, ay, az = x - poses[la, 0, 3], y - poses[la, 1, 3], z - poses[la, 2, 3]
+    bx, by, bz = x - poses[lb, 0, 3], y - poses[lb, 1, 3], z - poses[lb, 2, 3]
+    wax, way, waz = motion[0, la], motion[1, la], motion[2, la]
+    wbx, wby, wbz = motion[0, lb], motion[1, lb], motion[2, lb]
+    vx = motion[3, lb] + wby * bz - wbz * by - motion[3, la] - (way * az - waz * ay)
+    vy = motion[4, lb] + wbz * bx - wbx * bz - motion[4, la] - (waz * ax - wax * az)
+    vz = motion[5, lb] + wbx * by - wby * bx - motion[5, la] - (wax * ay - way * ax)
+    wx, wy, wz = wbx - wax, wby - way, wbz - waz
+    return np.sqrt(vx * vx + vy * vy + vz * vz) + np.sqrt(wx * wx + wy * wy + wz * wz) * bound_r[b]
+
+
+@nb.njit(cache=True, inline="always")
+def _time_to_cover(gap, v, s, g) -> float:
+    """How long (in units of the motion) it surely takes to cover `gap`: at the fixed
+    bound `v`, or starting at speed `s` and speeding up by at most `g` per unit
+    (s c + g c^2 / 2 = gap); whichever is longer."""
+    return max(gap / v, 2.0 * gap / (s + np.sqrt(s * s + 2.0 * g * gap)))
+
+
 _SHAPE_BITS = 20  # env item: body << 20 | shape
 _PAIR = 1 << 40  # pair item: _PAIR + pair
 
@@ -212,23 +283,26 @@ def item_lists(never: np.ndarray, n_pairs: int) -> tuple[np.ndarray, np.ndarray]
 
 def buffers(kin, bodies, n_items: int, n_pairs: int, queue: int) -> tuple:
     """Scratch space for the kernels: link poses, sphere centres (x, y and z rows),
-    body bounds (rows), which bodies have their spheres placed, body and pair speeds of
-    a motion, a ring of `queue` stretches for `segment_clearance` (where they start
-    and end, where their item list is), one gap per sphere, and a pool for the item
-    lists. The kernels allocate nothing: they are compiled without reference counting,
-    which would cost more than the geometry."""
-    n_bodies = bodies[4].shape[0]
+    body bounds (rows), which bodies have their spheres placed, the speeds of bodies
+    (the bound over a motion, how fast it may change, the speed at the configuration
+    at hand) and of pairs (the bound, its change), a ring of `queue` stretches for
+    `segment_clearance` (where they start and end, where their item list is), one gap
+    per sphere, a pool for the item lists, and the links' velocities (rows 0-5) along
+    the motion (row 6). The kernels allocate nothing: they are compiled without
+    reference counting, which would cost more than the geometry."""
+    n_bodies, n_nodes, d = bodies[4].shape[0], kin[0].shape[0], bodies[7].shape[0]
     return (
-        np.empty((kin[0].shape[0], 4, 4)),
+        np.empty((n_nodes, 4, 4)),
         np.empty((3, bodies[1].shape[0])),
         np.empty((3, n_bodies)),
         np.zeros(n_bodies, dtype=np.bool_),
-        np.zeros(n_bodies),
-        np.zeros(max(n_pairs, 1)),
+        np.zeros((3, n_bodies)),
+        np.zeros((2, max(n_pairs, 1))),
         np.empty((queue, 2)),
         np.empty((queue, 2), dtype=np.int64),
         np.empty(bodies[1].shape[0]),
         np.empty(min(queue * max(n_items, 1), 1 << 16), dtype=np.int64),
+        np.empty((7, max(n_nodes, d))),
     )
 
 
@@ -257,8 +331,8 @@ def config_clearance(
     q, cap, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
 ) -> float:
     """How long (in units of the motion's parameter, at most `cap`) the configuration
-    `q` surely stays free while bodies move no faster than `body_speed` (m per unit,
-    one per body) and pairs approach no faster than `pair_speed` (one per pair): the
+    `q` surely stays free while bodies move no faster than `body_speed[0]` (m per unit,
+    one per body) and pairs approach no faster than `pair_speed[0]` (one per pair): the
     smallest gap over speed. -1 when `q` is in contact. For configurations inside the
     joint limits (it skips what `never` rules out there)."""
     return _listed_clearance(
@@ -273,7 +347,7 @@ def _listed_clearance(
     """The clearance over all of `items`. Not inlined: the motion check inlines only its
     centre query, and each inlined copy of the query costs compile time (a cold start
     compiled for 74 s with four copies, 35 s with two)."""
-    c, _ = _clearance(
+    c, i = _clearance(
         q,
         cap,
         -1.0,
@@ -291,8 +365,23 @@ def _listed_clearance(
         items.shape[0],
         buf[9],
         0,
+        False,
     )
+    if c < 0.0:
+        _to_front(items, i)
     return c
+
+
+@nb.njit(cache=True, inline="always")
+def _to_front(items, i) -> None:
+    """Move items[i] to the front, the others keeping their order: the item that
+    touched last is the likeliest to touch next, and a query stops at its first
+    contact. The order changes no answer (a clearance is the smallest gap of all)."""
+    item = items[i]
+    while i > 0:
+        items[i] = items[i - 1]
+        i -= 1
+    items[0] = item
 
 
 @nb.njit(cache=True, _nrt=False, inline="always")
@@ -314,20 +403,32 @@ def _clearance(
     i1,
     out,
     o0,
+    local,
 ) -> tuple[float, int]:
     """`config_clearance` over items[i0:i1] only. The items whose bounding spheres are
     within `keep` times their speed are written to out[o0:] (for the intervals around
     `q`: see `segment_clearance`; none when `keep` is negative); returns the clearance
-    and the end of that list. Bounding spheres that cannot make it within `cap` are not
-    opened."""
+    and the end of that list, or -1 and the index of the item in contact. Bounding
+    spheres that cannot make it within `cap` are not opened.
+
+    With `local`, the speeds are also bounded by those at `q` (from the links'
+    velocities along the motion in buf[10][6]) plus how much they may grow within the
+    stretch (body_speed[1], pair_speed[1]): near the middle of a stretch a body
+    usually moves much slower than its bound over all configurations."""
     parent, origin, jtype, axis, src, mult, offset, const = kin
-    sphere_local, radius, body_start, body_end, body_link, bound_local, bound_r = bodies
-    poses, centres, bound_c, ready, gaps = buf[0], buf[1], buf[2], buf[3], buf[8]
+    sphere_local, radius, body_start, body_end, body_link, bound_local, bound_r = bodies[:7]
+    poses, centres, bound_c, ready, gaps, motion = buf[0], buf[1], buf[2], buf[3], buf[8], buf[10]
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
     _bounds(poses, body_link, bound_local, bound_c, ready)
     best = cap
     moving = cap > 0.0
     record = keep >= 0.0
+    if local:  # the links' velocities along the motion at `q`, the bodies' speeds
+        _twists(kin, poses, motion)
+        for e in range(env_bodies.shape[0]):
+            b = env_bodies[e]
+            body_speed[2, b] = _body_speed(b, poses, body_link, bound_c, bound_r, motion)
+    s = g = 0.0  # the speed of the item at hand here and its growth
     o = o0
     for it in range(i0, i1):
         item = items[it]
@@ -335,20 +436,24 @@ def _clearance(
             e = item >> _SHAPE_BITS
             k = item & ((1 << _SHAPE_BITS) - 1)
             b = env_bodies[e]
-            v = body_speed[b] if moving else 0.0
+            v = body_speed[0, b] if moving else 0.0
             r = bound_r[b] + pad
             g2 = _point_gap2(k, env, bound_c[0, b], bound_c[1, b], bound_c[2, b])
+            near = v  # the fastest the body may come nearer on average within `best`
+            if local:  # at its speed here and how fast that may grow
+                s, g = body_speed[2, b], body_speed[1, b]
+                near = min(v, s + 0.5 * g * best)
             if record:  # without a branch on the distance: it is unpredictable
                 out[o] = item
-                o += g2 <= (r + keep * v) ** 2
-            if g2 > (r + best * v) ** 2:
+                o += g2 <= (r + keep * (min(v, s + 0.5 * g * keep) if local else v)) ** 2
+            if g2 > (r + best * near) ** 2:
                 continue
             _place(b, poses, body_link, sphere_local, body_start, body_end, centres, ready)
             gap = _shape_gaps(k, env, centres, radius, body_start[b], body_end[b], gaps) - pad
         else:
             p = item - _PAIR
             a, b = pairs[p, 0], pairs[p, 1]
-            v = pair_speed[p] if moving else 0.0
+            v = pair_speed[0, p] if moving else 0.0
             dx = bound_c[0, a] - bound_c[0, b]
             dy = bound_c[1, a] - bound_c[1, b]
             dz = bound_c[2, a] - bound_c[2, b]
@@ -359,15 +464,21 @@ def _clearance(
                 o += g2 <= (r + keep * v) ** 2
             if g2 > (r + best * v) ** 2:
                 continue
+            if local:
+                s = _pair_speed(a, b, poses, body_link, bound_c, bound_r, motion)
+                g = pair_speed[1, p]
+                if g2 > (r + best * (s + 0.5 * g * best)) ** 2:
+                    continue
             _place(a, poses, body_link, sphere_local, body_start, body_end, centres, ready)
             _place(b, poses, body_link, sphere_local, body_start, body_end, centres, ready)
+            reach = best * (min(v, s + 0.5 * g * best) if local else v)
             gap = _pair_gap(
-                a, b, best * v, radius, body_start, body_end, bound_r, centres, bound_c, gaps
+                a, b, reach, radius, body_start, body_end, bound_r, centres, bound_c, gaps
             )
         if gap <= 0.0:
-            return -1.0, o
+            return -1.0, it
         if gap < best * v:
-            best = gap / v
+            best = min(best, _time_to_cover(gap, v, s, g)) if local else gap / v
     return best, o
 
 
@@ -396,14 +507,15 @@ def segment_clearance(
         span = max(span, abs(b[j] - a[j]) / resolution[j])
     n = max(int(np.ceil(span)), 1)
     body_speed, pair_speed, ring, lists, pool = buf[4], buf[5], buf[6], buf[7], buf[9]
+    motion = buf[10]
     body_speed[:] = 0.0
     pair_speed[:] = 0.0
     for j in range(d):
         dq = abs(b[j] - a[j])
         for i in range(body_rate.shape[0]):
-            body_speed[i] += body_rate[i, j] * dq
+            body_speed[0, i] += body_rate[i, j] * dq
         for i in range(pair_rate.shape[0]):
-            pair_speed[i] += pair_rate[i, j] * dq
+            pair_speed[0, i] += pair_rate[i, j] * dq
     c_b = config_clearance(
         b, 1.0, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
     )
@@ -427,6 +539,7 @@ def segment_clearance(
     x_end = 1.0 - c_b
     if c_a >= x_end:
         return c_b
+    _growth(a, b, body_rate, pair_rate, bodies[7], body_speed, pair_speed, motion)
     ring[0, 0], ring[0, 1] = c_a if c_a >= 0.0 else -1.0, x_end
     lists[0, 0], lists[0, 1] = 0, n_items
     head, tail = 0, 1
@@ -470,11 +583,16 @@ def segment_clearance(
             l1,
             pool,
             used,
+            True,
         )
+        if c < 0.0:
+            for i in range(n_items):
+                if reachable[i] == pool[end]:
+                    _to_front(reachable, i)
+                    break
+            return -1.0
         if room:
             l0, l1, used = used, end, end
-        if c < 0.0:
-            return -1.0
         if c >= w:
             continue
         if m - c - x0 > floor:
@@ -488,6 +606,30 @@ def segment_clearance(
             lists[slot, 0], lists[slot, 1] = l0, l1
             tail += 1
     return c_b
+
+
+@nb.njit(cache=True, inline="always")
+def _growth(a, b, body_rate, pair_rate, ancestry, body_speed, pair_speed, motion) -> None:
+    """The motion a -> b into motion[6], and into body_speed[1] and pair_speed[1] how
+    fast the speeds of bodies and pairs may change along it (per unit of the motion),
+    from their lever arms about each joint: sum over joints j of arm_j |dq_j| (|dq_j| +
+    2 sum over the joints i that swing j's axis of |dq_i|)."""
+    d = a.shape[0]
+    for j in range(d):
+        motion[6, j] = b[j] - a[j]
+    body_speed[1, :] = 0.0
+    for i in range(pair_rate.shape[0]):
+        pair_speed[1, i] = pair_rate[i, d]  # inf: pairs whose speed here is no bound
+    for j in range(d):
+        dq = abs(motion[6, j])
+        swing = 0.0
+        for i in range(d):
+            swing += ancestry[j, i] * abs(motion[6, i])
+        grow = dq * (dq + 2.0 * swing)
+        for i in range(body_rate.shape[0]):
+            body_speed[1, i] += body_rate[i, j] * grow
+        for i in range(pair_rate.shape[0]):
+            pair_speed[1, i] += pair_rate[i, j] * grow
 
 
 @nb.njit(cache=True, _nrt=False)

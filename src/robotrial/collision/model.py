@@ -326,6 +326,12 @@ class CollisionChecker:
             ],
             dtype=np.int64,
         ).reshape(-1, 2)
+        links = [self.kin.link_index[b.link] for b in bodies]
+        # for the kernels, each pair with the body on the upper link first
+        self._kernel_pairs = np.array(
+            [(j, i) if self.kin.ancestors[links[i], links[j]] else (i, j) for i, j in self.pairs],
+            dtype=np.int64,
+        ).reshape(-1, 2)
         self.env_bodies = np.array(
             [i for i, b in enumerate(bodies) if self.kin.moving[self.kin.link_index[b.link]]],
             dtype=np.int64,
@@ -405,7 +411,11 @@ class CollisionChecker:
                 for i, j in self.pairs
             ]
         ).reshape(-1, arms.shape[1])
-        return np.ascontiguousarray(arms @ to_joint), np.ascontiguousarray(pair @ to_joint)
+        # the last column: 0 where one body's link is above the other's (then the lower
+        # one's speed in the upper one's frame bounds how fast they close in), else never
+        nested = [kin.ancestors[links[j], links[i]] for i, j in self._kernel_pairs]
+        side = np.where(nested, 0.0, np.inf)[:, None]
+        return np.ascontiguousarray(arms @ to_joint), np.hstack([pair @ to_joint, side])
 
     def _pack(self) -> None:
         """The kernels' arrays: spheres and bounds in the frames of the collapsed tree
@@ -434,7 +444,22 @@ class CollisionChecker:
             np.array(body_link, dtype=np.int64),
             np.array(bound_local).reshape(-1, 3),
             np.array(bound_r),
+            self._ancestry(),
         )
+
+    def _ancestry(self) -> np.ndarray:
+        """(d, d) 1 where planning joint i turns a link above one that joint j turns (or
+        the same link): the joints whose motion swings joint j's axis, which the motion
+        checks' bound on how fast a body's speed may change needs."""
+        kin = self.kin
+        out = np.zeros((kin.d, kin.d))
+        for k in range(len(kin.link_names)):
+            if kin.src[k] < 0:
+                continue
+            for a in np.nonzero(kin.ancestors[k] & (kin.src >= 0))[0]:
+                if a != k:
+                    out[kin.src[k], kin.src[a]] = 1.0
+        return out
 
     @property
     def d(self) -> int:
@@ -455,7 +480,7 @@ class CollisionChecker:
             self._kin_args,
             self._bodies,
             self.env_bodies,
-            self.pairs,
+            self._kernel_pairs,
             self.padding,
             self._env,
             self._buf,

@@ -21,6 +21,7 @@ COMMANDS: dict[str, str] = {
     "rosbridge": "rosbridge",
     "slam": "slam",
     "nav": "nav",
+    "trials": "trials",
     "bench": "bench",
 }
 

@@ -1,0 +1,168 @@
+"""`robotrial trials`: sweeps of trials over seeds and settings, and their report (layer 5).
+
+    robotrial trials run nav --set world=room_a --set world=room_b --runs 10 --workers 2
+    robotrial trials run plan --set planner=rrt --set planner=rrt_star --ray local
+    robotrial trials run nav --runs 10 --resume          # after Ctrl+C or a lost node
+    robotrial trials report trials.db -o trials.html
+
+A setting given more than once is swept; every combination runs with seeds
+seed..seed+runs-1. Each run is a row of the SQLite database as soon as it ends.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "osmesa")
+os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+
+from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
+
+HELP = "sweeps of nav, plan or slam trials on local processes or Ray, stored in SQLite; report"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    run = sub.add_parser("run", help="run a sweep (skipping runs the database holds)")
+    run.add_argument("kind", help="trial kind: nav, plan or slam")
+    run.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a setting (YAML value, e.g. world=room_b or goal=[6.8,6.6,0]); "
+        "give a key more than once to sweep it",
+    )
+    run.add_argument("--runs", type=int, default=1, help="seeds per configuration")
+    run.add_argument("--seed", type=int, default=0, help="the first seed")
+    run.add_argument("--workers", type=int, default=1, help="local processes (or Ray tasks)")
+    run.add_argument(
+        "--ray", metavar="ADDRESS", help="run on a Ray cluster (e.g. auto, or local to start one)"
+    )
+    run.add_argument("--db", default="trials.db", help="SQLite file of the runs")
+    run.add_argument("--out", help="folder for files runs write (default: beside the db)")
+    run.add_argument("--name", help="the sweep's name in the database (default: the kind)")
+    run.add_argument("--resume", action="store_true", help="run what the database lacks")
+    add_json_flag(run)
+    rep = sub.add_parser("report", help="turn a trial database into an HTML page")
+    rep.add_argument("db", help="SQLite file written by `robotrial trials run`")
+    rep.add_argument("-o", "--output", help="HTML file (default: the db's name with .html)")
+
+
+def settings(items: list[str]) -> dict[str, list]:
+    """KEY=VALUE items as {key: [values in order given]}; values are YAML."""
+    import yaml
+
+    out: dict[str, list] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"--set {item!r}: expected KEY=VALUE")
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            raise ValueError(f"--set {item!r}: the value is not valid YAML ({exc})") from exc
+        out.setdefault(key.strip(), []).append(value)
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.action == "report":
+        return _report(args)
+    from robotrial.trials.store import TrialStore
+    from robotrial.trials.sweep import AlreadyRun, LocalExecutor, RayExecutor, grid, run_sweep
+
+    try:
+        if args.runs < 1:
+            raise ValueError(f"--runs must be at least 1, got {args.runs}")
+        specs = grid(args.kind, settings(args.set), range(args.seed, args.seed + args.runs))
+        store = TrialStore(args.db)
+    except ValueError as exc:
+        console.print(f"[red]robotrial trials: {exc}[/red]")
+        return 2
+    out = Path(args.out) if args.out else Path(args.db).with_suffix("")
+    failed: list[str] = []
+    with store:
+        try:
+            executor = RayExecutor(args.ray, args.workers) if args.ray else None
+            executor = executor or LocalExecutor(args.workers)
+        except ValueError as exc:
+            console.print(f"[red]robotrial trials: {exc}[/red]")
+            return 2
+        with progress(f"trials {args.kind}", len(specs), enabled=not args.json) as advance:
+
+            def on_record(rec) -> None:
+                advance()
+                if rec.error:
+                    failed.append(f"seed {rec.spec.seed}: {rec.error}")
+
+            try:
+                result = run_sweep(
+                    specs,
+                    store,
+                    executor,
+                    args.name or args.kind,
+                    out,
+                    resume=args.resume,
+                    on_record=on_record,
+                )
+            except AlreadyRun as exc:
+                executor.close()
+                console.print(f"[red]robotrial trials: {exc}[/red]")
+                return 2
+            if result.skipped:
+                advance(result.skipped)
+        summary = _summaries(store, specs)
+    for line in failed:
+        console.print(f"[yellow]{line}[/yellow]")
+    if result.interrupted:
+        console.print(
+            f"[yellow]interrupted: {result.skipped + result.finished} of {result.total} runs "
+            f"are in {args.db}; run the same command with --resume for the rest[/yellow]"
+        )
+    if args.json:
+        print_json({"db": args.db, "sweep": vars(result), "groups": summary})
+    else:
+        print_table(
+            f"robotrial trials {args.kind}: {result.finished} run now, {result.skipped} "
+            f"already in {args.db}, {result.lost} lost to dead workers",
+            ["configuration", "runs", "successes", "errors", "figure", "mean", "min", "max"],
+            [
+                [g[c] for c in ("configuration", "runs", "successes", "errors", "figure")]
+                + [g["mean"], g["min"], g["max"]]
+                for g in summary
+            ],
+        )
+    return 130 if result.interrupted else 0
+
+
+def _summaries(store, specs) -> list[dict]:
+    from robotrial.trials.report import config_label, group_runs, group_summary
+
+    keys = {s.key for s in specs}
+    records = [r for r in store.records() if r.spec.key in keys]
+    return [
+        {"configuration": config_label(runs[0].spec.config, kind), **group_summary(kind, runs)}
+        for (kind, _), runs in group_runs(records).items()
+    ]
+
+
+def _report(args: argparse.Namespace) -> int:
+    from robotrial.trials.report import html_report
+    from robotrial.trials.store import TrialStore
+
+    if not Path(args.db).is_file():
+        console.print(f"[red]robotrial trials report: no database at {args.db}[/red]")
+        return 2
+    try:
+        with TrialStore(args.db) as store:
+            page = html_report(store, f"robotrial trials: {Path(args.db).name}")
+    except ValueError as exc:
+        console.print(f"[red]robotrial trials report: {exc}[/red]")
+        return 2
+    out = Path(args.output) if args.output else Path(args.db).with_suffix(".html")
+    out.write_text(page)
+    console.print(f"wrote {out}")
+    return 0

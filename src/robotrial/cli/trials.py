@@ -37,7 +37,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     run.add_argument("--runs", type=int, default=1, help="seeds per configuration")
     run.add_argument("--seed", type=int, default=0, help="the first seed")
-    run.add_argument("--workers", type=int, default=1, help="local processes (or Ray tasks)")
+    run.add_argument(
+        "--workers",
+        type=int,
+        help="runs at once: local processes (default 1) or Ray tasks (default: its CPUs)",
+    )
     run.add_argument(
         "--ray", metavar="ADDRESS", help="run on a Ray cluster (e.g. auto, or local to start one)"
     )
@@ -87,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
     with store:
         try:
             executor = RayExecutor(args.ray, args.workers) if args.ray else None
-            executor = executor or LocalExecutor(args.workers)
+            executor = executor or LocalExecutor(args.workers or 1)
         except ValueError as exc:
             console.print(f"[red]robotrial trials: {exc}[/red]")
             return 2

@@ -11,6 +11,8 @@ import argparse
 import importlib
 import sys
 
+from robotrial.gl import choose_gl_backend
+
 # name -> module in robotrial.cli, in the order `robotrial --help` lists them
 COMMANDS: dict[str, str] = {
     "serve": "serve",
@@ -56,6 +58,7 @@ def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    choose_gl_backend()
     argv = sys.argv[1:] if argv is None else argv
     first = next((a for a in argv if not a.startswith("-")), None)
     parser = build_parser(first)

@@ -11,10 +11,6 @@ JSON with --json), and writes a PNG of the true paths over the map.
 from __future__ import annotations
 
 import argparse
-import os
-
-os.environ.setdefault("MUJOCO_GL", "osmesa")
-os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
 
 from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
 

@@ -12,11 +12,7 @@ seed..seed+runs-1. Each run is a row of the SQLite database as soon as it ends.
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
-
-os.environ.setdefault("MUJOCO_GL", "osmesa")
-os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
 
 from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
 

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
+import threading
 
 from robotrial.gl import choose_gl_backend
 
@@ -23,6 +25,7 @@ COMMANDS: dict[str, str] = {
     "rosbridge": "rosbridge",
     "slam": "slam",
     "nav": "nav",
+    "bag": "bag",
     "trials": "trials",
     "bench": "bench",
 }
@@ -57,8 +60,15 @@ def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _stop(signum: int, _frame: object) -> None:
+    """SIGTERM ends a command as Ctrl+C does: recordings are finished, files closed."""
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
 def main(argv: list[str] | None = None) -> int:
     choose_gl_backend()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _stop)
     argv = sys.argv[1:] if argv is None else argv
     first = next((a for a in argv if not a.startswith("-")), None)
     parser = build_parser(first)

@@ -1,6 +1,8 @@
 """Descriptions loaded confined to their folder (what the server does with uploads) cannot
 read the server's environment or files; each refusal names the file, the line and the
-substitution or path. The same files on the command line keep xacro's full behaviour."""
+substitution or path. The same files on the command line keep xacro's full behaviour.
+And the slips ROS's parser lets pass (XML version 0.0, two shapes in a <geometry>, an
+unexpanded $(optenv)) load with a repair."""
 
 from __future__ import annotations
 
@@ -146,3 +148,24 @@ def test_unexpanded_optenv_in_a_urdf_takes_its_default(tmp_path, monkeypatch):
     model = load_robot(path)
     assert tuple(model.joints[0].origin.xyz) == pytest.approx((0.19, 0, 0.149))
     assert any("$(optenv HUSKY_IMU_XYZ ...) was never expanded" in r for r in model.repairs)
+
+
+@pytest.mark.parametrize(
+    ("text", "repair"),
+    [
+        ('<?xml version="0.0" ?>\n' + URDF.format("<box size='1 1 1'/>"), "XML version '0.0'"),
+        ('\n\n<?xml version="1.0"?>\n' + URDF.format("<box size='1 1 1'/>"), "blank lines"),
+        (URDF.format("<box size='1 1 1'/>") + "\x00", "content after the closing </robot>"),
+        (URDF.format("<box size='1 1 1'/><material name='m'/>"), "the first, <box>, is used"),
+    ],
+)
+def test_xml_slips_that_ros_accepts_load_with_a_repair(tmp_path, text, repair):
+    model = load_robot(_write(tmp_path, "r.urdf", text))
+    assert any(repair in r for r in model.repairs), model.repairs
+
+
+def test_xml_slips_are_not_hidden_errors(tmp_path):
+    with pytest.raises(ModelError, match=r"r\.urdf:3: not well-formed XML"):
+        load_robot(_write(tmp_path, "r.urdf", '<robot name="r">\n<link name="a">\n</robot>'))
+    with pytest.raises(ModelError, match="<geometry> holds no shape"):
+        load_robot(_write(tmp_path, "e.urdf", URDF.format("")))

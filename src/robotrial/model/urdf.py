@@ -119,12 +119,13 @@ def urdf_from_string(
     if base_dir is None:
         sp = Path(source)
         base_dir = sp.parent if sp.is_file() else Path.cwd()
-    root = _parse_xml(text, source)
+    slips: list[str] = []
+    root = _parse_xml(text, source, slips)
     leftovers: list[str] = []
     raw_text = text if isinstance(text, str) else text.decode("utf-8", "replace")
     if not expanded_from_xacro and not _needs_xacro(root) and "$(optenv" in raw_text:
         text, leftovers = default_optenv(raw_text)
-        root = _parse_xml(text.encode("utf-8"), source)
+        root = _parse_xml(text.encode("utf-8"), source, [])
     if not expanded_from_xacro and _needs_xacro(root):
         raw = text if isinstance(text, bytes) else text.encode("utf-8")
         expanded = expand_xacro_text(raw, source, Path(base_dir), package_paths, confined)
@@ -132,6 +133,8 @@ def urdf_from_string(
         reader.repair(f"{source} uses xacro macros or properties; it was expanded with xacro")
         return reader.read(_parse_xml(expanded, source))
     reader = _Reader(source, Path(base_dir), package_paths, expanded_from_xacro, confined)
+    for slip in slips:
+        reader.repair(slip)
     for name in leftovers:
         reader.repair(f"{source}: $(optenv {name} ...) was never expanded; its default is used")
     return reader.read(root)
@@ -152,14 +155,48 @@ def _needs_xacro(root: etree._Element) -> bool:
 # --- XML helpers -------------------------------------------------------------------------
 
 
-def _parse_xml(text: str | bytes, source: str) -> etree._Element:
+_XML_DECL = re.compile(rb"<\?xml[^>]*?version\s*=\s*[\"']([^\"']*)[\"']")
+
+
+def _tolerated(data: bytes) -> tuple[bytes, list[str]]:
+    """`data` with the XML slips ROS's parser lets pass made good, and what was done:
+    text before the XML declaration, an XML version other than 1.0/1.1, anything after
+    the closing </robot>."""
+    done = []
+    start = data.find(b"<?xml")
+    if start > 0 and not data[:start].strip(b" \t\r\n\xef\xbb\xbf"):
+        data = data[start:]
+        done.append("blank lines before the XML declaration removed")
+    m = _XML_DECL.match(data)
+    if m and m.group(1) not in (b"1.0", b"1.1"):
+        data = data[: m.start(1)] + b"1.0" + data[m.end(1) :]
+        done.append(f"XML version {m.group(1).decode(errors='replace')!r} read as 1.0")
+    end = data.rfind(b"</robot>")
+    if end >= 0 and data[end + 8 :].strip(b" \t\r\n"):
+        data = data[: end + 8] + b"\n"
+        done.append("content after the closing </robot> ignored")
+    return data, done
+
+
+def _parse_xml(text: str | bytes, source: str, repairs: list[str] | None = None) -> etree._Element:
+    """The root <robot> element. With `repairs`, XML slips that ROS's parser accepts are
+    made good (see _tolerated) and described there; otherwise they are errors."""
     data = text.encode("utf-8") if isinstance(text, str) else text
     parser = etree.XMLParser(remove_comments=True, huge_tree=True, resolve_entities=False)
     try:
         root = etree.fromstring(data, parser)
     except etree.XMLSyntaxError as exc:
+        fixed, done = _tolerated(data) if repairs is not None else (data, [])
         line = exc.lineno if exc.lineno else "?"
-        raise ModelError(f"{source}:{line}: not well-formed XML: {exc.msg}") from exc
+        error = ModelError(f"{source}:{line}: not well-formed XML: {exc.msg}")
+        if not done:
+            raise error from exc
+        try:
+            root = etree.fromstring(fixed, parser)
+        except etree.XMLSyntaxError:
+            raise error from exc
+        assert repairs is not None
+        repairs.extend(f"{source}: {d} (as ROS's URDF parser does)" for d in done)
     if root is None or etree.QName(root).localname != "robot":
         tag = etree.QName(root).localname if root is not None else "nothing"
         raise ModelError(
@@ -506,13 +543,14 @@ class _Reader:
         if g is None:
             raise self.error(el, f"{kind} {index} of link {link!r} has no <geometry>")
         shapes = [c for c in g if _tag(c)]
-        if len(shapes) != 1:
-            raise self.error(
-                g,
-                f"{kind} {index} of link {link!r}: <geometry> must hold exactly one shape, "
-                f"found {[_tag(c) for c in shapes]}",
-            )
+        if not shapes:
+            raise self.error(g, f"{kind} {index} of link {link!r}: <geometry> holds no shape")
         s = shapes[0]
+        if len(shapes) > 1:
+            self.repair(
+                f"{kind} {index} of link {link!r} (line {g.sourceline}): <geometry> holds "
+                f"{[_tag(c) for c in shapes]}; the first, <{_tag(s)}>, is used (as ROS does)"
+            )
         t = _tag(s)
         what = f"link {link!r} {kind} {index}"
         if t == "box":

@@ -1,6 +1,6 @@
 """A small robot in a box room, written by hand for the simulator's tests.
 
-The RobotModel and the MJCF follow the naming of docs (EXTENSION.md): bodies named as
+The RobotModel and the MJCF follow the naming of docs (docs/robots.md): bodies named as
 links, a planar base (base_x, base_y, base_yaw), a site per sensor, `object/NAME` bodies.
 Room interior: x in [-3.89, 3.89], y in [-3.81, 3.81] (7.78 x 7.62 m, room A's size).
 """

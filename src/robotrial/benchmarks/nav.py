@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robotrial.cli.output import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, print_json, print_table, progress
 
 HELP = "Table 1 of the platform paper (rooms A, B, C; apartment) at 0.3 and 1.0 m/s; planner times"
 

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robotrial.cli.output import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, print_json, print_table, progress
 
 HELP = "real-time factor of the mobile manipulator in room C, sensors off and on; sensor costs"
 

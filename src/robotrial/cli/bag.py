@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from robotrial.cli.output import add_json_flag, console, print_json, print_table
+from robotrial.console import add_json_flag, console, print_json, print_table
 
 HELP = "recordings: messages per topic (info), rescue a recording cut short (recover)"
 

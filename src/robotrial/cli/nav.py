@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
+from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
 HELP = "navigate to a goal with AMCL, Dijkstra/A* and DWA in the simulator; success and time"
 

@@ -22,7 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from robotrial.cli.output import console
+    from robotrial.console import console
     from robotrial.ros.rosbridge import serve
 
     try:

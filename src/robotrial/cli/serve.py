@@ -31,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     import uvicorn
 
     from robotrial.app.server import ROSBRIDGE_PATH, create_app
-    from robotrial.cli.output import console
+    from robotrial.console import console
     from robotrial.model.robot import ModelError
     from robotrial.ros.bus import Bus
 

@@ -16,7 +16,7 @@ import sys
 import time
 from pathlib import Path
 
-from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
+from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
 HELP = "simulate a robot in a world headless (LiDAR, scan, odometry, cameras), record a bag"
 

@@ -14,7 +14,7 @@ import argparse
 import time
 from pathlib import Path
 
-from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
+from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
 HELP = "SLAM (gmapping or hector) from a recording or live; map_server files, trajectory, scores"
 

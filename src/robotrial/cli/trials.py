@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
+from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
 HELP = "sweeps of nav, plan or slam trials on local processes or Ray, stored in SQLite; report"
 

@@ -1,4 +1,4 @@
-"""robotrial_msgs: the platform's own types, Box and the PlanTask service (DESIGN.md)."""
+"""robotrial_msgs: the platform's own types, Box and the PlanTask service (docs/ros.md)."""
 
 from __future__ import annotations
 

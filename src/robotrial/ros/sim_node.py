@@ -1,6 +1,6 @@
 """The simulator on the bus: publishes what a Gazebo + ROS robot publishes (layer 4).
 
-`SimNode` wraps a `robotrial.sim.Simulation`. Topics (DESIGN.md's ROS names, plus the
+`SimNode` wraps a `robotrial.sim.Simulation`. Topics (the ROS names of docs/ros.md, plus the
 sensor topics a Gazebo robot has):
 
 | topic | type | from |

@@ -63,7 +63,7 @@ class LidarPattern:
 
     @staticmethod
     def from_params(params: dict[str, Any]) -> LidarPattern:
-        """From a Sensor's params (docs: EXTENSION.md lidar params); missing keys keep the
+        """From a Sensor's params (docs/robots.md, lidar params); missing keys keep the
         VLP-16 defaults."""
         known = {f for f in LidarPattern.__dataclass_fields__}
         kw = {k: float(v) for k, v in params.items() if k in known}

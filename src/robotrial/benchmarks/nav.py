@@ -89,6 +89,7 @@ def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import load_world
+    from robotrial.model.gridmap import world_map
     from robotrial.trials.nav import (
         PAPER_TABLE1,
         NavTrialSetup,
@@ -98,7 +99,6 @@ def run(args: argparse.Namespace) -> int:
         shortest_time,
         start_pose,
         summarize,
-        world_map,
     )
 
     if args.runs < 1:

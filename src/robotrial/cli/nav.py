@@ -42,16 +42,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import load_world
+    from robotrial.model.gridmap import file_map, world_map
     from robotrial.trials.nav import (
         NavTrialSetup,
-        file_map,
         footprint_of_robot,
         plot_paths,
         run_trials,
         shortest_time,
         start_pose,
         summarize,
-        world_map,
     )
 
     try:

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from robotrial.cli import main
 from robotrial.collision.exact import ExactChecker
-from robotrial.collision.model import CollisionChecker, Environment
+from robotrial.collision.sphere_model import CollisionChecker, Environment
 from robotrial.geometry import Box
 from robotrial.geometry import Pose as GeoPose
 from robotrial.model import load_robot, load_world

@@ -22,8 +22,8 @@ from robotrial.model.robot import (
     Sensor,
 )
 from robotrial.sim.build import prepare
+from robotrial.sim.scene import SimWorld
 from robotrial.sim.simulation import SimOptions, Simulation
-from robotrial.sim.world import SimWorld
 
 HALF_X, HALF_Y = 3.89, 3.81
 LIDAR_HEIGHT = 0.7  # floor to lidar

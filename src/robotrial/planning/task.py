@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from robotrial.collision.exact import ExactChecker
-from robotrial.collision.model import (
+from robotrial.collision.sphere_model import (
     OBJECT,
     CollisionChecker,
     Environment,

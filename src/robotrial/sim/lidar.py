@@ -2,9 +2,10 @@
 
 `LidarPattern` is the fixed set of beam directions of a spinning multi-ring LiDAR;
 `Lidar` casts them from a MuJoCo site: against a `RayScene` (the environment's geoms, in
-compiled code: sim/raycast.py), or against the whole model with mj_multiRay; `laserscan_from_points` turns a point cloud into
-a planar scan the way ROS's pointcloud_to_laserscan does (a height band, the nearest point
-per angle bin), and `Lidar.scan` does the same for a sweep without computing angles.
+compiled code: sim/raycast.py), or against the whole model with mj_multiRay;
+`laserscan_from_points` turns a point cloud into a planar scan the way ROS's
+pointcloud_to_laserscan does (a height band, the nearest point per angle bin), and
+`Lidar.scan` does the same for a sweep without computing angles.
 """
 
 from __future__ import annotations

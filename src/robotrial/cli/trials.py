@@ -4,6 +4,7 @@
     robotrial trials run plan --set planner=rrt --set planner=rrt_star --ray local
     robotrial trials run nav --runs 10 --resume          # after Ctrl+C or a lost node
     robotrial trials report trials.db -o trials.html
+    robotrial trials paper --quick --workers 2      # both papers, one HTML report
 
 A setting given more than once is swept; every combination runs with seeds
 seed..seed+runs-1. Each run is a row of the SQLite database as soon as it ends.
@@ -16,13 +17,13 @@ from pathlib import Path
 
 from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
-HELP = "sweeps of nav, plan or slam trials on local processes or Ray, stored in SQLite; report"
+HELP = "sweeps of trials on local processes or Ray, stored in SQLite; reports; both papers"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     run = sub.add_parser("run", help="run a sweep (skipping runs the database holds)")
-    run.add_argument("kind", help="trial kind: nav, plan or slam")
+    run.add_argument("kind", help="trial kind: nav, plan, slam or g2r")
     run.add_argument(
         "--set",
         action="append",
@@ -32,23 +33,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "give a key more than once to sweep it",
     )
     run.add_argument("--runs", type=int, default=1, help="seeds per configuration")
-    run.add_argument("--seed", type=int, default=0, help="the first seed")
-    run.add_argument(
+    run.add_argument("--name", help="the sweep's name in the database (default: the kind)")
+    _sweep_options(run, "trials.db")
+    paper = sub.add_parser("paper", help="both papers' experiments and one HTML report")
+    paper.add_argument("--quick", action="store_true", help="fewer seeds, shorter drives")
+    paper.add_argument("-o", "--output", default="paper.html", help="the HTML report")
+    _sweep_options(paper, "paper.db")
+    rep = sub.add_parser("report", help="turn a trial database into an HTML page")
+    rep.add_argument("db", help="SQLite file written by `robotrial trials run`")
+    rep.add_argument("-o", "--output", help="HTML file (default: the db's name with .html)")
+
+
+def _sweep_options(parser: argparse.ArgumentParser, db: str) -> None:
+    parser.add_argument("--seed", type=int, default=0, help="the first seed")
+    parser.add_argument(
         "--workers",
         type=int,
         help="runs at once: local processes (default 1) or Ray tasks (default: its CPUs)",
     )
-    run.add_argument(
+    parser.add_argument(
         "--ray", metavar="ADDRESS", help="run on a Ray cluster (e.g. auto, or local to start one)"
     )
-    run.add_argument("--db", default="trials.db", help="SQLite file of the runs")
-    run.add_argument("--out", help="folder for files runs write (default: beside the db)")
-    run.add_argument("--name", help="the sweep's name in the database (default: the kind)")
-    run.add_argument("--resume", action="store_true", help="run what the database lacks")
-    add_json_flag(run)
-    rep = sub.add_parser("report", help="turn a trial database into an HTML page")
-    rep.add_argument("db", help="SQLite file written by `robotrial trials run`")
-    rep.add_argument("-o", "--output", help="HTML file (default: the db's name with .html)")
+    parser.add_argument("--db", default=db, help=f"SQLite file of the runs (default {db})")
+    parser.add_argument("--out", help="folder for files runs write (default: beside the db)")
+    parser.add_argument("--resume", action="store_true", help="run what the database lacks")
+    add_json_flag(parser)
 
 
 def settings(items: list[str]) -> dict[str, list]:
@@ -71,57 +80,27 @@ def settings(items: list[str]) -> dict[str, list]:
 def run(args: argparse.Namespace) -> int:
     if args.action == "report":
         return _report(args)
-    from robotrial.trials.store import TrialStore
-    from robotrial.trials.sweep import AlreadyRun, LocalExecutor, RayExecutor, grid, run_sweep
+    from robotrial.trials.sweep import grid
 
     try:
-        if args.runs < 1:
-            raise ValueError(f"--runs must be at least 1, got {args.runs}")
-        specs = grid(args.kind, settings(args.set), range(args.seed, args.seed + args.runs))
-        store = TrialStore(args.db)
+        if args.action == "paper":
+            from robotrial.trials.paper import paper_specs
+
+            specs, name = paper_specs(args.quick, args.seed), "paper"
+        else:
+            if args.runs < 1:
+                raise ValueError(f"--runs must be at least 1, got {args.runs}")
+            seeds = range(args.seed, args.seed + args.runs)
+            specs, name = grid(args.kind, settings(args.set), seeds), args.name or args.kind
     except ValueError as exc:
         console.print(f"[red]robotrial trials: {exc}[/red]")
         return 2
-    out = Path(args.out) if args.out else Path(args.db).with_suffix("")
-    failed: list[str] = []
-    with store:
-        try:
-            executor = RayExecutor(args.ray, args.workers) if args.ray else None
-            executor = executor or LocalExecutor(args.workers or 1)
-        except ValueError as exc:
-            console.print(f"[red]robotrial trials: {exc}[/red]")
-            return 2
-        with progress(f"trials {args.kind}", len(specs), enabled=not args.json) as advance:
-
-            def on_record(rec) -> None:
-                advance()
-                if rec.error:
-                    failed.append(f"seed {rec.spec.seed}: {rec.error}")
-
-            try:
-                result = run_sweep(
-                    specs,
-                    store,
-                    executor,
-                    args.name or args.kind,
-                    out,
-                    resume=args.resume,
-                    on_record=on_record,
-                )
-            except AlreadyRun as exc:
-                executor.close()
-                console.print(f"[red]robotrial trials: {exc}[/red]")
-                return 2
-            if result.skipped:
-                advance(result.skipped)
-        summary = _summaries(store, specs)
-    for line in failed:
-        console.print(f"[yellow]{line}[/yellow]")
-    if result.interrupted:
-        console.print(
-            f"[yellow]interrupted: {result.skipped + result.finished} of {result.total} runs "
-            f"are in {args.db}; run the same command with --resume for the rest[/yellow]"
-        )
+    done = _sweep(args, specs, name)
+    if done is None:
+        return 2
+    result, summary = done
+    if args.action == "paper":
+        return _paper_page(args, result)
     if args.json:
         print_json({"db": args.db, "sweep": vars(result), "groups": summary})
     else:
@@ -135,6 +114,68 @@ def run(args: argparse.Namespace) -> int:
                 for g in summary
             ],
         )
+    return 130 if result.interrupted else 0
+
+
+def _sweep(args: argparse.Namespace, specs: list, name: str):
+    """Run the sweep with a progress bar; (result, group summaries), or None after
+    printing why it could not start."""
+    from robotrial.trials.store import TrialStore
+    from robotrial.trials.sweep import AlreadyRun, LocalExecutor, RayExecutor, run_sweep
+
+    out = Path(args.out) if args.out else Path(args.db).with_suffix("")
+    failed: list[str] = []
+    try:
+        store = TrialStore(args.db)
+    except ValueError as exc:
+        console.print(f"[red]robotrial trials: {exc}[/red]")
+        return None
+    with store:
+        try:
+            executor = RayExecutor(args.ray, args.workers) if args.ray else None
+            executor = executor or LocalExecutor(args.workers or 1)
+        except ValueError as exc:
+            console.print(f"[red]robotrial trials: {exc}[/red]")
+            return None
+        with progress(f"trials {name}", len(specs), enabled=not args.json) as advance:
+
+            def on_record(rec) -> None:
+                advance()
+                if rec.error:
+                    failed.append(f"{rec.spec.kind} seed {rec.spec.seed}: {rec.error}")
+
+            try:
+                result = run_sweep(
+                    specs, store, executor, name, out, resume=args.resume, on_record=on_record
+                )
+            except AlreadyRun as exc:
+                executor.close()
+                console.print(f"[red]robotrial trials: {exc}[/red]")
+                return None
+            if result.skipped:
+                advance(result.skipped)
+        summary = _summaries(store, specs)
+    for line in failed:
+        console.print(f"[yellow]{line}[/yellow]")
+    if result.interrupted:
+        console.print(
+            f"[yellow]interrupted: {result.skipped + result.finished} of {result.total} runs "
+            f"are in {args.db}; run the same command with --resume for the rest[/yellow]"
+        )
+    return result, summary
+
+
+def _paper_page(args: argparse.Namespace, result) -> int:
+    from robotrial.trials.paper import paper_report
+    from robotrial.trials.store import TrialStore
+
+    page = Path(args.output)
+    with TrialStore(args.db) as store:
+        page.write_text(paper_report(store))
+    if args.json:
+        print_json({"db": args.db, "sweep": vars(result), "report": str(page)})
+    else:
+        console.print(f"wrote {page} ({result.finished} runs now, {result.skipped} kept)")
     return 130 if result.interrupted else 0
 
 

@@ -10,6 +10,9 @@ run again from its row. `KINDS` is the table: a new kind is a function and an en
   a scene around an arm; success, planning time and path length.
 - `slam`: a drive along the world's route, mapped by GMapping or Hector; map accuracy,
   trajectory error and time per scan, the map files beside the database.
+- `g2r`: the g2rViewer desk experiment: the desk arm plans (the PlanTask service) from one
+  side of obstacle C to the other (or with no obstacle), the motion runs in MuJoCo, and
+  the hand's path under physics is compared with the planned one; a plot of both.
 """
 
 from __future__ import annotations
@@ -134,6 +137,12 @@ def _slam(config: dict[str, Any], seed: int, out: Path) -> Outcome:
     return Outcome(None, figures, files)
 
 
+def _g2r(config: dict[str, Any], seed: int, out: Path) -> Outcome:
+    from robotrial.trials.g2r import desk_run
+
+    return desk_run(bool(config["obstacle"]), str(config["planner"]), seed, out)
+
+
 KINDS: dict[str, TrialKind] = {
     "nav": TrialKind(
         "nav",
@@ -155,6 +164,7 @@ KINDS: dict[str, TrialKind] = {
         "planning_time",
         _plan,
     ),
+    "g2r": TrialKind("g2r", {"obstacle": True, "planner": "rrt_connect"}, "ee_deviation", _g2r),
     "slam": TrialKind(
         "slam",
         {"world": "room_a", "method": "gmapping", "duration": 120.0, "speed": 0.3},

@@ -60,6 +60,10 @@ def test_standalone_rosbridge_plans_for_its_robot(tmp_path):
         answer = service.call(roslibpy.ServiceRequest(REQUEST), timeout=60)
         assert answer["success"], answer["message"]
         assert len(answer["goal_joints"]) == 6 and answer["trajectory"]["points"]
+        # a goal sent without an orientation is a position-only goal
+        position_only = {**REQUEST, "ee_goal": {"position": REQUEST["ee_goal"]["position"]}}
+        answer = service.call(roslibpy.ServiceRequest(position_only), timeout=60)
+        assert answer["success"], answer["message"]
     finally:
         ros.close()
         proc.terminate()

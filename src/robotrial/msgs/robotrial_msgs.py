@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from robotrial.msgs.core import Message, bool_, float64, message, service, string
 from robotrial.msgs.geometry_msgs import Pose, Vector3
 from robotrial.msgs.sensor_msgs import JointState
@@ -30,6 +32,17 @@ class PlanTaskRequest(Message):
     ee_goal: Pose
     planner: string
     time_limit: float64
+
+    @classmethod
+    def from_dict(cls, data: Any, path: str | None = None) -> Any:
+        """As any message, except that an `ee_goal` sent without `orientation` means a
+        position-only goal (all zeros), not the identity a ROS default would give."""
+        if isinstance(data, dict):
+            goal = data.get("ee_goal")
+            if goal is None or (isinstance(goal, dict) and "orientation" not in goal):
+                zero = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 0.0}
+                data = {**data, "ee_goal": {**(goal or {}), "orientation": zero}}
+        return super().from_dict(data, path)
 
 
 @message("robotrial_msgs/srv/PlanTask_Response")

@@ -14,7 +14,9 @@ import trimesh
 
 from robotrial.cli import main
 from robotrial.model import load_robot
-from robotrial.model.rdtf import model_differences, read_rdtf
+from robotrial.model.rdtf import read_rdtf
+
+from .rdtf_compare import model_differences
 
 URDF = """<?xml version="1.0"?>
 <robot name="tiny">

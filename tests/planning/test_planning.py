@@ -23,7 +23,7 @@ from robotrial.msgs.sensor_msgs import JointState
 from robotrial.planning import PLANNERS, Problem, planner_class
 from robotrial.planning.problems import desk_task
 from robotrial.planning.smoothing import shortcut
-from robotrial.planning.task import TaskPlanner, plan_task
+from robotrial.planning.task import TaskPlanner
 from robotrial.planning.timing import time_parameterize
 
 START = [-0.785, 0.80, 1.57, 0.0, 0.76, 0.0]  # the hand near (0.15, -0.15, 0.02)
@@ -142,8 +142,7 @@ def test_plan_task_answers_the_g2rviewer_request(planner) -> None:
     qd = np.array([p.velocities for p in traj.points])
     assert np.all(np.abs(qd) <= planner.vmax * 1.02)
     assert resp.planning_time > 0
-    # the same through the module function, as the node calls it
-    assert plan_task(planner.robot, _request(), planner.world).success
+    assert planner.plan(_request(), seed=2).response.success  # a second plan, another seed
 
 
 def test_plan_task_carries_an_object_in_the_hand(planner) -> None:

@@ -118,7 +118,7 @@ class ExactChecker:
         keep = (dist < -self.tolerance) & self._counts[b[:, 0], b[:, 1]]
         return geoms[keep]
 
-    def contacts(self, q: np.ndarray) -> list[tuple[str, str, float]]:
+    def contacts(self, q: np.ndarray) -> list[tuple[str, str]]:
         """Contacts that count at `q`: (robot body, other body or geom name)."""
         import mujoco
 

@@ -404,23 +404,3 @@ def to_joint_trajectory(names: list[str], traj: Trajectory) -> JointTrajectory:
         for i in range(len(traj.t))
     ]
     return JointTrajectory(joint_names=list(names), points=points)
-
-
-_PLANNERS: dict[tuple[int, int], tuple[RobotModel, World | None, TaskPlanner]] = {}
-
-
-def task_planner(robot: RobotModel, world: World | None = None) -> TaskPlanner:
-    """The TaskPlanner for this robot and world, built once and reused."""
-    key = (id(robot), id(world))
-    hit = _PLANNERS.get(key)
-    if hit is None or hit[0] is not robot or hit[1] is not world:
-        hit = (robot, world, TaskPlanner(robot, world))
-        _PLANNERS[key] = hit
-    return hit[2]
-
-
-def plan_task(
-    robot: RobotModel, request: PlanTaskRequest, world: World | None = None
-) -> PlanTaskResponse:
-    """The /robotrial/plan_task service: a PlanTask request in, its response out."""
-    return task_planner(robot, world).plan(request).response

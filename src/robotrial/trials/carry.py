@@ -841,9 +841,13 @@ class CarryTrial(Node):
         yield from self._move_arm(local + np.array([0.0, 0.0, 0.005]), base, holding=True)
         g = self.sim.gripper
         assert g is not None
-        g.open(self.sim.world.data)
-        self.held = False
+        # open the fingers clear of the object before it is back under physics
+        self.sim.set_joint_targets({f: g.open_value for f in self._fingers})
         for _ in range(round(0.5 / self.sim.control_dt)):
+            yield
+        g.release(self.sim.world.data)
+        self.held = False
+        for _ in range(round(0.3 / self.sim.control_dt)):
             yield
         yield from self._move_arm(self._approach_point(local), base, holding=False)
         yield from self._straight(-STANDOFF)

@@ -73,7 +73,7 @@ from robotrial.planning.task import TaskPlanner, to_joint_trajectory
 from robotrial.ros.bus import Bus, Node
 from robotrial.ros.nav_node import NavNode
 from robotrial.ros.sim_node import SimNode
-from robotrial.ros.slam_node import SlamNode, grid_message
+from robotrial.ros.slam_node import SlamNode, grid_message, yaw_of
 from robotrial.sim import SimOptions, Simulation, StreamSettings
 from robotrial.sim.controllers import DriveLimits
 from robotrial.trials.nav import ContactWatch, footprint_of, navigator_config
@@ -317,17 +317,14 @@ class CarryTrial(Node):
     def _on_odom(self, msg) -> None:
         p = msg.pose.pose
         q = p.orientation
-        yaw = float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)))
+        yaw = yaw_of(q)
         self.odom = np.array([p.position.x, p.position.y, yaw])
         self.velocity = (float(msg.twist.twist.linear.x), float(msg.twist.twist.angular.z))
 
     def _on_tf(self, msg: TFMessage) -> None:
         for tr in msg.transforms:
             if tr.header.frame_id == "map" and tr.child_frame_id == "odom":
-                r = tr.transform.rotation
-                yaw = float(
-                    np.arctan2(2 * (r.w * r.z + r.x * r.y), 1 - 2 * (r.y * r.y + r.z * r.z))
-                )
+                yaw = yaw_of(tr.transform.rotation)
                 self.map_to_odom = np.array(
                     [tr.transform.translation.x, tr.transform.translation.y, yaw]
                 )
@@ -448,18 +445,18 @@ class CarryTrial(Node):
         yield from self._start_navigation()
         obj = self.world.body(self.setup.object)
         self._begin("navigation")
-        base = yield from self._go_near(obj.pose.xyz, "navigation", holding=False)
+        yield from self._go_near(obj.pose.xyz, "navigation", holding=False)
         self._begin("pick")
-        yield from self._pick(base)
+        yield from self._pick()
         self._begin("carry")
         place = self.room.place
         assert place is not None
         surface = self.world.body(self.room.place_on)
         height = _top(surface) + _bounding_size(self.target)[2] / 2
         target = np.array([place[0], place[1], height])
-        base = yield from self._go_near(target, "carry", holding=True)
+        yield from self._go_near(target, "carry", holding=True)
         self._begin("place")
-        yield from self._place(base, target)
+        yield from self._place(target)
         self._end_phase()
         self._score(target)
 
@@ -477,17 +474,6 @@ class CarryTrial(Node):
         self._drive(0.0, 0.0)
         for _ in range(10):
             yield
-
-    def _scan_points(self, scan: LaserScan, pose: np.ndarray):
-        ranges = np.asarray(scan.ranges, dtype=float)
-        angles = scan.angle_min + scan.angle_increment * np.arange(len(ranges))
-        ok = (ranges >= scan.range_min) & (ranges < scan.range_max)
-        sensor = compose(pose, self.laser)
-        a = sensor[2] + angles[ok]
-        pts = np.column_stack(
-            [sensor[0] + ranges[ok] * np.cos(a), sensor[1] + ranges[ok] * np.sin(a)]
-        )
-        return (float(sensor[0]), float(sensor[1])), pts
 
     def _nav_config(self, **changes) -> NavigatorConfig:
         base = navigator_config(
@@ -623,7 +609,7 @@ class CarryTrial(Node):
         res = self._plan(start, self._approach_point(local), base, holding=False, quiet=True)
         if res is None:
             return False
-        res2 = self._plan(res.trajectory.q[-1], local, base, holding=False, quiet=True, near=True)
+        res2 = self._plan(res.trajectory.q[-1], local, base, holding=False, quiet=True)
         return res2 is not None
 
     def _navigate(self, goal: np.ndarray) -> Iterator[None]:
@@ -677,7 +663,7 @@ class CarryTrial(Node):
         yaw = float(np.arctan2(d[1], d[0]))
         return Rotation.from_euler("z", yaw) * SIDE_GRASP
 
-    def _obstacles(self, base: np.ndarray, near: bool = False) -> list[Box]:
+    def _obstacles(self, base: np.ndarray) -> list[Box]:
         """Furniture and walls within reach of the arm, as boxes in the base frame
         (cylinders by their bounding boxes), and the floor."""
         inv = compose(inverse(base), self.to_map((0.0, 0.0, 0.0)))
@@ -703,7 +689,6 @@ class CarryTrial(Node):
         base: np.ndarray,
         holding: bool,
         quiet: bool = False,
-        near: bool = False,
         orientation: Rotation | None = None,
     ):
         """Plan the hand to `local` (base frame) with a side grasp; None when the planner
@@ -716,7 +701,7 @@ class CarryTrial(Node):
             obj = _box_message(self.setup.object, size, Pose.from_matrix(tcp))
         request = PlanTaskRequest(
             current_joints=JointState(name=list(self.arm_names), position=list(start)),
-            obstacles=self._obstacles(base, near),
+            obstacles=self._obstacles(base),
             object=obj,
             ee_goal=PoseMsg(Point(*map(float, local)), Quaternion(*map(float, q))),
             planner=self.setup.planner,
@@ -770,8 +755,6 @@ class CarryTrial(Node):
         for gs in self.finger_geoms.values():
             for g in gs:
                 self.watch.robot[g] = False
-        # the gripper's geoms still may not touch walls or furniture: watched separately
-        self._gripper_all = [g for gs in self.finger_geoms.values() for g in gs]
 
     def _fingers_touch(self) -> bool:
         data = self.sim.world.data
@@ -791,7 +774,7 @@ class CarryTrial(Node):
         tcp = self.sim.frame_pose(self.robot.end_effector)[:3, 3]
         return float(np.linalg.norm(tcp - self._object_pose(self.setup.object)[0]))
 
-    def _pick(self, base_plan: np.ndarray) -> Iterator[None]:
+    def _pick(self) -> Iterator[None]:
         base = self.pose()
         obj_world = np.asarray(self.target.pose.xyz, dtype=float)
         obj_map = self.to_map((obj_world[0], obj_world[1], 0.0))
@@ -832,7 +815,7 @@ class CarryTrial(Node):
         yield from self._straight(-STANDOFF)
         yield from self._move_arm(np.array(CARRY_TCP), self.pose(), holding=True)
 
-    def _place(self, base_plan: np.ndarray, target_world: np.ndarray) -> Iterator[None]:
+    def _place(self, target_world: np.ndarray) -> Iterator[None]:
         base = self.pose()
         t_map = self.to_map((target_world[0], target_world[1], 0.0))
         local = self._in_base(base, np.array([t_map[0], t_map[1], target_world[2]]))

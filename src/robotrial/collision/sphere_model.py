@@ -240,7 +240,7 @@ class Environment:
         self.poses.append(m)
         self.dims.append(dims)
 
-    def arrays(self, keep: Sequence[int] | None = None) -> tuple:
+    def arrays(self, keep: Sequence[int] | None = None) -> kernels.Shapes:
         """The tuple the kernels take: box inverse poses and half extents, cylinder
         inverse poses, radii and half lengths, sphere centres and radii (of the shapes
         in `keep`, default all)."""
@@ -251,7 +251,7 @@ class Environment:
 
         bi, ci, si = pick("box"), pick("cylinder"), pick("sphere")
         inv = [np.linalg.inv(m) for m in self.poses]
-        return (
+        return kernels.Shapes(
             np.array([inv[i] for i in bi]).reshape(-1, 4, 4),
             np.array([self.dims[i] for i in bi]).reshape(-1, 3),
             np.array([inv[i] for i in ci]).reshape(-1, 4, 4),
@@ -340,13 +340,23 @@ class CollisionChecker:
         env_arrays = self._reachable_env()
         self.never_touching = self._never_touching(env_arrays)
         items = kernels.item_lists(self.never_touching, len(self.pairs))
-        self._env = (*env_arrays, *items)
+        self._env = kernels.Obstacles(env_arrays, *items)
         longest = int(np.ceil(np.max((self.kin.upper - self.kin.lower) / self.resolution)))
-        self._buf = kernels.buffers(
+        buf = kernels.buffers(
             self._kin_args, self._bodies, len(items[1]), len(self.pairs), longest + 4
         )
+        config = kernels.ConfigChecks(
+            self._kin_args,
+            self._bodies,
+            self.env_bodies,
+            self._kernel_pairs,
+            self.padding,
+            self._env,
+            buf,
+        )
+        self._checks = kernels.packed(kernels.MotionChecks(self.resolution, *self._travel, config))
 
-    def _reachable_env(self) -> tuple:
+    def _reachable_env(self) -> kernels.Shapes:
         """The environment arrays without shapes no moving body can reach (table legs,
         a floor far below the arm): fewer tests for every check."""
         reach = self.robot.reach + self.padding + 1e-3
@@ -361,14 +371,14 @@ class CollisionChecker:
         ]
         return self.env.arrays(keep)
 
-    def _never_touching(self, env: tuple, samples: int = 512) -> np.ndarray:
+    def _never_touching(self, env: kernels.Shapes, samples: int = 512) -> np.ndarray:
         """(env bodies, shapes) True where a body that only one or two planning joints
         move cannot reach the shape anywhere in those joints' ranges (a first link turning
         above the table it stands on). The joints are swept on a grid; between grid points
         a body moves at most its travel bound times half a step, which the gap must
         exceed. Clearances then ignore those pairs: they would otherwise set the pace of
         every motion check while never being in danger."""
-        n_shapes = len(env[0]) + len(env[2]) + len(env[5])  # boxes, cylinders, spheres
+        n_shapes = len(env.box_inv) + len(env.cyl_inv) + len(env.sph_c)
         out = np.zeros((len(self.env_bodies), n_shapes), dtype=bool)
         rates = self._travel[0]
         kin = self.kin
@@ -436,7 +446,7 @@ class CollisionChecker:
             body_link.append(node[li])
             bound_local.append(m[:3, :3] @ c + m[:3, 3])
             bound_r.append(float(np.max(np.linalg.norm(b.centres - c, axis=1) + b.radii)))
-        self._bodies = (
+        self._bodies = kernels.Bodies(
             np.ascontiguousarray(np.vstack(local).T),  # one row per axis
             np.concatenate(radius),
             np.array(starts, dtype=np.int64),
@@ -473,29 +483,15 @@ class CollisionChecker:
     def upper(self) -> np.ndarray:
         return self.kin.upper
 
-    def _config_args(self) -> tuple:
-        """What every configuration kernel takes after the configuration: kinematics,
-        bodies, env bodies, pairs, padding, environment, scratch."""
-        return (
-            self._kin_args,
-            self._bodies,
-            self.env_bodies,
-            self._kernel_pairs,
-            self.padding,
-            self._env,
-            self._buf,
-        )
-
     def valid(self, qs: np.ndarray) -> np.ndarray:
         """(N,) bool: which configurations of (N, d) are free."""
         q = np.ascontiguousarray(np.atleast_2d(np.asarray(qs, dtype=float)))
-        return kernels.valid_batch(q, *self._config_args())
+        return kernels.valid_batch(q, self._checks[3])
 
     def kernel_args(self) -> tuple:
-        """What the motion kernels (`kernels.segment_clearance`, `kernels.motions_valid`)
-        take after the motion itself: resolution, body and pair travel bounds, then the
-        configuration kernels' arguments."""
-        return (self.resolution, *self._travel, *self._config_args())
+        """What the motion kernels take after the motion: a `kernels.MotionChecks`,
+        `kernels.packed`. Compiled planners call the kernels with it."""
+        return self._checks
 
     def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) bool: which straight segments a[i] -> b[i] are free (a[i] assumed free).
@@ -505,7 +501,7 @@ class CollisionChecker:
         return kernels.motions_valid(
             np.ascontiguousarray(np.atleast_2d(a), dtype=float),
             np.ascontiguousarray(np.atleast_2d(b), dtype=float),
-            *self.kernel_args(),
+            self.kernel_args(),
         )
 
     def motion_valid(self, a: np.ndarray, b: np.ndarray) -> bool:

@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation
 
 from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Shape, Sphere
 from robotrial.model.meshes import load_mesh
-from robotrial.model.robot import Inertial, Joint, ModelError, RobotModel
+from robotrial.model.robot import Inertial, Joint, ModelError, RobotModel, Sensor
 from robotrial.model.world import Light, Obstacle, World
 
 if TYPE_CHECKING:
@@ -596,23 +596,30 @@ class _Writer:
                 el.set("forcerange", _nums([-effort, effort]))
         self.actuators.append(el)
 
-    def _sensor(self, body: ET.Element, s) -> None:
+    def _sensor(self, body: ET.Element, s: Sensor) -> None:
+        """A site at the sensor's frame (LiDARs cast their rays from it), plus what its
+        type needs from MuJoCo (`_SENSOR_ELEMENTS`)."""
         site = ET.SubElement(body, "site", name=s.name, size="0.01")
         _set_pose(site, s.origin)
-        if s.type in ("camera", "depth_camera"):
-            # A sensor frame looks along +x with z up (ROS body convention); a MuJoCo
-            # camera looks along -z with y up.
-            to_cam = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
-            rot = s.origin.rotation() @ to_cam
-            cam = ET.SubElement(body, "camera", name=s.name, pos=_nums(s.origin.xyz))
-            cam.set("quat", _nums(_wxyz(Rotation.from_matrix(rot).as_quat())))
-            fov = float(s.params.get("fov", np.deg2rad(45.0)))
-            cam.set("fovy", _num(np.rad2deg(fov)))
-        elif s.type == "imu":
-            self.sensors.append(ET.Element("gyro", name=f"{s.name}/gyro", site=s.name))
-            self.sensors.append(
-                ET.Element("accelerometer", name=f"{s.name}/accelerometer", site=s.name)
-            )
+        add = _SENSOR_ELEMENTS.get(s.type)
+        if add is not None:
+            add(self, body, s)
+
+    def _camera(self, body: ET.Element, s: Sensor) -> None:
+        # A sensor frame looks along +x with z up (ROS body convention); a MuJoCo
+        # camera looks along -z with y up.
+        to_cam = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+        rot = s.origin.rotation() @ to_cam
+        cam = ET.SubElement(body, "camera", name=s.name, pos=_nums(s.origin.xyz))
+        cam.set("quat", _nums(_wxyz(Rotation.from_matrix(rot).as_quat())))
+        fov = float(s.params.get("fov", np.deg2rad(45.0)))
+        cam.set("fovy", _num(np.rad2deg(fov)))
+
+    def _imu(self, body: ET.Element, s: Sensor) -> None:
+        self.sensors.append(ET.Element("gyro", name=f"{s.name}/gyro", site=s.name))
+        self.sensors.append(
+            ET.Element("accelerometer", name=f"{s.name}/accelerometer", site=s.name)
+        )
 
     # world -----------------------------------------------------------------------------
 
@@ -664,6 +671,10 @@ class _Writer:
         color = np.clip(np.asarray(light.color) * light.intensity, 0.0, 1.0)
         el.set("diffuse", _nums(color))
         el.set("specular", "0.1 0.1 0.1")
+
+
+_SENSOR_ELEMENTS = {"camera": _Writer._camera, "depth_camera": _Writer._camera, "imu": _Writer._imu}
+"""What each sensor type adds to MJCF besides its site (LiDARs need only the site)."""
 
 
 def to_mjcf(

@@ -17,6 +17,7 @@ import numpy as np
 
 from robotrial.geometry import Pose
 from robotrial.model.robot import RobotModel
+from robotrial.sim.sensor_kinds import SENSOR_KINDS
 
 OPTICAL = Pose.from_xyz_rpy((0, 0, 0), (-np.pi / 2, 0.0, -np.pi / 2))
 
@@ -86,7 +87,7 @@ class TfTree:
             self.sensor_frames[s.name] = frame
             if frame not in self.links:
                 statics.append(Transform(s.link, frame, s.origin.xyz, s.origin.quat))
-            if s.type in ("camera", "depth_camera"):
+            if SENSOR_KINDS[s.type].optical_frame:
                 statics.append(Transform(frame, frame + "_optical", OPTICAL.xyz, OPTICAL.quat))
         self.movable = [
             j

@@ -519,7 +519,7 @@ class CarryTrial(Node):
         self.init_pub.publish(
             PoseWithCovarianceStamped(
                 header=head,
-                pose=PoseWithCovariance(pose=_pose_msg(*pose), covariance=cov.tolist()),
+                pose=PoseWithCovariance(pose=PoseMsg.planar(*pose), covariance=cov.tolist()),
             )
         )
         self.map_pub.publish(grid_message(grid, t))
@@ -615,7 +615,7 @@ class CarryTrial(Node):
     def _navigate(self, goal: np.ndarray) -> Iterator[None]:
         assert self.nav_node is not None
         head = Header(stamp=Time.from_sec(self.sim.world.time), frame_id="map")
-        self.goal_pub.publish(PoseStamped(header=head, pose=_pose_msg(*goal)))
+        self.goal_pub.publish(PoseStamped(header=head, pose=PoseMsg.planar(*goal)))
         nav = self.nav_node.navigator
         assert nav is not None
         while nav.status is Status.ACTIVE:
@@ -872,13 +872,6 @@ class CarryTrial(Node):
 
 def _body_name(m: mujoco.MjModel, b: int) -> str:
     return mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or ""
-
-
-def _pose_msg(x: float, y: float, yaw: float) -> PoseMsg:
-    return PoseMsg(
-        position=Point(x=float(x), y=float(y), z=0.0),
-        orientation=Quaternion(x=0.0, y=0.0, z=float(np.sin(yaw / 2)), w=float(np.cos(yaw / 2))),
-    )
 
 
 def run_carry(

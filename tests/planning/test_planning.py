@@ -297,21 +297,22 @@ def test_cli_plan_prints_json_and_writes_plots(tmp_path, capsys) -> None:
             "--seed",
             "0",
             "--json",
-            "--plots",
-            str(tmp_path),
+            "--plot",
+            str(tmp_path / "plan.png"),
         ]
     )
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["success"]
     assert out["trajectory"]["joint_names"][0] == "joint1"
     assert out["trajectory"]["points"][-1]["time_from_start"]["sec"] >= 0
-    assert (tmp_path / "joints.png").stat().st_size > 0 and (tmp_path / "ee_path.png").exists()
+    assert out["plots"] == [str(tmp_path / "plan.png")]
+    assert (tmp_path / "plan.png").stat().st_size > 0
 
 
 def test_cli_plan_reads_a_rosbridge_request(tmp_path, capsys) -> None:
     req = tmp_path / "req.json"
     req.write_text(json.dumps(_request(goal=(1.5, 0, 0)).to_dict()))
-    code = main(["plan", "--robot", "desk_arm", "--request", str(req), "--json", "--no-plots"])
+    code = main(["plan", "--robot", "desk_arm", "--request", str(req), "--json"])
     out = json.loads(capsys.readouterr().out)
     assert code == 1 and not out["success"] and out["failure"] == "unreachable"
 

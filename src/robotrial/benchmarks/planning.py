@@ -6,7 +6,7 @@ planners (sphere checker, compiled) and OMPL's (its Python bindings, with MuJoCo
 state validity callback, as MoveIt pairs OMPL with FCL) run on the same start and goal
 in the same process. Every path we return is checked densely with MuJoCo. `--validate N`
 adds N random desk problems (random boxes, random start and goal) and counts returned
-paths in collision. Writes docs/benchmarks/planning.md and, with --out, JSON.
+paths in collision. Writes docs/benchmarks/planning.md and, with -o/--output, JSON.
 """
 
 from __future__ import annotations
@@ -78,7 +78,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="also send N random desk PlanTask requests and count colliding trajectories",
     )
-    parser.add_argument("--out", type=Path, help="write the results as JSON here")
+    parser.add_argument("-o", "--output", type=Path, help="write the results as JSON here")
     parser.add_argument(
         "--md",
         type=Path,
@@ -381,9 +381,9 @@ def run(args: argparse.Namespace) -> int:
         "speedups": _speedups(results),
         "validation": validation,
     }
-    if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps(report, indent=2))
+    if args.output:
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        args.output.write_text(json.dumps(report, indent=2))
     if args.md:
         args.md.parent.mkdir(parents=True, exist_ok=True)
         args.md.write_text(markdown(report))

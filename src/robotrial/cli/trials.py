@@ -50,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     carry.add_argument("--slam", default="gmapping", choices=["gmapping", "hector"])
     carry.add_argument("--speed", type=float, default=0.5, help="top speed (m/s)")
     carry.add_argument("--seed", type=int, default=0)
-    carry.add_argument("--out", default="carry", help="folder for the MCAP, JSON and plot")
+    carry.add_argument("-o", "--output", default="carry", help="folder for the MCAP, JSON and plot")
     add_json_flag(carry)
     rep = sub.add_parser("report", help="turn a trial database into an HTML page")
     rep.add_argument("db", help="SQLite file written by `robotrial trials run`")
@@ -68,7 +68,9 @@ def _sweep_options(parser: argparse.ArgumentParser, db: str) -> None:
         "--ray", metavar="ADDRESS", help="run on a Ray cluster (e.g. auto, or local to start one)"
     )
     parser.add_argument("--db", default=db, help=f"SQLite file of the runs (default {db})")
-    parser.add_argument("--out", help="folder for files runs write (default: beside the db)")
+    parser.add_argument(
+        "--files", metavar="DIR", help="folder for files runs write (default: beside the db)"
+    )
     parser.add_argument("--resume", action="store_true", help="run what the database lacks")
     add_json_flag(parser)
 
@@ -138,7 +140,7 @@ def _sweep(args: argparse.Namespace, specs: list, name: str):
     from robotrial.trials.store import TrialStore
     from robotrial.trials.sweep import AlreadyRun, LocalExecutor, RayExecutor, run_sweep
 
-    out = Path(args.out) if args.out else Path(args.db).with_suffix("")
+    out = Path(args.files) if args.files else Path(args.db).with_suffix("")
     failed: list[str] = []
     try:
         store = TrialStore(args.db)
@@ -231,7 +233,7 @@ def _carry(args: argparse.Namespace) -> int:
         setup = CarrySetup(
             world=args.world, object=args.object, to=args.to, slam=args.slam, speed=args.speed
         )
-        out = Path(args.out)
+        out = Path(args.output)
         with progress(
             f"carry {args.object} to the {args.to}", setup.time_limit, enabled=not args.json
         ) as advance:

@@ -24,7 +24,7 @@ from robotrial.planning import PLANNERS, Problem, planner_class
 from robotrial.planning.problems import desk_task
 from robotrial.planning.smoothing import shortcut
 from robotrial.planning.task import TaskPlanner
-from robotrial.planning.timing import time_parameterize
+from robotrial.planning.timing import rest_to_rest, time_parameterize
 
 START = [-0.785, 0.80, 1.57, 0.0, 0.76, 0.0]  # the hand near (0.15, -0.15, 0.02)
 
@@ -122,6 +122,23 @@ def test_time_parameterization_respects_limits() -> None:
     np.testing.assert_allclose(traj.q[0], path[0])
     np.testing.assert_allclose(traj.q[-1], path[-1])
     np.testing.assert_allclose(traj.qd[[0, -1]], 0.0, atol=1e-6)
+
+
+def test_rest_to_rest_timing_stops_at_every_waypoint_within_the_limits() -> None:
+    """What a path gets when TOPP-RA finds no parameterization for it."""
+    path = np.array([[0.0, 0.0], [1.0, 0.5], [1.5, -0.5], [1.5, -0.5]])
+    vmax, amax = np.array([1.0, 2.0]), np.array([2.0, 3.0])
+    traj = rest_to_rest(path, vmax, amax, period=0.01)
+    assert np.all(np.diff(traj.t) > 0)
+    assert np.all(np.abs(traj.qd) <= vmax + 1e-9)
+    assert np.all(np.abs(traj.qdd) <= amax + 1e-9)
+    for waypoint in path:  # the trajectory passes through each waypoint at rest
+        i = int(np.argmin(np.linalg.norm(traj.q - waypoint, axis=1)))
+        np.testing.assert_allclose(traj.q[i], waypoint, atol=1e-9)
+        np.testing.assert_allclose(traj.qd[i], 0.0, atol=1e-9)
+    # the joint positions agree with the velocities the trajectory reports
+    q = np.cumsum(0.5 * (traj.qd[1:] + traj.qd[:-1]) * np.diff(traj.t)[:, None], axis=0)
+    np.testing.assert_allclose(traj.q[1:] - traj.q[0], q, atol=0.01)
 
 
 def test_plan_task_answers_the_g2rviewer_request(planner) -> None:

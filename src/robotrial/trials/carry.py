@@ -16,13 +16,18 @@ planner (the PlanTask machinery) for the arm. The task itself is a sequence of p
 3. `pick`: the arm moves to a side grasp, the fingers close until both touch the
    object, and the object is then attached to the hand (the report says so: the grasp
    is not held by friction), lifted and carried in front of the robot.
-4. `carry`: as `navigation`, to a base pose that reaches the room's place point.
-5. `place`: the arm lowers the object onto the surface, lets go and withdraws; the base
+4. `carry`: as `navigation`, to a base pose that reaches the room's place point and the
+   point LIFT above it.
+5. `place`: standing still, the pose comes from scans matched to the built map
+   (`_docked_pose`); if the navigator's tolerance left the point out of reach, the base
+   drives straight to the next of REACHES. The hand goes where the object, as it sits
+   in the hand, lands on the point; the arm lowers it, lets go and withdraws; the base
    backs away.
 
 What the robot is told: its spawn on the plan of the home, the route, the object's and
 the place point's positions, and the furniture near them as boxes for the arm planner.
-It is not given the occupancy map: it navigates on the map it built.
+It is not given the occupancy map: it navigates on the map it built. The object's offset
+in the hand is read from the simulation when the fingers close (a wrist camera's job).
 
 Success: the object rests within `PLACE_TOLERANCE` of the place point, upright, and the
 robot never touched a wall or furniture (MuJoCo contacts of robot geoms with static
@@ -73,9 +78,11 @@ from robotrial.planning.task import TaskPlanner, to_joint_trajectory
 from robotrial.ros.bus import Bus, Node
 from robotrial.ros.nav_node import NavNode
 from robotrial.ros.sim_node import SimNode
-from robotrial.ros.slam_node import SlamNode, grid_message, yaw_of
+from robotrial.ros.slam_node import SlamNode, grid_message, scan_to_beams, yaw_of
 from robotrial.sim import SimOptions, Simulation, StreamSettings
 from robotrial.sim.controllers import DriveLimits
+from robotrial.slam.grid import LogOddsGrid
+from robotrial.slam.matcher import ScanMatcher
 from robotrial.trials.nav import ContactWatch, footprint_of, navigator_config
 from robotrial.trials.slam import RouteDrive, make_slam
 
@@ -91,6 +98,7 @@ CARRY_TCP = (0.35, 0.0, 0.95)  # m, in the base frame: the hand while driving
 SETTLE = 0.3  # s after each arm motion
 FINGER_SPEED = 0.03  # m/s while closing
 MAPPING_SPEED = 0.3  # m/s, the top speed while the map is being built
+DOCK_SCANS = 5  # scans matched to the map for the pose at a work site
 RECORDED = (
     "/scan",
     "/odom",
@@ -151,7 +159,7 @@ class CarrySetup:
     world: str = "apartment"
     object: str = "cup"
     to: str = "bedroom"
-    slam: str = "gmapping"
+    slam: str = "hector"
     speed: float = 0.5
     robot: str = "mobile_manipulator"
     planner: str = "rrt_connect"
@@ -299,6 +307,9 @@ class CarryTrial(Node):
         self.arm_offset = float(arm_m[0, 3])
 
         self.planner = TaskPlanner(robot)
+        self.matcher = ScanMatcher()
+        self.slam_grid: LogOddsGrid | None = None
+        self.docked = np.zeros(3)
         self.arm_names = self.planner.joint_names
         self.watch = ContactWatch(self.sim)
         self._allow_gripper_contacts()
@@ -310,6 +321,7 @@ class CarryTrial(Node):
         self._steps = 0
         self._phase: dict[str, Any] | None = None
         self.held = False
+        self.in_hand = np.zeros(3)  # the held object's centre in the tool frame (m)
         self._task: Iterator[None] = self._run()
 
     # --- inputs ------------------------------------------------------------------------
@@ -493,6 +505,7 @@ class CarryTrial(Node):
         assert self.slam_node is not None
         pose = self.pose()
         grid = self.slam_node.slam.grid
+        self.slam_grid = grid.copy()
         values = grid.ros_values()
         self.result.map_image = values.copy()
         self.result.map_origin = grid.origin
@@ -602,15 +615,18 @@ class CarryTrial(Node):
         return [(b, s) for _, _, b, s in out]
 
     def _arm_reaches(self, base: np.ndarray, target: np.ndarray, holding: bool) -> bool:
-        """Whether the arm planner finds the approach and the final hand pose at `target`
-        (map frame) with the base at `base`."""
+        """Whether the arm planner finds the way in (the approach point to pick, the point
+        LIFT above to place) and the final hand pose at `target` (map frame) with the
+        base at `base`."""
         local = self._in_base(base, target)
-        start = np.zeros(len(self.arm_names))
-        res = self._plan(start, self._approach_point(local), base, holding=False, quiet=True)
-        if res is None:
-            return False
-        res2 = self._plan(res.trajectory.q[-1], local, base, holding=False, quiet=True)
-        return res2 is not None
+        first = local + np.array([0.0, 0.0, LIFT]) if holding else self._approach_point(local)
+        q = np.zeros(len(self.arm_names))
+        for point in (first, local):
+            res = self._plan(q, point, base, holding=False, quiet=True)
+            if res is None:
+                return False
+            q = res.trajectory.q[-1]
+        return True
 
     def _navigate(self, goal: np.ndarray) -> Iterator[None]:
         assert self.nav_node is not None
@@ -722,13 +738,63 @@ class CarryTrial(Node):
             raise PhaseFailed(self._phase["name"], f"arm planning: {res.response.message}")
         return res
 
-    def _move_arm(self, local: np.ndarray, base: np.ndarray, holding: bool) -> Iterator[None]:
+    def _move_arm(
+        self,
+        local: np.ndarray,
+        base: np.ndarray,
+        holding: bool,
+        orientation: Rotation | None = None,
+    ) -> Iterator[None]:
         start = np.array([self.sim.joint_values()[n] for n in self.arm_names])
-        res = self._plan(start, local, base, holding)
+        res = self._plan(start, local, base, holding, orientation=orientation)
         self.ref_pub.publish(to_joint_trajectory(self.arm_names, res.trajectory))
         end = self.sim.world.time + res.trajectory.duration + SETTLE
         while self.sim.world.time < end:
             yield
+
+    def _reaches(self, local: np.ndarray, base: np.ndarray, pose: np.ndarray) -> bool:
+        """Whether, with the base moved to `pose`, the held object's hand reaches the point
+        that is `local` from `base` and the point LIFT above it."""
+        start = np.array([self.sim.joint_values()[n] for n in self.arm_names])
+        p = self._in_base(pose, self._to_map_point(base, local))
+        return all(
+            self._plan(start, p + np.array([0.0, 0.0, dz]), pose, holding=True, quiet=True)
+            for dz in (LIFT, 0.0)
+        )
+
+    def _reach(self, local: np.ndarray, base: np.ndarray) -> Iterator[None]:
+        """Drive straight so that the arm reaches `local` (base frame) at one of REACHES,
+        in their order, when the docking left it a little far or too close (the
+        navigator stops within its tolerance of the staging pose)."""
+        ahead = float(np.hypot(local[0] - self.arm_offset, local[1]))
+        for shift in (ahead - r for r in REACHES):
+            if abs(shift) < 0.005:
+                continue
+            if self._reaches(local, base, compose(base, np.array([shift, 0.0, 0.0]))):
+                yield from self._straight(shift, speed=0.06)
+                return
+
+    def _docked_pose(self) -> Iterator[None]:
+        """The pose at a work site, from the scans matched to the built map (AMCL's
+        particles settle a few cm off; standing still, the scans say better). Sets
+        `self.docked`."""
+        poses = []
+        guess = self.pose()
+        for _ in range(DOCK_SCANS):
+            seen = self.scan
+            while self.scan is seen:
+                yield
+            b = scan_to_beams(self.scan, tuple(self.laser), 0.1, 12.0)
+            assert self.slam_grid is not None
+            poses.append(self.matcher.match(self.slam_grid, b.hits, guess).pose)
+        p = np.array(poses)
+        mean_yaw = float(np.arctan2(np.sin(p[:, 2]).mean(), np.cos(p[:, 2]).mean()))
+        self.docked = np.array([p[:, 0].mean(), p[:, 1].mean(), mean_yaw])
+
+    def _to_map_point(self, base: np.ndarray, local: np.ndarray) -> np.ndarray:
+        """A base-frame point (x, y, z) of base pose `base` in the map frame."""
+        p = compose(base, np.array([local[0], local[1], 0.0]))
+        return np.array([p[0], p[1], local[2]])
 
     @property
     def _fingers(self) -> list[str]:
@@ -775,7 +841,8 @@ class CarryTrial(Node):
         return float(np.linalg.norm(tcp - self._object_pose(self.setup.object)[0]))
 
     def _pick(self) -> Iterator[None]:
-        base = self.pose()
+        yield from self._docked_pose()
+        base = self.docked
         obj_world = np.asarray(self.target.pose.xyz, dtype=float)
         obj_map = self.to_map((obj_world[0], obj_world[1], 0.0))
         local = self._in_base(base, np.array([obj_map[0], obj_map[1], obj_world[2]]))
@@ -806,6 +873,9 @@ class CarryTrial(Node):
         if name is None:
             raise PhaseFailed("pick", "the object slipped out of the hand before it was held")
         self.held = True
+        tcp = self.sim.frame_pose(self.robot.end_effector)
+        obj = np.append(self._object_pose(self.setup.object)[0], 1.0)
+        self.in_hand = (np.linalg.inv(tcp) @ obj)[:3]
         self.result.grasp = (
             "attached: both fingers touched the object, which then moves with the hand "
             f"(finger opening {2 * width * 100:.1f} cm)"
@@ -816,12 +886,26 @@ class CarryTrial(Node):
         yield from self._move_arm(np.array(CARRY_TCP), self.pose(), holding=True)
 
     def _place(self, target_world: np.ndarray) -> Iterator[None]:
-        base = self.pose()
+        yield from self._docked_pose()
+        base = self.docked
         t_map = self.to_map((target_world[0], target_world[1], 0.0))
         local = self._in_base(base, np.array([t_map[0], t_map[1], target_world[2]]))
-        above = local + np.array([0.0, 0.0, LIFT])
-        yield from self._move_arm(above, base, holding=True)
-        yield from self._move_arm(local + np.array([0.0, 0.0, 0.005]), base, holding=True)
+        # the hand goes where the object, as it sits in the hand, lands on the point
+        hand = local - self._orientation(local).apply(self.in_hand)
+        for _ in range(len(REACHES)):
+            if self._reaches(hand, base, base):
+                break
+            yield from self._reach(hand, base)
+            yield from self._docked_pose()
+            base = self.docked
+            local = self._in_base(base, np.array([t_map[0], t_map[1], target_world[2]]))
+            hand = local - self._orientation(local).apply(self.in_hand)
+        orientation = self._orientation(local)
+        above = hand + np.array([0.0, 0.0, LIFT])
+        yield from self._move_arm(above, base, holding=True, orientation=orientation)
+        yield from self._move_arm(
+            hand + np.array([0.0, 0.0, 0.005]), base, holding=True, orientation=orientation
+        )
         g = self.sim.gripper
         assert g is not None
         # open the fingers clear of the object before it is back under physics

@@ -108,6 +108,7 @@ class Costmap:
         footprint: Footprint,
         inflation: Inflation = Inflation(),
         unknown: np.ndarray | None = None,
+        marks: np.ndarray | None = None,
     ) -> None:
         occ = np.asarray(occupied, dtype=bool)
         if occ.ndim != 2 or occ.size == 0:
@@ -131,6 +132,8 @@ class Costmap:
         self.obstacles = np.zeros_like(occ)
         self.cost = np.zeros(occ.shape, dtype=np.uint8)
         self.distance = np.zeros(occ.shape)
+        if marks is not None:
+            self.mark(marks)
         self.update()
 
     @property
@@ -236,9 +239,12 @@ class Costmap:
 
     # --- windows -----------------------------------------------------------------------
 
-    def window(self, center: tuple[float, float], size: float) -> Costmap:
+    def window(
+        self, center: tuple[float, float], size: float, marks: np.ndarray | None = None
+    ) -> Costmap:
         """A rolling local costmap: a `size` x `size` m window of this map's static layer
-        centred on `center`, with an empty obstacle layer (cells outside this map: free)."""
+        centred on `center`, its obstacle layer holding the world points `marks` (none by
+        default; cells outside this map: free)."""
         n = max(3, int(np.ceil(size / self.resolution)))
         c = self.world_to_cell(np.asarray(center, dtype=float))
         r0, c0 = int(c[0]) - n // 2, int(c[1]) - n // 2
@@ -253,7 +259,7 @@ class Costmap:
             self.origin[0] + c0 * self.resolution,
             self.origin[1] + r0 * self.resolution,
         )
-        return Costmap(occ, origin, self.resolution, self.footprint, self.inflation, unk)
+        return Costmap(occ, origin, self.resolution, self.footprint, self.inflation, unk, marks)
 
 
 @numba.njit(cache=True)

@@ -152,12 +152,9 @@ class Navigator:
         cm = self.global_costmap
         cm.mark_and_clear(sensor_xy, points_xy, mark_range=self.config.obstacle_range)
         self._dirty = True
-        local = cm.window(sensor_xy, self.config.local_size)
         pts = np.asarray(points_xy, dtype=float).reshape(-1, 2)
         near = np.hypot(*(pts - np.asarray(sensor_xy)).T) <= self.config.obstacle_range
-        local.mark(pts[near])
-        local.update()
-        self.local_costmap = local
+        self.local_costmap = cm.window(sensor_xy, self.config.local_size, pts[near])
 
     # --- the control step --------------------------------------------------------------
 

@@ -98,6 +98,7 @@ CARRY_TCP = (0.35, 0.0, 0.95)  # m, in the base frame: the hand while driving
 SETTLE = 0.3  # s after each arm motion
 FINGER_SPEED = 0.03  # m/s while closing
 MAPPING_SPEED = 0.3  # m/s, the top speed while the map is being built
+CMD_RATE = 20.0  # Hz, the trial's own /cmd_vel (route driving, docking)
 DOCK_SCANS = 5  # scans matched to the map for the pose at a work site
 RECORDED = (
     "/scan",
@@ -279,13 +280,14 @@ class CarryTrial(Node):
             self.recorder = Recorder(out / f"carry_{seed}.mcap")
             BusRecorder(self.bus, self.recorder, list(RECORDED))
         self.cmd_pub = self.create_publisher("/cmd_vel", Twist)
+        self._last_cmd = -np.inf
         self.goal_pub = self.create_publisher("/move_base_simple/goal", PoseStamped)
         self.init_pub = self.create_publisher("/initialpose", PoseWithCovarianceStamped)
         self.tf_pub = self.create_publisher(OBJECTS_TOPIC, TFMessage)
         self.map_pub = self.create_publisher("/map", OccupancyGrid, latched=True)
         self.ref_pub = self.create_publisher("/robotrial/joint_reference", JointTrajectory)
         self.create_subscription("/odom", None, self._on_odom)
-        self.create_subscription("/tf", TFMessage, self._on_tf)
+        self._tf_sub = self.create_subscription("/tf", TFMessage, self._on_tf)
         self.create_subscription("/scan", LaserScan, self._on_scan)
 
         spawn = world.spawn("default")
@@ -498,6 +500,12 @@ class CarryTrial(Node):
         return NavigatorConfig(**{**base.__dict__, **changes})
 
     def _drive(self, v: float, w: float) -> None:
+        """Command the base on /cmd_vel at CMD_RATE, as a teleoperation node does (a stop
+        goes out at once)."""
+        t = self.sim.world.time
+        if (v, w) != (0.0, 0.0) and t < self._last_cmd + 1.0 / CMD_RATE - 1e-9:
+            return
+        self._last_cmd = t
         self.cmd_pub.publish(Twist(linear=Vector3(x=v), angular=Vector3(z=w)))
 
     def _start_navigation(self) -> Iterator[None]:
@@ -515,6 +523,7 @@ class CarryTrial(Node):
         self.map_origin, self.map_res = grid.origin, grid.resolution
         self.slam_node.destroy()
         self.slam_node = None
+        self._tf_sub.close()  # SLAM's map -> odom is all it was for
         self.nav_node = NavNode(
             self.bus,
             self.footprint,

@@ -95,6 +95,26 @@ class Inflation:
         return out
 
 
+def coarsen(
+    occupied: np.ndarray, unknown: np.ndarray | None, resolution: float, target: float
+) -> tuple[np.ndarray, np.ndarray | None, float]:
+    """A map at least twice as fine as `target` (m) in cells of about `target`: a cell is
+    occupied where any of its map cells is, unknown where all are. The corner stays."""
+    k = round(target / resolution)
+    if k < 2:
+        return occupied, unknown, resolution
+    rows, cols = occupied.shape
+    pad = ((0, -rows % k), (0, -cols % k))
+
+    def blocks(a: np.ndarray, fill: bool) -> np.ndarray:
+        a = np.pad(np.asarray(a, dtype=bool), pad, constant_values=fill)
+        return a.reshape(a.shape[0] // k, k, a.shape[1] // k, k)
+
+    occ = blocks(occupied, False).any(axis=(1, 3))
+    unk = None if unknown is None else blocks(unknown, True).all(axis=(1, 3)) & ~occ
+    return occ, unk, resolution * k
+
+
 class Costmap:
     """A layered costmap over a fixed grid: `origin` (x, y of the corner of cell (0, 0)),
     `resolution` (m per cell). Call `update()` after changing layers; `cost` and

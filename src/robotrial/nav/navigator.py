@@ -25,7 +25,7 @@ from enum import Enum
 
 import numpy as np
 
-from robotrial.nav.costmap import Costmap, Footprint, Inflation
+from robotrial.nav.costmap import Costmap, Footprint, Inflation, coarsen
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
 from robotrial.nav.planners import NoPath, make_planner, smooth
 
@@ -47,7 +47,8 @@ class Recovery(Enum):
 class NavigatorConfig:
     """Tolerances (m, rad), timing (s), local window size (m) and the sub-planners.
     `turn_yaw_rate` (rad/s) and `turn_acc` (rad/s^2) bound the final turn in place to
-    the goal's heading (None: the DWA's limits)."""
+    the goal's heading (None: the DWA's limits). `costmap_resolution` (m): the costmaps'
+    cell size; a map at least twice as fine is coarsened to it (None: the map's)."""
 
     planner: str = "dijkstra"
     xy_tolerance: float = 0.15
@@ -65,6 +66,7 @@ class NavigatorConfig:
     turn_yaw_rate: float | None = None
     turn_acc: float | None = None
     obstacle_range: float = 3.0
+    costmap_resolution: float | None = 0.05
 
 
 @dataclass
@@ -94,6 +96,10 @@ class Navigator:
     ) -> None:
         self.config = config
         self.footprint = footprint
+        if config.costmap_resolution is not None:
+            occupied, unknown, resolution = coarsen(
+                occupied, unknown, resolution, config.costmap_resolution
+            )
         self.global_costmap = Costmap(
             occupied, origin, resolution, footprint, config.inflation, unknown
         )

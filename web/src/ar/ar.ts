@@ -17,6 +17,7 @@ import {
   type Object3D,
 } from "three";
 import type { Viewer } from "../scene";
+import type { Quat, Vec3 } from "../types";
 import "./ar.css";
 import { el } from "../ui/dom";
 
@@ -24,9 +25,9 @@ export type ArSessionState = "unsupported" | "available" | "active" | "placed";
 
 export interface ArPlacement {
   /** The robot's base in the AR session's `local` reference space (y up, metres). */
-  xyz: [number, number, number];
+  xyz: Vec3;
   /** Its orientation there (x, y, z, w): the robot's z axis along the space's y. */
-  quat: [number, number, number, number];
+  quat: Quat;
 }
 
 export interface ArState {

@@ -8,10 +8,7 @@
 
 import type { MainModule, MjData, MjModel } from "mujoco-js";
 import { Matrix4, Quaternion, Vector3 } from "three";
-
-export type Vec3 = [number, number, number];
-/** x, y, z, w */
-export type Quat = [number, number, number, number];
+import type { Quat, Vec3 } from "../types";
 
 /** The server's MJCF: the XML and the mesh files it names (base64). */
 export interface MjcfBundle {

@@ -5,7 +5,8 @@
 
 import type { ConnectionState } from "../ros/connection";
 import { el } from "../ui/dom";
-import { quatYaw, type TaskBox, type Vec3, yawQuat } from "./arrangement";
+import type { Vec3 } from "../types";
+import { quatYaw, type TaskBox, yawQuat } from "./arrangement";
 import type { GizmoMode, Pick } from "./editor";
 
 export interface TaskActions {

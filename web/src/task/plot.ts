@@ -2,8 +2,8 @@
 // g2rViewer paper's Figs. 12 and 13): x, y and z over time, and a view from above with
 // the obstacles and the goal. Drawn as SVG; exported as CSV and PNG.
 
-import type { TaskBox, Vec3 } from "./arrangement";
-import { quatYaw } from "./arrangement";
+import type { Vec3 } from "../types";
+import { quatYaw, type TaskBox } from "./arrangement";
 
 /** One sample of a run: time since the motion began (s) and both hand positions (m). */
 export interface PathSample {

@@ -10,16 +10,15 @@ import { fetchMjcf, type MjcfBundle, mujoco, PhysicsWorld } from "../physics/wor
 import type { Robot } from "../robot";
 import type { RosConnection } from "../ros/connection";
 import type { Viewer } from "../scene";
+import type { Quat, Vec3 } from "../types";
 import {
   type Arrangement,
   DEFAULT_OBJECT_SIZE,
   DEFAULT_OBSTACLE_SIZE,
   parseSceneFile,
   planRequest,
-  type Quat,
   sceneFile,
   type TaskBox,
-  type Vec3,
 } from "./arrangement";
 import { humanize } from "../ui/dom";
 import { TaskEditor } from "./editor";

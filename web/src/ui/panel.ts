@@ -4,6 +4,7 @@
 
 import type { RobotEntry, WorldEntry } from "../api";
 import type { ActuatedJoint } from "../robot";
+import type { Vec3 } from "../types";
 import { el, humanize } from "./dom";
 
 export interface PanelActions {
@@ -160,7 +161,7 @@ export class Panel {
   }
 
   /** The end-effector position (m) or null while nothing is loaded. */
-  setEndEffector(xyz: [number, number, number] | null): void {
+  setEndEffector(xyz: Vec3 | null): void {
     const cells = ["x", "y", "z"].flatMap((axis, i) => [
       el("dt", {}, axis),
       el("dd", { "data-axis": axis }, xyz ? `${(xyz[i] * 100).toFixed(1)} cm` : "–"),

@@ -9,7 +9,8 @@ import {
   worldFileUrl,
   type Catalog,
   type Config,
-  type Spawn,
+  type SpawnPose,
+  type UploadAnswer,
 } from "./api";
 import { ArView, installEmulatorIfAsked } from "./ar/ar";
 import { LiveView } from "./live/live";
@@ -21,10 +22,10 @@ import { TaskPanel } from "./task/panel";
 import { TaskSession } from "./task/session";
 import { el, humanize } from "./ui/dom";
 import { Panel } from "./ui/panel";
-import { UploadSection, type UploadAnswer } from "./upload/upload";
+import { UploadSection } from "./upload/upload";
 import { loadWorld, placeAt } from "./world";
 
-const ORIGIN: Spawn = { xyz: [0, 0, 0], quat: [0, 0, 0, 1] };
+const ORIGIN: SpawnPose = { xyz: [0, 0, 0], quat: [0, 0, 0, 1] };
 
 export class RobotrialApp {
   readonly viewer: Viewer;

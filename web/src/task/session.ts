@@ -7,7 +7,8 @@
 import { Matrix4, Quaternion, Vector3 } from "three";
 import type { PlanTaskResponse } from "../generated/msgs";
 import { type JointReference, JointTracker } from "../physics/controller";
-import { fetchMjcf, type MjcfBundle, mujoco, PhysicsWorld } from "../physics/world";
+import { fetchMjcf, type MjcfBundle } from "../api";
+import { mujoco, PhysicsWorld } from "../physics/world";
 import type { Robot } from "../robot";
 import type { RosConnection } from "../ros/connection";
 import type { Viewer } from "../scene";

@@ -2,19 +2,13 @@
 // RDTF file to the server (POST /api/robots/upload) and, once accepted, opens the robot.
 // What the server refuses is shown in words: which file, which element, which line.
 
-import { errorText, type RobotEntry } from "../api";
+import { errorText, type UploadAnswer } from "../api";
 import "./upload.css";
 import { pageToken } from "../ros/connection";
 import { el } from "../ui/dom";
 
 export const UPLOAD_URL = "/api/robots/upload";
 const ACCEPT = ".zip,.urdf,.xacro,.glb";
-
-export interface UploadAnswer {
-  robot: RobotEntry;
-  /** What the loader repaired (missing inertials and the like). */
-  repairs: string[];
-}
 
 /** Send `file` to the server; resolves with the new robot's entry, rejects with the
  * server's reason. */

@@ -70,7 +70,9 @@ export class RobotrialApp {
       loadScene: (file) => void this.loadScene(file),
       connect: (url) => this.connect(url),
     });
-    this.panel.addTask(taskPanel.main, taskPanel.details, taskPanel.indicator);
+    this.panel.mount(taskPanel.indicator, "header");
+    this.panel.mount(taskPanel.main, "top");
+    this.panel.mount(taskPanel.details);
     const plot = plotCard(view, (kind) => void this.task.exportPlot(kind));
     this.task = new TaskSession(
       {
@@ -84,9 +86,11 @@ export class RobotrialApp {
       plot,
     );
     this.connection.onChange((state) => taskPanel.showConnection(state));
-    this.live = new LiveView(this.viewer, this.connection, (v) => this.setJoints(v), panel);
-    this.ar = new ArView(this.viewer, () => this.robot?.object.parent ?? null, panel);
-    new UploadSection(panel, (answer) => this.addUploadedRobot(answer));
+    this.live = new LiveView(this.viewer, this.connection, (v) => this.setJoints(v));
+    this.panel.mount(this.live.section);
+    this.ar = new ArView(this.viewer, () => this.robot?.object.parent ?? null);
+    this.panel.mount(this.ar.section);
+    this.panel.mount(new UploadSection((answer) => this.addUploadedRobot(answer)).section);
   }
 
   /** A robot the server accepted from an upload: list it in the picker and open it. */

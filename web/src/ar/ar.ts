@@ -58,6 +58,8 @@ export class ArView {
   private placement: ArPlacement | null = null;
   /** Where the robot would stand if the user tapped now. */
   private pending: ArPlacement | null = null;
+  /** The panel section: the app mounts it (Panel.mount). */
+  readonly section: HTMLElement;
   private readonly button = el("button", { type: "button", id: "ar-enter" }, "View in AR");
   private readonly note = el("p", { class: "hint", id: "ar-status" }, "Checking for AR…");
   private readonly overlay = el("div", { class: "ar-overlay", id: "ar-overlay", hidden: "" });
@@ -67,7 +69,6 @@ export class ArView {
   constructor(
     private readonly viewer: Viewer,
     private readonly robotHolder: () => Object3D | null,
-    panelRoot: HTMLElement,
   ) {
     this.reticle = new Mesh(
       new RingGeometry(0.07, 0.09, 40).rotateX(-Math.PI / 2),
@@ -92,8 +93,12 @@ export class ArView {
     });
     this.overlay.append(this.overlayText, ...taskButtons, exit);
     document.body.append(this.overlay);
-    panelRoot.append(
-      el("section", { class: "ar", id: "ar" }, el("h2", {}, "Augmented reality"), this.note, this.button),
+    this.section = el(
+      "section",
+      { class: "ar", id: "ar" },
+      el("h2", {}, "Augmented reality"),
+      this.note,
+      this.button,
     );
     this.button.disabled = true;
     this.button.addEventListener("click", () => void this.enter());

@@ -5,9 +5,9 @@
 // worded in wording.ts; the scene and path files are written by exports.ts.
 
 import { Matrix4, Quaternion, Vector3 } from "three";
+import { fetchMjcf, type MjcfBundle } from "../api";
 import type { PlanTaskResponse } from "../generated/msgs";
 import { type JointReference, JointTracker } from "../physics/controller";
-import { fetchMjcf, type MjcfBundle } from "../api";
 import { mujoco, PhysicsWorld } from "../physics/world";
 import type { Robot } from "../robot";
 import type { RosConnection } from "../ros/connection";

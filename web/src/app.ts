@@ -9,7 +9,8 @@ import {
   worldFileUrl,
   type Catalog,
   type Config,
-  type Spawn,
+  type SpawnPose,
+  type UploadAnswer,
 } from "./api";
 import { ArView, installEmulatorIfAsked } from "./ar/ar";
 import { LiveView } from "./live/live";
@@ -21,10 +22,10 @@ import { TaskPanel } from "./task/panel";
 import { TaskSession } from "./task/session";
 import { el, humanize } from "./ui/dom";
 import { Panel } from "./ui/panel";
-import { UploadSection, type UploadAnswer } from "./upload/upload";
+import { UploadSection } from "./upload/upload";
 import { loadWorld, placeAt } from "./world";
 
-const ORIGIN: Spawn = { xyz: [0, 0, 0], quat: [0, 0, 0, 1] };
+const ORIGIN: SpawnPose = { xyz: [0, 0, 0], quat: [0, 0, 0, 1] };
 
 export class RobotrialApp {
   readonly viewer: Viewer;
@@ -69,7 +70,9 @@ export class RobotrialApp {
       loadScene: (file) => void this.loadScene(file),
       connect: (url) => this.connect(url),
     });
-    this.panel.addTask(taskPanel.main, taskPanel.details, taskPanel.indicator);
+    this.panel.mount(taskPanel.indicator, "header");
+    this.panel.mount(taskPanel.main, "top");
+    this.panel.mount(taskPanel.details);
     const plot = plotCard(view, (kind) => void this.task.exportPlot(kind));
     this.task = new TaskSession(
       {
@@ -83,9 +86,11 @@ export class RobotrialApp {
       plot,
     );
     this.connection.onChange((state) => taskPanel.showConnection(state));
-    this.live = new LiveView(this.viewer, this.connection, (v) => this.setJoints(v), panel);
-    this.ar = new ArView(this.viewer, () => this.robot?.object.parent ?? null, panel);
-    new UploadSection(panel, (answer) => this.addUploadedRobot(answer));
+    this.live = new LiveView(this.viewer, this.connection, (v) => this.setJoints(v));
+    this.panel.mount(this.live.section);
+    this.ar = new ArView(this.viewer, () => this.robot?.object.parent ?? null);
+    this.panel.mount(this.ar.section);
+    this.panel.mount(new UploadSection((answer) => this.addUploadedRobot(answer)).section);
   }
 
   /** A robot the server accepted from an upload: list it in the picker and open it. */

@@ -21,7 +21,6 @@ from typing import TYPE_CHECKING, Any
 from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
-from pydantic import BaseModel
 from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import FormData
 from starlette.datastructures import UploadFile as StarletteUpload
@@ -30,6 +29,17 @@ from starlette.formparsers import MultiPartException
 
 from robotrial.app.catalog import Asset, Catalog, UnknownName, robot_kind
 from robotrial.app.live import LivePlatform, runs_live
+from robotrial.app.models import (
+    Config,
+    LiveInfo,
+    MjcfBundle,
+    Pair,
+    RobotEntry,
+    RobotList,
+    SpawnPose,
+    UploadAnswer,
+    WorldList,
+)
 from robotrial.app.uploads import (
     MAX_UPLOAD_BYTES,
     UploadRefused,
@@ -61,77 +71,6 @@ MISSING_BUILD_PAGE = """<!doctype html>
 npm run build</code>), then reload. The API works meanwhile: see <a href="/docs">/docs</a>.</p>
 </body></html>
 """
-
-
-class Pair(BaseModel):
-    robot: str
-    world: str
-
-
-class SpawnPose(BaseModel):
-    xyz: list[float]
-    quat: list[float]
-
-
-class LiveInfo(BaseModel):
-    """The simulated platform streaming on rosbridge: which robot in which world, and
-    where its odom and map frames start in the world (the spawn pose)."""
-
-    robot: str
-    world: str
-    origin: SpawnPose
-    error: str | None = None
-
-
-class Config(BaseModel):
-    """What the page needs to start."""
-
-    robot: str
-    world: str
-    rosbridge: str
-    rosbridge_enabled: bool
-    live: LiveInfo | None = None
-
-
-class RobotEntry(BaseModel):
-    name: str
-    kind: str
-    joints: int
-    world: str
-    uploaded: bool = False
-
-
-class UploadAnswer(BaseModel):
-    """A robot accepted from an upload: its catalog entry and what the loader repaired."""
-
-    robot: RobotEntry
-    repairs: list[str]
-
-
-class RobotList(BaseModel):
-    default: Pair
-    robots: list[RobotEntry]
-
-
-class WorldEntry(BaseModel):
-    name: str
-    kind: str
-    description: str
-    spawn: SpawnPose
-
-
-class WorldList(BaseModel):
-    default: Pair
-    worlds: list[WorldEntry]
-
-
-class MjcfBundle(BaseModel):
-    """A MuJoCo model for the browser: MJCF text and the files it names."""
-
-    name: str
-    xml: str
-    assets: dict[str, str]
-    notes: list[str]
 
 
 NOT_FOUND: dict[int | str, dict[str, Any]] = {404: {"description": "no such built-in name"}}

@@ -40,6 +40,15 @@ def test_the_robot_navigated_on_the_map_it_built(cup_to_bedroom) -> None:
     assert len(result.truth) == len(result.estimate) > 100
 
 
+def test_the_can_goes_from_the_kitchen_table_to_the_bed() -> None:
+    """Another object from another room: the can is picked off the kitchen table (a
+    drive across the apartment on the built map) and set down on the bed."""
+    result = run_carry(CarrySetup(object="can", to="bedroom"), 3)
+    assert result.success, f"{result.failed_phase}: {result.reason}"
+    assert result.place_error is not None and result.place_error <= PLACE_TOLERANCE
+    assert result.collision == ""
+
+
 def test_the_run_leaves_a_recording_a_summary_and_a_plot(cup_to_bedroom) -> None:
     _, out = cup_to_bedroom
     summary = json.loads((out / "carry_0.json").read_text())

@@ -211,6 +211,18 @@ def _summary(times, cpu, runs, lengths, colliding) -> dict[str, Any]:
 # --- random problems for the zero-collision check -----------------------------------------
 
 
+STAGES = {
+    "ik_time": "IK",
+    "exact_build_time": "MuJoCo model for the check",
+    "planner_planning_time": "RRTConnect",
+    "shortcut_time": "shortcutting",
+    "timing_time": "time parameterization",
+    "validation_time": "MuJoCo validation",
+    "total_time": "whole request",
+}
+"""The PlanTask stages whose times a result's stats hold, and their names in reports."""
+
+
 def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str, Any]:
     """Send `n` random PlanTask requests for the desk arm (1 to 4 boxes of random size,
     position and orientation; a random free start; the goal the hand position of another
@@ -232,6 +244,7 @@ def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str
     outcomes: dict[str, int] = {}
     colliding = replanned = 0
     times = []
+    stages: dict[str, list[float]] = {k: [] for k in STAGES}
     with progress("random desk requests", n, enabled=show) as advance:
         for k in range(n):
             boxes = []
@@ -267,6 +280,8 @@ def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str
             outcomes[key] = outcomes.get(key, 0) + 1
             if result.response.success:
                 times.append(result.stats["planner_planning_time"])
+                for k in STAGES:
+                    stages[k].append(float(result.stats.get(k, 0.0)))
                 replanned += int(result.stats.get("attempts", 1) > 1)
                 q = np.array([p.positions for p in result.response.trajectory.points])
                 if not result.exact.path_valid(q)[0]:  # type: ignore[union-attr]
@@ -279,6 +294,7 @@ def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str
         "colliding_paths": colliding,
         "replanned": replanned,
         "median_planning_time_s": float(np.median(times)) if times else None,
+        "median_stage_ms": {k: float(np.median(v)) * 1e3 for k, v in stages.items() if v},
     }
 
 
@@ -435,6 +451,10 @@ def run(args: argparse.Namespace) -> int:
                 f"random desk requests: {v['outcomes']}; {v['colliding_paths']} returned "
                 f"paths in collision; {v['replanned']} re-planned after MuJoCo's check"
             )
+            print(
+                "median ms: "
+                + ", ".join(f"{STAGES[k]} {t:.2f}" for k, t in v["median_stage_ms"].items())
+            )
     return 0
 
 
@@ -558,5 +578,9 @@ def markdown(report: dict[str, Any]) -> str:
             f"dense MuJoCo checking. The planner's first path failed the service's own MuJoCo "
             f"check and was re-planned finer in {v['replanned']} of them. Median RRTConnect "
             f"time {v['median_planning_time_s'] * 1e3:.2f} ms.",
+            "",
+            "Where a solved request's time goes (medians, ms, warm service in one process): "
+            + ", ".join(f"{STAGES[k]} {t:.2f}" for k, t in v["median_stage_ms"].items())
+            + ".",
         ]
     return "\n".join(lines) + "\n"

@@ -10,6 +10,7 @@ anything static. `path_valid` checks a path densely.
 from __future__ import annotations
 
 import itertools
+import weakref
 from collections.abc import Sequence
 
 import numpy as np
@@ -22,6 +23,11 @@ from robotrial.model.robot import Collision, Joint, Link
 from robotrial.model.world import Obstacle, World
 
 HELD_LINK = "held_object"
+
+
+_EXCLUDED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""Per robot (its sphere model), the link pairs its MJCF keeps from colliding: found once,
+they spare every later check a second build of the model."""
 
 
 class ExactChecker:
@@ -63,6 +69,7 @@ class ExactChecker:
                 obstacles=world.obstacles + extra,
                 spawns={"default": Pose()},
             )
+        known = _EXCLUDED.get(checker.robot) if held is None else None
         self.doc = to_mjcf(
             robot,
             world,
@@ -70,7 +77,10 @@ class ExactChecker:
             actuators="none",
             self_collision=True,
             visuals=False,
+            excludes=known,
         )
+        if held is None:
+            _EXCLUDED[checker.robot] = self.doc.excluded
         self.model = self.doc.compile()
         self.data = mujoco.MjData(self.model)
         self.tolerance = tolerance

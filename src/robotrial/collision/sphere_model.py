@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -66,6 +67,9 @@ class RobotSpheres:
             for name in kin.link_names
             if name in by_link
         ]
+        # what every checker of this robot computes alike, by (what, body, padding):
+        # a request builds a checker, and these took half its time
+        self._memo: dict[tuple[str, str, float], Any] = {}
         self.disabled, self.reasons = self._disable_pairs(samples, seed)
         self.step = float(step)
         self.resolution = self._resolution(step, seed)
@@ -180,6 +184,9 @@ class RobotSpheres:
         per unit of each link's joint: the farthest it gets from the joint's axis (the
         sampled maximum plus 10 %) for a revolute joint, 1 for a prismatic one, 0 for
         joints that do not move it. Times |mult| (mimic joints)."""
+        key = ("arms", body.name, float(padding))
+        if body.name != OBJECT and key in self._memo:
+            return self._memo[key]
         kin = self.kin
         lb = kin.link_index[body.link]
         out = np.zeros(len(kin.link_names))
@@ -195,6 +202,34 @@ class RobotSpheres:
             arm = np.cross(world - self._poses[:, k, None, :3, 3], u[:, None, :])
             r = np.linalg.norm(arm, axis=-1) + body.radii
             out[k] = 1.1 * (float(r.max()) + padding) * abs(kin.mult[k])
+        if body.name != OBJECT:
+            self._memo[key] = out
+        return out
+
+    def sweep(
+        self, body: Body, joints: np.ndarray, rates: np.ndarray, padding: float, samples: int
+    ) -> tuple[np.ndarray, np.ndarray, float]:
+        """Where `body`'s spheres go while `joints` (one or two) sweep their ranges on a
+        grid, the others at mid-range: the sphere centres (N, 3), their radii grown by
+        `padding`, and how far a sphere may move between grid points (`rates`: the body's
+        travel per unit of each planning joint)."""
+        key = (f"sweep {samples}", body.name, float(padding))
+        if body.name != OBJECT and key in self._memo:
+            return self._memo[key]
+        kin = self.kin
+        per = samples if len(joints) == 1 else int(np.sqrt(3 * samples))
+        axes = [np.linspace(kin.lower[j], kin.upper[j], per) for j in joints]
+        margin = sum(rates[j] * (kin.upper[j] - kin.lower[j]) / (per - 1) / 2 for j in joints)
+        qs = np.tile(0.5 * (kin.lower + kin.upper), (per ** len(joints), 1))
+        for j, values in zip(joints, np.meshgrid(*axes, indexing="ij"), strict=True):
+            qs[:, j] = values.ravel()
+        m = kin.fk(qs)[:, kin.link_index[body.link]]
+        pts = (np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]).reshape(
+            -1, 3
+        )
+        out = (pts, np.tile(body.radii, len(qs)) + padding, float(margin))
+        if body.name != OBJECT:
+            self._memo[key] = out
         return out
 
 
@@ -381,25 +416,13 @@ class CollisionChecker:
         n_shapes = len(env.box_inv) + len(env.cyl_inv) + len(env.sph_c)
         out = np.zeros((len(self.env_bodies), n_shapes), dtype=bool)
         rates = self._travel[0]
-        kin = self.kin
         for e, bi in enumerate(self.env_bodies):
             joints = np.nonzero(rates[bi] > 0)[0]
             if self.bodies[bi].name == OBJECT or not 1 <= len(joints) <= 2 or n_shapes == 0:
                 continue
-            per = samples if len(joints) == 1 else int(np.sqrt(3 * samples))
-            axes = [np.linspace(kin.lower[j], kin.upper[j], per) for j in joints]
-            margin = sum(
-                rates[bi, j] * (kin.upper[j] - kin.lower[j]) / (per - 1) / 2 for j in joints
+            pts, radii, margin = self.robot.sweep(
+                self.bodies[bi], joints, rates[bi], self.padding, samples
             )
-            qs = np.tile(0.5 * (kin.lower + kin.upper), (per ** len(joints), 1))
-            for j, values in zip(joints, np.meshgrid(*axes, indexing="ij"), strict=True):
-                qs[:, j] = values.ravel()
-            body = self.bodies[bi]
-            m = kin.fk(qs)[:, kin.link_index[body.link]]
-            pts = (
-                np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]
-            ).reshape(-1, 3)
-            radii = np.tile(body.radii, len(qs)) + self.padding
             gaps = _shape_gaps(pts, *env)
             out[e] = np.min(gaps - radii[:, None], axis=0) > margin
         return out

@@ -71,13 +71,15 @@ class MjcfDocument:
     """An MJCF model: the XML text and the mesh files it names (binary STL bytes).
 
     `notes` lists what the writer changed to make the description acceptable to MuJoCo
-    (e.g. a massless link given a tiny mass), one sentence each.
+    (e.g. a massless link given a tiny mass), one sentence each. `excluded`: the robot
+    link pairs kept from colliding with each other (with self-collision on).
     """
 
     name: str
     xml: str
     assets: Mapping[str, bytes] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    excluded: tuple[tuple[str, str], ...] = ()
 
     def compile(self) -> mujoco.MjModel:
         """The compiled MuJoCo model; ModelError with MuJoCo's message if it is refused."""
@@ -693,6 +695,7 @@ def to_mjcf(
     collisions: bool = True,
     max_mesh_faces: int = MAX_MESH_FACES,
     name: str = "",
+    excludes: tuple[tuple[str, str], ...] | None = None,
 ) -> MjcfDocument:
     """Build the MJCF of a robot, a world, or a robot standing in a world.
 
@@ -707,7 +710,9 @@ def to_mjcf(
     `self_collision`: let the robot's non-adjacent links collide with each other
     (pairs already touching in the zero configuration are excluded). `max_mesh_faces`:
     meshes with more triangles are simplified (at most MuJoCo's STL limit, 200,000; less
-    makes lighter documents for a browser).
+    makes lighter documents for a browser). `excludes`: with self-collision, the link
+    pairs to exclude when already known (a document's `excluded`); None finds them,
+    which builds the model twice.
     """
     if robot is None and world is None:
         raise ModelError("to_mjcf needs a robot, a world or both")
@@ -730,6 +735,8 @@ def to_mjcf(
         actuators, kp, kv, armature, self_collision, visuals, collisions, max_mesh_faces
     )
     doc_name = name or "+".join(x.name for x in (robot, world) if x is not None)
+    if self_collision and robot is not None and excludes is not None:
+        return _build(doc_name, robot, world, base, spawn, opts, timestep, excludes)
     doc = _build(doc_name, robot, world, base, spawn, opts, timestep, excludes=())
     if self_collision and robot is not None:
         pairs = _touching_pairs(doc, robot)
@@ -776,7 +783,9 @@ def _build(
         ET.SubElement(root, "sensor").extend(w.sensors)
     ET.indent(root)
     xml = ET.tostring(root, encoding="unicode")
-    return MjcfDocument(name=name, xml=xml, assets=w.meshes.assets, notes=tuple(w.notes))
+    return MjcfDocument(
+        name=name, xml=xml, assets=w.meshes.assets, notes=tuple(w.notes), excluded=excludes
+    )
 
 
 def _defaults(root: ET.Element, opts: _Options) -> None:

@@ -16,12 +16,12 @@ import json
 import re
 import sys
 import textwrap
-from pathlib import Path
 from typing import Any
 
 from pydantic.json_schema import models_json_schema
 
 from robotrial.app.models import API_MODELS
+from robotrial.msgs.typescript import write_generated
 
 REF_PREFIX = "#/$defs/"
 WIDTH = 88
@@ -117,14 +117,7 @@ def generate() -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Write the module to the one path in `argv`; 2 with a usage line otherwise."""
-    argv = sys.argv[1:] if argv is None else argv
-    if len(argv) != 1:
-        print("usage: python -m robotrial.app.typescript OUT.ts", file=sys.stderr)
-        return 2
-    path = Path(argv[0])
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(generate())
-    return 0
+    return write_generated(argv, "robotrial.app.typescript", generate)
 
 
 if __name__ == "__main__":

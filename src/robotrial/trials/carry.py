@@ -81,6 +81,7 @@ from robotrial.ros.sim_node import SimNode
 from robotrial.ros.slam_node import SlamNode, grid_message, scan_to_beams, yaw_of
 from robotrial.sim import SimOptions, Simulation, StreamSettings
 from robotrial.sim.controllers import DriveLimits
+from robotrial.sim.odometry import wrap_angle
 from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.matcher import ScanMatcher
 from robotrial.trials.nav import ContactWatch, footprint_of, navigator_config
@@ -311,7 +312,6 @@ class CarryTrial(Node):
         self.planner = TaskPlanner(robot)
         self.matcher = ScanMatcher()
         self.slam_grid: LogOddsGrid | None = None
-        self.docked = np.zeros(3)
         self.arm_names = self.planner.joint_names
         self.watch = ContactWatch(self.sim)
         self._allow_gripper_contacts()
@@ -322,7 +322,6 @@ class CarryTrial(Node):
         self._joints: list[list[float]] = []
         self._steps = 0
         self._phase: dict[str, Any] | None = None
-        self.held = False
         self.in_hand = np.zeros(3)  # the held object's centre in the tool frame (m)
         self._task: Iterator[None] = self._run()
 
@@ -662,7 +661,7 @@ class CarryTrial(Node):
             if left <= 0.005:
                 break
             v = direction * min(speed, max(0.03, 1.5 * left))
-            err = float((heading - p[2] + np.pi) % (2 * np.pi) - np.pi)
+            err = wrap_angle(heading - p[2])
             self._drive(v, 2.0 * err)
             yield
         self._drive(0.0, 0.0)
@@ -784,9 +783,8 @@ class CarryTrial(Node):
                 return
 
     def _docked_pose(self) -> Iterator[None]:
-        """The pose at a work site, from the scans matched to the built map (AMCL's
-        particles settle a few cm off; standing still, the scans say better). Sets
-        `self.docked`."""
+        """The pose at a work site (its return value), from the scans matched to the built
+        map (AMCL's particles settle a few cm off; standing still, the scans say better)."""
         poses = []
         guess = self.pose()
         for _ in range(DOCK_SCANS):
@@ -798,7 +796,7 @@ class CarryTrial(Node):
             poses.append(self.matcher.match(self.slam_grid, b.hits, guess).pose)
         p = np.array(poses)
         mean_yaw = float(np.arctan2(np.sin(p[:, 2]).mean(), np.cos(p[:, 2]).mean()))
-        self.docked = np.array([p[:, 0].mean(), p[:, 1].mean(), mean_yaw])
+        return np.array([p[:, 0].mean(), p[:, 1].mean(), mean_yaw])
 
     def _to_map_point(self, base: np.ndarray, local: np.ndarray) -> np.ndarray:
         """A base-frame point (x, y, z) of base pose `base` in the map frame."""
@@ -850,8 +848,7 @@ class CarryTrial(Node):
         return float(np.linalg.norm(tcp - self._object_pose(self.setup.object)[0]))
 
     def _pick(self) -> Iterator[None]:
-        yield from self._docked_pose()
-        base = self.docked
+        base = yield from self._docked_pose()
         obj_world = np.asarray(self.target.pose.xyz, dtype=float)
         obj_map = self.to_map((obj_world[0], obj_world[1], 0.0))
         local = self._in_base(base, np.array([obj_map[0], obj_map[1], obj_world[2]]))
@@ -881,7 +878,6 @@ class CarryTrial(Node):
         name = g.grasp(self.sim.world.data, self.setup.object)
         if name is None:
             raise PhaseFailed("pick", "the object slipped out of the hand before it was held")
-        self.held = True
         tcp = self.sim.frame_pose(self.robot.end_effector)
         obj = np.append(self._object_pose(self.setup.object)[0], 1.0)
         self.in_hand = (np.linalg.inv(tcp) @ obj)[:3]
@@ -895,20 +891,16 @@ class CarryTrial(Node):
         yield from self._move_arm(np.array(CARRY_TCP), self.pose(), holding=True)
 
     def _place(self, target_world: np.ndarray) -> Iterator[None]:
-        yield from self._docked_pose()
-        base = self.docked
         t_map = self.to_map((target_world[0], target_world[1], 0.0))
-        local = self._in_base(base, np.array([t_map[0], t_map[1], target_world[2]]))
-        # the hand goes where the object, as it sits in the hand, lands on the point
-        hand = local - self._orientation(local).apply(self.in_hand)
-        for _ in range(len(REACHES)):
-            if self._reaches(hand, base, base):
+        point = np.array([t_map[0], t_map[1], target_world[2]])
+        for moves in range(len(REACHES) + 1):
+            base = yield from self._docked_pose()
+            local = self._in_base(base, point)
+            # the hand goes where the object, as it sits in the hand, lands on the point
+            hand = local - self._orientation(local).apply(self.in_hand)
+            if moves == len(REACHES) or self._reaches(hand, base, base):
                 break
             yield from self._reach(hand, base)
-            yield from self._docked_pose()
-            base = self.docked
-            local = self._in_base(base, np.array([t_map[0], t_map[1], target_world[2]]))
-            hand = local - self._orientation(local).apply(self.in_hand)
         orientation = self._orientation(local)
         above = hand + np.array([0.0, 0.0, LIFT])
         yield from self._move_arm(above, base, holding=True, orientation=orientation)
@@ -922,7 +914,6 @@ class CarryTrial(Node):
         for _ in range(round(0.5 / self.sim.control_dt)):
             yield
         g.release(self.sim.world.data)
-        self.held = False
         for _ in range(round(0.3 / self.sim.control_dt)):
             yield
         yield from self._move_arm(self._approach_point(local), base, holding=False)

@@ -23,8 +23,9 @@ from robotrial.msgs.sensor_msgs import JointState
 from robotrial.planning import PLANNERS, Problem, planner_class
 from robotrial.planning.problems import desk_task
 from robotrial.planning.smoothing import shortcut
-from robotrial.planning.task import TaskPlanner, plan_task
+from robotrial.planning.task import TaskPlanner
 from robotrial.planning.timing import time_parameterize
+from robotrial.ros.planning_node import answer
 
 START = [-0.785, 0.80, 1.57, 0.0, 0.76, 0.0]  # the hand near (0.15, -0.15, 0.02)
 
@@ -125,8 +126,7 @@ def test_time_parameterization_respects_limits() -> None:
 
 
 def test_plan_task_answers_the_g2rviewer_request(planner) -> None:
-    result = planner.plan(_request(), seed=0)
-    resp = result.response
+    resp, result = answer(planner, _request(), seed=0)
     assert isinstance(resp, PlanTaskResponse)
     assert resp.success, resp.message
     traj = resp.trajectory
@@ -141,9 +141,7 @@ def test_plan_task_answers_the_g2rviewer_request(planner) -> None:
     assert result.exact is not None and result.exact.path_valid(q)[0]
     qd = np.array([p.velocities for p in traj.points])
     assert np.all(np.abs(qd) <= planner.vmax * 1.02)
-    assert resp.planning_time > 0
-    # the same through the module function, as the node calls it
-    assert plan_task(planner.robot, _request(), planner.world).success
+    assert resp.planning_time > 0 and resp.error_code == 1 and not resp.object_held
 
 
 def test_plan_task_carries_an_object_in_the_hand(planner) -> None:
@@ -153,16 +151,17 @@ def test_plan_task_carries_an_object_in_the_hand(planner) -> None:
     obj = BoxMsg(
         id="cup", size=Vector3(0.03, 0.03, 0.05), pose=Pose.from_pose(GeoPose.from_matrix(held))
     )
-    result = planner.plan(_request(obj=obj, goal=(0.18, 0.2, 0.06)), seed=1)
-    assert result.response.success, result.response.message
+    resp, result = answer(planner, _request(obj=obj, goal=(0.18, 0.2, 0.06)), seed=1)
+    assert resp.success, resp.message
+    assert resp.object_held
     assert "finger_left_link" in result.checker.touch_links
     # the object travels with the hand and stays clear of the box and the table
-    q = np.array([p.positions for p in result.response.trajectory.points])
+    q = np.array([p.positions for p in resp.trajectory.points])
     assert result.exact.path_valid(q)[0]
 
 
 def test_goal_out_of_reach_says_how_far(planner) -> None:
-    resp = planner.plan(_request(goal=(1.0, 0.2, 0.02))).response
+    resp, _ = answer(planner, _request(goal=(1.0, 0.2, 0.02)))
     assert not resp.success
     assert "out of reach" in resp.message and " m " in resp.message
 
@@ -175,15 +174,15 @@ def test_start_in_collision_names_what_touches(planner) -> None:
             pose=Pose(Point(0.15, -0.15, 0.05), Quaternion()),
         )
     ]
-    res = planner.plan(_request(obstacles=inside))
+    resp, res = answer(planner, _request(obstacles=inside))
     assert res.failure == "start_in_collision"
-    assert "crate" in res.response.message and "touches" in res.response.message
+    assert "crate" in resp.message and "touches" in resp.message
 
 
 def test_goal_in_collision(planner) -> None:
-    res = planner.plan(_request(goal=(0.2, 0.0, 0.15)))
+    resp, res = answer(planner, _request(goal=(0.2, 0.0, 0.15)))
     assert res.failure == "goal_in_collision"
-    assert "C" in res.response.message
+    assert "C" in resp.message
 
 
 def test_no_path_within_the_time_limit(planner) -> None:
@@ -201,21 +200,21 @@ def test_no_path_within_the_time_limit(planner) -> None:
         walls.append(
             BoxMsg(id=f"wall{i}", size=Vector3(*size), pose=Pose(Point(*xyz), Quaternion()))
         )
-    res = planner.plan(_request(obstacles=walls, time_limit=0.2))
+    resp, res = answer(planner, _request(obstacles=walls, time_limit=0.2))
     assert res.failure in ("timeout", "goal_in_collision")
-    assert not res.response.success
+    assert not resp.success
     if res.failure == "timeout":
-        assert "no path found" in res.response.message and "0.2 s" in res.response.message
+        assert "no path found" in resp.message and "0.2 s" in resp.message
 
 
 def test_bad_requests_name_the_field(planner) -> None:
     req = _request()
     req.current_joints.position = req.current_joints.position[:3]
-    assert "current_joints" in planner.plan(req).response.message
+    assert "current_joints" in answer(planner, req)[0].message
     req = _request(start=[5.0, 0, 0, 0, 0, 0])
-    assert "outside its limits" in planner.plan(req).response.message
+    assert "outside its limits" in answer(planner, req)[0].message
     bad = [BoxMsg(id="x", size=Vector3(-0.1, 0.1, 0.1), pose=Pose())]
-    assert "obstacles[0].size" in planner.plan(_request(obstacles=bad)).response.message
+    assert "obstacles[0].size" in answer(planner, _request(obstacles=bad))[0].message
 
 
 @settings(
@@ -306,5 +305,5 @@ def test_warm_plans_from_a_free_configuration(planner) -> None:
     # a server calls this at start: a plan that stopped before the tree search would
     # leave the first user's request to compile the planner
     result = planner.warm()
-    assert result is not None and result.response.success, result and result.response.message
-    assert len(result.response.trajectory.points) >= 2
+    assert result is not None and result.success, result and result.message
+    assert len(result.trajectory.t) >= 2

@@ -224,6 +224,7 @@ def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str
     from robotrial.msgs.robotrial_msgs import PlanTaskRequest
     from robotrial.msgs.sensor_msgs import JointState
     from robotrial.planning.task import TaskPlanner
+    from robotrial.ros.planning_node import answer
 
     robot, world = load_robot("desk_arm"), load_world("desk")
     planner = TaskPlanner(robot, world)
@@ -262,13 +263,13 @@ def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str
                 obstacles=boxes,
                 ee_goal=PoseMsg(Point(*goal), Quaternion(0.0, 0.0, 0.0, 0.0)),
             )
-            result = planner.plan(request, seed=k)
+            response, result = answer(planner, request, seed=k)
             key = result.failure or "solved"
             outcomes[key] = outcomes.get(key, 0) + 1
-            if result.response.success:
+            if response.success:
                 times.append(result.stats["planner_planning_time"])
                 replanned += int(result.stats.get("attempts", 1) > 1)
-                q = np.array([p.positions for p in result.response.trajectory.points])
+                q = np.array([p.positions for p in response.trajectory.points])
                 if not result.exact.path_valid(q)[0]:  # type: ignore[union-attr]
                     colliding += 1
             advance()

@@ -186,6 +186,7 @@ class PlanningNode(Node):
         self.planner = TaskPlanner(robot, world)
         self._robots = robots
         self._planners: dict[str, TaskPlanner] = {}
+        self._services: dict[str, str] = {}
         self._lock = threading.Lock()
         self._joints: JointState | None = None
         self.reference = self.create_publisher(JOINT_REFERENCE, JointTrajectory)
@@ -196,10 +197,19 @@ class PlanningNode(Node):
         """Offer PlanTask for `robot` (a name `robots` knows); returns the service name."""
         if self._robots is None:
             raise ValueError("this planning node was given no robot list")
-        service = robot_service(robot)
-        if self.bus.service(service) is None:
-            self.create_service(service, PlanTask, lambda req: self._on_robot_request(robot, req))
+        if robot in self._services:
+            return self._services[robot]
+        service, n = robot_service(robot), 1
+        while self.bus.service(service) is not None:  # another name spelled the same
+            n += 1
+            service = robot_service(f"{robot}_{n}")
+        self.create_service(service, PlanTask, lambda req: self._on_robot_request(robot, req))
+        self._services[robot] = service
         return service
+
+    def services(self) -> dict[str, str]:
+        """Robot name -> its PlanTask service, for every robot added."""
+        return dict(self._services)
 
     def planner_for(self, robot: str) -> TaskPlanner:
         """The TaskPlanner of `robot`, built on first use."""

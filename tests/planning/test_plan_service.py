@@ -190,3 +190,41 @@ def test_robotrial_rosbridge_offers_plan_task() -> None:
     finally:
         proc.terminate()
         proc.wait(10)
+
+
+def test_server_says_while_the_planner_compiles_and_offers_every_arm() -> None:
+    from fastapi.testclient import TestClient
+
+    from robotrial.app.server import create_app
+
+    app = create_app(bus=Bus(), planner=True, warm=True)
+    with TestClient(app) as client:
+        body = client.get("/api/config").json()
+        assert body["planner"] in ("compiling", "ready")
+        deadline = time.monotonic() + 120
+        while body["planner"] != "ready" and time.monotonic() < deadline:
+            time.sleep(0.1)
+            body = client.get("/api/config").json()
+        assert body["planner"] == "ready"
+        assert body["plan_services"]["manipulator_h"] == "/robotrial/robots/manipulator_h/plan_task"
+        assert "husky" not in body["plan_services"]  # a mobile base has no arm to plan for
+    assert TestClient(create_app(warm=False)).get("/api/config").json()["planner"] is None
+
+
+def test_warm_keeps_the_robot_model_for_a_fresh_process(tmp_path, monkeypatch) -> None:
+    from robotrial.cli import main
+    from robotrial.kinematics.chain import Kinematics
+    from robotrial.planning.task import TaskPlanner, robot_spheres
+
+    monkeypatch.setenv("ROBOTRIAL_CACHE", str(tmp_path))
+    assert main(["warm", "--robot", "desk_arm"]) == 0
+    kept = list((tmp_path / "robot-spheres").glob("*.pickle"))
+    assert len(kept) == 1
+    arm = load_robot("desk_arm")
+    planner = TaskPlanner(arm)  # the same robot and joints: read back, nothing added
+    assert planner.spheres.disabled and len(planner.spheres.bodies) > 3
+    assert len(list((tmp_path / "robot-spheres").glob("*.pickle"))) == 1
+    # a changed robot is not answered from the kept file
+    lighter = arm.with_changes(name="desk_arm_copy")
+    robot_spheres(Kinematics(lighter))
+    assert len(list((tmp_path / "robot-spheres").glob("*.pickle"))) == 2

@@ -13,13 +13,19 @@ path within the time limit.
 
 from __future__ import annotations
 
+import hashlib
+import os
+import pickle
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+import robotrial.collision
+import robotrial.kinematics
 from robotrial.collision.exact import ExactChecker
 from robotrial.collision.model import (
     OBJECT,
@@ -43,6 +49,7 @@ HOLD_DISTANCE = 0.05  # m: an object this close to the tcp is in the hand
 DEFAULT_ACCEL_RATIO = 2.0  # joint acceleration limit = ratio x velocity limit, per second
 FLOOR_THICKNESS = 0.1  # m
 SCENES_KEPT = 8  # collision checkers of this many recent scenes are kept
+CACHE_ENV = "ROBOTRIAL_CACHE"  # folder for what is computed once per robot (default ~/.cache)
 
 Obstacles = list[tuple[str, Shape, Pose]]
 
@@ -127,6 +134,51 @@ def _scene_key(obstacles: Obstacles, held: HeldObject | None, start: np.ndarray)
     return tuple(parts)
 
 
+def cache_dir() -> Path:
+    """Where per-robot results are kept between processes: $ROBOTRIAL_CACHE, else
+    $XDG_CACHE_HOME/robotrial, else ~/.cache/robotrial."""
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "robotrial"
+
+
+def _code_digest() -> bytes:
+    """The source of the modules that compute a robot's spheres and pairs: a new version
+    of them must not read an old answer."""
+    h = hashlib.sha256()
+    for package in (robotrial.collision, robotrial.kinematics):
+        for f in sorted(Path(package.__path__[0]).glob("*.py")):
+            h.update(f.read_bytes())
+    return h.digest()
+
+
+def robot_spheres(kin: Kinematics) -> RobotSpheres:
+    """The robot's spheres and self-collision pairs (seconds of work for a robot: sphere
+    covers of every shape, thousands of sampled configurations), kept on disk by robot,
+    joint group and code version, so that a fresh process reads them back."""
+    key = hashlib.sha256(pickle.dumps((kin.model, kin.joint_names)) + _code_digest()).hexdigest()[
+        :32
+    ]
+    path = cache_dir() / "robot-spheres" / f"{key}.pickle"
+    try:
+        spheres = pickle.loads(path.read_bytes())
+        if isinstance(spheres, RobotSpheres):
+            spheres.kin = kin
+            return spheres
+    except Exception:  # not kept yet, unreadable, or from other code: compute it
+        pass
+    spheres = RobotSpheres(kin)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_bytes(pickle.dumps(spheres))
+        tmp.replace(path)
+    except OSError:
+        pass  # a read-only home: compute it again next time
+    return spheres
+
+
 class TaskPlanner:
     """Plans PlanTask requests for one robot, optionally standing in a world.
 
@@ -146,7 +198,7 @@ class TaskPlanner:
         self.world = world
         self.joint_names = list(joints) if joints else default_planning_joints(robot)
         self.kin = Kinematics(robot, self.joint_names)
-        self.spheres = RobotSpheres(self.kin)
+        self.spheres = robot_spheres(self.kin)
         self.padding = float(padding)
         self.validate = validate
         lim = {j.name: j.limit for j in robot.joints}

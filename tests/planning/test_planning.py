@@ -125,6 +125,27 @@ def test_time_parameterization_respects_limits() -> None:
     np.testing.assert_allclose(traj.qd[[0, -1]], 0.0, atol=1e-6)
 
 
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10_000), st.integers(2, 8))
+def test_compiled_timing_keeps_the_limits_and_is_as_fast_as_toppra(seed, n) -> None:
+    from robotrial.benchmarks.planning import _toppra_time
+
+    rng = np.random.default_rng(seed)
+    path = np.cumsum(rng.uniform(-1, 1, (n, 6)), axis=0)
+    vmax = rng.uniform(0.5, 3.0, 6)
+    amax = rng.uniform(1.0, 3.0, 6) * vmax
+    traj = time_parameterize(path, vmax, amax)
+    assert np.all(np.diff(traj.t) > 0)
+    assert np.all(np.abs(traj.qd) <= vmax * (1 + 1e-6))
+    assert np.all(np.abs(traj.qdd) <= amax * (1 + 1e-6))
+    np.testing.assert_allclose(traj.q[[0, -1]], path[[0, -1]])
+    np.testing.assert_allclose(traj.qd[[0, -1]], 0.0, atol=1e-9)
+    # time-optimal under the same limits: not slower than toppra's TOPP-RA
+    assert traj.duration <= 1.02 * _toppra_time(path, vmax, amax)[1]
+    # the tracked curve passes through the samples
+    np.testing.assert_allclose(traj.tracked(traj.duration / (len(traj.t) - 1))[-1], path[-1])
+
+
 def test_plan_task_answers_the_g2rviewer_request(planner) -> None:
     resp, result = answer(planner, _request(), seed=0)
     assert isinstance(resp, PlanTaskResponse)

@@ -15,12 +15,12 @@ from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
-from scipy.interpolate import CubicSpline
+from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from robotrial.planning.smoothing import densify
 
-ACCEL_MARGIN = 0.85  # the limits hold at grid points; the spline between them may bulge
-BISECTIONS = 48
+ACCEL_MARGIN = 0.97  # the limits hold at grid points; the rest is scaled out below
+BISECTIONS = 40
 
 
 @dataclass
@@ -36,6 +36,15 @@ class Trajectory:
     @property
     def duration(self) -> float:
         return float(self.t[-1]) if len(self.t) else 0.0
+
+    def tracked(self, step: float) -> np.ndarray:
+        """Positions every `step` seconds as a tracker follows the samples: a cubic
+        Hermite curve through their positions and velocities (the page's and the
+        simulator's joint reference), ends included."""
+        if len(self.t) < 2:
+            return self.q.copy()
+        t = np.linspace(0.0, self.duration, max(int(np.ceil(self.duration / step)), 1) + 1)
+        return CubicHermiteSpline(self.t, self.q, self.qd)(t)
 
 
 @nb.njit(cache=True)
@@ -91,6 +100,16 @@ def _profile(dq, ddq, vmax, amax, ds) -> np.ndarray:
         if _reaches(hi, k[i + 1], rows, rows2, amax, two_ds):
             k[i] = hi
             continue
+        # bracket the answer near the next point's value (the bound may be 1e12 where
+        # the path barely moves), then bisect: precision relative to the answer
+        x = min(max(k[i + 1], 1e-9), hi)
+        if _reaches(x, k[i + 1], rows, rows2, amax, two_ds):
+            lo = x
+            while 2.0 * lo < hi and _reaches(2.0 * lo, k[i + 1], rows, rows2, amax, two_ds):
+                lo *= 2.0
+            hi = min(2.0 * lo, hi)
+        else:
+            hi = x
         for _ in range(BISECTIONS):
             mid = 0.5 * (lo + hi)
             if _reaches(mid, k[i + 1], rows, rows2, amax, two_ds):
@@ -128,7 +147,9 @@ def time_parameterize(
     way = way[keep]
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(way, axis=0), axis=1))])
     spline = CubicSpline(s / s[-1], way, bc_type="clamped")
-    grid = np.linspace(0, 1, int(np.clip(4 * len(way), 200, 1500)))
+    # the spline's knots are grid points too: between two grid points the path is then
+    # one cubic, and the limits' excess inside an interval a low-order polynomial
+    grid = np.union1d(np.linspace(0, 1, int(np.clip(4 * len(way), 200, 1500))), s / s[-1])
     dq, ddq = spline(grid, 1), spline(grid, 2)
     x = _profile(dq, ddq, vmax, amax * ACCEL_MARGIN, grid)
     # constant u on each interval: dt = 2 ds / (sd_i + sd_{i+1})
@@ -136,20 +157,36 @@ def time_parameterize(
     step = np.diff(grid)
     dt = 2.0 * step / np.maximum(sd[:-1] + sd[1:], 1e-12)
     u = (x[1:] - x[:-1]) / (2.0 * step)
+    # the limits hold at the grid points; between them the path's curvature may push a
+    # joint past them: slow the whole trajectory down uniformly by the largest excess
+    # (speeds scale with 1/c, accelerations with 1/c^2), measured inside every interval
+    f = np.linspace(0.0, 1.0, 9)[:, None]
+    x_in = x[:-1] + f * (x[1:] - x[:-1])  # x is linear in s on an interval
+    s_in = grid[:-1] + f * step
+    d1, d2 = spline(s_in.ravel(), 1), spline(s_in.ravel(), 2)
+    v_in = np.sqrt(np.maximum(x_in, 0.0)).ravel()[:, None]
+    a_in = d2 * x_in.ravel()[:, None] + d1 * np.tile(u, len(f))[:, None]
+    c = max(
+        1.0,
+        float(np.max(np.abs(d1) * v_in / vmax)),
+        float(np.sqrt(np.max(np.abs(a_in) / amax))),
+    )
+    dt *= c
     times = np.concatenate([[0.0], np.cumsum(dt)])
     duration = float(times[-1])
     n = max(int(np.ceil(duration / period)), 1)
     t = np.linspace(0.0, duration, n + 1)
     i = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(step) - 1)
     tau = t - times[i]
+    tau = tau / c  # in the unscaled time of the profile
     v = sd[i] + u[i] * tau
     pos = np.minimum(grid[i] + sd[i] * tau + 0.5 * u[i] * tau**2, grid[i + 1])
     pos[-1] = 1.0
     v[-1] = 0.0
     d1 = spline(pos, 1)
     q = spline(pos)
-    qd = d1 * v[:, None]
-    qdd = spline(pos, 2) * (v**2)[:, None] + d1 * u[i][:, None]
+    qd = d1 * (v / c)[:, None]
+    qdd = (spline(pos, 2) * (v**2)[:, None] + d1 * u[i][:, None]) / c**2
     q[0], q[-1] = path[0], path[-1]
     qd[0], qd[-1] = 0.0, 0.0
     return Trajectory(t, q, qd, qdd)

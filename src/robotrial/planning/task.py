@@ -456,7 +456,7 @@ class TaskPlanner:
             traj = time_parameterize(
                 candidate, self.vmax, self.amax, period=REFERENCE_PERIOD, max_gap=gap
             )
-            tracked = traj.tracked(REFERENCE_PERIOD / 4)
+            tracked = traj.tracked(REFERENCE_PERIOD / 2)
             stats["timing_time"] = stats.get("timing_time", 0.0) + time.perf_counter() - t
             t = time.perf_counter()
             if exact is not None:

@@ -334,8 +334,6 @@ PLAN_COMMAND = [
     "0.2",
     "0",
     "0.15",
-    "--no-plots",
-    "--json",
 ]
 PARTS = {  # breakdown: name -> stats key of TaskResult (s)
     "scene (checkers)": "scene_time",
@@ -422,15 +420,15 @@ def service_round_trips(calls: int, show: bool = True) -> dict[str, Any]:
     --robot desk_arm --world desk` in its own process (the first tenth not counted)."""
     import roslibpy
 
-    from robotrial.benchmarks.rosbridge import _free_port, _wait_port
+    from robotrial.benchmarks.rosbridge import _free_port, _server
 
     port = _free_port()
     exe = Path(sys.executable).parent / "robotrial"
+    # compiled and kept first, so that the server starts within _server's wait
+    subprocess.run([str(exe), "warm", "--robot", "desk_arm"], check=True, capture_output=True)
     cmd = [str(exe), "rosbridge", "--port", str(port), "--robot", "desk_arm", "--world", "desk"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     times, planning = [], []
-    try:
-        _wait_port(port, proc, timeout=300)
+    with _server(cmd, port):
         client = roslibpy.Ros(host="127.0.0.1", port=port)
         client.run(timeout=10)
         service = roslibpy.Service(client, "/robotrial/plan_task", "robotrial_msgs/PlanTask")
@@ -447,13 +445,6 @@ def service_round_trips(calls: int, show: bool = True) -> dict[str, Any]:
                     times.append(dt)
                     planning.append(resp["planning_time"])
         client.close()
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
     t = np.array(times)
     return {
         "calls": len(t),
@@ -467,11 +458,12 @@ def cold_plan(runs: int = 3) -> dict[str, Any]:
     """`robotrial plan` for the desk task from a fresh process (numba's and robotrial's
     caches already filled by `robotrial warm`), wall clock."""
     exe = Path(sys.executable).parent / "robotrial"
-    subprocess.run([str(exe), "warm", "--robot", "desk_arm"], check=True, capture_output=True)
     times = []
     for _ in range(runs):
         t0 = time.perf_counter()
-        subprocess.run([str(exe), *PLAN_COMMAND], check=True, capture_output=True)
+        subprocess.run(
+            [str(exe), *PLAN_COMMAND, "--no-plots", "--json"], check=True, capture_output=True
+        )
         times.append(time.perf_counter() - t0)
     return {"runs": runs, "median_s": float(np.median(times)), "min_s": float(np.min(times))}
 

@@ -18,6 +18,7 @@ $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
+	$(BIN)/robotrial warm
 	touch $(STAMP)
 
 # roslib (roslibjs) for the Node interop test in tests/ros

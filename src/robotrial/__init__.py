@@ -19,6 +19,7 @@ _PUBLIC = {
     "SimOptions": "robotrial.sim",
     "StreamSettings": "robotrial.sim",
     "TaskPlanner": "robotrial.planning.task",
+    "TaskRequest": "robotrial.planning.task",
     "Recorder": "robotrial.ros.recorder",
     "read_recording": "robotrial.ros.playback",
     "CarrySetup": "robotrial.trials.carry",

@@ -63,6 +63,11 @@ class Config(ApiModel):
     """Whether this server offers rosbridge there."""
     live: LiveInfo | None = None
     """The platform the server simulates live (a mobile robot in a room), or null."""
+    planner: str | None = None
+    """The planning service: "compiling" while its kernels compile at start (a first
+    Move Robot! would wait for them), "ready", or null when the server has none."""
+    plan_services: dict[str, str] = {}
+    """Robot name -> its PlanTask service (robotrial.ros.planning_node.robot_service)."""
 
 
 class RobotEntry(ApiModel):

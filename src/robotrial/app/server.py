@@ -53,6 +53,8 @@ from robotrial.model.robot import ModelError
 from robotrial.ros.rosbridge.access import Access
 
 if TYPE_CHECKING:
+    from robotrial.model.robot import RobotModel
+    from robotrial.model.world import World
     from robotrial.planning.task import TaskPlanner
     from robotrial.ros.bus import Bus
 
@@ -154,13 +156,21 @@ def create_app(
         if robot_kind(arm) == "arm":
             from robotrial.ros.planning_node import PlanningNode
 
-            planning = PlanningNode(bus, arm, catalog.world(catalog.default_world))
+            planning = PlanningNode(
+                bus, arm, catalog.world(catalog.default_world), robots=lambda n: _arm(catalog, n)
+            )
+            for entry in catalog.robots():
+                if entry["kind"] == "arm":
+                    planning.add_robot(entry["name"])
+    planner_state = {"status": None if planning is None else "compiling"}
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
         if warm:
             task = planning.planner if planning is not None else None
-            threading.Thread(target=_warm, args=(catalog, task), daemon=True).start()
+            threading.Thread(target=_warm, args=(catalog, task, planner_state), daemon=True).start()
+        elif planning is not None:
+            planner_state["status"] = "ready"
         if platform is not None:
             platform.start()
         try:
@@ -213,6 +223,8 @@ def create_app(
                 origin=SpawnPose(xyz=list(platform.spawn.xyz), quat=list(platform.spawn.quat)),
                 error=platform.error,
             ),
+            planner=planner_state["status"],
+            plan_services={} if planning is None else planning.services(),
         )
 
     @app.get("/api/robots", response_model=RobotList, tags=["robots"])
@@ -264,6 +276,8 @@ def create_app(
                 uploads.load, filename, folder / filename, set(catalog.robot_names())
             )
             catalog.add_robot(robot.name, robot.model, robot.rdtf)
+            if planning is not None and robot_kind(robot.model) == "arm":
+                planning.add_robot(robot.name)
         except UploadRefused as exc:
             return JSONResponse({"detail": str(exc)}, status_code=exc.status)
         except ModelError as exc:
@@ -353,9 +367,16 @@ def _glb(asset: Asset, request: Request) -> Response:
     return Response(asset.data, media_type=GLB_MEDIA_TYPE, headers=headers)
 
 
-def _warm(catalog: Catalog, task: TaskPlanner | None) -> None:
+def _arm(catalog: Catalog, name: str) -> tuple[RobotModel, World]:
+    """A robot of the list and the world it opens in, for its planner."""
+    robot = catalog.robot(name)
+    return robot, catalog.world(catalog.world_for(robot_kind(robot)))
+
+
+def _warm(catalog: Catalog, task: TaskPlanner | None, planner: dict[str, str | None]) -> None:
     """Build the default robot's and world's files, then plan once so that the planner's
-    compiled kernels are ready before the first Move Robot!"""
+    compiled kernels are ready before the first Move Robot! (`planner["status"]` says
+    "compiling" until then)."""
     try:
         catalog.warm()
     except Exception as exc:  # the request that needs the file reports the error
@@ -365,3 +386,4 @@ def _warm(catalog: Catalog, task: TaskPlanner | None) -> None:
             task.warm()
         except Exception as exc:  # the first request compiles then, and reports errors
             log.warning("could not warm the planner: %s", exc)
+        planner["status"] = "ready"

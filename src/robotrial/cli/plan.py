@@ -130,6 +130,7 @@ def _empty_box():
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import ModelError, load_world
     from robotrial.planning.task import TaskPlanner
+    from robotrial.ros.planning_node import answer
 
     try:
         robot = load_robot_from_args(args)
@@ -142,8 +143,7 @@ def run(args: argparse.Namespace) -> int:
         home = np.clip(np.zeros(planner.kin.d), planner.kin.lower, planner.kin.upper)
         request.current_joints.name = planner.joint_names
         request.current_joints.position = [float(v) for v in home]
-    result = planner.plan(request, seed=args.seed)
-    resp = result.response
+    resp, result = answer(planner, request, seed=args.seed)
     plots: list[str] = []
     if resp.success and args.plot is not None:
         plots = [write_plot(result, planner, request, args.plot)]

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -53,8 +53,8 @@ from robotrial.geometry import Cylinder, Pose, Sphere
 from robotrial.model import load_robot, load_world
 from robotrial.model.world import Obstacle, World
 from robotrial.msgs.builtin_interfaces import Time
+from robotrial.msgs.geometry_msgs import Pose as PoseMsg
 from robotrial.msgs.geometry_msgs import (
-    Point,
     PoseStamped,
     PoseWithCovariance,
     PoseWithCovarianceStamped,
@@ -64,19 +64,18 @@ from robotrial.msgs.geometry_msgs import (
     Twist,
     Vector3,
 )
-from robotrial.msgs.geometry_msgs import Pose as PoseMsg
 from robotrial.msgs.nav_msgs import OccupancyGrid
-from robotrial.msgs.robotrial_msgs import Box, PlanTaskRequest
-from robotrial.msgs.sensor_msgs import JointState, LaserScan
+from robotrial.msgs.sensor_msgs import LaserScan
 from robotrial.msgs.std_msgs import Header
 from robotrial.msgs.tf2_msgs import TFMessage
 from robotrial.msgs.trajectory_msgs import JointTrajectory
 from robotrial.nav.amcl import compose, inverse
 from robotrial.nav.costmap import Footprint
 from robotrial.nav.navigator import NavigatorConfig, Status
-from robotrial.planning.task import TaskPlanner, to_joint_trajectory
+from robotrial.planning.task import Obstacles, TaskPlanner, TaskRequest, TaskResult
 from robotrial.ros.bus import Bus, Node
 from robotrial.ros.nav_node import NavNode
+from robotrial.ros.planning_node import joint_trajectory
 from robotrial.ros.sim_node import SimNode
 from robotrial.ros.slam_node import SlamNode, grid_message, scan_to_beams, yaw_of
 from robotrial.sim import SimOptions, Simulation, StreamSettings
@@ -220,8 +219,8 @@ class CarryResult:
         }
 
 
-def _box_message(name: str, size, pose: Pose) -> Box:
-    return Box(name, Vector3(*map(float, size)), PoseMsg.from_pose(pose))
+def _box(name: str, size, pose: Pose) -> tuple[str, BoxShape, Pose]:
+    return name, BoxShape(tuple(float(v) for v in size)), pose
 
 
 def _bounding_size(ob: Obstacle) -> tuple[float, float, float]:
@@ -687,18 +686,18 @@ class CarryTrial(Node):
         yaw = float(np.arctan2(d[1], d[0]))
         return Rotation.from_euler("z", yaw) * SIDE_GRASP
 
-    def _obstacles(self, base: np.ndarray) -> list[Box]:
+    def _obstacles(self, base: np.ndarray) -> Obstacles:
         """Furniture and walls within reach of the arm, as boxes in the base frame
         (cylinders by their bounding boxes), and the floor."""
         inv = compose(inverse(base), self.to_map((0.0, 0.0, 0.0)))
-        out = [_box_message("floor", (4.0, 4.0, 0.1), Pose((0.0, 0.0, -0.05)))]
+        out = [_box("floor", (4.0, 4.0, 0.1), Pose((0.0, 0.0, -0.05)))]
         for ob in self.world.static_bodies:
             p = compose(inv, np.array([ob.pose.xyz[0], ob.pose.xyz[1], ob.pose.yaw]))
             size = _bounding_size(ob)
             if np.hypot(p[0], p[1]) - 0.5 * np.hypot(size[0], size[1]) > 1.5:
                 continue
             out.append(
-                _box_message(
+                _box(
                     ob.name,
                     size,
                     Pose.from_xyz_rpy((p[0], p[1], ob.pose.xyz[2]), (0.0, 0.0, p[2])),
@@ -714,20 +713,22 @@ class CarryTrial(Node):
         holding: bool,
         quiet: bool = False,
         orientation: Rotation | None = None,
-    ):
+    ) -> TaskResult | None:
         """Plan the hand to `local` (base frame) with a side grasp; None when the planner
         finds nothing (raises PhaseFailed instead unless `quiet`)."""
         q = (orientation or self._orientation(local)).as_quat()
-        obj = Box()
+        obj = None
         if holding:
             size = _bounding_size(self.target)
             tcp = self.planner.kin.link_pose(start)
-            obj = _box_message(self.setup.object, size, Pose.from_matrix(tcp))
-        request = PlanTaskRequest(
-            current_joints=JointState(name=list(self.arm_names), position=list(start)),
+            obj = _box(self.setup.object, size, Pose.from_matrix(tcp))
+        request = TaskRequest(
+            positions=np.asarray(start, dtype=float),
+            joint_names=list(self.arm_names),
+            goal_position=np.asarray(local, dtype=float),
+            goal_orientation=np.asarray(q, dtype=float),
             obstacles=self._obstacles(base),
             object=obj,
-            ee_goal=PoseMsg(Point(*map(float, local)), Quaternion(*map(float, q))),
             planner=self.setup.planner,
             time_limit=2.0,
         )
@@ -735,15 +736,15 @@ class CarryTrial(Node):
         self.result.arm_plans.append(
             {
                 "phase": self._phase["name"] if self._phase else "",
-                "success": res.response.success,
-                "planning_time": round(res.response.planning_time, 4),
-                "message": res.response.message,
+                "success": res.success,
+                "planning_time": round(res.planning_time, 4),
+                "message": res.message,
             }
         )
-        if not res.response.success:
+        if not res.success:
             if quiet:
                 return None
-            raise PhaseFailed(self._phase["name"], f"arm planning: {res.response.message}")
+            raise PhaseFailed(self._phase["name"], f"arm planning: {res.message}")
         return res
 
     def _move_arm(
@@ -752,13 +753,18 @@ class CarryTrial(Node):
         base: np.ndarray,
         holding: bool,
         orientation: Rotation | None = None,
-    ) -> Iterator[None]:
+        quiet: bool = False,
+    ) -> Generator[None, None, bool]:
+        """Plan and follow a hand motion to `local`; False when `quiet` and no plan."""
         start = np.array([self.sim.joint_values()[n] for n in self.arm_names])
-        res = self._plan(start, local, base, holding, orientation=orientation)
-        self.ref_pub.publish(to_joint_trajectory(self.arm_names, res.trajectory))
+        res = self._plan(start, local, base, holding, quiet=quiet, orientation=orientation)
+        if res is None:
+            return False
+        self.ref_pub.publish(joint_trajectory(self.arm_names, res.trajectory))
         end = self.sim.world.time + res.trajectory.duration + SETTLE
         while self.sim.world.time < end:
             yield
+        return True
 
     def _reaches(self, local: np.ndarray, base: np.ndarray, pose: np.ndarray) -> bool:
         """Whether, with the base moved to `pose`, the held object's hand reaches the point
@@ -916,7 +922,9 @@ class CarryTrial(Node):
         g.release(self.sim.world.data)
         for _ in range(round(0.3 / self.sim.control_dt)):
             yield
-        yield from self._move_arm(self._approach_point(local), base, holding=False)
+        # back off along the grasp, else (the arm folded against the base) straight up
+        if not (yield from self._move_arm(self._approach_point(local), base, False, quiet=True)):
+            yield from self._move_arm(hand + np.array([0.0, 0.0, LIFT]), base, False, orientation)
         yield from self._straight(-STANDOFF)
 
     # --- the result --------------------------------------------------------------------

@@ -80,7 +80,8 @@ export class RobotrialApp {
         connection: this.connection,
         setJoints: (values) => this.setJoints(values),
         lockJoints: (locked) => this.panel.lockJoints(locked),
-        plannerRobot: () => this.config?.robot ?? "",
+        planService: (robot) => this.planService(robot),
+        plannerStatus: () => this.config?.planner ?? null,
       },
       taskPanel,
       plot,
@@ -93,8 +94,27 @@ export class RobotrialApp {
     this.panel.mount(new UploadSection((answer) => this.addUploadedRobot(answer)).section);
   }
 
+  /** The PlanTask service for `robot`: the server's default robot answers on
+   * /robotrial/plan_task (as a g2rViewer server does), the others on their own. */
+  private planService(robot: string): string | null {
+    const config = this.config;
+    if (!config) return null;
+    if (robot === config.robot) return "/robotrial/plan_task";
+    return config.plan_services?.[robot] ?? null;
+  }
+
+  /** Read the server's config again until its planner has compiled. */
+  private async watchPlanner(): Promise<void> {
+    while (this.config?.planner === "compiling") {
+      await new Promise((resolve) => setTimeout(resolve, 2000));
+      this.config = await getConfig();
+      this.task.plannerChanged();
+    }
+  }
+
   /** A robot the server accepted from an upload: list it in the picker and open it. */
   async addUploadedRobot(answer: UploadAnswer): Promise<void> {
+    this.config = await getConfig();
     this.catalog = await getCatalog();
     this.panel.setCatalog(this.catalog.robots, this.catalog.worlds);
     await this.load(answer.robot.name, answer.robot.world);
@@ -132,6 +152,7 @@ export class RobotrialApp {
     try {
       const [config, catalog] = await Promise.all([getConfig(), getCatalog()]);
       this.config = config;
+      void this.watchPlanner();
       this.live.setInfo(config.live ?? null);
       await installEmulatorIfAsked();
       void this.ar.check();

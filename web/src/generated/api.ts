@@ -13,6 +13,11 @@ export interface Config {
   rosbridge_enabled: boolean;
   /** The platform the server simulates live (a mobile robot in a room), or null. */
   live: LiveInfo | null;
+  /** The planning service: "compiling" while its kernels compile at start (a first Move
+   * Robot! would wait for them), "ready", or null when the server has none. */
+  planner: string | null;
+  /** Robot name -> its PlanTask service (robotrial.ros.planning_node.robot_service). */
+  plan_services: Record<string, string>;
 }
 
 /** The simulated platform streaming on rosbridge: which robot in which world, and where

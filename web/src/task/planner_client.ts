@@ -30,12 +30,13 @@ export class PlannerClient {
     connection.subscribe("/robotrial/joint_reference", (msg) => this.received(msg));
   }
 
-  /** Ask the planner to move the hand as `arrangement` says; `names` are the arm's
-   * driven joints in order. `slow()` is called once if the answer takes longer than
-   * usual. Rejects when the planner cannot be reached or does not answer in time. */
+  /** Ask the planner at `service` to move the hand as `arrangement` says; `names` are
+   * the arm's driven joints in order. `slow()` is called once if the answer takes longer
+   * than usual. Rejects when the planner cannot be reached or does not answer in time. */
   async plan(
     arrangement: Arrangement,
     names: string[],
+    service: string,
     slow: () => void,
   ): Promise<PlanTaskResponse> {
     // A reference seen before this plan is not its motion.
@@ -46,6 +47,7 @@ export class PlannerClient {
         "/robotrial/plan_task",
         planRequest(arrangement, names),
         PLAN_TIMEOUT_MS,
+        service,
       );
     } finally {
       window.clearTimeout(patience);

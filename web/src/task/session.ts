@@ -69,8 +69,11 @@ export interface TaskHost {
   setJoints(values: Record<string, number>): void;
   /** Allow or block the joint sliders. */
   lockJoints(locked: boolean): void;
-  /** The robot the server's planner plans for (its catalog name). */
-  plannerRobot(): string;
+  /** The PlanTask service that plans for `robot` (a catalog name), or null when no
+   * planner on this server plans for it. */
+  planService(robot: string): string | null;
+  /** "compiling" while the server's planner compiles its kernels, else "ready" or null. */
+  plannerStatus(): string | null;
 }
 
 export class TaskSession {
@@ -235,7 +238,8 @@ export class TaskSession {
     this.say(wording.PLANNING);
     let response: PlanTaskResponse;
     try {
-      response = await this.plannerClient.plan(arrangement, names, () => {
+      const service = this.host.planService(this.robotName) ?? "/robotrial/plan_task";
+      response = await this.plannerClient.plan(arrangement, names, service, () => {
         if (this.phase === "planning") this.say(wording.STILL_PLANNING);
       });
     } catch (err) {
@@ -582,11 +586,18 @@ export class TaskSession {
 
   private showPhase(): void {
     const connected = this.host.connection.state().status === "connected";
-    const ours = this.robotName === this.host.plannerRobot();
-    this.panel.setPhase(this.phase, connected && this.robot !== null && ours);
-    if (this.phase === "editing" && this.robot && !ours) {
-      this.say(wording.otherPlannerRobot(this.host.plannerRobot()));
+    const planned = this.host.planService(this.robotName) !== null;
+    this.panel.setPhase(this.phase, connected && this.robot !== null && planned);
+    if (this.phase === "editing" && this.robot && !planned) {
+      this.say(wording.noPlanner(this.robotName));
+    } else if (this.phase === "editing" && this.robot && this.host.plannerStatus() === "compiling") {
+      this.say(wording.plannerCompiling());
     }
+  }
+
+  /** The server's planner changed (a robot added, compiling done): show what it allows. */
+  plannerChanged(): void {
+    this.showPhase();
   }
 
   private say(text: string, kind: MessageKind = "info"): void {

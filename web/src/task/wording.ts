@@ -43,13 +43,17 @@ export function sceneNotLoaded(fileName: string, err: unknown): string {
   return `Could not load ${fileName}: ${errorText(err)}`;
 }
 
-/** The robot on screen is not the one the server's planner plans for (`plannerRobot`). */
-export function otherPlannerRobot(plannerRobot: string): string {
+/** No planner on this server plans for the robot on screen. */
+export function noPlanner(robot: string): string {
   return (
-    `The planner on this server plans for the ` +
-    `${humanize(plannerRobot).toLowerCase()}; ` +
-    "this robot can be arranged but not moved."
+    `No planner on this server plans for the ${humanize(robot).toLowerCase()}; ` +
+    "it can be arranged but not moved."
   );
+}
+
+/** The server's planner is compiling its kernels (once after an install). */
+export function plannerCompiling(): string {
+  return "The planner is getting ready (compiling, once after an install); Move Robot! may take a while.";
 }
 
 /** The message for the end of a run, and whether it is good news. */

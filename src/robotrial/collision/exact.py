@@ -149,15 +149,24 @@ class ExactChecker:
     def path_valid(self, path: np.ndarray, step: float | None = None) -> tuple[bool, int]:
         """Check a path densely (every `step` rad; default: the sphere model's resolution
         halved). Returns (valid, index of the first colliding sample or -1)."""
+        import mujoco
+
         path = np.atleast_2d(np.asarray(path, dtype=float))
+        if not len(path):
+            return True, -1
         res = self.checker.resolution / 2 if step is None else np.full(path.shape[1], step)
-        k = 0
+        pieces = []
         for a, b in itertools.pairwise(path):
             n = max(int(np.ceil(np.max(np.abs(b - a) / res))), 1)
-            for t in np.arange(n) / n:
-                if not self.valid(a + t * (b - a)):
-                    return False, k
-                k += 1
-        if len(path) and not self.valid(path[-1]):
-            return False, k
+            pieces.append(a + (np.arange(n) / n)[:, None] * (b - a))
+        qs = np.vstack([*pieces, path[-1:]])
+        qpos = np.tile(self._qpos0, (len(qs), 1))
+        qpos[:, self._adr] = self._mult * qs[:, self._src] + self._off
+        model, data = self.model, self.data
+        for k, row in enumerate(qpos):
+            data.qpos[:] = row
+            mujoco.mj_kinematics(model, data)
+            mujoco.mj_collision(model, data)
+            if data.ncon and len(self._hits()):
+                return False, k
         return True, -1

@@ -20,12 +20,16 @@ _PUBLIC = {
     "StreamSettings": "robotrial.sim",
     "TaskPlanner": "robotrial.planning.task",
     "TaskRequest": "robotrial.planning.task",
+    "record_drive": "robotrial.trials.slam",
+    "run_slam": "robotrial.trials.slam",
+    "NavTrialSetup": "robotrial.trials.nav",
+    "run_nav": "robotrial.trials.nav:run_once",
     "Recorder": "robotrial.ros.recorder",
     "read_recording": "robotrial.ros.playback",
     "CarrySetup": "robotrial.trials.carry",
     "run_carry": "robotrial.trials.carry",
 }
-"""Public name -> the module that defines it."""
+"""Public name -> the module that defines it ("module:name" where the name differs)."""
 
 __all__ = sorted(_PUBLIC)
 
@@ -33,7 +37,8 @@ __all__ = sorted(_PUBLIC)
 def __getattr__(name: str) -> Any:
     if name not in _PUBLIC:
         raise AttributeError(f"module 'robotrial' has no attribute {name!r}")
-    value = getattr(import_module(_PUBLIC[name]), name)
+    module, _, attr = _PUBLIC[name].partition(":")
+    value = getattr(import_module(module), attr or name)
     globals()[name] = value
     return value
 

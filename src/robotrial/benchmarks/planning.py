@@ -391,6 +391,7 @@ def service_breakdown(calls: int, show: bool = True) -> dict[str, Any]:
     from robotrial.planning.task import TaskPlanner
     from robotrial.planning.timing import time_parameterize
     from robotrial.ros.planning_node import plan_task_response, task_request
+    from robotrial.ros.rosbridge.encoding import dumps
 
     planner = TaskPlanner(load_robot("desk_arm"), load_world("desk"))
     wire = json.dumps(DESK_REQUEST)
@@ -403,7 +404,7 @@ def service_breakdown(calls: int, show: bool = True) -> dict[str, Any]:
             t1 = time.perf_counter()
             result = planner.plan(task)
             t2 = time.perf_counter()
-            json.dumps(plan_task_response(result).to_dict())
+            dumps({"op": "service_response", "values": plan_task_response(result).to_dict()})
             t3 = time.perf_counter()
             advance()
             if k < 3 or not result.success:  # the first calls build the scene

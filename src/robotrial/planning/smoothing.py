@@ -6,8 +6,6 @@ valid: shortcuts replace a stretch by a straight segment only when that segment 
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 
 from robotrial.planning.base import Checker
@@ -70,11 +68,14 @@ def shortcut(
 
 def densify(path: np.ndarray, step: float) -> np.ndarray:
     """Insert waypoints so that no segment is longer than `step` (joint-space L2)."""
-    out = [path[0]]
-    for a, b in itertools.pairwise(path):
-        n = max(int(np.ceil(np.linalg.norm(b - a) / step)), 1)
-        out.extend(a + (b - a) * (k / n) for k in range(1, n + 1))
-    return np.array(out)
+    path = np.asarray(path, dtype=float)
+    if len(path) < 2:
+        return path.copy()
+    d = np.diff(path, axis=0)
+    n = np.maximum(np.ceil(np.linalg.norm(d, axis=1) / step).astype(int), 1)
+    seg = np.repeat(np.arange(len(d)), n)  # the segment of each new point
+    frac = (np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n) + 1) / np.repeat(n, n)
+    return np.vstack([path[:1], path[seg] + frac[:, None] * d[seg]])
 
 
 def round_corners(path: np.ndarray, checker: Checker, fraction: float = 0.25) -> np.ndarray:

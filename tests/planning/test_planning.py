@@ -295,33 +295,9 @@ def test_random_obstacles_never_yield_a_colliding_path(desk, boxes, seed) -> Non
 
 
 def test_cli_plan_prints_json_and_writes_plots(tmp_path, capsys) -> None:
-    code = main(
-        [
-            "plan",
-            "--robot",
-            "desk_arm",
-            "--world",
-            "desk",
-            "--goal",
-            "0.18",
-            "0.2",
-            "0.02",
-            "--start",
-            *map(str, START),
-            "--obstacle",
-            "0.1",
-            "0.1",
-            "0.2",
-            "0.2",
-            "0",
-            "0.15",
-            "--seed",
-            "0",
-            "--json",
-            "--plot",
-            str(tmp_path / "plan.png"),
-        ]
-    )
+    from robotrial.benchmarks.planning import PLAN_COMMAND
+
+    code = main([*PLAN_COMMAND, "--seed", "0", "--json", "--plot", str(tmp_path / "plan.png")])
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["success"]
     assert out["trajectory"]["joint_names"][0] == "joint1"

@@ -351,7 +351,10 @@ class TaskPlanner:
             goal_pose = Pose(tuple(target), tuple(request.goal_orientation))  # type: ignore[arg-type]
         ik_target = target if goal_pose is None else goal_pose.matrix()
         t_ik = time.perf_counter()
-        ik = solve_ik(self.kin, ik_target, start, rng=rng, accept=checker.valid)
+        # the nearest of two free solutions from seeds tried four at a time (the current
+        # joints first): over 150 random desk requests, trajectories 1 % longer in time
+        # than the nearest of four from batches of eight, for half the IK time
+        ik = solve_ik(self.kin, ik_target, start, rng=rng, accept=checker.valid, batch=4, wanted=2)
         stats["ik_time"] = time.perf_counter() - t_ik
         if not ik.success:
             free = solve_ik(self.kin, ik_target, start, rng=rng, wanted=1)

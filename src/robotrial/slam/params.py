@@ -109,3 +109,56 @@ class HectorParams:
     @staticmethod
     def from_dict(values: dict[str, Any] | None) -> HectorParams:
         return _from_dict(HectorParams, values)
+
+
+@dataclass(frozen=True)
+class PoseGraphParams:
+    """Pose-graph SLAM parameters (names after slam_toolbox's where one exists).
+
+    Distances in m, angles in rad. A node is added every `minimum_travel_distance` or
+    `minimum_travel_heading`; a loop closure is searched among nodes within
+    `loop_search_maximum_distance` of the new one and at least `loop_min_chain` nodes
+    back, matched against `loop_neighbours` scans either side of the candidate over a
+    window of +-`loop_search_space` m and +-`loop_search_angle` rad, and accepted when
+    the mean likelihood field value of the scan reaches `loop_match_minimum_response`;
+    after a closure, the next `loop_cooldown` nodes look for none.
+    The graph is optimised after every `optimize_every` accepted closures."""
+
+    resolution: float = 0.025
+    match_levels: int = 3
+    iterations: int = 5
+    minimum_travel_distance: float = 0.3
+    minimum_travel_heading: float = 0.349
+    laser_min_dist: float = 0.4
+    max_laser_range: float = 30.0
+    loop_search_maximum_distance: float = 2.0
+    loop_min_chain: int = 10
+    loop_neighbours: int = 3
+    loop_search_space: float = 0.3
+    loop_search_angle: float = 0.15
+    loop_search_angle_step: float = 0.005
+    loop_cooldown: int = 1
+    loop_match_minimum_response: float = 0.6
+    loop_points: int = 300
+    optimize_every: int = 2
+    map_pub_period: float = 2.0
+
+    def __post_init__(self) -> None:
+        if not self.resolution > 0:
+            raise ValueError(f"graph: resolution must be > 0, got {self.resolution}")
+        if self.match_levels < 1 or self.iterations < 1:
+            raise ValueError("graph: match_levels and iterations must be >= 1")
+        if not self.max_laser_range > self.laser_min_dist >= 0:
+            raise ValueError("graph: need 0 <= laser_min_dist < max_laser_range")
+        if self.minimum_travel_distance <= 0 or self.minimum_travel_heading <= 0:
+            raise ValueError("graph: minimum_travel_distance and _heading must be > 0")
+        if self.loop_min_chain < 1 or self.loop_neighbours < 0 or self.optimize_every < 1:
+            raise ValueError(
+                "graph: loop_min_chain and optimize_every must be >= 1, loop_neighbours >= 0"
+            )
+        if not 0 < self.loop_match_minimum_response <= 1:
+            raise ValueError("graph: loop_match_minimum_response must be in (0, 1]")
+
+    @staticmethod
+    def from_dict(values: dict[str, Any] | None) -> PoseGraphParams:
+        return _from_dict(PoseGraphParams, values)

@@ -36,10 +36,12 @@ from robotrial.slam.gmapping import GMappingSlam, OdometryRequired
 from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.hector import HectorSlam
 from robotrial.slam.metrics import ate, cell_centres, room_dimensions, rpe
-from robotrial.slam.params import GMappingParams, HectorParams
+from robotrial.slam.params import GMappingParams, HectorParams, PoseGraphParams
+from robotrial.slam.posegraph import PoseGraphSlam
 from robotrial.slam.scan import beams, relative, wrap
 
-METHODS = ("gmapping", "hector")
+METHODS = ("gmapping", "hector", "graph")
+Slam = GMappingSlam | HectorSlam | PoseGraphSlam
 # The height band (m, around the laser) the simulator flattens into the 2D scan.
 SCAN_BAND = (ScanConfig.min_height, ScanConfig.max_height)
 
@@ -165,12 +167,14 @@ def load_recording(path: str | Path) -> Recording:
     return builder.build()
 
 
-def make_slam(method: str, params: dict[str, Any] | None = None) -> GMappingSlam | HectorSlam:
+def make_slam(method: str, params: dict[str, Any] | None = None) -> Slam:
     """A SLAM object by method name, with ROS-named parameter overrides."""
     if method == "gmapping":
         return GMappingSlam(GMappingParams.from_dict(params))
     if method == "hector":
         return HectorSlam(HectorParams.from_dict(params))
+    if method == "graph":
+        return PoseGraphSlam(PoseGraphParams.from_dict(params))
     raise ValueError(f"unknown SLAM method {method!r}; choose from {', '.join(METHODS)}")
 
 
@@ -193,7 +197,7 @@ class SlamRun:
     updated: np.ndarray | None = None
 
 
-def scan_beams(slam: GMappingSlam | HectorSlam, s: ScanSample, laser_pose) -> Any:
+def scan_beams(slam: Slam, s: ScanSample, laser_pose) -> Any:
     return beams(
         s.ranges,
         s.angle_min,
@@ -239,18 +243,33 @@ def run_slam(
     return run
 
 
-def _updates(slam: GMappingSlam | HectorSlam) -> int:
+def _updates(slam: Slam) -> int:
     return slam.updates if isinstance(slam, GMappingSlam) else slam.map_updates
 
 
-def finish_run(
-    method: str, slam: GMappingSlam | HectorSlam, times: np.ndarray, wall: float, duration: float
-) -> SlamRun:
-    """A SlamRun from a SLAM object that has seen its scans."""
+def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration: float) -> SlamRun:
+    """A SlamRun from a SLAM object that has seen its scans. A pose graph's pending
+    closures are optimised first, and that time is added to the last scan's."""
+    if isinstance(slam, PoseGraphSlam):
+        t0 = time.perf_counter()
+        slam.settle()
+        if len(times):
+            times = times.copy()
+            times[-1] += time.perf_counter() - t0
     stamps, poses = slam.trajectory()
     if isinstance(slam, GMappingSlam):
         nbytes = sum(m.logodds.nbytes for m in slam.maps)
         extra: dict[str, Any] = {"updates": slam.updates, "resamples": slam.resamples}
+    elif isinstance(slam, PoseGraphSlam):
+        nbytes = slam.grid.logodds.nbytes
+        extra = {
+            "map_updates": slam.map_updates,
+            "nodes": len(slam.nodes),
+            "closures": slam.closures,
+            "loop_attempts": slam.loop_attempts,
+            "optimizations": slam.optimizations,
+            "optimize_ms_total": slam.optimize_time * 1e3,
+        }
     else:
         nbytes = slam.grid.logodds.nbytes
         extra = {"map_updates": slam.map_updates}

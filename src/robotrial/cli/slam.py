@@ -1,8 +1,9 @@
-"""`robotrial slam`: build a map with GMapping- or Hector-class SLAM from a recording or
+"""`robotrial slam`: build a map with GMapping-, Hector- or pose-graph SLAM from a recording or
 the live simulator, and score it against the world's ground truth (layer 5).
 
     robotrial slam --method gmapping --bag run.mcap -o room_c
     robotrial slam --method hector --live --world room_a --duration 60 -o room_a_hector
+    robotrial slam --method graph --bag apartment.mcap --world apartment -o apartment_graph
 
 writes room_c.pgm + room_c.yaml (map_server), room_c.tum (the trajectory) and room_c.png
 (the map with the trajectory over the ground truth), and prints the scores (or --json).
@@ -16,11 +17,11 @@ from pathlib import Path
 
 from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
-HELP = "SLAM (gmapping or hector) from a recording or live; map_server files, trajectory, scores"
+HELP = "SLAM (gmapping, hector, graph) from a recording or live; map files, trajectory, scores"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--method", choices=("gmapping", "hector"), default="gmapping")
+    parser.add_argument("--method", choices=("gmapping", "hector", "graph"), default="gmapping")
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--bag", metavar="FILE", help="a recording (.mcap or ROS 1 .bag)")
     src.add_argument("--live", action="store_true", help="drive the simulator and map live")

@@ -4,7 +4,7 @@ pose out, like slam_gmapping and hector_mapping (layer 4).
 | direction | topic | type |
 | --- | --- | --- |
 | in | `/scan` | sensor_msgs/LaserScan |
-| in | `/odom` | nav_msgs/Odometry (GMapping needs it; Hector ignores it) |
+| in | `/odom` | nav_msgs/Odometry (GMapping needs it; Hector and the pose graph ignore it) |
 | in | `/tf_static` | tf2_msgs/TFMessage (where the laser sits on the base) |
 | out | `/map` | nav_msgs/OccupancyGrid, latched, every `map_update_interval` s of scan time |
 | out | `/tf` | map -> odom (map -> base frame when there is no odometry) |
@@ -39,6 +39,7 @@ from robotrial.ros.bus import Bus, Node
 from robotrial.slam.gmapping import GMappingSlam
 from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.hector import HectorSlam
+from robotrial.slam.posegraph import PoseGraphSlam
 from robotrial.slam.scan import Beams, beams, compose, relative
 
 POSE_TOPIC = "/slam_out_pose"
@@ -125,12 +126,12 @@ def grid_message(grid: LogOddsGrid, stamp: float, frame: str = "map") -> Occupan
 
 
 class SlamNode(Node):
-    """Runs a GMappingSlam or HectorSlam on the bus's /scan (and /odom)."""
+    """Runs a GMappingSlam, HectorSlam or PoseGraphSlam on the bus's /scan (and /odom)."""
 
     def __init__(
         self,
         bus: Bus,
-        slam: GMappingSlam | HectorSlam,
+        slam: GMappingSlam | HectorSlam | PoseGraphSlam,
         map_update_interval: float | None = None,
         name: str = "/slam",
         map_frame: str = "map",

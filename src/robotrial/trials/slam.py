@@ -278,7 +278,7 @@ def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration
 
 # Routes across each built-in room's workspace (world x, y in m), from its default spawn:
 # a loop along the walls of rooms A and B, out and back around room C's partition, the
-# living room and the kitchen of the apartment.
+# living room and the kitchen of the apartment, and a tour of all five of its rooms.
 ROUTES: dict[str, list[tuple[float, float]]] = {
     "room_a": [(6.6, 1.0), (6.6, 6.5), (1.2, 6.5), (1.0, 1.3), (2.5, 1.0)],
     "room_b": [(6.6, 1.0), (6.6, 6.5), (1.2, 6.5), (1.0, 1.3), (2.5, 1.0)],
@@ -293,7 +293,33 @@ ROUTES: dict[str, list[tuple[float, float]]] = {
         (5.6, 3.2),
         (2.6, 3.2),
     ],
+    # Every room of the apartment and back to the start: through the kitchen doorway,
+    # up into the corridor, the study, west along the corridor, the bedroom, and down
+    # into the living room. Turns on the spot happen where the base's 1.2 m turning
+    # circle fits (at doorways, in rooms), never mid-corridor.
+    "apartment_tour": [
+        (5.6, 3.2),
+        (6.0, 2.5),
+        (7.4, 2.5),
+        (8.3, 3.2),
+        (8.5, 4.73),
+        (6.5, 4.87),
+        (6.5, 6.4),
+        (6.5, 4.87),
+        (2.6, 4.8),
+        (2.2, 6.2),
+        (2.6, 4.8),
+        (2.6, 3.2),
+        (3.0, 2.8),
+    ],
 }
+
+
+def route_world(name: str) -> str:
+    """The world a route named in ROUTES drives in ("apartment_tour" -> "apartment")."""
+    if name not in ROUTES:
+        raise ValueError(f"no SLAM route {name!r}; known: {', '.join(sorted(ROUTES))}")
+    return name.removesuffix("_tour")
 
 
 class RouteDrive:

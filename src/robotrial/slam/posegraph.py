@@ -125,6 +125,7 @@ def optimize_graph(
         while True:
             damp = sparse.diags(lam * (diag + 1e-9) + anchor)
             step = spsolve((h + damp).tocsc(), -g).reshape(n, 3)
+            step[fixed] = 0.0
             trial = x + step
             trial[:, 2] = (trial[:, 2] + np.pi) % (2 * np.pi) - np.pi
             new = cost_of(trial)

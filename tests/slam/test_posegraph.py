@@ -1,0 +1,84 @@
+"""Pose-graph SLAM: the optimiser on a known loop, loop closures in a room run against
+Hector on the same recording, and the method behind the SLAM node on the bus."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robotrial.msgs.nav_msgs import OccupancyGrid
+from robotrial.ros.bus import Bus
+from robotrial.ros.playback import play
+from robotrial.ros.slam_node import POSE_TOPIC, SlamNode
+from robotrial.slam.posegraph import Edge, PoseGraphSlam, graph_cost, optimize_graph
+from robotrial.slam.scan import compose, relative
+from robotrial.trials.slam import ROUTES, make_slam, record_drive, run_slam, score
+
+
+def _circle(n: int) -> np.ndarray:
+    a = 2 * np.pi * np.arange(n) / n
+    return np.stack([2 * np.cos(a), 2 * np.sin(a), a + np.pi / 2], axis=1)
+
+
+def test_optimiser_closes_a_drifted_loop():
+    truth = _circle(40)
+    info = np.diag([100.0, 100.0, 400.0])
+    edges = [Edge(i, i + 1, relative(truth[i], truth[i + 1]), info) for i in range(39)]
+    edges.append(Edge(0, 39, relative(truth[0], truth[39]), info, loop=True))
+    # Dead reckoning with a biased step drifts 0.76 m around the loop.
+    drifted = [truth[0]]
+    for e in edges[:-1]:
+        drifted.append(compose(drifted[-1], e.z + np.array([0.01, 0.003, 0.01])))
+    drifted = np.array(drifted)
+    assert np.abs(drifted - truth)[:, :2].max() > 0.5
+    out, before, after = optimize_graph(drifted, edges)
+    assert before > 100 and after < 1e-12 and after == pytest.approx(graph_cost(out, edges))
+    err = out - truth
+    err[:, 2] = (err[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    assert np.abs(err).max() < 1e-6
+    # Node 0 holds the gauge.
+    assert np.array_equal(out[0], drifted[0])
+
+
+def test_an_edge_to_a_missing_node_is_refused():
+    with pytest.raises(ValueError, match=r"edge \(0, 5\)"):
+        optimize_graph(np.zeros((3, 3)), [Edge(0, 5, np.zeros(3), np.eye(3))])
+    with pytest.raises(ValueError, match="loop_min_chain"):
+        make_slam("graph", {"loop_min_chain": 0})
+    with pytest.raises(ValueError, match="unknown parameter 'particles'"):
+        make_slam("graph", {"particles": 3})
+
+
+@pytest.fixture(scope="module")
+def room_c():
+    """Room C's route, out and back around the partition (119 s simulated)."""
+    return record_drive("room_c", None, duration=240.0, route=ROUTES["room_c"], seed=0)
+
+
+def test_loop_closures_beat_scan_matching_alone_in_room_c(room_c):
+    graph = run_slam("graph", room_c)
+    hector = run_slam("hector", room_c)
+    g, h = score(graph, room_c, None), score(hector, room_c, None)
+    assert g["closures"] >= 1 and g["optimizations"] >= 1
+    assert g["ate"]["rmse"] < h["ate"]["rmse"]
+    assert g["ate"]["rmse"] < 0.01 and g["ate"]["max"] < 0.02
+
+
+def test_the_node_runs_the_pose_graph_on_the_bus(room_b_bag):
+    bus = Bus()
+    slam = PoseGraphSlam()
+    node = SlamNode(bus, slam, map_update_interval=2.0)
+    maps: list[OccupancyGrid] = []
+    poses = []
+    bus.subscribe("/map", maps.append)
+    bus.subscribe(POSE_TOPIC, poses.append)
+    play(room_b_bag, bus, ["/tf_static", "/odom", "/scan"])
+    assert node.scans > 150 and node.dropped == 0
+    assert len(poses) == node.scans and len(maps) >= 5
+    assert len(slam.nodes) >= 10
+    data = np.asarray(maps[-1].data).reshape(maps[-1].info.height, maps[-1].info.width)
+    assert maps[-1].info.resolution == np.float32(0.025) and (data == 100).sum() > 300
+    # The robot drove a 2 m square: the last pose is about 2 m from the first, or back.
+    end = poses[-1].pose.position
+    assert 0.5 < np.hypot(end.x, end.y) < 3.0
+    node.destroy()

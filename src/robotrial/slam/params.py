@@ -122,7 +122,8 @@ class PoseGraphParams:
     window of +-`loop_search_space` m and +-`loop_search_angle` rad, and accepted when
     the mean likelihood field value of the scan reaches `loop_match_minimum_response`;
     after a closure, the next `loop_cooldown` nodes look for none.
-    The graph is optimised after every `optimize_every` accepted closures."""
+    The graph is optimised after every `optimize_every` accepted closures; the map is
+    rebuilt when that moved a scan by more than `map_rebuild_shift`."""
 
     resolution: float = 0.025
     match_levels: int = 3
@@ -141,6 +142,7 @@ class PoseGraphParams:
     loop_match_minimum_response: float = 0.6
     loop_points: int = 300
     optimize_every: int = 2
+    map_rebuild_shift: float = 0.01
     map_pub_period: float = 2.0
 
     def __post_init__(self) -> None:

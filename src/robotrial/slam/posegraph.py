@@ -16,6 +16,7 @@ relative to the node before them, so the whole trajectory follows the optimisati
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numba
@@ -244,6 +245,8 @@ class PoseGraphSlam:
         self.closures = 0
         self.loop_attempts = 0
         self.optimizations = 0
+        self.rebuilds = 0
+        self._written: list[np.ndarray] = []
         self.optimize_time = 0.0
         self.map_updates = 0
         self._pending = 0
@@ -316,6 +319,7 @@ class PoseGraphSlam:
                 )
             )
         self._write(self._grid, self.pose, scan)
+        self._written.append(self.pose.copy())
         self._pyramid = self._grid.pyramid(self.params.match_levels)
         self.map_updates += 1
         if k > 0 and self._close_loop(k):
@@ -380,22 +384,29 @@ class PoseGraphSlam:
 
     def settle(self) -> None:
         """Optimise the graph if closures are pending, rebuild the map from the optimised
-        poses and carry the current pose along with the last node."""
+        poses (when they moved enough to matter) and carry the current pose along with
+        the last node."""
         if self._pending == 0:
             return
-        import time
-
         t0 = time.perf_counter()
         before = np.array(self.nodes)
         after, _, _ = optimize_graph(before, self.edges)
         last = relative(before[-1], self.pose)
         self.nodes = [q.copy() for q in after]
         self.pose = compose(after[-1], last)
-        grid = LogOddsGrid(self.params.resolution, model=self._model)
-        for q, s in zip(self.nodes, self.scans, strict=True):
-            self._write(grid, q, s)
-        self._grid = grid
-        self._pyramid = grid.pyramid(self.params.match_levels)
+        # Rebuild only when some scan would land elsewhere in the map by more than
+        # `map_rebuild_shift` (a turn counts at 5 m, the length of a typical beam).
+        written = np.array(self._written)
+        turn = np.abs((after[:, 2] - written[:, 2] + np.pi) % (2 * np.pi) - np.pi)
+        shift = np.hypot(*(after[:, :2] - written[:, :2]).T) + 5.0 * turn
+        if shift.max() > self.params.map_rebuild_shift:
+            grid = LogOddsGrid(self.params.resolution, model=self._model)
+            for q, s in zip(self.nodes, self.scans, strict=True):
+                self._write(grid, q, s)
+            self._grid = grid
+            self._pyramid = grid.pyramid(self.params.match_levels)
+            self._written = [q.copy() for q in after]
+            self.rebuilds += 1
         self._pending = 0
         self.optimizations += 1
         self.optimize_time += time.perf_counter() - t0

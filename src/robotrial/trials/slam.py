@@ -268,6 +268,7 @@ def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration
             "closures": slam.closures,
             "loop_attempts": slam.loop_attempts,
             "optimizations": slam.optimizations,
+            "map_rebuilds": slam.rebuilds,
             "optimize_ms_total": slam.optimize_time * 1e3,
         }
     else:

@@ -45,6 +45,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="route",
         help="--live: the world's route across the room (built-in rooms), or a square",
     )
+    parser.add_argument(
+        "--route",
+        help="--live: a named route of robotrial.trials.slam.ROUTES instead of the world's "
+        "own, e.g. apartment_tour (every room of the apartment and back)",
+    )
     parser.add_argument("--side", type=float, default=2.0, help="--live: square side (m)")
     parser.add_argument("--speed", type=float, default=0.3, help="--live: speed (m/s)")
     parser.add_argument("--seed", type=int, default=0, help="--live: sensor noise seed")
@@ -118,6 +123,19 @@ def _offline(args, params, trial):
     return run_, rec
 
 
+def _route(args, world, trial):
+    """The waypoints to drive live: --route by name, else the world's own route."""
+    if args.drive != "route":
+        return None
+    if args.route is None:
+        return trial.ROUTES.get(world.name)
+    if trial.route_world(args.route) != world.name:
+        raise ValueError(
+            f"--route {args.route} drives in {trial.route_world(args.route)}, not {world.name}"
+        )
+    return trial.ROUTES[args.route]
+
+
 def _live(args, params, world, trial):
     import numpy as np
 
@@ -145,7 +163,7 @@ def _live(args, params, world, trial):
             args.seed,
             on_step=on_step,
             extra_nodes=lambda bus: nodes.append(SlamNode(bus, slam)),
-            route=trial.ROUTES.get(world.name) if args.drive == "route" else None,
+            route=_route(args, world, trial),
         )
     wall = time.perf_counter() - wall0
     times = np.asarray(nodes[0].scan_times)

@@ -82,3 +82,47 @@ def test_the_node_runs_the_pose_graph_on_the_bus(room_b_bag):
     end = poses[-1].pose.position
     assert 0.5 < np.hypot(end.x, end.y) < 3.0
     node.destroy()
+
+
+def _room_scan(pose: np.ndarray, n: int = 720) -> np.ndarray:
+    """End points (base frame) of a scan from `pose` in an L-shaped room: the box
+    0..6 x 0..4 m without its corner x > 4, y > 2.5."""
+    a = np.linspace(-np.pi, np.pi, n, endpoint=False) + pose[2]
+    c, s = np.cos(a), np.sin(a)
+    t = np.full(n, np.inf)
+    for wall, (lo, hi), axis in (
+        (0.0, (0, 4), 0), (6.0, (0, 2.5), 0), (4.0, (2.5, 4), 0),
+        (0.0, (0, 6), 1), (4.0, (0, 4), 1), (2.5, (4, 6), 1),
+    ):  # fmt: skip
+        d = (c, s)[axis]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k = (wall - pose[axis]) / d
+        other = pose[1 - axis] + k * (s, c)[axis]
+        ok = (k > 0) & (other >= lo) & (other <= hi)
+        t[ok] = np.minimum(t[ok], k[ok])
+    local = a - pose[2]
+    return np.stack([t * np.cos(local), t * np.sin(local)], axis=1)
+
+
+def test_correlative_search_finds_a_known_offset_and_scores_a_wrong_place_low():
+    from robotrial.slam.grid import LogOddsGrid
+    from robotrial.slam.posegraph import correlative_search, likelihood_field
+    from robotrial.slam.scan import transform_points
+
+    where = np.array([2.0, 1.5, 0.3])
+    pts = _room_scan(where)
+    grid = LogOddsGrid(0.025)
+    grid.integrate(tuple(where[:2]), transform_points(where, pts), np.ones(len(pts), bool))
+    field = likelihood_field(grid, 0.05)
+    guess = where + np.array([0.12, -0.07, 0.06])
+    found, response = correlative_search(
+        field, grid.origin, grid.resolution, pts, guess, 0.3, 0.15, 0.005
+    )
+    assert np.hypot(*(found[:2] - where[:2])) < 0.03 and abs(found[2] - where[2]) < 0.01
+    assert response > 0.8
+    # The same scan seen from elsewhere in the room does not fit anywhere near the guess.
+    other = _room_scan(np.array([5.0, 1.0, 0.3]))
+    _, wrong = correlative_search(
+        field, grid.origin, grid.resolution, other, guess, 0.3, 0.15, 0.005
+    )
+    assert wrong < 0.6

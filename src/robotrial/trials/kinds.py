@@ -8,8 +8,9 @@ run again from its row. `KINDS` is the table: a new kind is a function and an en
   simulator, from the world's start to its goal; success and simulated time.
 - `plan`: one arm planning query (`robotrial plan`, Table 2): the g2rViewer desk task or
   a scene around an arm; success, planning time and path length.
-- `slam`: a drive along the world's route, mapped by GMapping or Hector; map accuracy,
-  trajectory error and time per scan, the map files beside the database.
+- `slam`: a drive along the world's route, mapped by GMapping, Hector or the pose
+  graph; map accuracy, trajectory error and time per scan, the map files beside the
+  database.
 - `g2r`: the g2rViewer desk experiment: the desk arm plans (the PlanTask service) from one
   side of obstacle C to the other (or with no obstacle), the motion runs in MuJoCo, and
   the hand's path under physics is compared with the planned one; a plot of both.

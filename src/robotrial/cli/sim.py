@@ -157,7 +157,7 @@ def run(args: argparse.Namespace) -> int:
     from robotrial.msgs.nav_msgs import Odometry
     from robotrial.ros.bus import Bus
     from robotrial.ros.recorder import BusRecorder, Recorder, format_of
-    from robotrial.ros.sim_node import SimNode
+    from robotrial.ros.sim_node import ROBOT_DESCRIPTION, SimNode
     from robotrial.sim.drives import SquareDrive
     from robotrial.sim.simulation import Simulation
 
@@ -189,7 +189,7 @@ def run(args: argparse.Namespace) -> int:
 
     bus = Bus()
     node = SimNode(bus, sim)
-    topics = sorted({t for t, _ in node.topics.values()} | {"/tf", "/tf_static"})
+    topics = sorted({t for t, _ in node.topics.values()} | {"/tf", "/tf_static", ROBOT_DESCRIPTION})
     recorder = Recorder(args.record, args.compression) if args.record else None
     if recorder is not None:
         BusRecorder(bus, recorder, topics)

@@ -106,3 +106,105 @@ def test_bad_client_message_names_the_topic() -> None:
         decode_client_message(b"{nope", "json", Twist, "/cmd_vel")
     msg = decode_client_message(b'{"linear": {"x": 0.25}}', "json", Twist, "/cmd_vel")
     assert msg.linear.x == 0.25
+
+
+def test_foxglove_access_follows_the_rosbridge_rules() -> None:
+    """A page from another site is refused (it could drive the robot); with a token, only
+    a URL carrying it gets in; a client without an Origin gets the protocol's greeting."""
+    import asyncio
+
+    from websockets.asyncio.client import connect
+    from websockets.exceptions import InvalidStatus
+
+    from robotrial.ros.rosbridge.access import Access
+
+    bus = Bus()
+    open_bridge = FoxgloveBridge(bus, port=0)
+    locked = FoxgloveBridge(bus, port=0, access=Access.create(token="s3cret-token"))
+
+    async def status(url: str, origin: str | None = None) -> int | str:
+        try:
+            async with connect(url, subprotocols=["foxglove.websocket.v1"], origin=origin) as ws:
+                return json.loads(await ws.recv())["op"]
+        except InvalidStatus as exc:
+            return exc.response.status_code
+
+    try:
+        assert asyncio.run(status(open_bridge.url)) == "serverInfo"
+        assert asyncio.run(status(open_bridge.url, "https://evil.example")) == 403
+        assert asyncio.run(status(locked.url)) == 401
+        assert asyncio.run(status(locked.url + "/?token=s3cret-token")) == "serverInfo"
+    finally:
+        open_bridge.destroy()
+        locked.destroy()
+
+
+def test_busy_port_is_a_clear_error() -> None:
+    bus = Bus()
+    first = FoxgloveBridge(bus, port=0)
+    try:
+        with pytest.raises(OSError, match=f"127.0.0.1:{first.port}"):
+            FoxgloveBridge(bus, port=first.port)
+        assert bus.nodes() == [first.name]
+    finally:
+        first.destroy()
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait_for_port(port: int, proc: subprocess.Popen, timeout: float = 30.0) -> None:
+    """Return once something listens on `port` (the server opens it at start-up)."""
+    import socket
+    import time
+
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1).close()
+            return
+        except OSError:
+            assert proc.poll() is None, "the server exited"
+            assert time.monotonic() < deadline, f"nothing listens on {port} after {timeout} s"
+            time.sleep(0.1)
+
+
+def test_serve_offers_foxglove_with_the_live_platform(tmp_path: Path) -> None:
+    """`robotrial serve --foxglove-port` with a mobile robot: the Foxglove client sees the
+    live platform's topics (SLAM's /map, the planner's /plan) next to the simulator's."""
+    import sys
+
+    node = shutil.which("node")
+    if node is None or not (NODE_DIR / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
+        pytest.fail("node and tests/ros/foxglove_node/node_modules are needed: run `make setup`")
+    web, fox = _free_port(), _free_port()
+    command = [Path(sys.executable).with_name("robotrial"), "serve", "--port", str(web)]
+    command += ["--foxglove-port", str(fox), "--robot", "mobile_manipulator", "--world", "room_a"]
+    errors = (tmp_path / "serve.log").open("w")
+    server = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=errors, text=True)
+    try:
+        line = server.stdout.readline() if server.stdout else ""
+        assert f"Foxglove at ws://127.0.0.1:{fox}/" in line, line
+        _wait_for_port(fox, server)
+        proc = subprocess.run(
+            [node, "client.mjs", f"ws://127.0.0.1:{fox}", "1"],
+            cwd=NODE_DIR,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert proc.returncode == 0, proc.stderr + (tmp_path / "serve.log").read_text()
+        r = json.loads(proc.stdout)
+    finally:
+        server.terminate()
+        server.wait(10)
+        errors.close()
+    for topic in ("/map", "/plan", "/move_base_simple/goal", "/robot_description", "/tf"):
+        assert r["channels"][topic]["schemaEncoding"] == "ros2msg", topic
+    assert r["decoded"]["/robot_description"]["links"] > 5
+    assert r["decoded"]["/scan"]["ranges"] > 100

@@ -20,6 +20,7 @@ from robotrial.ros.sim_node import SimNode
 from robotrial.sim.simulation import SimOptions, Simulation
 
 NODE_DIR = Path(__file__).parent / "foxglove_node"
+LAYOUT = Path(__file__).parents[2] / "docs" / "foxglove" / "robotrial-layout.json"
 
 
 @pytest.fixture(scope="module")
@@ -208,3 +209,9 @@ def test_serve_offers_foxglove_with_the_live_platform(tmp_path: Path) -> None:
         assert r["channels"][topic]["schemaEncoding"] == "ros2msg", topic
     assert r["decoded"]["/robot_description"]["links"] > 5
     assert r["decoded"]["/scan"]["ranges"] > 100
+
+    # The shipped layout only names topics this server offers.
+    layout = json.loads(LAYOUT.read_text())["configById"]
+    named = set(layout["3D!robotrial"]["topics"]) | {layout["Teleop!robotrial"]["topic"]}
+    named.add(layout["Image!robotrial"]["imageMode"]["imageTopic"])
+    assert named <= set(r["channels"]), named - set(r["channels"])

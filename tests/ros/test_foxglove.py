@@ -215,3 +215,44 @@ def test_serve_offers_foxglove_with_the_live_platform(tmp_path: Path) -> None:
     named = set(layout["3D!robotrial"]["topics"]) | {layout["Teleop!robotrial"]["topic"]}
     named.add(layout["Image!robotrial"]["imageMode"]["imageTopic"])
     assert named <= set(r["channels"]), named - set(r["channels"])
+
+
+def test_3d_panel_fetches_the_robots_package_meshes(tmp_path: Path) -> None:
+    """A URDF's package:// mesh comes through the protocol's asset fetch; another file of
+    the same package does not (only the robot's meshes are served)."""
+    import trimesh
+
+    from robotrial.model.urdf import load_urdf
+
+    node = shutil.which("node")
+    if node is None or not (NODE_DIR / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
+        pytest.fail("node and tests/ros/foxglove_node/node_modules are needed: run `make setup`")
+    pkg = tmp_path / "fg_robot"
+    (pkg / "meshes").mkdir(parents=True)
+    (pkg / "package.xml").write_text("<package><name>fg_robot</name></package>")
+    trimesh.creation.box((0.2, 0.2, 0.2)).export(pkg / "meshes" / "body.stl")
+    urdf = pkg / "robot.urdf"
+    urdf.write_text(
+        '<robot name="meshy"><link name="base"><visual><geometry>'
+        '<mesh filename="package://fg_robot/meshes/body.stl"/></geometry></visual>'
+        "</link></robot>"
+    )
+    robot = load_urdf(urdf)
+    bridge = FoxgloveBridge(Bus(), port=0, robot=robot)
+    good, other = "package://fg_robot/meshes/body.stl", "package://fg_robot/robot.urdf"
+    try:
+        proc = subprocess.run(
+            [node, "fetch.mjs", bridge.url, good, other, "package://nowhere/x.stl"],
+            cwd=NODE_DIR,
+            capture_output=True,
+            text=True,
+            timeout=30,
+        )
+    finally:
+        bridge.destroy()
+    assert proc.returncode == 0, proc.stderr
+    r = json.loads(proc.stdout)
+    assert "assets" in r["capabilities"]
+    assert r[good] == {"status": "ok", "bytes": (pkg / "meshes" / "body.stl").stat().st_size}
+    assert r[other]["status"] == "error" and "not a mesh" in r[other]["error"]
+    assert r["package://nowhere/x.stl"]["status"] == "error"

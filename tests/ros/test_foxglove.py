@@ -256,3 +256,42 @@ def test_3d_panel_fetches_the_robots_package_meshes(tmp_path: Path) -> None:
     assert r[good] == {"status": "ok", "bytes": (pkg / "meshes" / "body.stl").stat().st_size}
     assert r[other]["status"] == "error" and "not a mesh" in r[other]["error"]
     assert r["package://nowhere/x.stl"]["status"] == "error"
+
+
+def test_foxglove_client_calls_a_bus_service() -> None:
+    """A service on the bus is offered with ros2msg schemas; calls in CDR and JSON get the
+    handler's answer, a request that does not decode gets a failure naming the service."""
+    from robotrial.msgs.std_srvs import SetBool
+
+    node = shutil.which("node")
+    if node is None or not (NODE_DIR / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
+        pytest.fail("node and tests/ros/foxglove_node/node_modules are needed: run `make setup`")
+    bus = Bus()
+    seen: list[bool] = []
+
+    def toggle(req: SetBool.Request) -> SetBool.Response:
+        seen.append(req.data)
+        return SetBool.Response(success=req.data, message=f"lamp {'on' if req.data else 'off'}")
+
+    server = bus.advertise_service("/lamp/set", SetBool, toggle)
+    bridge = FoxgloveBridge(bus, port=0)
+    try:
+        proc = subprocess.run(
+            [node, "call.mjs", bridge.url, "/lamp/set", '{"data": true}'],
+            cwd=NODE_DIR,
+            capture_output=True,
+            text=True,
+            timeout=30,
+        )
+    finally:
+        bridge.destroy()
+        server.close()
+    assert proc.returncode == 0, proc.stderr
+    r = json.loads(proc.stdout)
+    assert "services" in r["capabilities"]
+    assert r["type"] == "std_srvs/srv/SetBool"
+    assert r["requestSchemaName"] == "std_srvs/srv/SetBool_Request"
+    assert r["1"] == {"success": True, "message": "lamp on"}
+    assert r["2"] == {"success": True, "message": "lamp on"}
+    assert "/lamp/set" in r["3"]["failure"]
+    assert seen == [True, True]

@@ -13,6 +13,8 @@ of its own next to the bus:
   decoded into the topic's type and published on the bus (teleop on `/cmd_vel`, goals on
   `/move_base_simple/goal`); a message that does not decode is dropped with a warning
   that names the topic, and the client is told through a status message;
+- bus services of known types are offered (`services`): a call in `cdr` or `json` is
+  answered in the same encoding, a failure with the handler's error;
 - `package://` mesh URIs of the robot's description are served through the protocol's
   asset fetch (`assets`), limited to the mesh files the loaded robot uses;
 - who may connect follows the rosbridge rules (robotrial.ros.rosbridge.access): browser
@@ -47,9 +49,9 @@ from websockets.http11 import Request, Response
 from robotrial.geometry import Mesh
 from robotrial.model.packages import PackageResolver
 from robotrial.model.robot import ModelError, RobotModel
-from robotrial.msgs import Message, MessageError, cdr, lookup_message
+from robotrial.msgs import Message, MessageError, ServiceType, cdr, lookup_message, lookup_service
 from robotrial.msgs.core import full_definition
-from robotrial.ros.bus import Bus, Node, Publisher, Subscription
+from robotrial.ros.bus import Bus, BusError, Node, Publisher, Subscription
 from robotrial.ros.recorder import deserialize
 from robotrial.ros.rosbridge.access import Access
 
@@ -63,7 +65,10 @@ CLIENT_ENCODINGS = ("cdr", "json")
 
 
 MESSAGE_DATA = 0x01  # server: subscription id, receive time, payload; client: channel id, payload
+SERVICE_CALL_REQUEST = 0x02  # client: service id, call id, encoding, payload
+SERVICE_CALL_RESPONSE = 0x03  # server: the same layout
 FETCH_ASSET_RESPONSE = 0x04
+SERVICE_TIMEOUT = 120.0  # s a service call may take (planning can be slow)
 STATUS_INFO, STATUS_WARNING, STATUS_ERROR = 0, 1, 2
 QUEUE_LIMIT = 256  # frames waiting per client; a slow client misses data beyond it
 
@@ -129,6 +134,7 @@ class _Client:
     queue: asyncio.Queue
     subscriptions: dict[int, str] = field(default_factory=dict)  # subscription id -> topic
     channels: dict[int, dict[str, Any]] = field(default_factory=dict)  # its advertised ones
+    calls: set[asyncio.Task] = field(default_factory=set)  # service calls under way
 
     def put(self, frame: str | bytes, data: bool = False) -> None:
         """Queue a frame (in the server's loop). When the queue is full, a data frame is
@@ -160,6 +166,41 @@ class _Channel:
         }
 
 
+def _message_definition(cls: type[Message]) -> dict[str, str]:
+    return {
+        "encoding": MESSAGE_ENCODING,
+        "schemaName": cls.__ros_type__,
+        "schemaEncoding": SCHEMA_ENCODING,
+        "schema": full_definition(cls),
+    }
+
+
+@dataclass(eq=False)
+class _Service:
+    id: int
+    name: str
+    srv: ServiceType
+
+    def advertisement(self) -> dict[str, Any]:
+        request, response = self.srv.Request, self.srv.Response
+        return {
+            "id": self.id,
+            "name": self.name,
+            "type": self.srv.name,
+            "request": _message_definition(request),
+            "response": _message_definition(response),
+            "requestSchema": full_definition(request),  # for clients of the older spec
+            "responseSchema": full_definition(response),
+        }
+
+
+def encode_response(msg: Message, encoding: str) -> bytes:
+    """A service response in the encoding its request came in."""
+    if encoding == "json":
+        return json.dumps(msg.to_dict()).encode()
+    return cdr.serialize(msg)
+
+
 class FoxgloveBridge(Node):
     """A Foxglove WebSocket server on `host`:`port` showing and driving `bus`.
 
@@ -188,6 +229,8 @@ class FoxgloveBridge(Node):
         self._ids = itertools.count(1)
         self._channels: dict[str, _Channel] = {}
         self._by_id: dict[int, _Channel] = {}
+        self._services: dict[str, _Service] = {}
+        self._services_by_id: dict[int, _Service] = {}
         self._clients: set[_Client] = set()
         self._publishers: dict[str, Publisher] = {}
         self._session = str(time.time_ns())
@@ -208,6 +251,8 @@ class FoxgloveBridge(Node):
             ) from None
         self.advertise_new_topics()
         self.create_timer(scan_period, self.advertise_new_topics)
+        self.advertise_services()
+        self.create_timer(scan_period, self.advertise_services)
 
     # --- the server's thread ------------------------------------------------------------
 
@@ -264,12 +309,13 @@ class FoxgloveBridge(Node):
         with self._lock:
             self._clients.add(client)
             channels = [c.advertisement() for c in self._channels.values()]
+            services = [v.advertisement() for v in self._services.values()]
         client.put(
             json.dumps(
                 {
                     "op": "serverInfo",
                     "name": "robotrial",
-                    "capabilities": ["clientPublish", "assets"],
+                    "capabilities": ["clientPublish", "services", "assets"],
                     "supportedEncodings": list(CLIENT_ENCODINGS),
                     "metadata": {},
                     "sessionId": self._session,
@@ -278,6 +324,8 @@ class FoxgloveBridge(Node):
         )
         if channels:
             client.put(json.dumps({"op": "advertise", "channels": channels}))
+        if services:
+            client.put(json.dumps({"op": "advertiseServices", "services": services}))
         try:
             async for frame in ws:
                 try:
@@ -292,6 +340,8 @@ class FoxgloveBridge(Node):
             pass
         finally:
             writer.cancel()
+            for task in list(client.calls):
+                task.cancel()
             self._forget(client)
 
     async def _write(self, client: _Client) -> None:
@@ -330,6 +380,9 @@ class FoxgloveBridge(Node):
             raise ValueError(f"operation {op!r} is not supported by this server")
 
     def _on_binary(self, client: _Client, frame: bytes) -> None:
+        if len(frame) >= 13 and frame[0] == SERVICE_CALL_REQUEST:
+            self._call_service(client, frame)
+            return
         if len(frame) < 5 or frame[0] != MESSAGE_DATA:
             raise ValueError(f"binary frame with opcode {frame[:1].hex()} is not supported")
         (channel_id,) = struct.unpack_from("<I", frame, 1)
@@ -340,6 +393,45 @@ class FoxgloveBridge(Node):
         pub = self._client_publisher(topic, str(ch.get("schemaName", "")))
         assert pub.msg_class is not None
         pub.publish(decode_client_message(frame[5:], str(ch["encoding"]), pub.msg_class, topic))
+
+    def _call_service(self, client: _Client, frame: bytes) -> None:
+        service_id, call_id, n = struct.unpack_from("<III", frame, 1)
+        encoding = frame[13 : 13 + n].decode("utf-8", "replace")
+        payload = frame[13 + n :]
+        service = self._services_by_id.get(service_id)
+        if service is None:
+            self._call_failed(client, service_id, call_id, f"there is no service {service_id}")
+            return
+        try:
+            request = decode_client_message(payload, encoding, service.srv.Request, service.name)
+        except MessageError as exc:
+            self._call_failed(client, service_id, call_id, str(exc))
+            return
+        task = self._loop.create_task(self._answer(client, service, call_id, encoding, request))
+        client.calls.add(task)
+        task.add_done_callback(client.calls.discard)
+
+    async def _answer(
+        self, client: _Client, service: _Service, call_id: int, encoding: str, request: Any
+    ) -> None:
+        try:
+            response = await self.bus.call_async(service.name, request, timeout=SERVICE_TIMEOUT)
+            payload = encode_response(response, encoding)
+        except (BusError, MessageError, TimeoutError) as exc:
+            self._call_failed(client, service.id, call_id, str(exc))
+            return
+        head = struct.pack("<BIII", SERVICE_CALL_RESPONSE, service.id, call_id, len(encoding))
+        client.put(head + encoding.encode() + payload)
+
+    def _call_failed(self, client: _Client, service_id: int, call_id: int, why: str) -> None:
+        log.warning("foxglove: service call %s failed: %s", service_id, why)
+        failure = {
+            "op": "serviceCallFailure",
+            "serviceId": service_id,
+            "callId": call_id,
+            "message": why,
+        }
+        client.put(json.dumps(failure))
 
     def _fetch_asset(self, client: _Client, uri: str, request_id: int) -> None:
         data = self._assets.fetch(uri)
@@ -390,6 +482,37 @@ class FoxgloveBridge(Node):
             for client in clients:
                 self._loop.call_soon_threadsafe(client.put, text)
         return [c.topic for c in added]
+
+    def advertise_services(self) -> list[str]:
+        """Offer every bus service of a known type not offered yet and withdraw those
+        gone from the bus; returns the names newly offered."""
+        current = self.bus.services()
+        added: list[_Service] = []
+        with self._lock:
+            gone = [v for n, v in self._services.items() if n not in current]
+            for v in gone:
+                del self._services[v.name]
+                del self._services_by_id[v.id]
+            for name, type_name in current.items():
+                srv = lookup_service(type_name)
+                if srv is None or name in self._services:
+                    continue
+                v = _Service(next(self._ids), name, srv)
+                self._services[name] = self._services_by_id[v.id] = v
+                added.append(v)
+            clients = list(self._clients)
+        frames = []
+        if gone:
+            frames.append({"op": "unadvertiseServices", "serviceIds": [v.id for v in gone]})
+        if added:
+            frames.append(
+                {"op": "advertiseServices", "services": [v.advertisement() for v in added]}
+            )
+        for frame in frames:
+            text = json.dumps(frame)
+            for client in clients:
+                self._loop.call_soon_threadsafe(client.put, text)
+        return [v.name for v in added]
 
     def channels(self) -> dict[str, str]:
         """Every advertised topic and its type name."""

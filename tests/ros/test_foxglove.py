@@ -24,12 +24,13 @@ LAYOUT = Path(__file__).parents[2] / "docs" / "foxglove" / "robotrial-layout.jso
 
 
 @pytest.fixture(scope="module")
-def live_sim() -> Iterator[tuple[Bus, FoxgloveBridge, list[Odometry]]]:
+def live_sim() -> Iterator[tuple[Bus, FoxgloveBridge, list[Odometry], list]]:
     """The mobile manipulator in room A on a bus, at real time, with the bridge on a free port."""
     bus = Bus()
     robot = Simulation.create("room_a", "mobile_manipulator", options=SimOptions(cameras=False))
     node = SimNode(bus, robot)
     odom: list[Odometry] = []
+    goals: list = []
     lock = threading.Lock()
 
     def keep(m: Odometry) -> None:
@@ -37,9 +38,10 @@ def live_sim() -> Iterator[tuple[Bus, FoxgloveBridge, list[Odometry]]]:
             odom.append(m)
 
     bus.subscribe("/odom", keep)
+    bus.subscribe("/move_base_simple/goal", lambda m: goals.append(m))
     bridge = FoxgloveBridge(bus, port=0, robot=robot.robot)
     node.start(realtime=1.0)
-    yield bus, bridge, odom
+    yield bus, bridge, odom, goals
     bridge.destroy()
     node.stop()
     node.destroy()
@@ -50,7 +52,7 @@ def test_foxglove_client_sees_decodes_and_drives(live_sim) -> None:
     node = shutil.which("node")
     if node is None or not (NODE_DIR / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
         pytest.fail("node and tests/ros/foxglove_node/node_modules are needed: run `make setup`")
-    _, bridge, odom = live_sim
+    bus, bridge, odom, goals = live_sim
     start = odom[-1].pose.pose.position if odom else None
     proc = subprocess.run(
         [node, "client.mjs", bridge.url, "3"],
@@ -88,6 +90,9 @@ def test_foxglove_client_sees_decodes_and_drives(live_sim) -> None:
     assert desc["head"].startswith("<?xml") or desc["head"].startswith("<robot")
     assert desc["links"] > 5 and desc["length"] > 1000  # the whole mobile manipulator
 
+    assert len(goals) == 1 and goals[0].header.frame_id == "map"
+    assert (goals[0].pose.position.x, goals[0].pose.position.y) == (1.5, -0.5)
+    assert bus.topic_type("/move_base_simple/goal") == "geometry_msgs/msg/PoseStamped"
     assert r["sent"] >= 10
     assert any("/cmd_vel" in s and "Twist" in s for s in r["statuses"]), r["statuses"]
     end = odom[-1]

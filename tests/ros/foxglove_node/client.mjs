@@ -86,6 +86,17 @@ function drive() {
     schemaEncoding: "ros2msg",
     schema: ch.schema,
   });
+  // A goal in JSON, on a topic the server does not have yet, as the 3D panel's pose tool.
+  const goalChannel = client.advertise({
+    topic: "/move_base_simple/goal",
+    encoding: "json",
+    schemaName: "geometry_msgs/msg/PoseStamped",
+  });
+  const goal = {
+    header: { stamp: { sec: 0, nanosec: 0 }, frame_id: "map" },
+    pose: { position: { x: 1.5, y: -0.5, z: 0 }, orientation: { x: 0, y: 0, z: 0, w: 1 } },
+  };
+  client.sendMessage(goalChannel, new TextEncoder().encode(JSON.stringify(goal)));
   const twist = { linear: { x: 0.5, y: 0, z: 0 }, angular: { x: 0, y: 0, z: 0.3 } };
   const bytes = writer.writeMessage(twist);
   const started = Date.now();

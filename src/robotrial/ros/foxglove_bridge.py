@@ -207,7 +207,7 @@ class FoxgloveBridge(Node):
     `port` 0 picks a free port (`port` tells which once started). `robot`: the loaded
     robot, whose mesh files the 3D panel may fetch. `access`: who may connect (default:
     clients without an Origin and pages of this machine). `scan_period`: how often (s)
-    the bus is checked for new topics. OSError when the port cannot be opened.
+    the bus is checked for new topics and services. OSError when the port cannot be opened.
     """
 
     def __init__(
@@ -290,7 +290,9 @@ class FoxgloveBridge(Node):
 
     @property
     def url(self) -> str:
-        shown = f"[{self.host}]" if ":" in self.host else self.host
+        """The address a client on this machine opens (loopback when listening on all)."""
+        shown = "127.0.0.1" if self.host in ("0.0.0.0", "::", "") else self.host
+        shown = f"[{shown}]" if ":" in shown else shown
         return f"ws://{shown}:{self.port}"
 
     def _check_request(self, conn: ServerConnection, request: Request) -> Response | None:

@@ -20,6 +20,18 @@ from robotrial.ros.sim_node import SimNode
 from robotrial.sim.simulation import SimOptions, Simulation
 
 NODE_DIR = Path(__file__).parent / "foxglove_node"
+
+
+def run_node(*args: str, timeout: float = 60.0) -> subprocess.CompletedProcess:
+    """One of foxglove_node's scripts with Node (installed by `make setup`)."""
+    node = shutil.which("node")
+    if node is None or not (NODE_DIR / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
+        pytest.fail("node and tests/ros/foxglove_node/node_modules are needed: run `make setup`")
+    return subprocess.run(
+        [node, *args], cwd=NODE_DIR, capture_output=True, text=True, timeout=timeout
+    )
+
+
 LAYOUT = Path(__file__).parents[2] / "docs" / "foxglove" / "robotrial-layout.json"
 
 
@@ -49,18 +61,9 @@ def live_sim() -> Iterator[tuple[Bus, FoxgloveBridge, list[Odometry], list]]:
 
 
 def test_foxglove_client_sees_decodes_and_drives(live_sim) -> None:
-    node = shutil.which("node")
-    if node is None or not (NODE_DIR / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
-        pytest.fail("node and tests/ros/foxglove_node/node_modules are needed: run `make setup`")
     bus, bridge, odom, goals = live_sim
     start = odom[-1].pose.pose.position if odom else None
-    proc = subprocess.run(
-        [node, "client.mjs", bridge.url, "3"],
-        cwd=NODE_DIR,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    proc = run_node("client.mjs", bridge.url, "3")
     assert proc.returncode == 0, proc.stderr
     r = json.loads(proc.stdout)
 
@@ -185,9 +188,6 @@ def test_serve_offers_foxglove_with_the_live_platform(tmp_path: Path) -> None:
     live platform's topics (SLAM's /map, the planner's /plan) next to the simulator's."""
     import sys
 
-    node = shutil.which("node")
-    if node is None or not (NODE_DIR / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
-        pytest.fail("node and tests/ros/foxglove_node/node_modules are needed: run `make setup`")
     web, fox = _free_port(), _free_port()
     command = [Path(sys.executable).with_name("robotrial"), "serve", "--port", str(web)]
     command += ["--foxglove-port", str(fox), "--robot", "mobile_manipulator", "--world", "room_a"]
@@ -197,13 +197,7 @@ def test_serve_offers_foxglove_with_the_live_platform(tmp_path: Path) -> None:
         line = server.stdout.readline() if server.stdout else ""
         assert f"Foxglove at ws://127.0.0.1:{fox}/" in line, line
         _wait_for_port(fox, server)
-        proc = subprocess.run(
-            [node, "client.mjs", f"ws://127.0.0.1:{fox}", "1"],
-            cwd=NODE_DIR,
-            capture_output=True,
-            text=True,
-            timeout=60,
-        )
+        proc = run_node("client.mjs", f"ws://127.0.0.1:{fox}", "1")
         assert proc.returncode == 0, proc.stderr + (tmp_path / "serve.log").read_text()
         r = json.loads(proc.stdout)
     finally:
@@ -229,9 +223,6 @@ def test_3d_panel_fetches_the_robots_package_meshes(tmp_path: Path) -> None:
 
     from robotrial.model.urdf import load_urdf
 
-    node = shutil.which("node")
-    if node is None or not (NODE_DIR / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
-        pytest.fail("node and tests/ros/foxglove_node/node_modules are needed: run `make setup`")
     pkg = tmp_path / "fg_robot"
     (pkg / "meshes").mkdir(parents=True)
     (pkg / "package.xml").write_text("<package><name>fg_robot</name></package>")
@@ -246,13 +237,7 @@ def test_3d_panel_fetches_the_robots_package_meshes(tmp_path: Path) -> None:
     bridge = FoxgloveBridge(Bus(), port=0, robot=robot)
     good, other = "package://fg_robot/meshes/body.stl", "package://fg_robot/robot.urdf"
     try:
-        proc = subprocess.run(
-            [node, "fetch.mjs", bridge.url, good, other, "package://nowhere/x.stl"],
-            cwd=NODE_DIR,
-            capture_output=True,
-            text=True,
-            timeout=30,
-        )
+        proc = run_node("fetch.mjs", bridge.url, good, other, "package://nowhere/x.stl", timeout=30)
     finally:
         bridge.destroy()
     assert proc.returncode == 0, proc.stderr
@@ -268,9 +253,6 @@ def test_foxglove_client_calls_a_bus_service() -> None:
     handler's answer, a request that does not decode gets a failure naming the service."""
     from robotrial.msgs.std_srvs import SetBool
 
-    node = shutil.which("node")
-    if node is None or not (NODE_DIR / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
-        pytest.fail("node and tests/ros/foxglove_node/node_modules are needed: run `make setup`")
     bus = Bus()
     seen: list[bool] = []
 
@@ -281,13 +263,7 @@ def test_foxglove_client_calls_a_bus_service() -> None:
     server = bus.advertise_service("/lamp/set", SetBool, toggle)
     bridge = FoxgloveBridge(bus, port=0)
     try:
-        proc = subprocess.run(
-            [node, "call.mjs", bridge.url, "/lamp/set", '{"data": true}'],
-            cwd=NODE_DIR,
-            capture_output=True,
-            text=True,
-            timeout=30,
-        )
+        proc = run_node("call.mjs", bridge.url, "/lamp/set", '{"data": true}', timeout=30)
     finally:
         bridge.destroy()
         server.close()

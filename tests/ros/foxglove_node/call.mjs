@@ -2,28 +2,16 @@
 // CDR (request written and response read with the advertised ros2msg schemas), once in
 // JSON, once with bytes that are no request. Prints the answers as JSON.
 // Usage: node call.mjs ws://127.0.0.1:PORT SERVICE 'REQUEST_JSON'
-import wsProtocol from "@foxglove/ws-protocol";
 import rosmsg from "@foxglove/rosmsg";
 import serialization from "@foxglove/rosmsg2-serialization";
-import WebSocket from "ws";
+import { connect } from "./connect.mjs";
 
-const { FoxgloveClient } = wsProtocol;
 const { parse } = rosmsg;
 const { MessageReader, MessageWriter } = serialization;
 const [url, name, requestText] = process.argv.slice(2);
 const request = JSON.parse(requestText);
 const result = {};
-const timer = setTimeout(() => {
-  console.error(`timed out; so far: ${JSON.stringify(result)}`);
-  process.exit(1);
-}, 20000);
-const client = new FoxgloveClient({
-  ws: new WebSocket(url, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]),
-});
-client.on("error", (err) => {
-  console.error(`client error: ${err}`);
-  process.exit(1);
-});
+const { client, finish } = connect(url, result);
 let service;
 let reader;
 client.on("serverInfo", (info) => (result.capabilities = info.capabilities));
@@ -52,8 +40,5 @@ client.on("serviceCallFailure", (f) => {
 });
 function done() {
   if ([1, 2, 3].some((id) => result[id] === undefined)) return;
-  clearTimeout(timer);
-  client.close();
-  console.log(JSON.stringify(result));
-  process.exit(0);
+  finish();
 }

@@ -3,6 +3,7 @@ the live simulator, and score it against the world's ground truth (layer 5).
 
     robotrial slam --method gmapping --bag run.mcap -o room_c
     robotrial slam --method hector --live --world room_a --duration 60 -o room_a_hector
+    robotrial slam --method hector --log intel.clf --relations intel.relations -o intel
 
 writes room_c.pgm + room_c.yaml (map_server), room_c.tum (the trajectory) and room_c.png
 (the map with the trajectory over the ground truth), and prints the scores (or --json).
@@ -16,7 +17,9 @@ from pathlib import Path
 
 from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
-HELP = "SLAM (gmapping or hector) from a recording or live; map_server files, trajectory, scores"
+HELP = (
+    "SLAM (gmapping, hector) from a recording, a CARMEN log or live: map files, trajectory, scores"
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -24,6 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--bag", metavar="FILE", help="a recording (.mcap or ROS 1 .bag)")
     src.add_argument("--live", action="store_true", help="drive the simulator and map live")
+    src.add_argument("--log", metavar="FILE", help="a real-robot CARMEN log (.clf, .log)")
+    parser.add_argument("--relations", metavar="FILE", help="--log: relations to score against")
     parser.add_argument("-o", "--output", default="map", help="output stem (STEM.pgm, .yaml, ...)")
     parser.add_argument(
         "--world",
@@ -83,6 +88,10 @@ def run(args: argparse.Namespace) -> int:
     except (ValueError, KeyError, ModelError) as exc:
         console.print(f"[red]robotrial slam: {exc}")
         return 2
+    if args.log:
+        from robotrial.cli.slam_log import run_log
+
+        return run_log(args, params)
     try:
         if args.bag:
             run_, rec = _offline(args, params, trial)

@@ -142,3 +142,24 @@ def test_cli_maps_a_log_and_prints_time_per_scan_and_relation_error(room_b_log, 
     assert out.is_file() and out.with_suffix(".pgm").is_file()
     code = main(["slam", "--log", str(tmp_path / "none.clf"), "-o", str(tmp_path / "x")])
     assert code == 2 and "no such CARMEN log" in " ".join(capsys.readouterr().err.split())
+
+
+def test_bench_real_runs_what_it_finds_and_skips_the_rest(room_b_log, tmp_path, capsys):
+    """A log named like the Intel one runs and is scored; ACES, FR079 and Killian (no
+    fetching) are reported as skipped, naming the folder, and the run still succeeds."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    (logs / "intel.clf").write_bytes(room_b_log[0].read_bytes())
+    (logs / "intel.relations").write_bytes(room_b_log[1].read_bytes())
+    out = tmp_path / "bench" / "slam.json"
+    argv = ["bench", "slam", "--real", "--log-dir", str(logs), "--no-fetch"]
+    assert main([*argv, "--particles", "5", "-o", str(out)]) == 0
+    captured = capsys.readouterr()
+    printed = " ".join((captured.out + captured.err).split())
+    assert f"ACES building: skipped, no log in {logs}" in printed
+    assert "MIT Killian Court: skipped" in printed
+    result = json.loads(out.with_name("slam_real.json").read_text())
+    intel = result["sets"]["intel"]
+    assert intel["hector"]["relations"]["trans_mean"] < 0.01
+    assert intel["gmapping"]["relations"]["used"] > 100
+    assert result["sets"]["aces"] == {"skipped": True}

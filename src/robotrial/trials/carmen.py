@@ -62,9 +62,10 @@ class PublicLog:
     published: dict[str, tuple[float, float]]
 
 
-# Kuemmerle et al. 2009, the table of absolute translational errors (m, mean ± std) for
-# sequential scan matching, a Rao-Blackwellized particle filter (GMapping, 50 particles)
-# and graph mapping.
+# Kuemmerle et al. 2009, their table of absolute translational errors (m, mean ± std)
+# for sequential scan matching, a Rao-Blackwellized particle filter (GMapping, 50
+# particles) and graph mapping. These figures are as a later survey quotes that table;
+# they were not checked against the paper itself (docs/benchmarks/slam.md).
 PUBLIC_LOGS: tuple[PublicLog, ...] = (
     PublicLog(
         "intel",

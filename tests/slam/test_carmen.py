@@ -115,6 +115,19 @@ def test_old_style_flaser_lines():
     assert np.allclose(log.odom, [[100.5, 1, 2, 0.1], [100.7, 1, 2, 0.1]])
 
 
+def test_compressed_logs_read_like_plain_ones(tmp_path):
+    import gzip
+    import zipfile
+
+    text = "\n".join([FLASER, FLASER.replace("100.5", "100.7")]) + "\n"
+    (tmp_path / "a.clf.gz").write_bytes(gzip.compress(text.encode()))
+    with zipfile.ZipFile(tmp_path / "a.zip", "w") as z:
+        z.writestr("a.clf", text)
+    for name in ("a.clf.gz", "a.zip"):
+        log = read_carmen(tmp_path / name)
+        assert [s.stamp for s in log.scans] == [100.5, 100.7]
+
+
 def test_malformed_line_names_the_line_or_is_skipped_and_counted():
     lines = [FLASER, "ODOM 1 2 0.1 0 0 0 100.55 host 100.6", "FLASER 180 1.0 2.0 oops", FLASER]
     with pytest.raises(CarmenError, match=r"bad\.clf, line 3: FLASER"):
@@ -142,6 +155,8 @@ def test_cli_maps_a_log_and_prints_time_per_scan_and_relation_error(room_b_log, 
     assert out.is_file() and out.with_suffix(".pgm").is_file()
     code = main(["slam", "--log", str(tmp_path / "none.clf"), "-o", str(tmp_path / "x")])
     assert code == 2 and "no such CARMEN log" in " ".join(capsys.readouterr().err.split())
+    code = main(["slam", "--bag", str(log), "--relations", str(rel), "-o", str(tmp_path / "y")])
+    assert code == 2 and "--relations scores a --log run" in capsys.readouterr().err
 
 
 def test_bench_real_runs_what_it_finds_and_skips_the_rest(room_b_log, tmp_path, capsys):

@@ -88,6 +88,9 @@ def run(args: argparse.Namespace) -> int:
     except (ValueError, KeyError, ModelError) as exc:
         console.print(f"[red]robotrial slam: {exc}")
         return 2
+    if args.relations and not args.log:
+        console.print("[red]robotrial slam: --relations scores a --log run; give --log FILE")
+        return 2
     if args.log:
         from robotrial.cli.slam_log import run_log
 

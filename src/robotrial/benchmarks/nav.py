@@ -36,6 +36,8 @@ ROOMS = {
     "room_c": ("default", (6.8, 6.6, 0.0)),
     "apartment": ("default", "kitchen"),
 }
+# the apartment's routes from the living room to every other room (`--apartment`)
+APARTMENT_ROUTES = ("kitchen", "corridor", "bedroom", "study")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,7 +48,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--worlds", nargs="+", default=list(ROOMS), choices=list(ROOMS), help="which worlds"
     )
-    parser.add_argument("--planner", choices=("dijkstra", "astar"), default="dijkstra")
+    parser.add_argument(
+        "--planner",
+        choices=("dijkstra", "astar", "hybrid", "auto"),
+        default="dijkstra",
+        help="global planner (hybrid: Hybrid-A* with the footprint; auto: A*, hybrid where needed)",
+    )
+    parser.add_argument(
+        "--planners",
+        nargs="+",
+        choices=("dijkstra", "astar", "hybrid", "auto"),
+        help="run every row with each of these global planners (overrides --planner)",
+    )
+    parser.add_argument(
+        "--apartment",
+        action="store_true",
+        help="in the apartment, drive from the living room to every other room",
+    )
     parser.add_argument("--repeats", type=int, default=30, help="planner timing repetitions")
     parser.add_argument("--out", metavar="JSON", help="also write the results here")
     parser.add_argument("--plots", metavar="DIR", help="write a PNG of the paths per row here")
@@ -64,17 +82,18 @@ def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
     """Median wall time (ms) of one global plan (Dijkstra, A*) and one DWA step."""
     from robotrial.nav.costmap import Costmap
     from robotrial.nav.dwa import DWAConfig, DWAPlanner
+    from robotrial.nav.hybrid import HybridAStar
     from robotrial.nav.planners import AStar, Dijkstra
 
     cm = Costmap(nav_map.occupied, nav_map.origin, nav_map.resolution, footprint)
     out = {}
     path = None
-    for planner in (Dijkstra(), AStar()):
-        path = planner.plan(cm, start[:2], goal[:2])
+    for planner, s in ((HybridAStar(), start), (Dijkstra(), start[:2]), (AStar(), start[:2])):
+        path = planner.plan(cm, s, goal[:2])
         times = []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            planner.plan(cm, start[:2], goal[:2])
+            planner.plan(cm, s, goal[:2])
             times.append(time.perf_counter() - t0)
         out[f"{planner.name}_ms"] = 1e3 * float(np.median(times))
     dwa = DWAPlanner(footprint, DWAConfig(max_speed=1.0, max_yaw_rate=1.6))
@@ -108,20 +127,25 @@ def run(args: argparse.Namespace) -> int:
         print("robotrial bench nav: --runs must be at least 1")
         return 2
     footprint = footprint_of_robot("mobile_manipulator")
+    planners = args.planners or [args.planner]
+    routes = [(name, ROOMS[name][0], ROOMS[name][1]) for name in args.worlds]
+    if args.apartment:
+        routes = [r for r in routes if r[0] != "apartment"]
+        routes += [("apartment", "default", room) for room in APARTMENT_ROUTES]
     rows, timing = [], {}
-    total = len(args.worlds) * len(args.speeds) * args.runs
+    total = len(routes) * len(args.speeds) * len(planners) * args.runs
     with progress("bench nav", total=total, enabled=not args.json) as advance:
-        for name in args.worlds:
+        for name, start_name, goal_spec in routes:
             world = load_world(name)
             nav_map = world_map(world)
-            start_name, goal_spec = ROOMS[name]
             goal = _goal(world, goal_spec)
             start = start_pose(world, start_name)
-            timing[name] = planner_times(nav_map, footprint, start, goal, args.repeats)
-            timing[name]["map_cells"] = int(nav_map.occupied.size)
-            for speed in args.speeds:
+            label = name if isinstance(goal_spec, tuple) else f"{name}:{goal_spec}"
+            timing[label] = planner_times(nav_map, footprint, start, goal, args.repeats)
+            timing[label]["map_cells"] = int(nav_map.occupied.size)
+            for speed, planner in ((v, p) for v in args.speeds for p in planners):
                 setup = NavTrialSetup(
-                    world=name, goal=goal, start=start_name, speed=speed, planner=args.planner
+                    world=name, goal=goal, start=start_name, speed=speed, planner=planner
                 )
                 length, best = shortest_time(setup, nav_map, footprint, world)
                 results = []
@@ -129,24 +153,24 @@ def run(args: argparse.Namespace) -> int:
                     results.append(run_once(setup, i, nav_map, world))
                     advance()
                 s = summarize(results, best)
-                s.update(world=name, speed=speed, shortest_length=length)
+                s.update(world=label, speed=speed, planner=planner, shortest_length=length)
                 s["failures"] = [r.summary() for r in results if not r.success]
                 s["wall_time"] = float(sum(r.wall_time for r in results))
                 rows.append(s)
                 if args.plots:
                     plot_paths(
-                        Path(args.plots) / f"nav_{name}_{speed:g}.png",
+                        Path(args.plots) / f"nav_{label.replace(':', '_')}_{planner}_{speed:g}.png",
                         nav_map,
                         results,
                         start,
                         goal,
-                        title=f"{name}: {s['successes']}/{s['runs']} at {speed:g} m/s",
+                        title=f"{label}, {planner}: {s['successes']}/{s['runs']} at {speed:g} m/s",
                     )
     result = {
         "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
         "date": time.strftime("%Y-%m-%d"),
         "runs_per_row": args.runs,
-        "planner": args.planner,
+        "planners": planners,
         "rows": rows,
         "planning": timing,
         "paper": PAPER_TABLE1,
@@ -163,6 +187,7 @@ def run(args: argparse.Namespace) -> int:
         table.append(
             (
                 s["world"],
+                s["planner"],
                 s["speed"],
                 f"{s['successes']}/{s['runs']}",
                 s["collisions"],
@@ -178,6 +203,7 @@ def run(args: argparse.Namespace) -> int:
         "navigation trials (times in simulated s, successes only)",
         [
             "world",
+            "planner",
             "m/s",
             "success",
             "collisions",
@@ -192,9 +218,16 @@ def run(args: argparse.Namespace) -> int:
     )
     print_table(
         "planning time per call (ms, median)",
-        ["world", "cells", "Dijkstra", "A*", "DWA step"],
+        ["world", "cells", "Dijkstra", "A*", "Hybrid-A*", "DWA step"],
         [
-            (w, t["map_cells"], fmt(t["dijkstra_ms"]), fmt(t["astar_ms"]), fmt(t["dwa_step_ms"]))
+            (
+                w,
+                t["map_cells"],
+                fmt(t["dijkstra_ms"]),
+                fmt(t["astar_ms"]),
+                fmt(t["hybrid_ms"]),
+                fmt(t["dwa_step_ms"]),
+            )
             for w, t in timing.items()
         ],
     )

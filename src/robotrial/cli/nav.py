@@ -34,7 +34,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--map", metavar="YAML", help="map_server map (default: ground truth)")
     parser.add_argument("--runs", type=int, default=1, help="how many runs (seeds differ)")
     parser.add_argument("--speed", type=float, default=0.3, help="top speed (m/s)")
-    parser.add_argument("--planner", choices=("dijkstra", "astar"), default="dijkstra")
+    parser.add_argument(
+        "--planner",
+        choices=("dijkstra", "astar", "hybrid", "auto"),
+        default="dijkstra",
+        help="global planner (hybrid: Hybrid-A* with the footprint; auto: A*, hybrid where needed)",
+    )
     parser.add_argument("--robot", default="mobile_manipulator", help="built-in robot or URDF")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first run")
     parser.add_argument("--time-limit", type=float, help="simulated s before a run gives up")

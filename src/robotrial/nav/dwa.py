@@ -63,6 +63,9 @@ class DWAConfig:
     narrow_lookahead: float = 0.8
     goal_heading_bias: float = 0.0
     goal_heading_range: float = 1.0
+    footprint_speed: bool = False
+    tight_clearance: float = 0.05
+    ample_clearance: float = 0.15
 
     def __post_init__(self) -> None:
         for k in ("max_speed", "max_yaw_rate", "acc_lim_v", "acc_lim_w", "period", "sim_time"):
@@ -177,7 +180,10 @@ class DWAPlanner:
         what each point of the path ahead allows: `narrow_speed` where the path's
         clearance (distance to the nearest obstacle beyond the inscribed radius) is
         below `narrow_clearance`, rising to the top speed at `open_clearance`, and no faster than
-        `curve_factor * max_yaw_rate / curvature` where the path bends."""
+        `curve_factor * max_yaw_rate / curvature` where the path bends. With
+        `footprint_speed` the clearance is the footprint's, facing along the path, and the
+        speed rises from `narrow_speed` at `tight_clearance` to the top at `ample_clearance`
+        (a straight doorway the rectangle passes with room to spare is no reason to slow)."""
         c = self.config
         _, i0 = carrot(path, np.asarray(pose[:2], dtype=float), 0.0)
         ahead = path[i0:]
@@ -188,12 +194,16 @@ class DWAPlanner:
         reach = c.max_speed**2 / (2 * 0.8 * c.acc_lim_v) + 0.5
         n = int(np.searchsorted(s, reach)) + 1
         ahead, s = ahead[:n], s[:n]
-        clear = costmap.distance_at(ahead) - self.footprint.inscribed_radius
-        frac = np.clip(
-            (clear - c.narrow_clearance) / max(c.open_clearance - c.narrow_clearance, 1e-6),
-            0.0,
-            1.0,
-        )
+        if c.footprint_speed:
+            d = np.diff(ahead, axis=0)
+            yaw = np.arctan2(d[:, 1], d[:, 0])
+            poses = np.column_stack([ahead, np.append(yaw, yaw[-1])])
+            clear = footprint_clearance(costmap, self.footprint, poses)
+            lo, hi = c.tight_clearance, c.ample_clearance
+        else:
+            clear = costmap.distance_at(ahead) - self.footprint.inscribed_radius
+            lo, hi = c.narrow_clearance, c.open_clearance
+        frac = np.clip((clear - lo) / max(hi - lo, 1e-6), 0.0, 1.0)
         # a path point inside the inscribed radius is an obstacle newly in the way, which
         # the arcs' scoring steers around, not a passage to hold to
         frac[clear < 0.0] = 1.0

@@ -27,7 +27,10 @@ import numpy as np
 
 from robotrial.nav.costmap import Costmap, Footprint, Inflation
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
-from robotrial.nav.planners import NoPath, make_planner, smooth
+from robotrial.nav.hybrid import HybridAStar, HybridConfig
+from robotrial.nav.planners import PLANNERS, NoPath, make_planner, smooth
+
+GLOBAL_PLANNERS = (*PLANNERS, "hybrid", "auto")
 
 
 class Status(Enum):
@@ -46,10 +49,14 @@ class Recovery(Enum):
 @dataclass(frozen=True)
 class NavigatorConfig:
     """Tolerances (m, rad), timing (s), local window size (m) and the sub-planners.
+    `planner`: 'dijkstra' or 'astar' (the grid, the centre keeping the inscribed radius),
+    'hybrid' (Hybrid-A* over poses with the footprint), or 'auto' (A*, and Hybrid-A*
+    where the footprint facing along A*'s path would touch something).
     `turn_yaw_rate` (rad/s) and `turn_acc` (rad/s^2) bound the final turn in place to
     the goal's heading (None: the DWA's limits)."""
 
     planner: str = "dijkstra"
+    hybrid: HybridConfig = field(default_factory=HybridConfig)
     xy_tolerance: float = 0.15
     yaw_tolerance: float = 0.15
     replan_period: float = 1.0
@@ -97,7 +104,14 @@ class Navigator:
         self.global_costmap = Costmap(
             occupied, origin, resolution, footprint, config.inflation, unknown
         )
-        self.planner = make_planner(config.planner)
+        if config.planner not in GLOBAL_PLANNERS:
+            raise ValueError(
+                f"unknown global planner {config.planner!r}; choose from {list(GLOBAL_PLANNERS)}"
+            )
+        grid = "astar" if config.planner in ("hybrid", "auto") else config.planner
+        self.planner = make_planner(grid)
+        self.hybrid = HybridAStar(config.hybrid)
+        self.plans_by: list[str] = []
         self.dwa = DWAPlanner(footprint, config.dwa)
         self.local_costmap: Costmap | None = None
         self.status = Status.IDLE
@@ -244,7 +258,7 @@ class Navigator:
             self._dirty = False
         t0 = time.perf_counter()
         try:
-            path = self.planner.plan(self.global_costmap, tuple(pose[:2]), tuple(self.goal[:2]))
+            path = self._global_path(pose)
         except NoPath as err:
             self.plan_times.append(time.perf_counter() - t0)
             self._no_path += 1
@@ -257,9 +271,33 @@ class Navigator:
             return False
         self.plan_times.append(time.perf_counter() - t0)
         self._no_path = 0
-        self.path = smooth(path, self.global_costmap)
+        self.path = path
         self._last_plan = now
         return True
+
+    def _global_path(self, pose: np.ndarray) -> np.ndarray:
+        """The configured planner's path from `pose` to the goal; raises NoPath."""
+        cm, goal = self.global_costmap, tuple(self.goal[:2])
+        kind = self.config.planner
+        if kind in ("hybrid", "auto"):
+            if kind == "auto":
+                path = smooth(self.planner.plan(cm, tuple(pose[:2]), goal), cm)
+                d = np.diff(path, axis=0)
+                along = np.column_stack([path[1:], np.arctan2(d[:, 1], d[:, 0])])
+                if not self.hybrid.collides(cm, along).any():
+                    self.plans_by.append("grid")
+                    return path
+            try:
+                path = self.hybrid.plan(cm, tuple(pose), goal)
+                self.plans_by.append("hybrid")
+                return path
+            except NoPath:
+                # a base whose footprint already touches something (as mapped) plans
+                # its way out on the grid, where cells near the start stay open
+                if not self.hybrid.collides(cm, pose[None, :]).any():
+                    raise
+        self.plans_by.append("grid")
+        return smooth(self.planner.plan(cm, tuple(pose[:2]), goal), cm)
 
     def _track_progress(self, now: float, pose: np.ndarray) -> None:
         since, where = self._progress

@@ -253,7 +253,8 @@ def navigator_config(
     max_yaw_accel: float = 2.0,
 ) -> NavigatorConfig:
     """The navigation stack's settings for a top speed (m/s); the final turn in place
-    uses the base's own yaw rate and acceleration limits."""
+    uses the base's own yaw rate and acceleration limits. With a footprint-aware planner
+    ('hybrid', 'auto') the DWA also caps its speed by the footprint's clearance."""
     yaw_rate = min(max_yaw_rate, max(0.8, 1.6 * speed))
     dwa = DWAConfig(
         max_speed=speed,
@@ -264,6 +265,7 @@ def navigator_config(
         lookahead=max(0.8, 1.5 * speed),
         goal_heading_bias=0.5,
         goal_heading_range=1.5,
+        footprint_speed=False,
     )
     return NavigatorConfig(
         planner=planner, dwa=dwa, turn_yaw_rate=max_yaw_rate, turn_acc=max_yaw_accel

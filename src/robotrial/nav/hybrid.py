@@ -105,14 +105,11 @@ def motions(config: HybridConfig) -> np.ndarray:
     d = 2 * np.pi / YAW_BINS
     out = [(0, 0, config.step, 1.0)]
     if config.turning_radius > 0:
-        # the sharpest arc no tighter than the turning radius, and a gentle one
-        k = max(1, int(np.floor(config.step / (config.turning_radius * d) + 1e-9)))
-        arcs = sorted(
-            {
-                (1, max(config.step, config.turning_radius * d)),
-                (k, max(config.step, config.turning_radius * k * d)),
-            }
-        )
+        # an arc of the turning radius itself, long enough to leave a search cell, and
+        # a gentler one of the step's length
+        r = config.turning_radius
+        k = max(1, int(np.ceil(config.step / (r * d) - 1e-9)))
+        arcs = sorted({(k, r * k * d), (1, max(config.step, r * d))})
     else:
         arcs = [(1, config.step), (2, config.step)]
     for k, length in arcs:
@@ -434,7 +431,7 @@ class HybridAStar:
             s = np.array([s[0], s[1], np.arctan2(g[1] - s[1], g[0] - s[0])])
         for what, xy in (("start", s[:2]), ("goal", g)):
             if not costmap.inside(costmap.world_to_cell(xy)):
-                raise NoPath(f"the {what} {tuple(np.round(xy, 3))} lies outside the map")
+                raise NoPath(f"the {what} {_fmt(xy)} lies outside the map")
         starts, cells = self._footprint_cells(costmap)
         blocked = self.blocked(costmap)
         fp = costmap.footprint
@@ -443,12 +440,11 @@ class HybridAStar:
         ox, oy = costmap.origin
         args = (blocked, costmap.distance, free_dist, ox, oy, res, starts, cells)
         if _collides(s[0], s[1], 2 * sb, *args):
-            raise NoPath(f"the footprint at the start {tuple(np.round(s, 3))} touches an obstacle")
+            raise NoPath(f"the footprint at the start {_fmt(s)} touches an obstacle")
         # a goal pose is open if some yaw fits there
         if all(_collides(g[0], g[1], k, *args) for k in range(0, CHECK_BINS, 2)):
             raise NoPath(
-                f"the goal {tuple(np.round(g, 3))}: the footprint touches an obstacle there "
-                "in every heading"
+                f"the goal {_fmt(g)}: the footprint touches an obstacle there in every heading"
             )
         weight = 1.0 + c.cost_weight * np.minimum(costmap.cost, MAX_INFLATED) / MAX_INFLATED
         relaxed = weight.copy()
@@ -459,7 +455,7 @@ class HybridAStar:
         sr, sc = costmap.world_to_cell(s[:2])
         if not np.isfinite(h[sr, sc]):
             raise NoPath(
-                f"the goal {tuple(np.round(g, 3))} cannot be reached from the start: no "
+                f"the goal {_fmt(g)} cannot be reached from the start: no "
                 "passage is as wide as the footprint"
             )
         xs, ys, bs, par, end, shot = _search(
@@ -489,12 +485,11 @@ class HybridAStar:
         self.expansions = len(xs)
         if end == -2:
             raise NoPath(
-                f"the goal {tuple(np.round(g, 3))}: no pose sequence found within "
-                f"{c.max_expansions} expansions"
+                f"the goal {_fmt(g)}: no pose sequence found within {c.max_expansions} expansions"
             )
         if end < 0:
             raise NoPath(
-                f"the goal {tuple(np.round(g, 3))} cannot be reached from the start: no "
+                f"the goal {_fmt(g)} cannot be reached from the start: no "
                 f"motion of the {fp.length:.2f} x {fp.width:.2f} m footprint gets there"
             )
         chain = [end]
@@ -510,6 +505,10 @@ class HybridAStar:
         poses = np.vstack([poses, [g[0], g[1], poses[-1, 2]]])
         poses[:, 2] = (poses[:, 2] + np.pi) % (2 * np.pi) - np.pi
         return poses
+
+
+def _fmt(p: np.ndarray) -> str:
+    return "(" + ", ".join(f"{float(v):.2f}" for v in p) + ")"
 
 
 def _resample(points: np.ndarray, spacing: float) -> np.ndarray:

@@ -25,6 +25,7 @@ resolutions, no motion of the rectangle gets there.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numba
 import numpy as np
@@ -67,6 +68,7 @@ class HybridConfig:
             raise ValueError(f"hybrid A*: margin must be >= 0, got {self.margin}")
 
 
+@lru_cache(maxsize=8)
 def footprint_cells(
     footprint: Footprint, resolution: float, margin: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -368,15 +370,9 @@ class HybridAStar:
     config: HybridConfig = field(default_factory=HybridConfig)
     name: str = "hybrid"
     expansions: int = 0
-    _cells: dict = field(default_factory=dict, repr=False)
 
     def _footprint_cells(self, costmap: Costmap) -> tuple[np.ndarray, np.ndarray]:
-        key = (costmap.footprint, costmap.resolution, self.config.margin)
-        if key not in self._cells:
-            self._cells[key] = footprint_cells(
-                costmap.footprint, costmap.resolution, self.config.margin
-            )
-        return self._cells[key]
+        return footprint_cells(costmap.footprint, costmap.resolution, self.config.margin)
 
     def blocked(self, costmap: Costmap) -> np.ndarray:
         """Cells the footprint may not touch: lethal, and unknown unless allowed."""
@@ -388,27 +384,8 @@ class HybridAStar:
     def collides(self, costmap: Costmap, poses: np.ndarray) -> np.ndarray:
         """Whether the rectangle (grown by `margin`) touches a blocked cell at each pose
         (N, 3); the yaw is taken to the nearest 2.5 deg."""
-        starts, cells = self._footprint_cells(costmap)
-        blocked = self.blocked(costmap)
-        p = np.asarray(poses, dtype=float).reshape(-1, 3)
-        k = np.round(p[:, 2] / (np.pi / YAW_BINS)).astype(np.int64) % CHECK_BINS
-        return np.array(
-            [
-                _collides(
-                    x,
-                    y,
-                    kk,
-                    blocked,
-                    costmap.distance,
-                    np.inf,
-                    *costmap.origin,
-                    costmap.resolution,
-                    starts,
-                    cells,
-                )
-                for (x, y, _), kk in zip(p, k, strict=True)
-            ],
-            dtype=bool,
+        return footprint_hits(
+            costmap, np.asarray(poses, dtype=float), self.config.margin, self.blocked(costmap)
         )
 
     def plan(
@@ -505,6 +482,42 @@ class HybridAStar:
         poses = np.vstack([poses, [g[0], g[1], poses[-1, 2]]])
         poses[:, 2] = (poses[:, 2] + np.pi) % (2 * np.pi) - np.pi
         return poses
+
+
+def footprint_hits(
+    costmap: Costmap, poses: np.ndarray, margin: float, blocked: np.ndarray | None = None
+) -> np.ndarray:
+    """Whether the costmap's footprint, grown by `margin` (m), touches a blocked cell
+    (default: lethal) at each of the poses (..., 3); yaw to the nearest 2.5 deg."""
+    starts, cells = footprint_cells(costmap.footprint, costmap.resolution, margin)
+    p = np.asarray(poses, dtype=float)
+    flat = p.reshape(-1, 3)
+    k = np.round(flat[:, 2] / (np.pi / YAW_BINS)).astype(np.int64) % CHECK_BINS
+    free_dist = costmap.footprint.circumscribed_radius + margin + 2 * costmap.resolution
+    out = _hits(
+        flat[:, 0].copy(),
+        flat[:, 1].copy(),
+        k,
+        costmap.lethal if blocked is None else blocked,
+        costmap.distance,
+        free_dist,
+        costmap.origin[0],
+        costmap.origin[1],
+        costmap.resolution,
+        starts,
+        cells,
+    )
+    return out.reshape(p.shape[:-1])
+
+
+@numba.njit(cache=True)
+def _hits(xs, ys, ks, blocked, dist, free_dist, ox, oy, res, starts, cells):
+    out = np.zeros(xs.shape[0], dtype=np.bool_)
+    for i in range(xs.shape[0]):
+        out[i] = _collides(
+            xs[i], ys[i], ks[i], blocked, dist, free_dist, ox, oy, res, starts, cells
+        )
+    return out
 
 
 def _fmt(p: np.ndarray) -> str:

@@ -29,6 +29,7 @@ from robotrial.nav.costmap import Costmap, Footprint, Inflation
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
 from robotrial.nav.hybrid import HybridAStar, HybridConfig
 from robotrial.nav.planners import PLANNERS, NoPath, make_planner, smooth
+from robotrial.nav.pursuit import PursuitConfig, PursuitController
 
 GLOBAL_PLANNERS = (*PLANNERS, "hybrid", "auto")
 
@@ -51,12 +52,16 @@ class NavigatorConfig:
     """Tolerances (m, rad), timing (s), local window size (m) and the sub-planners.
     `planner`: 'dijkstra' or 'astar' (the grid, the centre keeping the inscribed radius),
     'hybrid' (Hybrid-A* over poses with the footprint), or 'auto' (A*, and Hybrid-A*
-    where the footprint facing along A*'s path would touch something).
+    where the footprint facing along A*'s path would touch something). `controller`:
+    'dwa' or 'pursuit' (regulated pure pursuit, for footprint plans), both within the
+    limits of `dwa`.
     `turn_yaw_rate` (rad/s) and `turn_acc` (rad/s^2) bound the final turn in place to
     the goal's heading (None: the DWA's limits)."""
 
     planner: str = "dijkstra"
     hybrid: HybridConfig = field(default_factory=HybridConfig)
+    controller: str = "dwa"
+    pursuit: PursuitConfig = field(default_factory=PursuitConfig)
     xy_tolerance: float = 0.15
     yaw_tolerance: float = 0.15
     replan_period: float = 1.0
@@ -112,7 +117,15 @@ class Navigator:
         self.planner = make_planner(grid)
         self.hybrid = HybridAStar(config.hybrid)
         self.plans_by: list[str] = []
-        self.dwa = DWAPlanner(footprint, config.dwa)
+        if config.controller not in ("dwa", "pursuit"):
+            raise ValueError(
+                f"unknown controller {config.controller!r}; choose from ['dwa', 'pursuit']"
+            )
+        self.controller: DWAPlanner | PursuitController = (
+            DWAPlanner(footprint, config.dwa)
+            if config.controller == "dwa"
+            else PursuitController(footprint, config.dwa, config.pursuit)
+        )
         self.local_costmap: Costmap | None = None
         self.status = Status.IDLE
         self.message = ""
@@ -218,7 +231,7 @@ class Navigator:
             local = self.global_costmap.window(tuple(pose_a[:2]), self.config.local_size)
             self.local_costmap = local
         t0 = time.perf_counter()
-        res = self.dwa.compute(
+        res = self.controller.compute(
             tuple(pose_a), self._command, self.path, local, goal_distance=dist, goal_yaw=goal[2]
         )
         self.local_times.append(time.perf_counter() - t0)

@@ -102,6 +102,7 @@ class NavTrialSetup:
     map_path: str | None = None
     speed: float = 0.3
     planner: str = "dijkstra"
+    controller: str = "dwa"
     time_limit: float | None = None
     initial_error: tuple[float, float] = (0.1, 0.05)
     success_radius: float = 0.3
@@ -251,6 +252,7 @@ def navigator_config(
     max_accel: float,
     planner: str,
     max_yaw_accel: float = 2.0,
+    controller: str = "dwa",
 ) -> NavigatorConfig:
     """The navigation stack's settings for a top speed (m/s); the final turn in place
     uses the base's own yaw rate and acceleration limits. With a footprint-aware planner
@@ -265,10 +267,15 @@ def navigator_config(
         lookahead=max(0.8, 1.5 * speed),
         goal_heading_bias=0.5,
         goal_heading_range=1.5,
-        footprint_speed=False,
+        footprint_speed=planner in ("hybrid", "auto"),
+        exact_footprint=planner in ("hybrid", "auto"),
     )
     return NavigatorConfig(
-        planner=planner, dwa=dwa, turn_yaw_rate=max_yaw_rate, turn_acc=max_yaw_accel
+        planner=planner,
+        dwa=dwa,
+        controller=controller,
+        turn_yaw_rate=max_yaw_rate,
+        turn_acc=max_yaw_accel,
     )
 
 
@@ -315,7 +322,12 @@ def _drive(
     limits = DriveLimits.from_metadata(sim.robot.metadata.get("drive", {}) or {})
     speed = min(setup.speed, limits.max_speed)
     config = navigator_config(
-        speed, limits.max_yaw_rate, limits.max_accel, setup.planner, limits.max_yaw_accel
+        speed,
+        limits.max_yaw_rate,
+        limits.max_accel,
+        setup.planner,
+        limits.max_yaw_accel,
+        setup.controller,
     )
     footprint = footprint_of(sim)
     nav = Navigator(

@@ -55,10 +55,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="global planner (hybrid: Hybrid-A* with the footprint; auto: A*, hybrid where needed)",
     )
     parser.add_argument(
-        "--planners",
+        "--methods",
         nargs="+",
-        choices=("dijkstra", "astar", "hybrid", "auto"),
-        help="run every row with each of these global planners (overrides --planner)",
+        metavar="PLANNER/CONTROLLER",
+        help="run every row with each of these (e.g. dijkstra/dwa hybrid/pursuit); "
+        "default: --planner with DWA",
     )
     parser.add_argument(
         "--apartment",
@@ -127,13 +128,20 @@ def run(args: argparse.Namespace) -> int:
         print("robotrial bench nav: --runs must be at least 1")
         return 2
     footprint = footprint_of_robot("mobile_manipulator")
-    planners = args.planners or [args.planner]
+    methods = [m.split("/") if "/" in m else [m, "dwa"] for m in args.methods or [args.planner]]
+    for planner, controller in methods:
+        if planner not in ("dijkstra", "astar", "hybrid", "auto") or controller not in (
+            "dwa",
+            "pursuit",
+        ):
+            print(f"robotrial bench nav: unknown method {planner}/{controller}")
+            return 2
     routes = [(name, ROOMS[name][0], ROOMS[name][1]) for name in args.worlds]
     if args.apartment:
         routes = [r for r in routes if r[0] != "apartment"]
         routes += [("apartment", "default", room) for room in APARTMENT_ROUTES]
     rows, timing = [], {}
-    total = len(routes) * len(args.speeds) * len(planners) * args.runs
+    total = len(routes) * len(args.speeds) * len(methods) * args.runs
     with progress("bench nav", total=total, enabled=not args.json) as advance:
         for name, start_name, goal_spec in routes:
             world = load_world(name)
@@ -143,34 +151,41 @@ def run(args: argparse.Namespace) -> int:
             label = name if isinstance(goal_spec, tuple) else f"{name}:{goal_spec}"
             timing[label] = planner_times(nav_map, footprint, start, goal, args.repeats)
             timing[label]["map_cells"] = int(nav_map.occupied.size)
-            for speed, planner in ((v, p) for v in args.speeds for p in planners):
+            for speed, (planner, controller) in ((v, m) for v in args.speeds for m in methods):
                 setup = NavTrialSetup(
-                    world=name, goal=goal, start=start_name, speed=speed, planner=planner
+                    world=name,
+                    goal=goal,
+                    start=start_name,
+                    speed=speed,
+                    planner=planner,
+                    controller=controller,
                 )
+                method = f"{planner}/{controller}"
                 length, best = shortest_time(setup, nav_map, footprint, world)
                 results = []
                 for i in range(args.runs):
                     results.append(run_once(setup, i, nav_map, world))
                     advance()
                 s = summarize(results, best)
-                s.update(world=label, speed=speed, planner=planner, shortest_length=length)
+                s.update(world=label, speed=speed, method=method, shortest_length=length)
                 s["failures"] = [r.summary() for r in results if not r.success]
                 s["wall_time"] = float(sum(r.wall_time for r in results))
                 rows.append(s)
                 if args.plots:
                     plot_paths(
-                        Path(args.plots) / f"nav_{label.replace(':', '_')}_{planner}_{speed:g}.png",
+                        Path(args.plots)
+                        / f"nav_{label.replace(':', '_')}_{planner}_{controller}_{speed:g}.png",
                         nav_map,
                         results,
                         start,
                         goal,
-                        title=f"{label}, {planner}: {s['successes']}/{s['runs']} at {speed:g} m/s",
+                        title=f"{label}, {method}: {s['successes']}/{s['runs']} at {speed:g} m/s",
                     )
     result = {
         "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
         "date": time.strftime("%Y-%m-%d"),
         "runs_per_row": args.runs,
-        "planners": planners,
+        "methods": [f"{p}/{c}" for p, c in methods],
         "rows": rows,
         "planning": timing,
         "paper": PAPER_TABLE1,
@@ -187,7 +202,7 @@ def run(args: argparse.Namespace) -> int:
         table.append(
             (
                 s["world"],
-                s["planner"],
+                s["method"],
                 s["speed"],
                 f"{s['successes']}/{s['runs']}",
                 s["collisions"],
@@ -203,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
         "navigation trials (times in simulated s, successes only)",
         [
             "world",
-            "planner",
+            "method",
             "m/s",
             "success",
             "collisions",

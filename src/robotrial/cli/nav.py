@@ -40,6 +40,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="dijkstra",
         help="global planner (hybrid: Hybrid-A* with the footprint; auto: A*, hybrid where needed)",
     )
+    parser.add_argument(
+        "--controller",
+        choices=("dwa", "pursuit"),
+        default="dwa",
+        help="local controller (pursuit: regulated pure pursuit, for --planner hybrid)",
+    )
     parser.add_argument("--robot", default="mobile_manipulator", help="built-in robot or URDF")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first run")
     parser.add_argument("--time-limit", type=float, help="simulated s before a run gives up")
@@ -74,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
             map_path=args.map,
             speed=args.speed,
             planner=args.planner,
+            controller=args.controller,
             time_limit=args.time_limit,
         )
         nav_map = file_map(args.map) if args.map else world_map(world)
@@ -113,6 +120,7 @@ def run(args: argparse.Namespace) -> int:
                 "speed": args.speed,
                 "map": nav_map.source,
                 "planner": args.planner,
+                "controller": args.controller,
                 "runs": [r.summary() for r in results],
                 "summary": summary,
                 "plot": str(plot),

@@ -31,7 +31,7 @@ import numba
 import numpy as np
 
 from robotrial.nav.costmap import MAX_INFLATED, UNKNOWN, Costmap, Footprint
-from robotrial.nav.planners import NoPath, _heap_pop, _heap_push
+from robotrial.nav.planners import NoPath, StartBlocked, _heap_pop, _heap_push
 
 YAW_BINS = 72
 CHECK_BINS = 2 * YAW_BINS
@@ -417,7 +417,7 @@ class HybridAStar:
         ox, oy = costmap.origin
         args = (blocked, costmap.distance, free_dist, ox, oy, res, starts, cells)
         if _collides(s[0], s[1], 2 * sb, *args):
-            raise NoPath(f"the footprint at the start {_fmt(s)} touches an obstacle")
+            raise StartBlocked(f"the footprint at the start {_fmt(s)} touches an obstacle")
         # a goal pose is open if some yaw fits there
         if all(_collides(g[0], g[1], k, *args) for k in range(0, CHECK_BINS, 2)):
             raise NoPath(

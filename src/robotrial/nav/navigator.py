@@ -28,7 +28,7 @@ import numpy as np
 from robotrial.nav.costmap import Costmap, Footprint, Inflation
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
 from robotrial.nav.hybrid import HybridAStar, HybridConfig
-from robotrial.nav.planners import PLANNERS, NoPath, make_planner, smooth
+from robotrial.nav.planners import PLANNERS, NoPath, StartBlocked, make_planner, smooth
 from robotrial.nav.pursuit import PursuitConfig, PursuitController
 
 GLOBAL_PLANNERS = (*PLANNERS, "hybrid", "auto")
@@ -140,6 +140,7 @@ class Navigator:
         self._behaviour: _Behaviour | None = None
         self._next_recovery = 0
         self._no_path = 0
+        self._planned = False
         self._rotating = False
         self._dirty = False
         self._blocked_since: float | None = None
@@ -160,6 +161,7 @@ class Navigator:
         self._behaviour = None
         self._next_recovery = 0
         self._no_path = 0
+        self._planned = False
         self._rotating = False
         self._blocked_since = None
 
@@ -281,9 +283,18 @@ class Navigator:
             else:
                 self.global_costmap.clear_obstacles()
                 self._dirty = True
+                if self._planned and self.config.planner in ("hybrid", "auto"):
+                    # the goal was reachable from an earlier pose: the base has come to
+                    # one it cannot turn from (overshot a corner), so it backs up
+                    self.recoveries.append(Recovery.BACK_UP.value)
+                    length = self.config.backup_distance / self.config.backup_speed + 2.0
+                    self._behaviour = _Behaviour(
+                        Recovery.BACK_UP, now + length, float(pose[2]), 0.0, float(pose[2])
+                    )
             return False
         self.plan_times.append(time.perf_counter() - t0)
         self._no_path = 0
+        self._planned = True
         self.path = path
         self._last_plan = now
         return True
@@ -304,11 +315,10 @@ class Navigator:
                 path = self.hybrid.plan(cm, tuple(pose), goal)
                 self.plans_by.append("hybrid")
                 return path
-            except NoPath:
+            except StartBlocked:
                 # a base whose footprint already touches something (as mapped) plans
                 # its way out on the grid, where cells near the start stay open
-                if not self.hybrid.collides(cm, pose[None, :]).any():
-                    raise
+                pass
         self.plans_by.append("grid")
         return smooth(self.planner.plan(cm, tuple(pose[:2]), goal), cm)
 

@@ -3,14 +3,16 @@
 A Hybrid-A* path already says how the rectangle gets through a doorway or round a corner;
 what the base must do is follow it closely. `PursuitController.compute` steers towards a
 carrot on the path a speed-dependent lookahead ahead (the arc through it: curvature
-`2 y / d^2` in the base frame), turns on the spot first where the carrot lies more than
+`2 y / d^2` in the base frame), or towards a corner of the path before it (where the
+plan turns on the spot), turns on the spot first where the carrot lies more than
 `rotate_angle` off the heading (the path turns on the spot there), and regulates the
 speed: the top speed where the footprint has room (`DWAPlanner.path_speed` with the
 footprint's clearance along the path), slower where the path bends, and such that the base
 can stop on the goal. Before a command is given, its arc is rolled out over the stopping
-distance and the rectangle (grown by `margin`) checked against the local costmap; if it
-would touch something, slower commands are tried, then a turn on the spot, then `ok` is
-False (the navigator stops and recovers).
+distance and the rectangle (grown by `margin`, or not at all where the base already is
+within it) checked against the local costmap; if it would touch something, slower
+commands are tried, then a turn on the spot, then `ok` is False (the navigator stops and
+recovers).
 """
 
 from __future__ import annotations
@@ -28,13 +30,17 @@ from robotrial.nav.hybrid import footprint_hits
 class PursuitConfig:
     """Lookahead (m) = `lookahead_time` (s) x speed, within [`min_lookahead`,
     `max_lookahead`]; `rotate_angle` (rad) beyond which the base turns on the spot;
-    `rotate_speed` (rad/s) of that turn."""
+    `rotate_speed` (rad/s) of that turn; a path point where the heading changes by more
+    than `corner_angle` (rad) from one stretch to the next is a corner (a turn on the
+    spot in the plan), driven to until within `corner_reach` (m)."""
 
     lookahead_time: float = 1.0
     min_lookahead: float = 0.3
     max_lookahead: float = 1.0
     rotate_angle: float = 0.6
     rotate_speed: float = 1.2
+    corner_angle: float = 0.3
+    corner_reach: float = 0.08
 
     def __post_init__(self) -> None:
         if not 0 < self.min_lookahead <= self.max_lookahead:
@@ -56,6 +62,30 @@ class PursuitController:
         self.config = config
         self._speed = DWAPlanner(footprint, limits)
 
+    def _target(
+        self, pose: tuple[float, float, float], path: np.ndarray, look: float
+    ) -> np.ndarray:
+        """The carrot `look` m along the path, or the first corner before it that is more
+        than `corner_reach` m away: the base drives to a corner and turns there, as the
+        plan does, rather than cut it."""
+        c = self.config
+        xy = np.asarray(pose[:2], dtype=float)
+        target, i0 = carrot(path, xy, look)
+        ahead = path[i0:]
+        d = np.diff(ahead, axis=0)
+        keep = np.hypot(d[:, 0], d[:, 1]) > 1e-9
+        if keep.sum() < 2:
+            return target
+        pts, d = ahead[1:][keep], d[keep]
+        heading = np.arctan2(d[:, 1], d[:, 0])
+        turn = np.abs((np.diff(heading) + np.pi) % (2 * np.pi) - np.pi)
+        s = np.cumsum(np.hypot(d[:, 0], d[:, 1]))
+        corner = (turn > c.corner_angle) & (s[:-1] <= look)
+        corner &= np.hypot(*(pts[:-1] - xy).T) > c.corner_reach
+        if corner.any():
+            return pts[:-1][int(np.argmax(corner))]
+        return target
+
     def compute(
         self,
         pose: tuple[float, float, float],
@@ -74,7 +104,7 @@ class PursuitController:
         v0, w0 = float(velocity[0]), float(velocity[1])
         dv, dw = lim.acc_lim_v * lim.period, lim.acc_lim_w * lim.period
         look = float(np.clip(c.lookahead_time * abs(v0), c.min_lookahead, c.max_lookahead))
-        target, _ = carrot(path, np.asarray(pose[:2], dtype=float), look)
+        target = self._target(pose, path, look)
         dx, dy = target[0] - pose[0], target[1] - pose[1]
         cos, sin = np.cos(pose[2]), np.sin(pose[2])
         x, y = cos * dx + sin * dy, -sin * dx + cos * dy
@@ -102,13 +132,19 @@ class PursuitController:
             (max(0.0, v0 - dv), 0.0),
             (0.0, float(np.clip(np.sign(alpha) * c.rotate_speed, w0 - dw, w0 + dw))),
         ]
+        # a base already within the margin (localization moved it there) may still move
+        # as long as it touches nothing
+        here = np.asarray(pose, dtype=float)[None]
+        margin = lim.margin if not footprint_hits(costmap, here, lim.margin).any() else 0.0
         for v, w in candidates:
+            if v == 0.0 and w == 0.0:
+                continue
             horizon = v / lim.acc_lim_v + 0.5
             steps = max(2, int(np.ceil(horizon / lim.sim_dt)))
             traj = rollout(pose, np.array([v]), np.array([w]), steps, lim.sim_dt)[0]
             if goal_distance is not None:
                 travelled = v * lim.sim_dt * np.arange(steps)
                 traj = traj[travelled <= goal_distance + 0.2]
-            if not footprint_hits(costmap, traj, lim.margin).any():
+            if not footprint_hits(costmap, traj, margin).any():
                 return DWAResult(v, w, True, traj, len(candidates))
         return DWAResult(0.0, 0.0, False, np.zeros((0, 3)), len(candidates))

@@ -24,11 +24,12 @@ resolutions, no motion of the rectangle gets there.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 import numba
 import numpy as np
+from scipy import ndimage
 
 from robotrial.nav.costmap import MAX_INFLATED, UNKNOWN, Costmap, Footprint
 from robotrial.nav.planners import NoPath, StartBlocked, _heap_pop, _heap_push
@@ -44,7 +45,8 @@ class HybridConfig:
     the rectangle keeps from lethal cells, `cost_weight` of the inflation cost,
     `rotation_cost` (m per rad turned on the spot), `arc_penalty` (factor on arcs),
     `reverse_penalty` (factor on backward steps; None: no backward motion),
-    `goal_tolerance` (m), `shot_range` (m), `max_expansions`."""
+    `goal_tolerance` (m), `shot_range` (m), `max_expansions`, `wall_tolerance` (m:
+    obstacle-layer cells this near the static map's are not blocking)."""
 
     turning_radius: float = 0.0
     step: float = 0.15
@@ -57,6 +59,7 @@ class HybridConfig:
     shot_range: float = 3.0
     max_expansions: int = 400_000
     allow_unknown: bool = False
+    wall_tolerance: float = 0.1
 
     def __post_init__(self) -> None:
         if self.turning_radius < 0:
@@ -375,8 +378,17 @@ class HybridAStar:
         return footprint_cells(costmap.footprint, costmap.resolution, self.config.margin)
 
     def blocked(self, costmap: Costmap) -> np.ndarray:
-        """Cells the footprint may not touch: lethal, and unknown unless allowed."""
-        out = costmap.lethal.copy()
+        """Cells the footprint may not touch: the static map's, the obstacle layer's
+        more than `wall_tolerance` from them (nearer ones are those walls seen from a
+        pose a little off, which would narrow every doorway), and unknown ones unless
+        allowed."""
+        out = costmap.static.copy()
+        if costmap.obstacles.any():
+            near = (
+                ndimage.distance_transform_edt(~costmap.static) * costmap.resolution
+                <= self.config.wall_tolerance
+            )
+            out |= costmap.obstacles & ~near
         if not self.config.allow_unknown:
             out |= costmap.cost == UNKNOWN
         return out
@@ -387,6 +399,23 @@ class HybridAStar:
         return footprint_hits(
             costmap, np.asarray(poses, dtype=float), self.config.margin, self.blocked(costmap)
         )
+
+    def reverse_run(
+        self, costmap: Costmap, start: tuple[float, ...], goal: tuple[float, ...]
+    ) -> float:
+        """How far (m) a plan that may also drive backwards (at `reverse_penalty`, 3 if
+        unset) backs up from `start` before it first drives forwards; raises NoPath."""
+        penalty = self.config.reverse_penalty or 3.0
+        back = HybridAStar(replace(self.config, reverse_penalty=penalty))
+        poses = back.plan_poses(costmap, start, goal)
+        d = np.diff(poses[:, :2], axis=0)
+        along = d[:, 0] * np.cos(poses[1:, 2]) + d[:, 1] * np.sin(poses[1:, 2])
+        run = 0.0
+        for a in along:
+            if a > 1e-9:
+                break
+            run -= a
+        return float(run)
 
     def plan(
         self, costmap: Costmap, start: tuple[float, ...], goal: tuple[float, ...]

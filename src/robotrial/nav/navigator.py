@@ -86,6 +86,7 @@ class _Behaviour:
     start_yaw: float = 0.0
     turned: float = 0.0
     last_yaw: float = 0.0
+    distance: float = 0.0
 
 
 def _wrap(a: float) -> float:
@@ -285,11 +286,18 @@ class Navigator:
                 self._dirty = True
                 if self._planned and self.config.planner in ("hybrid", "auto"):
                     # the goal was reachable from an earlier pose: the base has come to
-                    # one it cannot turn from (overshot a corner), so it backs up
+                    # one it cannot turn from (overshot a corner), so it backs up as far
+                    # as a plan that may reverse says
+                    try:
+                        back = self.hybrid.reverse_run(self.global_costmap, pose, self.goal)
+                    except NoPath:
+                        back = 0.0
+                    back = min(max(back + 0.1, self.config.backup_distance), 1.5)
                     self.recoveries.append(Recovery.BACK_UP.value)
-                    length = self.config.backup_distance / self.config.backup_speed + 2.0
+                    length = back / self.config.backup_speed + 2.0
+                    yaw = float(pose[2])
                     self._behaviour = _Behaviour(
-                        Recovery.BACK_UP, now + length, float(pose[2]), 0.0, float(pose[2])
+                        Recovery.BACK_UP, now + length, yaw, 0.0, yaw, distance=back
                     )
             return False
         self.plan_times.append(time.perf_counter() - t0)
@@ -356,7 +364,9 @@ class Navigator:
             if kind is Recovery.ROTATE
             else self.config.backup_distance / self.config.backup_speed + 2.0
         )
-        self._behaviour = _Behaviour(kind, now + length, float(pose[2]), 0.0, float(pose[2]))
+        self._behaviour = _Behaviour(
+            kind, now + length, float(pose[2]), 0.0, float(pose[2]), self.config.backup_distance
+        )
 
     def _recover(
         self, now: float, pose: np.ndarray, velocity: tuple[float, float]
@@ -386,7 +396,7 @@ class Navigator:
                     done = True
             b.turned += abs(velocity[0]) * self.config.dwa.period
             travelled = b.turned
-            done = done or travelled >= self.config.backup_distance
+            done = done or travelled >= b.distance
             cmd = (-self.config.backup_speed, 0.0)
         if done:
             self._behaviour = None

@@ -269,7 +269,7 @@ def navigator_config(
         goal_heading_range=1.5,
         footprint_speed=planner in ("hybrid", "auto"),
         exact_footprint=planner in ("hybrid", "auto"),
-        narrow_speed=0.5 if controller == "pursuit" else 0.3,
+        narrow_speed=0.3,
     )
     return NavigatorConfig(
         planner=planner,

@@ -27,7 +27,7 @@ import numpy as np
 
 from robotrial.nav.costmap import Costmap, Footprint, Inflation
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
-from robotrial.nav.hybrid import HybridAStar, HybridConfig
+from robotrial.nav.hybrid import HybridAStar, HybridConfig, footprint_hits
 from robotrial.nav.planners import PLANNERS, NoPath, StartBlocked, make_planner, smooth
 from robotrial.nav.pursuit import PursuitConfig, PursuitController
 
@@ -368,6 +368,13 @@ class Navigator:
             kind, now + length, float(pose[2]), 0.0, float(pose[2]), self.config.backup_distance
         )
 
+    def _touches(self, costmap: Costmap, poses: np.ndarray) -> bool:
+        """Whether the footprint touches an obstacle at any of the poses: the rectangle
+        itself where the controller checks it so, else its covering circles."""
+        if self.config.dwa.exact_footprint:
+            return bool(footprint_hits(costmap, poses, 0.0).any())
+        return bool(footprint_clearance(costmap, self.footprint, poses).min() < 0.0)
+
     def _recover(
         self, now: float, pose: np.ndarray, velocity: tuple[float, float]
     ) -> tuple[float, float]:
@@ -382,7 +389,7 @@ class Navigator:
             w = 0.5 * self.config.dwa.max_yaw_rate
             if local is not None:
                 nxt = rollout(tuple(pose), np.array([0.0]), np.array([w]), 5, 0.1)
-                if footprint_clearance(local, self.footprint, nxt).min() < 0.0:
+                if self._touches(local, nxt):
                     done = True
             done = done or b.turned >= 2 * np.pi
             cmd = (0.0, w)
@@ -392,7 +399,7 @@ class Navigator:
                 nxt = rollout(
                     tuple(pose), np.array([-self.config.backup_speed]), np.array([0.0]), 5, 0.1
                 )
-                if footprint_clearance(local, self.footprint, nxt).min() < 0.0:
+                if self._touches(local, nxt):
                     done = True
             b.turned += abs(velocity[0]) * self.config.dwa.period
             travelled = b.turned

@@ -32,7 +32,8 @@ class PursuitConfig:
     `max_lookahead`]; `rotate_angle` (rad) beyond which the base turns on the spot;
     `rotate_speed` (rad/s) of that turn; a path point where the heading changes by more
     than `corner_angle` (rad) from one stretch to the next is a corner (a turn on the
-    spot in the plan), driven to until within `corner_reach` (m)."""
+    spot in the plan), driven to until within `corner_reach` (m); `creep_speed` (m/s)
+    forwards or backwards while turning where a turn on the spot is blocked."""
 
     lookahead_time: float = 1.0
     min_lookahead: float = 0.3
@@ -41,6 +42,7 @@ class PursuitConfig:
     rotate_speed: float = 1.2
     corner_angle: float = 0.3
     corner_reach: float = 0.08
+    creep_speed: float = 0.05
 
     def __post_init__(self) -> None:
         if not 0 < self.min_lookahead <= self.max_lookahead:
@@ -128,9 +130,14 @@ class PursuitController:
                     np.clip(np.clip(w, w0 - dw, w0 + dw), -lim.max_yaw_rate, lim.max_yaw_rate)
                 )
             candidates += [(v, w), (max(0.0, v0 - dv), w)]
+        turn = float(np.clip(np.sign(alpha) * c.rotate_speed, w0 - dw, w0 + dw))
+        # where a turn on the spot is blocked, turning while creeping forwards or
+        # backwards may not be
         candidates += [
             (max(0.0, v0 - dv), 0.0),
-            (0.0, float(np.clip(np.sign(alpha) * c.rotate_speed, w0 - dw, w0 + dw))),
+            (0.0, turn),
+            (c.creep_speed, turn),
+            (-c.creep_speed, turn),
         ]
         # a base already within the margin (localization moved it there) may still move
         # as long as it touches nothing
@@ -139,11 +146,11 @@ class PursuitController:
         for v, w in candidates:
             if v == 0.0 and w == 0.0:
                 continue
-            horizon = v / lim.acc_lim_v + 0.5
+            horizon = abs(v) / lim.acc_lim_v + 0.5
             steps = max(2, int(np.ceil(horizon / lim.sim_dt)))
             traj = rollout(pose, np.array([v]), np.array([w]), steps, lim.sim_dt)[0]
             if goal_distance is not None:
-                travelled = v * lim.sim_dt * np.arange(steps)
+                travelled = abs(v) * lim.sim_dt * np.arange(steps)
                 traj = traj[travelled <= goal_distance + 0.2]
             if not footprint_hits(costmap, traj, margin).any():
                 return DWAResult(v, w, True, traj, len(candidates))

@@ -174,7 +174,12 @@ def test_navigator_aborts_with_a_reason_when_the_goal_is_walled_off():
     assert "no path" in nav.message
 
 
-def test_nav_node_plans_and_commands_on_the_bus():
+@pytest.mark.parametrize(
+    "config",
+    [NavigatorConfig(), NavigatorConfig(planner="hybrid", controller="pursuit")],
+    ids=["dijkstra-dwa", "hybrid-pursuit"],
+)
+def test_nav_node_plans_and_commands_on_the_bus(config):
     from robotrial.msgs.builtin_interfaces import Time
     from robotrial.msgs.geometry_msgs import (
         Point,
@@ -193,7 +198,7 @@ def test_nav_node_plans_and_commands_on_the_bus():
     got: dict[str, list] = {}
     for topic in ("/cmd_vel", "/plan", GLOBAL_COSTMAP, "/move_base/status"):
         bus.subscribe(topic, lambda m, t=topic: got.setdefault(t, []).append(m))
-    node = NavNode(bus, Footprint(0.5, 0.4))
+    node = NavNode(bus, Footprint(0.5, 0.4), config=config)
     start = PoseWithCovarianceStamped(
         header=Header(frame_id="map"),
         pose=PoseWithCovariance(

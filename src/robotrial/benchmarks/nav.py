@@ -3,13 +3,14 @@
 Rooms A, B and C (start `default` (1, 1), goal (6.8, 6.6, 0)), `--runs` runs each (10 in
 the paper; seeds vary sensor noise, odometry slip and the initial pose guess) at 0.3
 m/s (the paper's speed) and at the base's top speed 1.0 m/s, plus the apartment
-(`default` -> `kitchen`, through the doorway between the two lower rooms; its 1.1 m
-corridor is narrower than the robot's 1.2 m turning circle). Each row: successes,
-collisions, mean/min/max time of the successes, the shortest possible time (shortest
-collision-free path for the footprint's inscribed radius over the top speed) and their
-ratio, beside the paper's figures.
-Then the global planner's time per call (Dijkstra and A*) on each map and the local
-planner's (DWA) step time, measured on the maps apart from the trials.
+(`default` -> `kitchen`, through the doorway between the two lower rooms; with
+`--apartment`, from the living room to every other room: kitchen, corridor, bedroom,
+study). `--methods` runs each row with several global planner / local controller pairs
+(e.g. `dijkstra/dwa hybrid/pursuit`). Each row: successes, collisions, mean/min/max time
+of the successes, the shortest possible time (shortest collision-free path for the
+footprint's inscribed radius over the top speed) and their ratio, beside the paper's
+figures. Then each global planner's time per call (Dijkstra, A*, Hybrid-A*) on each map
+and the DWA's step time, measured on the maps apart from the trials.
 """
 
 from __future__ import annotations

@@ -3,7 +3,8 @@
     robotrial nav --world room_b --goal 6.8 6.6 0 --runs 10 --speed 0.3 [--map room_b.yaml]
 
 Runs the mobile manipulator from the world's start to the goal `runs` times (seeds
-seed..seed+runs-1) with AMCL, the global planner, DWA and recoveries in the simulator;
+seed..seed+runs-1) with AMCL, the global planner (`--planner`), the local controller
+(`--controller`) and recoveries in the simulator;
 prints success and time per run and the mean, min and max time of the successes (or
 JSON with --json), and writes a PNG of the true paths over the map.
 """
@@ -18,7 +19,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
 
 from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
 
-HELP = "navigate to a goal with AMCL, Dijkstra/A* and DWA in the simulator; success and time"
+HELP = "navigate to a goal with AMCL, a global planner and a local controller in the simulator"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

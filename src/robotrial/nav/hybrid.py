@@ -9,8 +9,10 @@ Husky-class base); the yaw stays on 72 bins, so each motion is precomputed per b
 Each pose along a motion is checked with the oriented rectangle against the costmap's
 lethal (and unknown) cells: per yaw (2.5 deg) and per quarter-cell position of the centre,
 the cells a rectangle grown by `margin` could touch are listed once (a separating-axis
-test of each cell square), so a check is a walk over that list, and none at all when the
-distance field already shows the circumscribed circle clear.
+test of each cell square), so a check is a walk over that list (along a motion only
+over the cells near the rectangle's edge: nothing reaches the inside without crossing
+it), and none at all when the distance field already shows the circumscribed circle
+clear.
 
 The search keeps one pose per (0.1 m cell, yaw bin); a step costs its length times
 `1 + cost_weight * cost / 252` (as the grid planners do), a turn on the spot
@@ -73,11 +75,13 @@ class HybridConfig:
 
 @lru_cache(maxsize=8)
 def footprint_cells(
-    footprint: Footprint, resolution: float, margin: float
+    footprint: Footprint, resolution: float, margin: float, band: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray]:
     """Cells the rectangle (grown by `margin`) may touch, per check yaw bin and quarter-cell
     position of its centre: CSR start indices ((CHECK_BINS * SUB * SUB) + 1,) and
-    (n, 2) (row, col) offsets from the centre's cell."""
+    (n, 2) (row, col) offsets from the centre's cell. With `band` (m) > 0 only the cells
+    within `band` of the rectangle's edge: enough along a motion from a clear pose
+    whose every point moves less than `band` from one check to the next."""
     a = 0.5 * footprint.length + margin
     b = 0.5 * footprint.width + margin
     h = 0.5 * resolution + 0.5 * resolution / SUB  # cell square grown by the sub-cell
@@ -99,6 +103,11 @@ def footprint_cells(
                     & (np.abs(px * c + py * s) <= a + h * (ac + as_))
                     & (np.abs(-px * s + py * c) <= b + h * (ac + as_))
                 )
+                if band > 0:
+                    hit &= ~(
+                        (np.abs(px * c + py * s) + h * (ac + as_) <= a - band)
+                        & (np.abs(-px * s + py * c) + h * (ac + as_) <= b - band)
+                    )
                 cells.append(np.stack([rr[hit], cc[hit]], axis=1))
                 starts.append(starts[-1] + int(hit.sum()))
     return np.array(starts, dtype=np.int64), np.concatenate(cells).astype(np.int64)
@@ -439,6 +448,10 @@ class HybridAStar:
             if not costmap.inside(costmap.world_to_cell(xy)):
                 raise NoPath(f"the {what} {_fmt(xy)} lies outside the map")
         starts, cells = self._footprint_cells(costmap)
+        # along motions (every point moves at most 2.6 cm per check) the edge suffices
+        edge = footprint_cells(
+            costmap.footprint, costmap.resolution, c.margin, 2 * costmap.resolution
+        )
         blocked = self.blocked(costmap)
         fp = costmap.footprint
         free_dist = fp.circumscribed_radius + c.margin + 2 * res
@@ -479,8 +492,8 @@ class HybridAStar:
             oy,
             res,
             2 * res,
-            starts,
-            cells,
+            edge[0],
+            edge[1],
             motions(c),
             c.rotation_cost,
             c.goal_tolerance,

@@ -27,6 +27,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
 
 import numpy as np
 
+from robotrial.cli.nav import CONTROLLERS, PLANNERS, add_planner_argument
 from robotrial.cli.output import add_json_flag, print_json, print_table, progress
 
 HELP = "Table 1 of the platform paper (rooms A, B, C; apartment) at 0.3 and 1.0 m/s; planner times"
@@ -49,12 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--worlds", nargs="+", default=list(ROOMS), choices=list(ROOMS), help="which worlds"
     )
-    parser.add_argument(
-        "--planner",
-        choices=("dijkstra", "astar", "hybrid", "auto"),
-        default="dijkstra",
-        help="global planner (hybrid: Hybrid-A* with the footprint; auto: A*, hybrid where needed)",
-    )
+    add_planner_argument(parser)
     parser.add_argument(
         "--methods",
         nargs="+",
@@ -131,11 +127,11 @@ def run(args: argparse.Namespace) -> int:
     footprint = footprint_of_robot("mobile_manipulator")
     methods = [m.split("/") if "/" in m else [m, "dwa"] for m in args.methods or [args.planner]]
     for planner, controller in methods:
-        if planner not in ("dijkstra", "astar", "hybrid", "auto") or controller not in (
-            "dwa",
-            "pursuit",
-        ):
-            print(f"robotrial bench nav: unknown method {planner}/{controller}")
+        if planner not in PLANNERS or controller not in CONTROLLERS:
+            print(
+                f"robotrial bench nav: unknown method {planner}/{controller}: planners "
+                f"{', '.join(PLANNERS)}; controllers {', '.join(CONTROLLERS)}"
+            )
             return 2
     routes = [(name, ROOMS[name][0], ROOMS[name][1]) for name in args.worlds]
     if args.apartment:

@@ -22,6 +22,21 @@ from robotrial.cli.output import add_json_flag, console, print_json, print_table
 HELP = "navigate to a goal with AMCL, a global planner and a local controller in the simulator"
 
 
+# the navigator's global planners and local controllers (robotrial.nav.navigator)
+PLANNERS = ("dijkstra", "astar", "hybrid", "auto")
+CONTROLLERS = ("dwa", "pursuit")
+
+
+def add_planner_argument(parser: argparse.ArgumentParser) -> None:
+    """The --planner option (also `robotrial bench nav`'s)."""
+    parser.add_argument(
+        "--planner",
+        choices=PLANNERS,
+        default="dijkstra",
+        help="global planner (hybrid: Hybrid-A* with the footprint; auto: A*, hybrid where needed)",
+    )
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--world", default="room_b", help="built-in world name or YAML file")
     parser.add_argument(
@@ -35,15 +50,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--map", metavar="YAML", help="map_server map (default: ground truth)")
     parser.add_argument("--runs", type=int, default=1, help="how many runs (seeds differ)")
     parser.add_argument("--speed", type=float, default=0.3, help="top speed (m/s)")
-    parser.add_argument(
-        "--planner",
-        choices=("dijkstra", "astar", "hybrid", "auto"),
-        default="dijkstra",
-        help="global planner (hybrid: Hybrid-A* with the footprint; auto: A*, hybrid where needed)",
-    )
+    add_planner_argument(parser)
     parser.add_argument(
         "--controller",
-        choices=("dwa", "pursuit"),
+        choices=CONTROLLERS,
         default="dwa",
         help="local controller (pursuit: regulated pure pursuit, for --planner hybrid)",
     )

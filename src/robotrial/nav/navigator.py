@@ -32,6 +32,7 @@ from robotrial.nav.planners import PLANNERS, NoPath, StartBlocked, make_planner,
 from robotrial.nav.pursuit import PursuitConfig, PursuitController
 
 GLOBAL_PLANNERS = (*PLANNERS, "hybrid", "auto")
+CONTROLLERS = ("dwa", "pursuit")
 
 
 class Status(Enum):
@@ -118,9 +119,9 @@ class Navigator:
         self.planner = make_planner(grid)
         self.hybrid = HybridAStar(config.hybrid)
         self.plans_by: list[str] = []
-        if config.controller not in ("dwa", "pursuit"):
+        if config.controller not in CONTROLLERS:
             raise ValueError(
-                f"unknown controller {config.controller!r}; choose from ['dwa', 'pursuit']"
+                f"unknown controller {config.controller!r}; choose from {list(CONTROLLERS)}"
             )
         self.controller: DWAPlanner | PursuitController = (
             DWAPlanner(footprint, config.dwa)

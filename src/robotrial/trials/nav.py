@@ -4,7 +4,8 @@ One run: the mobile manipulator spawns at the world's start pose in the MuJoCo
 simulation; AMCL starts from a guess near the spawn (off by a seeded error) and
 localizes on the map from the 2D scan (the VLP-16 cut to a plane) and the wheel
 odometry (with slip); the navigator plans (Dijkstra, A*, or Hybrid-A* with the
-footprint), drives with DWA or pure pursuit and recovers when stuck. The loop runs as fast as the CPU allows, on the simulation clock.
+footprint), drives with DWA or pure pursuit and recovers when stuck. The loop runs as
+fast as the CPU allows, on the simulation clock.
 
 A run succeeds when the navigator reports the goal reached, the base truly stands
 within `success_radius` of the goal, and the robot never touched a wall or an obstacle

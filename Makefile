@@ -9,9 +9,6 @@ STAMP := $(VENV)/.installed
 WEB_STAMP := src/robotrial/app/static/index.html
 HOST ?= 127.0.0.1
 PORT ?= 8000
-# Offscreen rendering for the simulated cameras; Debian's libosmesa6 (see .ci/run).
-export MUJOCO_GL ?= osmesa
-export PYOPENGL_PLATFORM ?= osmesa
 
 .PHONY: setup run test lint format web clean bench
 

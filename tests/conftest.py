@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from robotrial.gl import choose_gl_backend
+
 ROOT = Path(__file__).resolve().parents[1]
 ARTIFACTS = ROOT / "test-artifacts"
 CHROMIUM = os.environ.get("ROBOTRIAL_CHROMIUM", "/usr/bin/chromium")
@@ -24,8 +26,7 @@ CHROMIUM_ARGS = [
     "--enable-unsafe-swiftshader",
 ]
 
-os.environ.setdefault("MUJOCO_GL", "osmesa")
-os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+choose_gl_backend()
 
 
 def free_port() -> int:

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from robotrial.collision.exact import ExactChecker
-from robotrial.collision.model import CollisionChecker, Environment, HeldObject, RobotSpheres
+from robotrial.collision.sphere_model import CollisionChecker, Environment, HeldObject, RobotSpheres
 from robotrial.geometry import Box, Cylinder, Pose, Sphere
 from robotrial.kinematics.chain import Kinematics
 from robotrial.model import load_robot, load_world

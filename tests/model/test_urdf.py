@@ -473,7 +473,7 @@ def test_bad_geometry_and_numbers() -> None:
     bad = two_links(child_extra='<visual><geometry><sphere radius="big"/></geometry></visual>')
     refused(bad, "<sphere>", "radius='big' is not 1 number(s)")
     empty = two_links(child_extra="<collision><geometry/></collision>")
-    refused(empty, "collision 0 of link 'arm'", "exactly one shape")
+    refused(empty, "collision 0 of link 'arm'", "<geometry> holds no shape")
 
 
 def test_duplicates() -> None:

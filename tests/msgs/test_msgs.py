@@ -116,7 +116,16 @@ def test_plan_task_matches_design() -> None:
     req = [s.name for s in PlanTask.Request.__fields_spec__]
     resp = [s.name for s in PlanTask.Response.__fields_spec__]
     assert req == ["current_joints", "obstacles", "object", "ee_goal", "planner", "time_limit"]
-    assert resp == ["success", "message", "goal_joints", "trajectory", "planning_time"]
+    assert resp == [
+        "success",
+        "message",
+        "goal_joints",
+        "trajectory",
+        "planning_time",
+        "error_code",
+        "object_held",
+    ]
+    assert "int32 NO_IK_SOLUTION=-31" in full_definition(PlanTask.Response)
     assert full_definition(Box).startswith(
         "string id\ngeometry_msgs/Vector3 size\ngeometry_msgs/Pose pose\n"
     )

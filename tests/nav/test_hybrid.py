@@ -119,7 +119,7 @@ def test_navigator_with_the_footprint_planner_aborts_where_only_the_grid_sees_a_
 @pytest.mark.parametrize("room", ["kitchen", "corridor", "bedroom", "study"])
 def test_every_apartment_room_is_reachable_from_the_living_room_for_the_footprint(room):
     from robotrial.model import load_world
-    from robotrial.trials.nav import world_map
+    from robotrial.model.gridmap import world_map
 
     world = load_world("apartment")
     m = world_map(world)

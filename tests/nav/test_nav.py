@@ -132,8 +132,9 @@ def _arc(v: float, w: float, dt: float) -> np.ndarray:
 
 def test_amcl_converges_from_a_wrong_guess_in_room_b():
     from robotrial.model import load_world
+    from robotrial.model.gridmap import world_map
     from robotrial.sim import SimOptions, Simulation
-    from robotrial.trials.nav import _beams, world_map
+    from robotrial.trials.nav import _beams
 
     nav_map = world_map(load_world("room_b"))
     sim = Simulation.create(
@@ -234,7 +235,8 @@ def test_nav_node_plans_and_commands_on_the_bus(config):
 
 def test_full_trial_in_room_b(tmp_path):
     from robotrial.model import load_world
-    from robotrial.trials.nav import NavTrialSetup, plot_paths, run_once, world_map
+    from robotrial.model.gridmap import world_map
+    from robotrial.trials.nav import NavTrialSetup, plot_paths, run_once
 
     setup = NavTrialSetup(world="room_b", goal=(6.8, 6.6, 0.0), speed=1.0)
     r = run_once(setup, seed=0)
@@ -254,8 +256,8 @@ def test_cli_runs_on_a_map_server_map(tmp_path, capsys):
 
     from robotrial.cli import main
     from robotrial.model import load_world
+    from robotrial.model.gridmap import world_map
     from robotrial.model.mapfile import OccupancyMap, write_map
-    from robotrial.trials.nav import world_map
 
     m = world_map(load_world("room_a"))
     cells = np.where(m.occupied, 100, 0).astype(np.int8)

@@ -10,7 +10,7 @@ import pytest
 
 from robotrial.benchmarks.planning import panda_path
 from robotrial.collision import kernels
-from robotrial.collision.model import CollisionChecker, Environment, HeldObject, RobotSpheres
+from robotrial.collision.sphere_model import CollisionChecker, Environment, HeldObject, RobotSpheres
 from robotrial.geometry import Box, Cylinder, Pose
 from robotrial.kinematics.chain import Kinematics, fk_single
 from robotrial.model import load_robot

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from robotrial.cli import main
 from robotrial.collision.exact import ExactChecker
-from robotrial.collision.model import CollisionChecker, Environment
+from robotrial.collision.sphere_model import CollisionChecker, Environment
 from robotrial.geometry import Box
 from robotrial.geometry import Pose as GeoPose
 from robotrial.model import load_robot, load_world
@@ -155,16 +155,26 @@ def test_plan_task_carries_an_object_in_the_hand(planner) -> None:
     )
     result = planner.plan(_request(obj=obj, goal=(0.18, 0.2, 0.06)), seed=1)
     assert result.response.success, result.response.message
+    assert result.response.error_code == PlanTaskResponse.SUCCESS
+    assert result.response.object_held
     assert "finger_left_link" in result.checker.touch_links
     # the object travels with the hand and stays clear of the box and the table
     q = np.array([p.positions for p in result.response.trajectory.points])
     assert result.exact.path_valid(q)[0]
 
 
+def test_an_object_away_from_the_hand_is_not_held(planner) -> None:
+    far = BoxMsg(id="cup", size=Vector3(0.04, 0.04, 0.1), pose=Pose(Point(0.3, -0.3, 0.05)))
+    response = planner.plan(_request(obj=far), seed=1).response
+    assert response.success, response.message
+    assert not response.object_held and "treated as an obstacle" in response.message
+
+
 def test_goal_out_of_reach_says_how_far(planner) -> None:
     resp = planner.plan(_request(goal=(1.0, 0.2, 0.02))).response
     assert not resp.success
     assert "out of reach" in resp.message and " m " in resp.message
+    assert resp.error_code == PlanTaskResponse.NO_IK_SOLUTION
 
 
 def test_start_in_collision_names_what_touches(planner) -> None:
@@ -177,12 +187,14 @@ def test_start_in_collision_names_what_touches(planner) -> None:
     ]
     res = planner.plan(_request(obstacles=inside))
     assert res.failure == "start_in_collision"
+    assert res.response.error_code == PlanTaskResponse.START_STATE_IN_COLLISION
     assert "crate" in res.response.message and "touches" in res.response.message
 
 
 def test_goal_in_collision(planner) -> None:
     res = planner.plan(_request(goal=(0.2, 0.0, 0.15)))
     assert res.failure == "goal_in_collision"
+    assert res.response.error_code == PlanTaskResponse.GOAL_IN_COLLISION
     assert "C" in res.response.message
 
 
@@ -206,12 +218,15 @@ def test_no_path_within_the_time_limit(planner) -> None:
     assert not res.response.success
     if res.failure == "timeout":
         assert "no path found" in res.response.message and "0.2 s" in res.response.message
+        assert res.response.error_code == PlanTaskResponse.TIMED_OUT
 
 
 def test_bad_requests_name_the_field(planner) -> None:
     req = _request()
     req.current_joints.position = req.current_joints.position[:3]
-    assert "current_joints" in planner.plan(req).response.message
+    refused = planner.plan(req).response
+    assert "current_joints" in refused.message
+    assert refused.error_code == PlanTaskResponse.INVALID_GOAL_CONSTRAINTS
     req = _request(start=[5.0, 0, 0, 0, 0, 0])
     assert "outside its limits" in planner.plan(req).response.message
     bad = [BoxMsg(id="x", size=Vector3(-0.1, 0.1, 0.1), pose=Pose())]

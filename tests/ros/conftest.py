@@ -18,6 +18,7 @@ from robotrial.msgs.sensor_msgs import JointState
 from robotrial.msgs.std_msgs import Header
 from robotrial.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
 from robotrial.ros.bus import Bus, Node
+from robotrial.ros.rosbridge.access import Access
 from robotrial.ros.rosbridge.transport import standalone_app, uvicorn_config
 
 MAP_W, MAP_H = 40, 30
@@ -77,8 +78,9 @@ class JointStatePublisher(Node):
         )
 
 
-def start_server(bus: Bus, port: int) -> uvicorn.Server:
-    server = uvicorn.Server(uvicorn_config(standalone_app(bus), "127.0.0.1", port))
+def start_server(bus: Bus, port: int, access: Access | None = None) -> uvicorn.Server:
+    app = standalone_app(bus, access=access)
+    server = uvicorn.Server(uvicorn_config(app, "127.0.0.1", port))
     thread = threading.Thread(target=server.run, daemon=True, name="uvicorn")
     thread.start()
     deadline = time.monotonic() + 10

@@ -656,6 +656,8 @@ def test_rosapi_answers() -> None:
             "goal_joints",
             "trajectory",
             "planning_time",
+            "error_code",
+            "object_held",
         ]
         marker = await call("/rosapi/message_details", {"type": "visualization_msgs/Marker"})
         top = marker["typedefs"][0]

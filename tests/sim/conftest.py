@@ -1,6 +1,6 @@
 """A small robot in a box room, written by hand for the simulator's tests.
 
-The RobotModel and the MJCF follow the naming of docs (EXTENSION.md): bodies named as
+The RobotModel and the MJCF follow the naming of docs (docs/robots.md): bodies named as
 links, a planar base (base_x, base_y, base_yaw), a site per sensor, `object/NAME` bodies.
 Room interior: x in [-3.89, 3.89], y in [-3.81, 3.81] (7.78 x 7.62 m, room A's size).
 """
@@ -22,8 +22,8 @@ from robotrial.model.robot import (
     Sensor,
 )
 from robotrial.sim.build import prepare
+from robotrial.sim.scene import SimWorld
 from robotrial.sim.simulation import SimOptions, Simulation
-from robotrial.sim.world import SimWorld
 
 HALF_X, HALF_Y = 3.89, 3.81
 LIDAR_HEIGHT = 0.7  # floor to lidar

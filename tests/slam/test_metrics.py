@@ -8,7 +8,7 @@ from evo.core import metrics
 from evo.core.trajectory import PoseTrajectory3D
 from scipy.spatial.transform import Rotation
 
-from robotrial.trials.slam import ate, rpe
+from robotrial.slam.metrics import ate, rpe
 
 
 def to_evo(poses: np.ndarray) -> PoseTrajectory3D:
@@ -55,7 +55,7 @@ def test_rpe_matches_evo_rpe(pair):
 def test_room_dimensions_of_a_drawn_room():
     """Walls one cell thick: the room measures between the rows of wall cells."""
     from robotrial.slam.grid import LogOddsGrid
-    from robotrial.trials.slam import room_dimensions
+    from robotrial.slam.metrics import room_dimensions
 
     g = LogOddsGrid(0.05)
     g.ensure(-1.0, -1.0, 5.0, 4.0, pad=0.0)

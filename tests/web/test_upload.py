@@ -171,3 +171,23 @@ def test_upload_by_http_then_rdtf_route(client: TestClient) -> None:
     assert r.status_code == 201 and r.json()["robot"]["name"] == "crane", r.text
     r = client.post("/api/robots/upload", files={"file": ("notes.txt", b"hello")})
     assert r.status_code == 400 and ".zip" in r.json()["detail"]
+
+
+def test_uploads_cannot_read_the_servers_environment_or_files(client: TestClient) -> None:
+    env = (
+        '<robot name="spy" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
+        '<link name="$(env HOME)"/>\n</robot>\n'
+    )
+    r = client.post("/api/robots/upload", files={"file": ("spy.urdf.xacro", env.encode())})
+    assert r.status_code == 422
+    detail = r.json()["detail"]
+    assert "spy.urdf.xacro:2: $(env HOME): uploaded descriptions may not read" in detail
+    assert str(Path.home()) not in detail
+    passwd = URDF.replace("package://tower/meshes/base.stl", "file:///etc/passwd")
+    r = client.post("/api/robots/upload", files={"file": ("tower.urdf", passwd.encode())})
+    assert r.status_code == 422
+    assert "tower.urdf:4: <mesh>: link 'base' visual 0: mesh 'file:///etc/passwd' refused" in (
+        r.json()["detail"]
+    )
+    names = [robot["name"] for robot in client.get("/api/robots").json()["robots"]]
+    assert "spy" not in names and "tower_arm" not in names

@@ -107,12 +107,14 @@ class LivePlatform:
 
     def _start_navigation(self, sim) -> None:
         """NavNode on a private bus with the ground-truth map, relayed to `self.bus`."""
+        from robotrial.model.gridmap import world_map
         from robotrial.msgs.geometry_msgs import Point, Pose, PoseStamped, Quaternion, Twist
         from robotrial.msgs.nav_msgs import MapMetaData, OccupancyGrid, Odometry, Path
         from robotrial.msgs.sensor_msgs import LaserScan
         from robotrial.msgs.std_msgs import Header
+        from robotrial.nav.costmap import Footprint
         from robotrial.ros.nav_node import NavNode
-        from robotrial.trials.nav import footprint_of, world_map
+        from robotrial.sim.footprint import base_extent
 
         if abs(self.spawn.quat[2]) > 1e-9 or abs(self.spawn.quat[3]) < 1 - 1e-9:
             log.warning("live navigation needs a spawn pose without a turn; it is off")
@@ -126,7 +128,7 @@ class LivePlatform:
         grid = world_map(self.world)
         rows, cols = grid.occupied.shape
         private = Bus()
-        node = NavNode(private, footprint_of(sim), laser_pose=laser_pose)
+        node = NavNode(private, Footprint(*base_extent(sim)), laser_pose=laser_pose)
         self._nodes.append(node)
         private.publish(
             "/map",

@@ -40,6 +40,7 @@ from robotrial.app.uploads import (
 from robotrial.geometry import Pose
 from robotrial.model import library
 from robotrial.model.robot import ModelError
+from robotrial.ros.rosbridge.access import Access
 
 if TYPE_CHECKING:
     from robotrial.planning.task import TaskPlanner
@@ -148,7 +149,7 @@ class PageAssets(StaticFiles):
             await super().check_config()
 
 
-def mount_rosbridge(app: FastAPI, bus: Bus) -> None:
+def mount_rosbridge(app: FastAPI, bus: Bus, access: Access) -> None:
     """Add the rosbridge v2 WebSocket route at ROSBRIDGE_PATH, serving `bus`.
 
     This is where the rosbridge server joins the web app; it lives in layer 4
@@ -156,7 +157,7 @@ def mount_rosbridge(app: FastAPI, bus: Bus) -> None:
     """
     from robotrial.ros.rosbridge import add_rosbridge_route
 
-    add_rosbridge_route(app, bus, path=ROSBRIDGE_PATH)
+    add_rosbridge_route(app, bus, path=ROSBRIDGE_PATH, access=access)
 
 
 def create_app(
@@ -170,6 +171,7 @@ def create_app(
     max_upload_bytes: int = MAX_UPLOAD_BYTES,
     live: bool = False,
     planner: bool = False,
+    access: Access | None = None,
 ) -> FastAPI:
     """The web app, opening on `robot` in `world`.
 
@@ -181,7 +183,9 @@ def create_app(
     `bus`, a mobile robot in a room runs as a live platform (simulator and SLAM on the
     bus, real time; robotrial.app.live) while the server runs. `planner`: with a `bus`
     and an arm as `robot`, the planning node (robotrial.ros.planning_node) answers
-    `/robotrial/plan_task` for it in `world`, the page's Move Robot!.
+    `/robotrial/plan_task` for it in `world`, the page's Move Robot!. `access`: which
+    origins may connect to rosbridge and upload, and the token (robotrial.ros.rosbridge.
+    access; default: the page's own origin and clients without one, no token).
     Raises ModelError if `robot` or `world` is not built in.
     """
     try:
@@ -194,6 +198,7 @@ def create_app(
         scratch = tempfile.TemporaryDirectory(prefix="robotrial-uploads-")
         uploads_dir = Path(scratch.name)
     uploads = UploadStore(uploads_dir, max_bytes=max_upload_bytes)
+    access = access or Access()
     platform: LivePlatform | None = None
     if live and bus is not None:
         robot_model = catalog.robot(catalog.default_robot)
@@ -290,6 +295,8 @@ def create_app(
         tags=["robots"],
         responses={
             400: {"description": "not a robot file, or a zip that is unsafe to unpack"},
+            401: {"description": "the server needs a token (Authorization: Bearer TOKEN)"},
+            403: {"description": "sent from a web page of another site"},
             413: {"description": "larger than the server takes"},
             422: {"description": "the robot description is broken; detail says where"},
         },
@@ -298,6 +305,13 @@ def create_app(
         """Add a robot from a multipart upload (field `file`): a .zip holding a URDF or
         xacro with its meshes, a .urdf, a .xacro, or an RDTF .glb. It joins the robot
         list under the name returned; its RDTF route works at once."""
+        if not access.origin_allowed(request.headers):
+            return JSONResponse({"detail": access.refusal(request.headers)}, status_code=403)
+        if not access.token_ok(access.request_token(request.headers, request.query_params)):
+            return JSONResponse(
+                {"detail": "this server needs a token: send Authorization: Bearer TOKEN"},
+                status_code=401,
+            )
         try:
             form = await _bounded_form(request, uploads.max_bytes)
             sent = form.get("file")
@@ -359,7 +373,7 @@ def create_app(
 
     app.mount("/assets", PageAssets(directory=static_dir / "assets"), name="assets")
     if bus is not None:
-        mount_rosbridge(app, bus)
+        mount_rosbridge(app, bus, access)
     return app
 
 

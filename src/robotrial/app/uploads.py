@@ -5,7 +5,9 @@ Every upload gets a folder of its own inside the server's uploads folder. Zip en
 are written only inside that folder: an entry whose name climbs out of it (`../x`, an
 absolute path, a drive letter) or that is a symbolic link is refused before anything is
 written. Sizes are bounded: the upload itself (`max_bytes`), and what a zip unpacks to
-(`max_unpacked_bytes`, `max_entries`), so a small zip cannot fill the disk.
+(`max_unpacked_bytes`, `max_entries`), so a small zip cannot fill the disk. The robot is
+loaded confined to its folder: it cannot read the server's environment or files
+(model/xacro.py).
 """
 
 from __future__ import annotations
@@ -124,7 +126,7 @@ class UploadStore:
             else:
                 robot_file = data_path
             try:
-                model = load_robot(robot_file, package_paths=[folder])
+                model = load_robot(robot_file, package_paths=[folder], confined=folder)
                 rdtf = write_rdtf(model)
             except ModelError as exc:
                 raise ModelError(_relative(str(exc), folder, filename)) from None

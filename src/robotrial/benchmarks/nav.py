@@ -22,13 +22,10 @@ import platform
 import time
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "osmesa")
-os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
-
 import numpy as np
 
 from robotrial.cli.nav import CONTROLLERS, PLANNERS, add_planner_argument
-from robotrial.cli.output import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, print_json, print_table, progress
 
 HELP = "Table 1 of the platform paper (rooms A, B, C; apartment) at 0.3 and 1.0 m/s; planner times"
 
@@ -109,6 +106,7 @@ def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import load_world
+    from robotrial.model.gridmap import world_map
     from robotrial.trials.nav import (
         PAPER_TABLE1,
         NavTrialSetup,
@@ -118,7 +116,6 @@ def run(args: argparse.Namespace) -> int:
         shortest_time,
         start_pose,
         summarize,
-        world_map,
     )
 
     if args.runs < 1:

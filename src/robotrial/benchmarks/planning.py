@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from robotrial.cli.output import print_json, print_table, progress
 from robotrial.collision.exact import ExactChecker
-from robotrial.collision.model import CollisionChecker, Environment
+from robotrial.collision.sphere_model import CollisionChecker, Environment
+from robotrial.console import print_json, print_table, progress
 from robotrial.geometry import Box, Pose
 from robotrial.model import load_robot, load_world
 from robotrial.planning import PLANNERS, Problem

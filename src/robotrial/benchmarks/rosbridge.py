@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from robotrial.cli.output import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, print_json, print_table, progress
 
 HELP = "rosbridge: service round trip and /joint_states fan-out to 1, 10, 50 clients"
 RATE_HZ = 100.0

@@ -20,12 +20,9 @@ import platform
 import time
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "osmesa")
-os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
-
 import numpy as np
 
-from robotrial.cli.output import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, print_json, print_table, progress
 
 HELP = "real-time factor of the mobile manipulator in room C, sensors off and on; sensor costs"
 

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from robotrial.cli.output import console, print_table, progress
+from robotrial.console import console, print_table, progress
 
 HELP = "SLAM (gmapping, hector) in rooms A, B, C, the apartment, a corridor: accuracy, ATE, speed"
 

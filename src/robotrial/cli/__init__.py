@@ -9,7 +9,11 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
+import threading
+
+from robotrial.gl import choose_gl_backend
 
 # name -> module in robotrial.cli, in the order `robotrial --help` lists them
 COMMANDS: dict[str, str] = {
@@ -21,6 +25,8 @@ COMMANDS: dict[str, str] = {
     "rosbridge": "rosbridge",
     "slam": "slam",
     "nav": "nav",
+    "bag": "bag",
+    "trials": "trials",
     "bench": "bench",
 }
 
@@ -54,7 +60,15 @@ def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _stop(signum: int, _frame: object) -> None:
+    """SIGTERM ends a command as Ctrl+C does: recordings are finished, files closed."""
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
 def main(argv: list[str] | None = None) -> int:
+    choose_gl_backend()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _stop)
     argv = sys.argv[1:] if argv is None else argv
     first = next((a for a in argv if not a.startswith("-")), None)
     parser = build_parser(first)

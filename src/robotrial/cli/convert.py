@@ -16,8 +16,8 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from robotrial.cli.output import add_json_flag, print_json
 from robotrial.cli.robot_source import add_robot_source_arguments, load_robot_from_args
+from robotrial.console import add_json_flag, print_json
 
 HELP = "convert a robot (URDF, xacro, RDTF) or a world to RDTF/glTF (.glb) or MJCF (.xml)"
 FORMATS = {".glb": "glb", ".xml": "mjcf"}

@@ -14,8 +14,8 @@ from typing import Any
 
 from rich.console import Console
 
-from robotrial.cli.output import add_json_flag, print_json, print_table
 from robotrial.cli.robot_source import add_robot_source_arguments, load_robot_from_args
+from robotrial.console import add_json_flag, print_json, print_table
 from robotrial.model.robot import ModelError, RobotModel
 
 HELP = "show a robot's links, joints, mass, DOF, end effector, sensors and loader repairs"

@@ -12,12 +12,8 @@ JSON with --json), and writes a PNG of the true paths over the map.
 from __future__ import annotations
 
 import argparse
-import os
 
-os.environ.setdefault("MUJOCO_GL", "osmesa")
-os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
-
-from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
+from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
 HELP = "navigate to a goal with AMCL, a global planner and a local controller in the simulator"
 
@@ -68,16 +64,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import load_world
+    from robotrial.model.gridmap import file_map, world_map
     from robotrial.trials.nav import (
         NavTrialSetup,
-        file_map,
         footprint_of_robot,
         plot_paths,
         run_trials,
         shortest_time,
         start_pose,
         summarize,
-        world_map,
     )
 
     try:

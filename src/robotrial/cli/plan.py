@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robotrial.cli.output import add_json_flag, console, print_json, print_table
+from robotrial.console import add_json_flag, console, print_json, print_table
 
 HELP = "plan an arm motion around obstacles to an end-effector goal (the PlanTask service)"
 

@@ -1,8 +1,17 @@
-"""`robotrial rosbridge`: a standalone rosbridge v2 server on an empty bus (layer 5)."""
+"""`robotrial rosbridge`: a standalone rosbridge v2 server (layer 5).
+
+    robotrial rosbridge --port 9090                          # an empty bus
+    robotrial rosbridge --robot desk_arm --world desk        # with /robotrial/plan_task
+
+With `--robot`, the arm planner answers `/robotrial/plan_task` for that robot (standing
+in `--world`, if given), as `robotrial serve` does for the page.
+"""
 
 from __future__ import annotations
 
 import argparse
+
+from robotrial.cli.access import access_from, add_access_arguments
 
 HELP = "serve the rosbridge v2 protocol (WebSocket) without the web app"
 
@@ -16,12 +25,36 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="2",
         help="spelling of type names and time fields when a client does not choose one",
     )
+    parser.add_argument(
+        "--robot", help="offer /robotrial/plan_task for this robot (built-in name or file)"
+    )
+    parser.add_argument("--world", help="the world the robot stands in (with --robot)")
+    add_access_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
+    from robotrial.console import console
+    from robotrial.model import ModelError, load_robot, load_world
+    from robotrial.ros.bus import Bus
     from robotrial.ros.rosbridge import serve
 
+    bus = Bus()
+    try:
+        access = access_from(args)
+        if args.world and not args.robot:
+            raise ValueError("--world needs --robot (the robot that stands in it)")
+        if args.robot:
+            from robotrial.ros.planning_node import PLAN_TASK, PlanningNode
+
+            world = load_world(args.world) if args.world else None
+            PlanningNode(bus, load_robot(args.robot), world)
+            console.print(
+                f"{PLAN_TASK} plans for {args.robot}" + (f" in {args.world}" if world else "")
+            )
+    except (ModelError, ValueError) as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        return 2
     dialect = "ros1" if args.ros_version == "1" else "ros2"
     print(f"rosbridge v2 on ws://{args.host}:{args.port}/ (also /rosbridge); Ctrl-C stops")
-    serve(args.host, args.port, dialect=dialect)
+    serve(args.host, args.port, bus, dialect=dialect, access=access)
     return 0

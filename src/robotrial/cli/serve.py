@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from robotrial.cli.access import access_from, add_access_arguments
 from robotrial.model.library import DEFAULT_ROBOT, DEFAULT_WORLD
 
 HELP = "serve the web page: a robot in a world, in the browser"
@@ -23,25 +24,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--world", default=DEFAULT_WORLD, help=f"world the page opens on (default {DEFAULT_WORLD})"
     )
+    add_access_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     import uvicorn
 
     from robotrial.app.server import ROSBRIDGE_PATH, create_app
-    from robotrial.cli.output import console
+    from robotrial.console import console
     from robotrial.model.robot import ModelError
     from robotrial.ros.bus import Bus
 
     try:
-        app = create_app(args.robot, args.world, bus=Bus(), live=True, planner=True)
-    except ModelError as exc:
+        access = access_from(args)
+        app = create_app(args.robot, args.world, bus=Bus(), live=True, planner=True, access=access)
+    except (ModelError, ValueError) as exc:
         console.print(f"[red]error:[/red] {exc}")
         return 2
     shown = "127.0.0.1" if args.host in ("0.0.0.0", "::") else args.host
     host = f"[{shown}]" if ":" in shown else shown
+    key = f"?token={access.token}" if access.token else ""
     print(
-        f"robotrial: open http://{host}:{args.port}/ ({args.robot} in {args.world}); "
+        f"robotrial: open http://{host}:{args.port}/{key} ({args.robot} in {args.world}); "
         f"rosbridge at ws://{host}:{args.port}{ROSBRIDGE_PATH}; Ctrl+C stops",
         flush=True,
     )

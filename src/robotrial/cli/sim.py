@@ -12,15 +12,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 import time
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "osmesa")
-os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
-
-from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
+from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
 HELP = "simulate a robot in a world headless (LiDAR, scan, odometry, cameras), record a bag"
 
@@ -44,6 +40,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of all sensor noise")
     parser.add_argument("--record", metavar="FILE", help="write a .mcap (ROS 2) or .bag (ROS 1)")
     parser.add_argument("--plot", metavar="PNG", help="ground truth vs odometry plot")
+    parser.add_argument(
+        "--compression",
+        choices=("lz4", "zstd", "none"),
+        default="lz4",
+        help="chunk compression of the recording (default lz4; zstd is smaller, .bag: lz4/none)",
+    )
     parser.add_argument(
         "--realtime",
         type=float,
@@ -163,7 +165,8 @@ def run(args: argparse.Namespace) -> int:
         return 2
     try:
         if args.record:
-            format_of(args.record)
+            if format_of(args.record) == "bag" and args.compression == "zstd":
+                raise ValueError(f"{args.record}: a .bag takes --compression lz4 or none")
         world = load_world(args.world)
         robot, options = _options(args, load_robot(args.robot))
         spawn = world.spawn(args.spawn)
@@ -186,7 +189,7 @@ def run(args: argparse.Namespace) -> int:
     bus = Bus()
     node = SimNode(bus, sim)
     topics = sorted({t for t, _ in node.topics.values()} | {"/tf", "/tf_static"})
-    recorder = Recorder(args.record) if args.record else None
+    recorder = Recorder(args.record, args.compression) if args.record else None
     if recorder is not None:
         BusRecorder(bus, recorder, topics)
     x0, y0, yaw0 = spawn.xyz[0], spawn.xyz[1], spawn.yaw
@@ -219,6 +222,7 @@ def run(args: argparse.Namespace) -> int:
     last_bar = [0.0]
     wall0 = time.perf_counter()
     cpu0 = time.process_time()
+    interrupted = False
     try:
         with progress(
             "simulating", total=round(args.duration, 1), enabled=not args.json
@@ -237,7 +241,10 @@ def run(args: argparse.Namespace) -> int:
 
             if square is not None:
                 sim.drive(*square.command(0.0))
-            node.run(args.duration, realtime=realtime, on_step=on_step)
+            try:
+                node.run(args.duration, realtime=realtime, on_step=on_step)
+            except KeyboardInterrupt:
+                interrupted = True
     finally:
         if teleop is not None:
             teleop.close()
@@ -260,6 +267,7 @@ def run(args: argparse.Namespace) -> int:
         "distance_m": round(sim.odometry.distance, 3),
         "odometry_drift_m": round(drift, 4),
         "messages": dict(sorted(node.counts.items())),
+        "interrupted": interrupted,
     }
     png = Path(args.plot) if args.plot else None
     if png is None and args.record:

@@ -11,13 +11,10 @@ writes room_c.pgm + room_c.yaml (map_server), room_c.tum (the trajectory) and ro
 from __future__ import annotations
 
 import argparse
-import os
 import time
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "osmesa")
-
-from robotrial.cli.output import add_json_flag, console, print_json, print_table, progress
+from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
 HELP = "SLAM (gmapping or hector) from a recording or live; map_server files, trajectory, scores"
 

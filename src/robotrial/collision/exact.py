@@ -14,83 +14,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from robotrial.collision.model import OBJECT, CollisionChecker
+from robotrial.collision.contacts import qpos_map
+from robotrial.collision.sphere_model import OBJECT, CollisionChecker
 from robotrial.geometry import Pose, Shape
-from robotrial.kinematics.chain import Kinematics
 from robotrial.model.mjcf import to_mjcf
 from robotrial.model.robot import Collision, Joint, Link
 from robotrial.model.world import Obstacle, World
 
 HELD_LINK = "held_object"
-
-
-def _qpos_map(kin: Kinematics, m) -> tuple[np.ndarray, ...]:
-    """How planning values become MuJoCo's qpos: qpos = base, then for each driven
-    joint qpos[adr] = mult * q[src] + offset (mimic joints follow their master)."""
-    import mujoco
-
-    qpos0 = np.zeros(m.nq)
-    adr, src, mult, off = [], [], [], []
-    values = kin.full_q(np.zeros(kin.d))
-    index = {n: i for i, n in enumerate(kin.joint_names)}
-    for j in kin.model.joints:
-        jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
-        if jid < 0 or j.type not in ("revolute", "continuous", "prismatic"):
-            continue
-        a = int(m.jnt_qposadr[jid])
-        master, k, c = j.name, 1.0, 0.0
-        if j.mimic is not None:
-            master, k, c = j.mimic.joint, j.mimic.multiplier, j.mimic.offset
-        if master in index:
-            adr.append(a)
-            src.append(index[master])
-            mult.append(k)
-            off.append(c)
-        else:
-            qpos0[a] = k * values.get(master, 0.0) + c
-    return (
-        qpos0,
-        np.array(adr, dtype=np.int64),
-        np.array(src, dtype=np.int64),
-        np.array(mult),
-        np.array(off),
-    )
-
-
-def link_contacts(kin: Kinematics, qs: np.ndarray, tolerance: float = 1e-6) -> set[tuple[str, str]]:
-    """Pairs of links (sorted names) whose real collision shapes MuJoCo finds
-    penetrating at any of the configurations `qs`: the exact counterpart of sampling
-    the spheres when deciding which link pairs can ever touch."""
-    import mujoco
-
-    doc = to_mjcf(
-        kin.model,
-        World(name="pairs"),
-        spawn=Pose(),
-        actuators="none",
-        self_collision=True,
-        visuals=False,
-    )
-    m = doc.compile()
-    data = mujoco.MjData(m)
-    qpos0, adr, src, mult, off = _qpos_map(kin, m)
-    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, i) or "" for i in range(m.nbody)]
-    body = np.asarray(m.geom_bodyid)
-    out: set[tuple[str, str]] = set()
-    for q in np.atleast_2d(qs):
-        qpos = qpos0.copy()
-        qpos[adr] = mult * q[src] + off
-        data.qpos[:] = qpos
-        mujoco.mj_kinematics(m, data)
-        mujoco.mj_collision(m, data)
-        n = data.ncon
-        if n == 0:
-            continue
-        hit = data.contact.dist[:n] < -tolerance
-        for g1, g2 in data.contact.geom[:n][hit]:
-            a, b = names[body[g1]], names[body[g2]]
-            out.add((min(a, b), max(a, b)))
-    return out
 
 
 class ExactChecker:
@@ -165,7 +96,7 @@ class ExactChecker:
                     self._counts[i, j] = (ri, rj) in self._enabled
                 else:
                     self._counts[i, j] = self._moving[i] or self._moving[j]
-        self._qpos0, self._adr, self._src, self._mult, self._off = _qpos_map(kin, m)
+        self._qpos0, self._adr, self._src, self._mult, self._off = qpos_map(kin, m)
         self._geom_body = np.asarray(m.geom_bodyid)
 
     def _set(self, q: np.ndarray) -> None:

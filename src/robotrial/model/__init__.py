@@ -15,8 +15,11 @@ from robotrial.model.world import World, load_world_file
 ROBOT_SUFFIXES = (".urdf", ".xacro", ".glb", ".gltf")
 
 
-def load_robot(source: str | Path, package_paths: Sequence[str | Path] = ()) -> RobotModel:
-    """A robot from a built-in name, or a URDF, xacro (.urdf.xacro, .xacro) or RDTF (.glb) file."""
+def load_robot(
+    source: str | Path, package_paths: Sequence[str | Path] = (), confined: Path | None = None
+) -> RobotModel:
+    """A robot from a built-in name, or a URDF, xacro (.urdf.xacro, .xacro) or RDTF (.glb)
+    file. `confined`: the folder the file and all it names must stay in (uploads)."""
     from robotrial.model import library
 
     text = str(source)
@@ -31,7 +34,7 @@ def load_robot(source: str | Path, package_paths: Sequence[str | Path] = ()) -> 
         return read_rdtf(p)
     from robotrial.model.urdf import load_urdf
 
-    return load_urdf(p, package_paths=package_paths)
+    return load_urdf(p, package_paths=package_paths, confined=confined)
 
 
 def load_world(source: str | Path) -> World:

@@ -1,5 +1,8 @@
 """The ground-truth occupancy grid of a World, for scoring maps and planning on known rooms.
 
+`NavMap` is the grid navigation plans on: a world's ground truth (`world_map`) or a
+map_server file (`file_map`, e.g. one `robotrial slam` saved).
+
 Layer 1: imports `robotrial.geometry` and `robotrial.model`. Every wall, obstacle and
 (optionally) movable object is cut by a height band (the slab a 2D LiDAR scan or a
 costmap cares about) and its cross-section, projected onto the floor, is rasterized:
@@ -9,6 +12,8 @@ exact circles. Any orientation is allowed. Meshes count as their convex hull.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -256,3 +261,32 @@ def _edge_normals(polygon: np.ndarray) -> np.ndarray:
     lengths = np.linalg.norm(normals, axis=1)
     keep = lengths > 1e-12
     return normals[keep] / lengths[keep, None]
+
+
+@dataclass(frozen=True)
+class NavMap:
+    """The map the robot navigates and localizes on: occupied and unknown cells (rows =
+    y), the origin (x, y) of cell (0, 0)'s corner and the resolution (m)."""
+
+    occupied: np.ndarray
+    unknown: np.ndarray
+    origin: tuple[float, float]
+    resolution: float
+    source: str
+
+
+def world_map(world: World, resolution: float = 0.05) -> NavMap:
+    """The ground-truth grid of a world, cut at the scan's height band."""
+    g = world_occupancy(world, resolution, z_band=(0.05, 1.5))
+    return NavMap(g.occupied, np.zeros_like(g.occupied), g.origin, g.resolution, "ground truth")
+
+
+def file_map(path: str | Path) -> NavMap:
+    """A map_server map (PGM + YAML), e.g. one saved by `robotrial slam`."""
+    from robotrial.model.mapfile import read_map
+
+    m = read_map(path)
+    if abs(m.origin[2]) > 1e-9:
+        raise ValueError(f"map {path}: a rotated origin (yaw {m.origin[2]}) is not supported")
+    data = np.asarray(m.data)
+    return NavMap(data >= 65, data < 0, (m.origin[0], m.origin[1]), m.resolution, str(path))

@@ -8,6 +8,10 @@ finds them through search paths, in this order:
 2. the folders of the `ROS_PACKAGE_PATH` environment variable (colon separated),
 3. the folders above the description file.
 
+A resolver `confined` to a folder (a description someone uploaded) searches only inside
+it and refuses (ResourceRefused) what would leave it: absolute and `file://` paths,
+`~`, relative paths that climb out, packages found outside.
+
 In each search folder a package NAME is the folder itself, a sub-folder, or (up to
 `MAX_DEPTH` levels down) a descendant folder that is named NAME or holds a
 `package.xml` whose `<name>` is NAME. For the folders above the file only the folder
@@ -39,6 +43,15 @@ class ResourceNotFound(ModelError):
         self.searched = tuple(searched)
         where = "; ".join(self.searched) if self.searched else "nowhere"
         super().__init__(f"cannot find {uri!r} (searched: {where})")
+
+
+class ResourceRefused(ModelError):
+    """A reference a confined description may not follow; `reason` says why."""
+
+    def __init__(self, uri: str, reason: str) -> None:
+        self.uri = uri
+        self.reason = reason
+        super().__init__(f"{uri!r} refused: {reason}")
 
 
 @lru_cache(maxsize=4096)
@@ -89,6 +102,7 @@ class PackageResolver:
     base_dir: Path | None = None
     package_paths: tuple[Path, ...] = ()
     use_environment: bool = True
+    confined: Path | None = None
     _cache: dict[str, list[Path]] = field(default_factory=dict, compare=False, repr=False)
 
     @staticmethod
@@ -96,10 +110,23 @@ class PackageResolver:
         base_dir: str | Path | None,
         package_paths: Sequence[str | Path] = (),
         use_environment: bool = True,
+        confined: str | Path | None = None,
     ) -> PackageResolver:
+        """`confined`: the folder everything must stay in (no environment is read)."""
         base = Path(base_dir).resolve() if base_dir is not None else None
         paths = tuple(Path(p).expanduser().resolve() for p in package_paths)
-        return PackageResolver(base, paths, use_environment)
+        if confined is None:
+            return PackageResolver(base, paths, use_environment)
+        root = Path(confined).resolve()
+        return PackageResolver(base, paths, False, root)
+
+    def within(self, path: Path) -> bool:
+        """Whether `path` (links followed) stays inside the confining folder (always
+        True when not confined)."""
+        if self.confined is None:
+            return True
+        real = path.resolve()
+        return real == self.confined or self.confined in real.parents
 
     def search_roots(self) -> list[tuple[Path, int]]:
         """(folder, depth) pairs searched for packages, in order."""
@@ -108,7 +135,7 @@ class PackageResolver:
             roots += [(p, MAX_DEPTH) for p in _env_package_paths()]
         if self.base_dir is not None:
             roots += [(a, 1) for a in (self.base_dir, *self.base_dir.parents)]
-        return roots
+        return [(r, d) for r, d in roots if self.within(r)]
 
     def package_candidates(self, name: str) -> list[Path]:
         """Folders that are package `name`, best first."""
@@ -136,6 +163,8 @@ class PackageResolver:
             for pkg in candidates:
                 path = pkg / unquote(sub)
                 if path.is_file():
+                    if not self.within(path):
+                        raise ResourceRefused(uri, "it leads outside the uploaded files")
                     return path.resolve()
             searched = [str(p / sub) for p in candidates]
             if not candidates:
@@ -143,6 +172,8 @@ class PackageResolver:
                     f"package {name!r} not found in {root}" for root, _ in self.search_roots()
                 ]
             raise ResourceNotFound(uri, searched)
+        if self.confined is not None:
+            return self._resolve_confined(uri)
         if uri.startswith("file://"):
             path = Path(unquote(uri[len("file://") :]))
             if not path.is_absolute() and self.base_dir is not None:
@@ -159,6 +190,25 @@ class PackageResolver:
             return path.resolve()
         raise ResourceNotFound(uri, [str(path)])
 
+    def _resolve_confined(self, uri: str) -> Path:
+        """A relative path inside the confining folder, or ResourceRefused."""
+        if uri.startswith("file://") or "://" in uri:
+            raise ResourceRefused(
+                uri,
+                "uploaded descriptions may name files only as "
+                "package://NAME/path or a path relative to the file",
+            )
+        if uri.startswith(("/", "~", "\\")) or re.match(r"^[A-Za-z]:", uri):
+            raise ResourceRefused(uri, "absolute paths are not allowed in uploaded descriptions")
+        if self.base_dir is None:
+            raise ResourceNotFound(uri, ["(relative path with no base folder)"])
+        path = self.base_dir / unquote(uri)
+        if not self.within(path):
+            raise ResourceRefused(uri, "the path leads outside the uploaded files")
+        if path.is_file():
+            return path.resolve()
+        raise ResourceNotFound(uri, [str(path.relative_to(self.base_dir))])
+
 
 def resolve_uri(
     uri: str, base_dir: str | Path | None = None, package_paths: Sequence[str | Path] = ()
@@ -167,4 +217,4 @@ def resolve_uri(
     return PackageResolver.create(base_dir, package_paths).resolve(uri)
 
 
-__all__ = ["PackageResolver", "ResourceNotFound", "resolve_uri"]
+__all__ = ["PackageResolver", "ResourceNotFound", "ResourceRefused", "resolve_uri"]

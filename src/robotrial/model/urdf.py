@@ -1,6 +1,6 @@
 """URDF and xacro in: a description file becomes a RobotModel.
 
-Layer 1. xacro files are expanded with the `xacro` package, then the XML is parsed with
+Layer 1. xacro files are expanded first (model/xacro.py), then the XML is parsed with
 lxml so every error can name the file, the element and its line. Every URDF field that
 RobotModel holds is mapped, plus the `<robotrial>` element (tcp, groups, gripper,
 drive, sensors, planner spheres; see docs/urdf.md).
@@ -12,14 +12,11 @@ Real-world files are messy. What is safe to fix is fixed, recorded in
 
 from __future__ import annotations
 
-import io
 import math
 import re
 import sys
-import threading
 import warnings
 from collections.abc import Mapping, Sequence
-from contextlib import contextmanager, redirect_stderr
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -29,7 +26,7 @@ from lxml import etree
 
 from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere, transform_points
 from robotrial.model.meshes import mesh_bounds, mesh_format_supported
-from robotrial.model.packages import PackageResolver, ResourceNotFound
+from robotrial.model.packages import PackageResolver, ResourceNotFound, ResourceRefused
 from robotrial.model.robot import (
     JOINT_TYPES,
     SENSOR_TYPES,
@@ -47,9 +44,14 @@ from robotrial.model.robot import (
     Sensor,
     Visual,
 )
+from robotrial.model.xacro import (
+    XACRO_NS,
+    XACRO_SUFFIXES,
+    default_optenv,
+    expand_xacro,
+    expand_xacro_text,
+)
 
-XACRO_SUFFIXES = (".xacro",)
-XACRO_NS = "http://www.ros.org/wiki/xacro"
 DEFAULT_RGBA = (0.7, 0.7, 0.7, 1.0)
 # density used to give a mass to a moving link that has none: a tenth of water's
 REPAIR_DENSITY = 100.0  # kg/m^3
@@ -58,8 +60,6 @@ REPAIR_MASS_MAX = 1.0  # kg
 REPAIR_MIN_EXTENT = 0.01  # m, the smallest bounding box side used for a repair inertia
 INERTIA_FLOOR = 1e-12  # kg m^2, the smallest principal moment kept
 SHAPE_MIN = 1e-4  # m, what a zero box side / radius / length is repaired to
-
-_xacro_lock = threading.Lock()
 
 
 class URDFRepairWarning(UserWarning):
@@ -81,23 +81,28 @@ def load_urdf(
     path: str | Path,
     package_paths: Sequence[str | Path] = (),
     xacro_args: Mapping[str, str] | None = None,
+    confined: Path | None = None,
 ) -> RobotModel:
     """A RobotModel from a `.urdf` file or a `.xacro` / `.urdf.xacro` file.
 
     `package_paths` are searched first for `package://` URIs (then ROS_PACKAGE_PATH and
     the folders above the file); `xacro_args` are the `name:=value` arguments of xacro.
+    `confined`: the folder the description and every file it names must stay in (an
+    upload: see model/xacro.py and model/packages.py).
     """
     p = Path(path)
     if not p.is_file():
         raise ModelError(f"{p}: {'not a file' if p.exists() else 'no such file'}")
     if p.suffix.lower() in XACRO_SUFFIXES:
-        text = expand_xacro(p, package_paths, xacro_args)
-        return urdf_from_string(text, str(p), p.parent, package_paths, expanded_from_xacro=True)
+        text = expand_xacro(p, package_paths, xacro_args, confined)
+        return urdf_from_string(
+            text, str(p), p.parent, package_paths, expanded_from_xacro=True, confined=confined
+        )
     try:
         data = p.read_bytes()
     except OSError as exc:
         raise ModelError(f"{p}: cannot read: {exc.strerror or exc}") from exc
-    return urdf_from_string(data, str(p), p.parent, package_paths)
+    return urdf_from_string(data, str(p), p.parent, package_paths, confined=confined)
 
 
 def urdf_from_string(
@@ -106,6 +111,7 @@ def urdf_from_string(
     base_dir: str | Path | None = None,
     package_paths: Sequence[str | Path] = (),
     expanded_from_xacro: bool = False,
+    confined: Path | None = None,
 ) -> RobotModel:
     """A RobotModel from URDF text; `source` names it in messages, `base_dir` anchors
     relative paths and the package search (default: the folder of `source` if it is a
@@ -113,101 +119,28 @@ def urdf_from_string(
     if base_dir is None:
         sp = Path(source)
         base_dir = sp.parent if sp.is_file() else Path.cwd()
-    root = _parse_xml(text, source)
+    slips: list[str] = []
+    root = _parse_xml(text, source, slips)
+    leftovers: list[str] = []
+    raw_text = text if isinstance(text, str) else text.decode("utf-8", "replace")
+    if not expanded_from_xacro and not _needs_xacro(root) and "$(optenv" in raw_text:
+        text, leftovers = default_optenv(raw_text)
+        root = _parse_xml(text.encode("utf-8"), source, [])
     if not expanded_from_xacro and _needs_xacro(root):
         raw = text if isinstance(text, bytes) else text.encode("utf-8")
-        expanded = _expand_xacro_text(raw, source, Path(base_dir), package_paths)
-        reader = _Reader(source, Path(base_dir), package_paths, expanded=True)
+        expanded = expand_xacro_text(raw, source, Path(base_dir), package_paths, confined)
+        reader = _Reader(source, Path(base_dir), package_paths, True, confined)
         reader.repair(f"{source} uses xacro macros or properties; it was expanded with xacro")
         return reader.read(_parse_xml(expanded, source))
-    reader = _Reader(source, Path(base_dir), package_paths, expanded=expanded_from_xacro)
+    reader = _Reader(source, Path(base_dir), package_paths, expanded_from_xacro, confined)
+    for slip in slips:
+        reader.repair(slip)
+    for name in leftovers:
+        reader.repair(f"{source}: $(optenv {name} ...) was never expanded; its default is used")
     return reader.read(root)
 
 
-def expand_xacro(
-    path: str | Path,
-    package_paths: Sequence[str | Path] = (),
-    xacro_args: Mapping[str, str] | None = None,
-) -> str:
-    """The URDF text a xacro file expands to.
-
-    `$(find NAME)` resolves through the same search paths as `package://NAME`, so xacro
-    files work without a ROS install. ModelError (with xacro's message) if it fails.
-    """
-    import xacro
-
-    p = Path(path).resolve()
-    resolver = PackageResolver.create(p.parent, package_paths)
-    with _xacro_lock, _xacro_find(resolver):
-        try:
-            doc = xacro.process_file(str(p), mappings=dict(xacro_args or {}))
-        except Exception as exc:  # xacro raises XacroException, NameError, KeyError ...
-            raise ModelError(f"{p}: xacro expansion failed: {_xacro_message(exc)}") from exc
-    return doc.toxml()
-
-
-# --- xacro helpers -----------------------------------------------------------------------
-
-
-def _xacro_message(exc: Exception) -> str:
-    msg = str(exc).strip() or type(exc).__name__
-    if isinstance(exc, KeyError):
-        msg = f"undefined argument or key {msg} (pass it with xacro_args)"
-    return " ".join(msg.split())
-
-
-@contextmanager
-def _xacro_find(resolver: PackageResolver):
-    """Let xacro find packages through our search paths instead of a ROS install:
-    `$(find NAME)`, and `package://` / `file://` file names in `<xacro:include>`."""
-    import xacro
-    from xacro import substitution_args
-
-    def find(name: str) -> str:
-        candidates = resolver.package_candidates(name)
-        if not candidates:
-            searched = "; ".join(str(r) for r, _ in resolver.search_roots())
-            raise ModelError(f"$(find {name}): package not found (searched: {searched})")
-        return str(candidates[0])
-
-    original_find = substitution_args._eval_find
-    original_abs = xacro.abs_filename_spec
-
-    def abs_filename(spec: str) -> str:
-        if spec.startswith(("package://", "file://")):
-            return str(resolver.resolve(spec))
-        return original_abs(spec)
-
-    substitution_args._eval_find = find
-    xacro.abs_filename_spec = abs_filename
-    chatter = io.StringIO()
-    try:
-        with redirect_stderr(chatter):
-            yield
-    finally:
-        substitution_args._eval_find = original_find
-        xacro.abs_filename_spec = original_abs
-        text = " ".join(chatter.getvalue().split())
-        if text:
-            warnings.warn(f"xacro: {text}", UserWarning, stacklevel=4)
-
-
-def _expand_xacro_text(
-    data: bytes, source: str, base_dir: Path, package_paths: Sequence[str | Path]
-) -> str:
-    import xml.dom.minidom
-
-    import xacro
-
-    resolver = PackageResolver.create(base_dir, package_paths)
-    with _xacro_lock, _xacro_find(resolver):
-        try:
-            xacro.init_stacks(source)
-            doc = xml.dom.minidom.parseString(data)
-            xacro.process_doc(doc)
-        except Exception as exc:
-            raise ModelError(f"{source}: xacro expansion failed: {_xacro_message(exc)}") from exc
-    return doc.toxml()
+# --- xacro markup ----------------------------------------------------------------------
 
 
 def _needs_xacro(root: etree._Element) -> bool:
@@ -222,14 +155,48 @@ def _needs_xacro(root: etree._Element) -> bool:
 # --- XML helpers -------------------------------------------------------------------------
 
 
-def _parse_xml(text: str | bytes, source: str) -> etree._Element:
+_XML_DECL = re.compile(rb"<\?xml[^>]*?version\s*=\s*[\"']([^\"']*)[\"']")
+
+
+def _tolerated(data: bytes) -> tuple[bytes, list[str]]:
+    """`data` with the XML slips ROS's parser lets pass made good, and what was done:
+    text before the XML declaration, an XML version other than 1.0/1.1, anything after
+    the closing </robot>."""
+    done = []
+    start = data.find(b"<?xml")
+    if start > 0 and not data[:start].strip(b" \t\r\n\xef\xbb\xbf"):
+        data = data[start:]
+        done.append("blank lines before the XML declaration removed")
+    m = _XML_DECL.match(data)
+    if m and m.group(1) not in (b"1.0", b"1.1"):
+        data = data[: m.start(1)] + b"1.0" + data[m.end(1) :]
+        done.append(f"XML version {m.group(1).decode(errors='replace')!r} read as 1.0")
+    end = data.rfind(b"</robot>")
+    if end >= 0 and data[end + 8 :].strip(b" \t\r\n"):
+        data = data[: end + 8] + b"\n"
+        done.append("content after the closing </robot> ignored")
+    return data, done
+
+
+def _parse_xml(text: str | bytes, source: str, repairs: list[str] | None = None) -> etree._Element:
+    """The root <robot> element. With `repairs`, XML slips that ROS's parser accepts are
+    made good (see _tolerated) and described there; otherwise they are errors."""
     data = text.encode("utf-8") if isinstance(text, str) else text
     parser = etree.XMLParser(remove_comments=True, huge_tree=True, resolve_entities=False)
     try:
         root = etree.fromstring(data, parser)
     except etree.XMLSyntaxError as exc:
+        fixed, done = _tolerated(data) if repairs is not None else (data, [])
         line = exc.lineno if exc.lineno else "?"
-        raise ModelError(f"{source}:{line}: not well-formed XML: {exc.msg}") from exc
+        error = ModelError(f"{source}:{line}: not well-formed XML: {exc.msg}")
+        if not done:
+            raise error from exc
+        try:
+            root = etree.fromstring(fixed, parser)
+        except etree.XMLSyntaxError:
+            raise error from exc
+        assert repairs is not None
+        repairs.extend(f"{source}: {d} (as ROS's URDF parser does)" for d in done)
     if root is None or etree.QName(root).localname != "robot":
         tag = etree.QName(root).localname if root is not None else "nothing"
         raise ModelError(
@@ -259,10 +226,15 @@ class _Reader:
     """Reads one <robot> element; collects repairs; raises ModelError with locations."""
 
     def __init__(
-        self, source: str, base_dir: Path, package_paths: Sequence[str | Path], expanded: bool
+        self,
+        source: str,
+        base_dir: Path,
+        package_paths: Sequence[str | Path],
+        expanded: bool,
+        confined: Path | None = None,
     ) -> None:
         self.source = source
-        self.resolver = PackageResolver.create(base_dir, package_paths)
+        self.resolver = PackageResolver.create(base_dir, package_paths, confined=confined)
         self.expanded = expanded
         self.repairs: list[str] = []
         self.materials: dict[str, Material] = {}
@@ -500,6 +472,8 @@ class _Reader:
             if fn:
                 try:
                     tex = str(self.resolver.resolve(fn))
+                except ResourceRefused as exc:
+                    raise self.error(texture, f"texture of material {name!r}: {exc}") from None
                 except ResourceNotFound as exc:
                     self.repair(
                         f"material {name!r} of {owner}: texture {fn!r} not found, dropped ({exc})"
@@ -569,13 +543,14 @@ class _Reader:
         if g is None:
             raise self.error(el, f"{kind} {index} of link {link!r} has no <geometry>")
         shapes = [c for c in g if _tag(c)]
-        if len(shapes) != 1:
-            raise self.error(
-                g,
-                f"{kind} {index} of link {link!r}: <geometry> must hold exactly one shape, "
-                f"found {[_tag(c) for c in shapes]}",
-            )
+        if not shapes:
+            raise self.error(g, f"{kind} {index} of link {link!r}: <geometry> holds no shape")
         s = shapes[0]
+        if len(shapes) > 1:
+            self.repair(
+                f"{kind} {index} of link {link!r} (line {g.sourceline}): <geometry> holds "
+                f"{[_tag(c) for c in shapes]}; the first, <{_tag(s)}>, is used (as ROS does)"
+            )
         t = _tag(s)
         what = f"link {link!r} {kind} {index}"
         if t == "box":
@@ -623,6 +598,8 @@ class _Reader:
             path = self.resolver.resolve(fn)
             if not mesh_format_supported(path):
                 problem = f"format {path.suffix!r} cannot be read (file {path})"
+        except ResourceRefused as exc:
+            raise self.error(el, f"{what}: mesh {exc}") from None
         except ResourceNotFound as exc:
             problem = str(exc)
         if problem:

@@ -1,4 +1,4 @@
-"""The platform's ROS names (DESIGN.md) with their types, for nodes and the web client."""
+"""The platform's ROS names (docs/ros.md) with their types, for nodes and the web client."""
 
 from __future__ import annotations
 

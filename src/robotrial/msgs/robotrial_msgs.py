@@ -1,8 +1,10 @@
-"""robotrial_msgs: the platform's own types, Box and the PlanTask service (DESIGN.md)."""
+"""robotrial_msgs: the platform's own types, Box and the PlanTask service (docs/ros.md)."""
 
 from __future__ import annotations
 
-from robotrial.msgs.core import Message, bool_, float64, message, service, string
+from typing import Any, ClassVar
+
+from robotrial.msgs.core import Message, bool_, float64, int32, message, service, string
 from robotrial.msgs.geometry_msgs import Pose, Vector3
 from robotrial.msgs.sensor_msgs import JointState
 from robotrial.msgs.trajectory_msgs import JointTrajectory
@@ -31,16 +33,40 @@ class PlanTaskRequest(Message):
     planner: string
     time_limit: float64
 
+    @classmethod
+    def from_dict(cls, data: Any, path: str | None = None) -> Any:
+        """As any message, except that an `ee_goal` sent without `orientation` means a
+        position-only goal (all zeros), not the identity a ROS default would give."""
+        if isinstance(data, dict):
+            goal = data.get("ee_goal")
+            if goal is None or (isinstance(goal, dict) and "orientation" not in goal):
+                zero = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 0.0}
+                data = {**data, "ee_goal": {**(goal or {}), "orientation": zero}}
+        return super().from_dict(data, path)
+
 
 @message("robotrial_msgs/srv/PlanTask_Response")
 class PlanTaskResponse(Message):
-    """`message` says why when `success` is false; `planning_time` in seconds."""
+    """`message` says why when `success` is false, `error_code` the same as a number
+    (the constants below: MoveIt's MoveItErrorCodes numbers); `planning_time` in seconds;
+    `object_held`: the server's decision whether the request's object moves with the hand."""
+
+    SUCCESS: ClassVar[int32] = 1
+    PLANNING_FAILED: ClassVar[int32] = -1
+    INVALID_MOTION_PLAN: ClassVar[int32] = -2
+    TIMED_OUT: ClassVar[int32] = -6
+    START_STATE_IN_COLLISION: ClassVar[int32] = -10
+    GOAL_IN_COLLISION: ClassVar[int32] = -12
+    INVALID_GOAL_CONSTRAINTS: ClassVar[int32] = -16
+    NO_IK_SOLUTION: ClassVar[int32] = -31
 
     success: bool_
     message: string
     goal_joints: list[float64]
     trajectory: JointTrajectory
     planning_time: float64
+    error_code: int32
+    object_held: bool_
 
 
 PlanTask = service("robotrial_msgs/srv/PlanTask", PlanTaskRequest, PlanTaskResponse)

@@ -15,7 +15,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from robotrial.collision.exact import ExactChecker
-from robotrial.collision.model import CollisionChecker, Environment, RobotSpheres
+from robotrial.collision.sphere_model import CollisionChecker, Environment, RobotSpheres
 from robotrial.geometry import Box, Cylinder, Pose, Shape
 from robotrial.kinematics.chain import Kinematics
 from robotrial.kinematics.ik import solve_ik

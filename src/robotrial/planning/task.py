@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from robotrial.collision.exact import ExactChecker
-from robotrial.collision.model import (
+from robotrial.collision.sphere_model import (
     OBJECT,
     CollisionChecker,
     Environment,
@@ -42,6 +42,15 @@ from robotrial.planning.timing import Trajectory, time_parameterize
 
 DEFAULT_TIME_LIMIT = 2.0  # s
 HOLD_DISTANCE = 0.05  # m: an object this close to the tcp is in the hand
+# TaskResult.failure -> the response's error_code
+FAILURE_CODES = {
+    "bad_request": PlanTaskResponse.INVALID_GOAL_CONSTRAINTS,
+    "start_in_collision": PlanTaskResponse.START_STATE_IN_COLLISION,
+    "unreachable": PlanTaskResponse.NO_IK_SOLUTION,
+    "goal_in_collision": PlanTaskResponse.GOAL_IN_COLLISION,
+    "timeout": PlanTaskResponse.TIMED_OUT,
+    "invalid_path": PlanTaskResponse.INVALID_MOTION_PLAN,
+}
 DEFAULT_ACCEL_RATIO = 2.0  # joint acceleration limit = ratio x velocity limit, per second
 FLOOR_THICKNESS = 0.1  # m
 
@@ -188,7 +197,12 @@ class TaskPlanner:
         try:
             result = self._plan(request, seed, t0)
         except TaskError as exc:
-            result = TaskResult(PlanTaskResponse(success=False, message=str(exc)), "bad_request")
+            response = PlanTaskResponse(
+                success=False,
+                message=str(exc),
+                error_code=FAILURE_CODES["bad_request"],
+            )
+            result = TaskResult(response, "bad_request")
         result.response.planning_time = time.perf_counter() - t0
         result.stats["total_time"] = result.response.planning_time
         result.joint_names = self.joint_names
@@ -228,7 +242,8 @@ class TaskPlanner:
         for name, shape, pose in obstacles:
             env.add(name, shape, pose)
         checker = CollisionChecker(self.spheres, env, self.padding, held, held_touch_at=start)
-        result = TaskResult(PlanTaskResponse(), stats=stats, start=start, checker=checker)
+        response = PlanTaskResponse(object_held=held is not None)
+        result = TaskResult(response, stats=stats, start=start, checker=checker)
 
         if not checker.valid(start[None])[0]:
             touching = sorted(checker.contacts(start))
@@ -337,6 +352,8 @@ class TaskPlanner:
             ),
             goal_joints=[float(v) for v in traj.q[-1]],
             trajectory=to_joint_trajectory(self.joint_names, traj),
+            error_code=PlanTaskResponse.SUCCESS,
+            object_held=held is not None,
         )
         return result
 
@@ -360,7 +377,10 @@ class TaskPlanner:
 
     def _fail(self, result: TaskResult, failure: str, message: str) -> TaskResult:
         result.failure = failure
-        result.response = PlanTaskResponse(success=False, message=message)
+        held = result.response.object_held
+        result.response = PlanTaskResponse(
+            success=False, message=message, error_code=FAILURE_CODES[failure], object_held=held
+        )
         return result
 
 

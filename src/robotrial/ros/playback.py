@@ -17,7 +17,7 @@ from rosbags.rosbag1 import Reader as Bag1Reader
 from robotrial.msgs import Message
 from robotrial.ros.bus import Bus
 from robotrial.ros.recorder import deserialize, format_of
-from robotrial.sim.world import Pacer
+from robotrial.sim.scene import Pacer
 
 
 def read_recording(

@@ -5,11 +5,16 @@
 and records what they carry (like `ros2 bag record`). Serialization goes through the
 `rosbags` type stores (ROS 2 Humble CDR, ROS 1 Noetic); the MCAP schemas are the full
 `.msg` definitions of robotrial.msgs, in the `ros2msg` encoding that ROS 2 tools write,
-and its chunks are LZ4-compressed (quick to write; Foxglove and Lichtblick read them).
+and its chunks are compressed (LZ4 by default: quick to write; zstd: smaller; both as
+rosbag2 and the MCAP tools write them, and Foxglove and Lichtblick read them).
+
+`recover_mcap` rescues a recording cut short (the process killed): every message of the
+complete chunks goes into a new, indexed file that seeking readers open.
 """
 
 from __future__ import annotations
 
+import struct
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -28,6 +33,11 @@ from robotrial.msgs.names import LATCHED_TOPICS
 from robotrial.ros.bus import Bus, Node
 
 FORMATS = ("mcap", "bag")
+COMPRESSIONS = {
+    "lz4": CompressionType.LZ4,
+    "zstd": CompressionType.ZSTD,
+    "none": CompressionType.NONE,
+}
 _STORES: dict[str, Any] = {}
 _STORE_LOCK = threading.Lock()
 _READY: set[tuple[int, str]] = set()
@@ -219,12 +229,13 @@ def message_stamp(msg: Message) -> float | None:
 
 class Recorder:
     """Writes messages to `path` (.mcap or .bag). Use as a context manager or `close()`.
+    `compression`: lz4, zstd or none (a .bag takes lz4 or none).
 
     `write(topic, msg, stamp)`: `stamp` (s) is the log time; without it the message's
     header stamp, else the last time written. A topic keeps the type of its first message.
     """
 
-    def __init__(self, path: str | Path, compression: bool = True) -> None:
+    def __init__(self, path: str | Path, compression: str = "lz4") -> None:
         self.path = Path(path)
         self.format = format_of(self.path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -234,19 +245,19 @@ class Recorder:
         self._last = 0.0
         self._lock = threading.Lock()
         self._closed = False
+        if compression not in COMPRESSIONS or (self.format == "bag" and compression == "zstd"):
+            choices = "lz4 or none" if self.format == "bag" else ", ".join(COMPRESSIONS)
+            raise ValueError(f"{self.path}: compression {compression!r}; choose {choices}")
         if self.format == "mcap":
             self._file = open(self.path, "wb")
-            self._mcap = McapWriter(
-                self._file,
-                compression=CompressionType.LZ4 if compression else CompressionType.NONE,
-            )
+            self._mcap = McapWriter(self._file, compression=COMPRESSIONS[compression])
             self._mcap.start(profile="ros2", library="robotrial")
             self._schemas: dict[str, int] = {}
         else:
             if self.path.exists():
                 self.path.unlink()
             self._bag = Bag1Writer(self.path)
-            if compression:
+            if compression == "lz4":
                 self._bag.set_compression(Bag1Writer.CompressionFormat.LZ4)
             self._bag.open()
 
@@ -328,3 +339,49 @@ class BusRecorder(Node):
     def _on(self, topic: str, msg: Any) -> None:
         if isinstance(msg, Message):
             self.recorder.write(topic, msg)
+
+
+def recover_mcap(path: str | Path, out: str | Path) -> dict[str, int]:
+    """Copy every readable message of an MCAP file cut short (no summary, a torn last
+    chunk) into a complete, indexed file `out`; the messages per topic recovered."""
+    from mcap.exceptions import McapError
+    from mcap.records import Channel, DataEnd, Footer, Message, Schema
+    from mcap.stream_reader import StreamReader
+
+    src, dst = Path(path), Path(out)
+    if src.resolve() == dst.resolve():
+        raise ValueError(f"{src}: write the recovered recording to another file")
+    counts: dict[str, int] = {}
+    schemas: dict[int, int] = {}
+    channels: dict[int, tuple[int, str]] = {}
+    with open(src, "rb") as f, open(dst, "wb") as g:
+        writer = McapWriter(g, compression=CompressionType.LZ4)
+        writer.start(profile="ros2", library="robotrial recover")
+        try:
+            for record in StreamReader(f, skip_magic=False, emit_chunks=False).records:
+                if isinstance(record, Schema):
+                    schemas[record.id] = writer.register_schema(
+                        record.name, record.encoding, record.data
+                    )
+                elif isinstance(record, Channel):
+                    channels[record.id] = (
+                        writer.register_channel(
+                            record.topic,
+                            record.message_encoding,
+                            schemas.get(record.schema_id, 0),
+                            record.metadata,
+                        ),
+                        record.topic,
+                    )
+                elif isinstance(record, Message) and record.channel_id in channels:
+                    cid, topic = channels[record.channel_id]
+                    writer.add_message(
+                        cid, record.log_time, record.data, record.publish_time, record.sequence
+                    )
+                    counts[topic] = counts.get(topic, 0) + 1
+                elif isinstance(record, DataEnd | Footer):
+                    break
+        except (McapError, EOFError, ValueError, struct.error):
+            pass  # the torn end of the file: what came before it is kept
+        writer.finish()
+    return counts

@@ -1,6 +1,6 @@
 """The simulator on the bus: publishes what a Gazebo + ROS robot publishes (layer 4).
 
-`SimNode` wraps a `robotrial.sim.Simulation`. Topics (DESIGN.md's ROS names, plus the
+`SimNode` wraps a `robotrial.sim.Simulation`. Topics (the ROS names of docs/ros.md, plus the
 sensor topics a Gazebo robot has):
 
 | topic | type | from |
@@ -59,11 +59,11 @@ from robotrial.ros.bus import Bus, Node
 from robotrial.sim.controllers import JointReference
 from robotrial.sim.lidar import Scan
 from robotrial.sim.odometry import wrap_angle
+from robotrial.sim.scene import Pacer
 from robotrial.sim.sensors import ImageReading, ImuReading, JointStateReading, OdometryReading
 from robotrial.sim.simulation import Reading, Simulation
 from robotrial.sim.tf import Transform as SimTransform
 from robotrial.sim.tf import planar_transform
-from robotrial.sim.world import Pacer
 
 GROUND_TRUTH = "/ground_truth"
 log = logging.getLogger(__name__)

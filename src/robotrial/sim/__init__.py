@@ -21,8 +21,8 @@ from robotrial.sim.lidar import (
     laserscan_from_points,
 )
 from robotrial.sim.odometry import OdometryNoise, WheelOdometry
+from robotrial.sim.scene import Pacer, SimWorld
 from robotrial.sim.simulation import Reading, SimOptions, Simulation, StreamSettings
-from robotrial.sim.world import Pacer, SimWorld
 
 __all__ = [
     "BaseController",

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from robotrial.gl import INSTALL_HINT
 from robotrial.sim.build import RAY_GROUP
 from robotrial.sim.controllers import joint_dof
 
@@ -113,6 +114,10 @@ class Imu:
         return ImuReading(stamp, self.frame, np.roll(q, -1), gyro, lin)
 
 
+class CameraUnavailable(ValueError):
+    """A camera is switched on but no offscreen OpenGL can render it."""
+
+
 class Camera:
     """An RGB or depth camera rendering a named MuJoCo <camera> offscreen.
 
@@ -150,7 +155,10 @@ class Camera:
         self.fast = fast
         if fast:
             model.vis.quality.offsamples = 0
-        self.renderer = mujoco.Renderer(model, height=int(height), width=int(width))
+        try:
+            self.renderer = mujoco.Renderer(model, height=int(height), width=int(width))
+        except Exception as exc:  # no GL library, no display: MuJoCo raises several kinds
+            raise CameraUnavailable(f"camera {camera!r}: {INSTALL_HINT} ({exc})") from None
         self.scene_option = mujoco.MjvOption()
         self.scene_option.geomgroup[RAY_GROUP] = 1
         if depth:

@@ -38,9 +38,9 @@ from robotrial.sim.controllers import (
 )
 from robotrial.sim.lidar import Lidar, LidarPattern, RayScene, ScanConfig
 from robotrial.sim.odometry import OdometryNoise, WheelOdometry
+from robotrial.sim.scene import SimWorld
 from robotrial.sim.sensors import Camera, Imu, JointStates, OdometryReading, depth_to_points
 from robotrial.sim.tf import TfTree, chain_to_root
-from robotrial.sim.world import SimWorld
 
 DEFAULT_RATES = {"odom": 50.0, "ground_truth": 50.0, "joint_states": 50.0}
 SCAN_ABOVE_FLOOR = 0.1

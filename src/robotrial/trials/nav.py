@@ -27,7 +27,7 @@ import numpy as np
 
 from robotrial.geometry import Pose
 from robotrial.model import load_robot, load_world
-from robotrial.model.gridmap import world_occupancy
+from robotrial.model.gridmap import NavMap, file_map, world_map
 from robotrial.model.world import World
 from robotrial.nav.amcl import AMCL, AMCLConfig, compose
 from robotrial.nav.costmap import Footprint
@@ -36,6 +36,7 @@ from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
 from robotrial.nav.planners import path_length, shortest_path
 from robotrial.sim import SimOptions, Simulation, StreamSettings
 from robotrial.sim.controllers import DriveLimits
+from robotrial.sim.footprint import base_extent
 
 PAPER_TABLE1 = {
     "room_a": {
@@ -60,35 +61,6 @@ PAPER_TABLE1 = {
         "max_time": 116.0,
     },
 }
-
-
-@dataclass(frozen=True)
-class NavMap:
-    """The map the robot navigates and localizes on: occupied and unknown cells (rows =
-    y), the origin (x, y) of cell (0, 0)'s corner and the resolution (m)."""
-
-    occupied: np.ndarray
-    unknown: np.ndarray
-    origin: tuple[float, float]
-    resolution: float
-    source: str
-
-
-def world_map(world: World, resolution: float = 0.05) -> NavMap:
-    """The ground-truth grid of a world, cut at the scan's height band."""
-    g = world_occupancy(world, resolution, z_band=(0.05, 1.5))
-    return NavMap(g.occupied, np.zeros_like(g.occupied), g.origin, g.resolution, "ground truth")
-
-
-def file_map(path: str | Path) -> NavMap:
-    """A map_server map (PGM + YAML), e.g. one saved by `robotrial slam`."""
-    from robotrial.model.mapfile import read_map
-
-    m = read_map(path)
-    if abs(m.origin[2]) > 1e-9:
-        raise ValueError(f"map {path}: a rotated origin (yaw {m.origin[2]}) is not supported")
-    data = np.asarray(m.data)
-    return NavMap(data >= 65, data < 0, (m.origin[0], m.origin[1]), m.resolution, str(path))
 
 
 @dataclass(frozen=True)
@@ -158,28 +130,8 @@ class RunResult:
 
 
 def footprint_of(sim: Simulation) -> Footprint:
-    """The robot's footprint: the box around its collision geoms in the base frame
-    (symmetric about the base origin, as the planners assume)."""
-    m, d = sim.world.model, sim.world.data
-    base = sim.world.body_pose(sim.world.base_body)
-    inv = np.linalg.inv(base)
-    lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
-    for g in range(m.ngeom):
-        if m.geom_bodyid[g] == 0 or m.geom_contype[g] == 0 or _is_env_body(m, m.geom_bodyid[g]):
-            continue
-        rot = d.geom_xmat[g].reshape(3, 3)
-        c, half = m.geom_aabb[g][:3], m.geom_aabb[g][3:]
-        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-        pts = d.geom_xpos[g] + (c + corners * half) @ rot.T
-        local = (pts - base[:3, 3]) @ inv[:3, :3].T
-        lo = np.minimum(lo, local[:, :2].min(axis=0))
-        hi = np.maximum(hi, local[:, :2].max(axis=0))
-    if not np.all(np.isfinite(lo)):
-        raise ValueError(
-            f"robot {sim.robot.name!r} has no collision geometry to take a footprint from"
-        )
-    half = np.maximum(np.abs(lo), np.abs(hi))
-    return Footprint(2 * float(half[0]), 2 * float(half[1]))
+    """The robot's footprint (sim/footprint.py) as the costmaps take it."""
+    return Footprint(*base_extent(sim))
 
 
 def footprint_of_robot(robot: str, world: World | str = "room_a") -> Footprint:
@@ -189,11 +141,6 @@ def footprint_of_robot(robot: str, world: World | str = "room_a") -> Footprint:
         return footprint_of(sim)
     finally:
         sim.close()
-
-
-def _is_env_body(m: mujoco.MjModel, body: int) -> bool:
-    name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(body)) or ""
-    return name.startswith("object/")
 
 
 class ContactWatch:

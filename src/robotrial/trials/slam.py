@@ -35,6 +35,7 @@ from robotrial.sim.lidar import ScanConfig
 from robotrial.slam.gmapping import GMappingSlam, OdometryRequired
 from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.hector import HectorSlam
+from robotrial.slam.metrics import ate, cell_centres, room_dimensions, rpe
 from robotrial.slam.params import GMappingParams, HectorParams
 from robotrial.slam.scan import beams, relative, wrap
 
@@ -465,54 +466,6 @@ def plot_map(run: SlamRun, rec: Recording, world: World | None, png: Path) -> No
 # --- trajectory metrics ------------------------------------------------------------------
 
 
-def umeyama_2d(est: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rotation (2x2) and translation that best map `est` (N, 2) onto `ref` (least
-    squares, no scale)."""
-    me, mr = est.mean(axis=0), ref.mean(axis=0)
-    cov = (ref - mr).T @ (est - me) / est.shape[0]
-    u, _, vt = np.linalg.svd(cov)
-    s = np.eye(2)
-    if np.linalg.det(u) * np.linalg.det(vt) < 0:
-        s[1, 1] = -1
-    rot = u @ s @ vt
-    return rot, mr - rot @ me
-
-
-def ate(est: np.ndarray, ref: np.ndarray, align: bool = True) -> dict[str, float]:
-    """Absolute trajectory error of positions (est, ref: (N, 3) x, y, yaw at the same
-    stamps): RMSE, mean, max (m), after the best rigid alignment if `align`."""
-    p = est[:, :2]
-    if align and len(p) >= 2:
-        rot, t = umeyama_2d(p, ref[:, :2])
-        p = p @ rot.T + t
-    err = np.linalg.norm(p - ref[:, :2], axis=1)
-    return {
-        "rmse": float(np.sqrt(np.mean(err**2))),
-        "mean": float(err.mean()),
-        "max": float(err.max()),
-    }
-
-
-def rpe(est: np.ndarray, ref: np.ndarray, delta: int = 1) -> dict[str, float]:
-    """Relative pose error: RMSE and max of the translation (m) and rotation (rad) error
-    of each relative motion over `delta` frames."""
-    if len(est) <= delta:
-        return {"rmse": 0.0, "max": 0.0, "rot_rmse": 0.0}
-    t_err, r_err = [], []
-    for i in range(len(est) - delta):
-        de = relative(est[i], est[i + delta])
-        dr = relative(ref[i], ref[i + delta])
-        e = relative(dr, de)
-        t_err.append(np.hypot(e[0], e[1]))
-        r_err.append(abs(e[2]))
-    t = np.asarray(t_err)
-    return {
-        "rmse": float(np.sqrt(np.mean(t**2))),
-        "max": float(t.max()),
-        "rot_rmse": float(np.sqrt(np.mean(np.square(r_err)))),
-    }
-
-
 def true_poses(rec: Recording, stamps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """True poses at `stamps` in the map frame (relative to the true pose at the first
     scan), and a mask of the stamps the ground truth covers."""
@@ -531,14 +484,6 @@ def true_poses(rec: Recording, stamps: np.ndarray) -> tuple[np.ndarray, np.ndarr
 # --- map metrics -------------------------------------------------------------------------
 
 
-def _cell_centres(grid: LogOddsGrid, mask: np.ndarray) -> np.ndarray:
-    rows, cols = np.nonzero(mask)
-    res = grid.resolution
-    return np.stack(
-        [grid.origin[0] + (cols + 0.5) * res, grid.origin[1] + (rows + 0.5) * res], axis=1
-    )
-
-
 def map_accuracy(
     grid: LogOddsGrid, map_in_world: np.ndarray, world: World, laser_height: float
 ) -> dict[str, float]:
@@ -553,7 +498,7 @@ def map_accuracy(
     near_truth = ndimage.binary_dilation(truth, np.ones((3, 3), bool))
     pose = np.asarray(map_in_world, dtype=np.float64)
     spawn_xy = (float(pose[0]), float(pose[1]))
-    pts = _cell_centres(grid, occ)
+    pts = cell_centres(grid, occ)
     world_pts = np.empty_like(pts)
     c, s = np.cos(pose[2]), np.sin(pose[2])
     world_pts[:, 0] = pose[0] + c * pts[:, 0] - s * pts[:, 1]
@@ -592,58 +537,6 @@ def map_accuracy(
         "occupied_cells": len(pts),
         "surface_cells": len(sx),
     }
-
-
-def room_dimensions(grid: LogOddsGrid) -> tuple[float, float, float]:
-    """(width along the room's x, depth along its y, yaw of the room's axes in the map)
-    measured on the map alone: the room's axes are the rotation that makes occupied
-    cells line up best; each wall's inner face is the mean position of the occupied cells in
-    the outermost dense row of cells on its side and in the rows within two cells of it
-    that hold at least a quarter as many."""
-    pts = _cell_centres(grid, grid.ros_values() == 100)
-    if len(pts) < 20:
-        raise ValueError("the map has too few occupied cells to measure a room")
-    pts = pts - pts.mean(axis=0)
-
-    def sharpness(a: float) -> float:
-        c, s = np.cos(a), np.sin(a)
-        x = c * pts[:, 0] + s * pts[:, 1]
-        y = -s * pts[:, 0] + c * pts[:, 1]
-        hx = np.bincount(np.floor((x - x.min()) / 0.02).astype(int))
-        hy = np.bincount(np.floor((y - y.min()) / 0.02).astype(int))
-        return float(np.sum(hx.astype(float) ** 2) + np.sum(hy.astype(float) ** 2))
-
-    angles = np.deg2rad(np.arange(-45.0, 45.0, 0.5))
-    best = angles[int(np.argmax([sharpness(a) for a in angles]))]
-    fine = best + np.deg2rad(np.arange(-0.5, 0.5001, 0.02))
-    best = float(fine[int(np.argmax([sharpness(a) for a in fine]))])
-    c, s = np.cos(best), np.sin(best)
-    x = c * pts[:, 0] + s * pts[:, 1]
-    y = -s * pts[:, 0] + c * pts[:, 1]
-    res = grid.resolution
-    return _extent(x, y, res), _extent(y, x, res), best
-
-
-def _extent(u: np.ndarray, v: np.ndarray, res: float) -> float:
-    """Distance between the two outermost walls across u (walls run along v)."""
-    edges = np.arange(u.min() - res, u.max() + 2 * res, res)
-    hist, _ = np.histogram(u, edges)
-    span = max(1.0, float(v.max() - v.min()))
-    # A wall is a column of cells holding at least a third of the room's length.
-    dense = np.nonzero(hist * res >= span / 3)[0]
-    if len(dense) < 2:
-        raise ValueError("could not find two opposite walls on the map")
-    faces = []
-    bins = np.clip(np.digitize(u, edges) - 1, 0, len(hist) - 1)
-    for k in (dense[0], dense[-1]):
-        # A wall blurred over neighbouring rows (small pose errors) counts as its middle;
-        # rows holding only a few cells (the ends of the walls across it) do not count.
-        near = np.arange(max(0, k - 2), min(len(hist), k + 3))
-        strong = near[hist[near] >= 0.25 * hist[k]]
-        faces.append(float(u[np.isin(bins, strong)].mean()))
-    if faces[1] - faces[0] < 1.0:
-        raise ValueError("could not find two opposite walls on the map (only one side)")
-    return faces[1] - faces[0]
 
 
 def score(

@@ -35,10 +35,18 @@ type Call<N extends ServiceName> = ServiceTypes[(typeof SERVICES)[N]];
 const FIRST_RETRY_MS = 500;
 const LONGEST_RETRY_MS = 10_000;
 
-/** The WebSocket URL of a rosbridge path on the server that sent the page. */
+/** The token the page was opened with (`?token=`), for a server started with one. */
+export function pageToken(): string | null {
+  return new URLSearchParams(location.search).get("token");
+}
+
+/** The WebSocket URL of a rosbridge path on the server that sent the page (with the
+ * page's token, if it has one). */
 export function sameOriginUrl(path: string): string {
   const scheme = location.protocol === "https:" ? "wss:" : "ws:";
-  return `${scheme}//${location.host}${path}`;
+  const token = pageToken();
+  const query = token ? `?token=${encodeURIComponent(token)}` : "";
+  return `${scheme}//${location.host}${path}${query}`;
 }
 
 /** Check a rosbridge URL typed by a user; the URL, or an error saying what is wrong. */

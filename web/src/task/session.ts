@@ -4,7 +4,7 @@
 // editing. Also the scene file, and the plot of the hand's path.
 
 import { Matrix4, Quaternion, Vector3 } from "three";
-import type { JointTrajectory, PlanTaskResponse } from "../generated/msgs";
+import { type JointTrajectory, PlanTaskResponse } from "../generated/msgs";
 import { JointReference, JointTracker } from "../physics/controller";
 import { fetchMjcf, type MjcfBundle, mujoco, PhysicsWorld } from "../physics/world";
 import type { Robot } from "../robot";
@@ -275,9 +275,11 @@ export class TaskSession {
       };
       this.phase = "set";
       this.showPhase();
-      this.say(`The planner says no: ${plainReason(response.message)}`, "error");
+      this.say(`The planner says no: ${plainReason(response)}`, "error");
       return;
     }
+    // Whether the object moves with the hand is the server's call, made once.
+    this.held = response.object_held;
     this.planner = {
       status: "planned",
       message: response.message,
@@ -695,25 +697,25 @@ function summary(r: RunResult): [string, MessageKind] {
   return [text, reached && r.contacts.length === 0 ? "ok" : "error"];
 }
 
-/** The planner's reason, said plainly for the common cases, with its details. */
-function plainReason(message: string): string {
-  const plain: Array<[string, string]> = [
-    ["goal out of reach", "the goal is out of the arm's reach"],
-    ["start in collision", "the robot starts out touching something"],
-    ["goal in collision", "the hand cannot be at the goal without touching something"],
-    ["no path found", "no way around the obstacles was found in time"],
-  ];
-  for (const [prefix, said] of plain) {
-    if (!message.startsWith(prefix)) continue;
-    const detail = message
-      .slice(prefix.length)
-      .replace(/^[:\s]+/, "")
-      .replace(/\.$/, "");
-    if (!detail) return `${said}.`;
-    const shown = prefix === "no path found" ? message : detail;
-    return `${said}. ${shown.charAt(0).toUpperCase()}${shown.slice(1)}.`;
-  }
-  return message || "no reason given.";
+/** The planner's reason, said plainly from its error code, with the message's details. */
+function plainReason(response: PlanTaskResponse): string {
+  const plain: Record<number, string> = {
+    [PlanTaskResponse.NO_IK_SOLUTION]: "the goal is out of the arm's reach",
+    [PlanTaskResponse.START_STATE_IN_COLLISION]: "the robot starts out touching something",
+    [PlanTaskResponse.GOAL_IN_COLLISION]:
+      "the hand cannot be at the goal without touching something",
+    [PlanTaskResponse.TIMED_OUT]: "no way around the obstacles was found in time",
+    [PlanTaskResponse.INVALID_MOTION_PLAN]: "no path the robot can follow safely was found",
+    [PlanTaskResponse.INVALID_GOAL_CONSTRAINTS]: "the request is not one the planner can take",
+  };
+  const message = response.message;
+  const said = plain[response.error_code];
+  if (!said) return message || "no reason given.";
+  // The message is "<what>: <details>"; the details say which link, how far, how long.
+  const colon = message.indexOf(":");
+  const detail = (colon >= 0 ? message.slice(colon + 1) : message).trim().replace(/\.$/, "");
+  if (!detail) return `${said}.`;
+  return `${said}. ${detail.charAt(0).toUpperCase()}${detail.slice(1)}.`;
 }
 
 function errorText(err: unknown): string {

@@ -4,6 +4,7 @@
 
 import { errorText, type RobotEntry } from "../api";
 import "./upload.css";
+import { pageToken } from "../ros/connection";
 import { el } from "../ui/dom";
 
 export const UPLOAD_URL = "/api/robots/upload";
@@ -22,7 +23,9 @@ export async function uploadRobot(file: File): Promise<UploadAnswer> {
   form.append("file", file, file.name);
   let response: Response;
   try {
-    response = await fetch(UPLOAD_URL, { method: "POST", body: form });
+    const token = pageToken();
+    const headers: Record<string, string> = token ? { Authorization: `Bearer ${token}` } : {};
+    response = await fetch(UPLOAD_URL, { method: "POST", body: form, headers });
   } catch (err) {
     throw new Error(`could not send ${file.name}: ${err instanceof Error ? err.message : err}`);
   }

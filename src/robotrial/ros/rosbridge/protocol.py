@@ -29,6 +29,7 @@ from typing import Any
 from robotrial.msgs import DIALECTS, Dialect, Message, MessageError, type_dialect
 from robotrial.ros.bus import Bus, BusError, Node, Publisher, ServiceServer, Subscription
 from robotrial.ros.rosbridge import encoding
+from robotrial.ros.rosbridge.access import Access
 from robotrial.ros.rosbridge.encoding import ProtocolError, Reassembly
 from robotrial.ros.rosbridge.rosapi import Rosapi
 
@@ -130,12 +131,14 @@ class RosbridgeServer:
         dialect: Dialect = "ros2",
         limits: Limits | None = None,
         rosapi: bool = True,
+        access: Access | None = None,
     ) -> None:
         if dialect not in DIALECTS:
             raise ValueError(f"dialect must be one of {DIALECTS}, got {dialect!r}")
         self.bus = bus
         self.dialect = dialect
         self.limits = limits or Limits()
+        self.access = access or Access()
         self.sessions: set[Session] = set()
         self.rosapi = (
             Rosapi(bus, dialect) if rosapi and bus.service("/rosapi/topics") is None else None
@@ -232,6 +235,7 @@ class Session:
         self.level = LEVELS["error"]
         self.fragments = Reassembly(self.limits.max_message_bytes)
         self.closed = False
+        self.authenticated = server.access.token is None
         self.ended = asyncio.Event()  # set once closed, so the transport can drop the socket
         self._control: collections.deque[str | bytes] = collections.deque()
         self._wake = asyncio.Event()
@@ -251,7 +255,7 @@ class Session:
             "fragment": self._fragment,
             "png": self._png,
             "set_level": self._set_level,
-            "auth": lambda op: None,
+            "auth": self._auth,
         }
         self._writer = self.loop.create_task(self._write_loop())
 
@@ -299,6 +303,14 @@ class Session:
         if handler is None:
             self.status("error", f"unknown op {name!r}", oid)
             return
+        if not self.authenticated and name != "auth":
+            self.status(
+                "error",
+                f"{name}: not authenticated; this server needs a token: send "
+                '{"op": "auth", "mac": TOKEN} first',
+                oid,
+            )
+            return
         try:
             if name in ("fragment", "png"):
                 if depth > 1:
@@ -317,6 +329,16 @@ class Session:
         except Exception as exc:
             log.exception("rosbridge op %s failed", name)
             self.status("error", f"{name}: internal error: {exc}", oid)
+
+    def _auth(self, op: dict) -> None:
+        """rosbridge's auth op; the token goes in `mac`. A wrong token ends the session."""
+        if self.authenticated:
+            return
+        if self.server.access.token_ok(op.get("mac") if isinstance(op.get("mac"), str) else None):
+            self.authenticated = True
+            return
+        self.status("error", "auth: wrong token; the connection is closed")
+        self.loop.call_later(0.2, lambda: self.loop.create_task(self.close()))
 
     def _advertise(self, op: dict) -> None:
         topic = _name(op, "topic")

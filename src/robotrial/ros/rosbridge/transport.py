@@ -16,6 +16,7 @@ from starlette.websockets import WebSocketDisconnect, WebSocketState
 
 from robotrial.msgs import Dialect
 from robotrial.ros.bus import Bus
+from robotrial.ros.rosbridge.access import Access
 from robotrial.ros.rosbridge.protocol import Limits, RosbridgeServer, Session
 
 log = logging.getLogger(__name__)
@@ -26,7 +27,13 @@ TRANSPORT_MAX_BYTES = 64 * 2**20
 
 
 async def run_session(server: RosbridgeServer, websocket: WebSocket) -> None:
-    """Accept one WebSocket and speak rosbridge on it until either side closes."""
+    """Accept one WebSocket (if its Origin is allowed) and speak rosbridge on it until
+    either side closes. A `?token=` that matches lets the client in without `auth`."""
+    access = server.access
+    if not access.origin_allowed(websocket.headers):
+        log.warning("rosbridge: %s", access.refusal(websocket.headers))
+        await websocket.close(code=1008)
+        return
     await websocket.accept()
 
     async def send(frame: str | bytes) -> None:
@@ -36,6 +43,8 @@ async def run_session(server: RosbridgeServer, websocket: WebSocket) -> None:
             await websocket.send_bytes(frame)
 
     session = server.open_session(send)
+    if access.token is not None and access.token_ok(websocket.query_params.get("token")):
+        session.authenticated = True
     # A session can end on its own (its writer failed); then the socket is closed too, so
     # the client sees the disconnect and can reconnect.
     watcher = asyncio.ensure_future(_close_when_ended(session, websocket))
@@ -78,11 +87,13 @@ def add_rosbridge_route(
     server: RosbridgeServer | None = None,
     dialect: Dialect = "ros2",
     limits: Limits | None = None,
+    access: Access | None = None,
 ) -> RosbridgeServer:
     """Serve rosbridge v2 for `bus` at `path` on `app`; returns the server object
-    (reuse it to add more paths)."""
+    (reuse it to add more paths). `access`: who may connect (default: no Origin or the
+    server's own, no token)."""
     if server is None:
-        server = RosbridgeServer(bus, dialect=dialect, limits=limits)
+        server = RosbridgeServer(bus, dialect=dialect, limits=limits, access=access)
 
     async def rosbridge(websocket: WebSocket) -> None:
         await run_session(server, websocket)
@@ -92,11 +103,17 @@ def add_rosbridge_route(
     return server
 
 
-def standalone_app(bus: Bus, *, dialect: Dialect = "ros2", limits: Limits | None = None) -> FastAPI:
+def standalone_app(
+    bus: Bus,
+    *,
+    dialect: Dialect = "ros2",
+    limits: Limits | None = None,
+    access: Access | None = None,
+) -> FastAPI:
     """An app with rosbridge only, at `/` (where roslibpy and Foxglove connect by
     default) and at `/rosbridge` (as on the web app)."""
     app = FastAPI(title="robotrial rosbridge", docs_url=None, redoc_url=None, openapi_url=None)
-    server = add_rosbridge_route(app, bus, "/", dialect=dialect, limits=limits)
+    server = add_rosbridge_route(app, bus, "/", dialect=dialect, limits=limits, access=access)
     add_rosbridge_route(app, bus, "/rosbridge", server=server)
     return app
 
@@ -124,9 +141,10 @@ def serve(
     bus: Bus | None = None,
     *,
     dialect: Dialect = "ros2",
+    access: Access | None = None,
 ) -> None:
     """Run a standalone rosbridge server until interrupted."""
     import uvicorn
 
-    app = standalone_app(bus or Bus(), dialect=dialect)
+    app = standalone_app(bus or Bus(), dialect=dialect, access=access or Access(host))
     uvicorn.Server(uvicorn_config(app, host, port)).run()

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from robotrial.collision import kernels
+from robotrial.collision.contacts import link_contacts
 from robotrial.collision.spheres import link_spheres, shape_spheres
 from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
 from robotrial.kinematics.chain import PRISMATIC, Kinematics
@@ -110,7 +111,6 @@ class RobotSpheres:
                     reasons[(names[i], names[j])] = "adjacent"
                 elif kin.parent[gi] >= 0 and group[kin.parent[gi]] == gj:
                     reasons[(names[i], names[j])] = "adjacent"
-        from robotrial.collision.exact import link_contacts
 
         rng = np.random.default_rng(seed)
         zero = np.clip(np.zeros(kin.d), kin.lower, kin.upper)[None]

@@ -1,4 +1,5 @@
-"""Printing results for people (rich tables) or programs (`--json`), and progress bars."""
+"""Printing for people (rich tables) and programs (`--json`), and progress bars: used by
+the command line and the benchmarks alike (it imports nothing from the project)."""
 
 from __future__ import annotations
 

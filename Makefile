@@ -18,6 +18,7 @@ $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
+	$(BIN)/robotrial warm
 	touch $(STAMP)
 
 # roslib (roslibjs) for the Node interop test in tests/ros
@@ -35,6 +36,7 @@ tools/node_modules/.package-lock.json: tools/package.json tools/package-lock.jso
 
 $(WEB_STAMP): web/node_modules/.package-lock.json $(shell find web/src web/index.html web/vite.config.ts web/tsconfig.json -type f 2>/dev/null) $(STAMP)
 	$(BIN)/python -m robotrial.msgs.typescript web/src/generated/msgs.ts
+	$(BIN)/python -m robotrial.app.typescript web/src/generated/api.ts
 	cd web && npm run build
 
 web: $(WEB_STAMP)

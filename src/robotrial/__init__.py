@@ -1,3 +1,47 @@
-"""robotrial: try a robot in simulation before it is bought or built."""
+"""robotrial: try a robot in simulation before it is bought or built.
+
+The public Python API is the few names below (docs/python.md has runnable examples);
+everything else is reached through its module. Importing `robotrial` is cheap: each
+name loads its module (and MuJoCo, numba) on first use.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
 
 __version__ = "0.1.0"
+
+_PUBLIC = {
+    "load_robot": "robotrial.model",
+    "load_world": "robotrial.model",
+    "Simulation": "robotrial.sim",
+    "SimOptions": "robotrial.sim",
+    "StreamSettings": "robotrial.sim",
+    "TaskPlanner": "robotrial.planning.task",
+    "TaskRequest": "robotrial.planning.task",
+    "record_drive": "robotrial.trials.slam",
+    "run_slam": "robotrial.trials.slam",
+    "NavTrialSetup": "robotrial.trials.nav",
+    "run_nav": "robotrial.trials.nav:run_once",
+    "Recorder": "robotrial.ros.recorder",
+    "read_recording": "robotrial.ros.playback",
+    "CarrySetup": "robotrial.trials.carry",
+    "run_carry": "robotrial.trials.carry",
+}
+"""Public name -> the module that defines it ("module:name" where the name differs)."""
+
+__all__ = sorted(_PUBLIC)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _PUBLIC:
+        raise AttributeError(f"module 'robotrial' has no attribute {name!r}")
+    module, _, attr = _PUBLIC[name].partition(":")
+    value = getattr(import_module(module), attr or name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_PUBLIC])

@@ -12,13 +12,10 @@ from hypothesis import strategies as st
 
 from robotrial.benchmarks.planning import panda_path
 from robotrial.collision.spheres import (
-    box_spheres,
-    cylinder_spheres,
     link_spheres,
-    pose_spheres,
     shape_spheres,
 )
-from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Sphere
+from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Sphere
 from robotrial.model import load_robot
 
 
@@ -54,7 +51,7 @@ size = st.floats(0.005, 0.5)
 @given(sx=size, sy=size, sz=size)
 def test_box_spheres_cover_the_box(sx: float, sy: float, sz: float) -> None:
     extent = np.array([sx, sy, sz])
-    centres, radii = box_spheres(extent)
+    centres, radii = shape_spheres(Box(extent))
     assert 1 <= len(radii) <= 16
     rng = np.random.default_rng(1)
     inside = rng.uniform(-0.5, 0.5, (1000, 3)) * extent
@@ -69,9 +66,9 @@ def test_long_shapes_get_spheres_that_hug_them() -> None:
     # the old cell covers reached 24 mm past the ends of this box, 31 mm past the caps
     # of this cylinder
     extent = (0.04, 0.04, 0.12)
-    centres, radii = box_spheres(extent)
+    centres, radii = shape_spheres(Box(extent))
     assert _box_bulge(extent, centres, radii) <= 0.012
-    centres, radii = cylinder_spheres(0.04, 0.3)
+    centres, radii = shape_spheres(Cylinder(0.04, 0.3))
     depth = np.minimum(0.04 - np.hypot(centres[:, 0], centres[:, 1]), 0.15 - np.abs(centres[:, 2]))
     assert np.max(radii - depth) <= 0.02
 
@@ -79,7 +76,7 @@ def test_long_shapes_get_spheres_that_hug_them() -> None:
 def test_a_thin_long_box_gets_small_spheres_along_it() -> None:
     # a finger: 1 x 1.2 x 4.5 cm
     extent = (0.012, 0.01, 0.045)
-    centres, radii = box_spheres(extent)
+    centres, radii = shape_spheres(Box(extent))
     assert len(radii) > 2
     assert _box_bulge(extent, centres, radii) <= 0.008
     assert radii.max() < 0.013  # the old cell cover used one 13 mm sphere per third
@@ -88,7 +85,7 @@ def test_a_thin_long_box_gets_small_spheres_along_it() -> None:
 @settings(max_examples=25, deadline=None)
 @given(r=size, length=size)
 def test_cylinder_spheres_cover_the_cylinder(r: float, length: float) -> None:
-    centres, radii = cylinder_spheres(r, length)
+    centres, radii = shape_spheres(Cylinder(r, length))
     rng = np.random.default_rng(0)
     ang = rng.uniform(0, 2 * np.pi, 4000)
     rho = r * np.sqrt(rng.uniform(0, 1, 4000))
@@ -161,15 +158,6 @@ def test_panda_links_get_tight_covers(panda) -> None:
         assert len(_uncovered(np.vstack([pts, hull.vertices]), centres, radii)) == 0
     # the four boxes of a finger share one budget
     assert per_link["panda_leftfinger"] <= 12
-
-
-def test_pose_spheres_move_with_the_pose() -> None:
-    pose = Pose.from_xyz_rpy((0.1, 0.2, 0.3), (0.0, 0.0, np.pi / 2))
-    centres, radii = shape_spheres(Box((0.3, 0.05, 0.05)))
-    moved, r2 = pose_spheres(Box((0.3, 0.05, 0.05)), pose)
-    assert np.allclose(moved, centres @ pose.matrix()[:3, :3].T + (0.1, 0.2, 0.3))
-    assert np.array_equal(radii, r2)
-    assert np.ptp(moved[:, 1]) > np.ptp(moved[:, 0])  # the long axis now runs along y
 
 
 def test_bad_shapes_are_named() -> None:

@@ -12,9 +12,11 @@ from pathlib import Path
 
 import pytest
 
-from robotrial.model.rdtf import model_differences, read_rdtf, write_rdtf
+from robotrial.model.rdtf import read_rdtf, write_rdtf
 from robotrial.model.robot import ModelError
 from robotrial.model.urdf import load_urdf
+
+from ..model.rdtf_compare import model_differences
 
 ROOT = Path(__file__).resolve().parents[2]
 VALIDATOR = ROOT / "tools" / "validate_gltf.mjs"

@@ -14,7 +14,9 @@ import trimesh
 
 from robotrial.cli import main
 from robotrial.model import load_robot
-from robotrial.model.rdtf import model_differences, read_rdtf
+from robotrial.model.rdtf import read_rdtf
+
+from .rdtf_compare import model_differences
 
 URDF = """<?xml version="1.0"?>
 <robot name="tiny">
@@ -59,7 +61,7 @@ def tiny_urdf(tmp_path: Path) -> tuple[Path, Path]:
 
 def test_builtin_robot_to_rdtf_prints_summary_and_round_trips(tmp_path, capsys):
     out = tmp_path / "arm.glb"
-    code, stdout, _ = convert(capsys, "desk_arm", "-o", str(out))
+    code, stdout, _ = convert(capsys, "--robot", "desk_arm", "-o", str(out))
     assert code == 0
     model = load_robot("desk_arm")
     assert f"wrote {out} (RDTF" in stdout
@@ -70,7 +72,9 @@ def test_builtin_robot_to_rdtf_prints_summary_and_round_trips(tmp_path, capsys):
 def test_urdf_with_package_path_to_rdtf_json(tiny_urdf, tmp_path, capsys):
     urdf, pkg_root = tiny_urdf
     out = tmp_path / "tiny.glb"
-    code, stdout, _ = convert(capsys, str(urdf), "-o", str(out), "-p", str(pkg_root), "--json")
+    code, stdout, _ = convert(
+        capsys, "--robot", str(urdf), "-o", str(out), "-p", str(pkg_root), "--json"
+    )
     assert code == 0
     result = json.loads(stdout)
     assert result["format"] == "RDTF" and result["links"] == 2 and result["joints"] == 1
@@ -84,10 +88,10 @@ def test_urdf_with_package_path_to_rdtf_json(tiny_urdf, tmp_path, capsys):
 def test_rdtf_to_mjcf_compiles_in_mujoco(tiny_urdf, tmp_path, capsys):
     urdf, pkg_root = tiny_urdf
     glb = tmp_path / "tiny.glb"
-    assert convert(capsys, str(urdf), "-o", str(glb), "-p", str(pkg_root))[0] == 0
+    assert convert(capsys, "--robot", str(urdf), "-o", str(glb), "-p", str(pkg_root))[0] == 0
     xml = tmp_path / "mj" / "tiny.xml"
     xml.parent.mkdir()
-    code, stdout, _ = convert(capsys, str(glb), "-o", str(xml))
+    code, stdout, _ = convert(capsys, "--robot", str(glb), "-o", str(xml))
     assert code == 0 and "MJCF" in stdout
     m = mujoco.MjModel.from_xml_path(str(xml))
     assert mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "j1") >= 0
@@ -96,7 +100,7 @@ def test_rdtf_to_mjcf_compiles_in_mujoco(tiny_urdf, tmp_path, capsys):
 
 def test_world_to_glb_and_mjcf(tmp_path, capsys):
     glb = tmp_path / "room.glb"
-    code, stdout, _ = convert(capsys, "room_b", "--world", "-o", str(glb), "--json")
+    code, stdout, _ = convert(capsys, "--world", "room_b", "-o", str(glb), "--json")
     assert code == 0
     result = json.loads(stdout)
     assert result["kind"] == "world" and result["format"] == "glTF"
@@ -104,7 +108,7 @@ def test_world_to_glb_and_mjcf(tmp_path, capsys):
     assert "floor" in names and any(n.startswith("wall/") for n in names)
     assert any(n.startswith("obstacle/") for n in names)
     xml = tmp_path / "room.xml"
-    assert convert(capsys, "room_b", "--world", "-o", str(xml))[0] == 0
+    assert convert(capsys, "--world", "room_b", "-o", str(xml))[0] == 0
     m = mujoco.MjModel.from_xml_path(str(xml))
     assert mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor") >= 0
 
@@ -112,12 +116,12 @@ def test_world_to_glb_and_mjcf(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["no_such_robot", "-o", "{tmp}/x.glb"], "unknown robot 'no_such_robot'"),
-        (["desk_arm", "-o", "{tmp}/x.obj"], "must end in .glb"),
-        (["desk_arm", "-o", "{tmp}/missing/x.glb"], "does not exist"),
-        (["{tmp}/broken.urdf", "-o", "{tmp}/x.glb"], "broken.urdf"),
-        (["no_such_world", "--world", "-o", "{tmp}/x.glb"], "unknown world"),
-        (["{tmp}/junk.glb", "-o", "{tmp}/x.xml"], "not a glTF binary"),
+        (["--robot", "no_such_robot", "-o", "{tmp}/x.glb"], "unknown robot 'no_such_robot'"),
+        (["--robot", "desk_arm", "-o", "{tmp}/x.obj"], "must end in .glb"),
+        (["--robot", "desk_arm", "-o", "{tmp}/missing/x.glb"], "does not exist"),
+        (["--robot", "{tmp}/broken.urdf", "-o", "{tmp}/x.glb"], "broken.urdf"),
+        (["--world", "no_such_world", "-o", "{tmp}/x.glb"], "unknown world"),
+        (["--robot", "{tmp}/junk.glb", "-o", "{tmp}/x.xml"], "not a glTF binary"),
     ],
 )
 def test_errors_are_one_line_and_exit_1(tmp_path, capsys, args, message):
@@ -135,6 +139,7 @@ def test_the_installed_command_runs(tmp_path):
         [
             str(Path(sys.executable).parent / "robotrial"),
             "convert",
+            "--robot",
             "husky",
             "-o",
             str(out),
@@ -162,7 +167,9 @@ def test_xacro_arguments_reach_the_robot(tmp_path, capsys):
     src = tmp_path / "stick.urdf.xacro"
     src.write_text(XACRO)
     out = tmp_path / "stick.glb"
-    assert convert(capsys, str(src), "-o", str(out), "--xacro-arg", "length:=0.5")[0] == 0
+    assert (
+        convert(capsys, "--robot", str(src), "-o", str(out), "--xacro-arg", "length:=0.5")[0] == 0
+    )
     assert read_rdtf(out).link("base").visuals[0].geometry.length == 0.5
-    code, _, err = convert(capsys, str(src), "-o", str(out), "--xacro-arg", "length=0.5")
+    code, _, err = convert(capsys, "--robot", str(src), "-o", str(out), "--xacro-arg", "length=0.5")
     assert code == 1 and "expected NAME:=VALUE" in err

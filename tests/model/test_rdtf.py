@@ -21,7 +21,6 @@ from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Sphere
 from robotrial.model import library, load_robot, load_world
 from robotrial.model.rdtf import (
     RDTF_EXTENSION,
-    model_differences,
     rdtf_from_bytes,
     read_rdtf,
     write_rdtf,
@@ -43,6 +42,8 @@ from robotrial.model.robot import (
 )
 from robotrial.model.scene_gltf import write_world_glb
 from robotrial.model.world import Floor, Light, Obstacle, World
+
+from .rdtf_compare import model_differences
 
 ROOT = Path(__file__).resolve().parents[2]
 VALIDATOR = ROOT / "tools" / "validate_gltf.mjs"

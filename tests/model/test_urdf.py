@@ -627,7 +627,7 @@ def test_file_uri_and_relative_paths(tmp_path: Path, cube_stl: Path) -> None:
 
 
 def test_info_json(full_model, tmp_path: Path, capsys) -> None:
-    assert cli_main(["info", str(tmp_path / "full.urdf"), "--json"]) == 0
+    assert cli_main(["info", "--robot", str(tmp_path / "full.urdf"), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["name"] == "full" and out["dof"] == 3
     assert out["end_effector"] == "tcp"
@@ -645,7 +645,7 @@ def test_info_table_lists_repairs(tmp_path: Path, capsys) -> None:
             '<joint name="j" type="revolute"><parent link="base"/><child link="arm"/></joint>'
         )
     )
-    assert cli_main(["info", str(path)]) == 0
+    assert cli_main(["info", "--robot", str(path)]) == 0
     out = capsys.readouterr().out
     assert "DOF 1" in out and "revolute joint has no <limit>" in out
 
@@ -653,11 +653,11 @@ def test_info_table_lists_repairs(tmp_path: Path, capsys) -> None:
 def test_info_bad_input_is_one_line(tmp_path: Path, capsys) -> None:
     path = tmp_path / "broken.urdf"
     path.write_text('<robot name="r">\n<link name="a"/>\n<joint name="j" type="fixed"/>\n</robot>')
-    assert cli_main(["info", str(path)]) == 1
+    assert cli_main(["info", "--robot", str(path)]) == 1
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "Traceback" not in err
     assert f"{path}:3" in err and "<joint name='j'>" in err
-    assert cli_main(["info", "no_such_robot"]) == 1
+    assert cli_main(["info", "--robot", "no_such_robot"]) == 1
     assert "unknown robot 'no_such_robot'" in capsys.readouterr().err
 
 
@@ -723,9 +723,9 @@ def test_info_passes_xacro_arguments(tmp_path: Path, capsys) -> None:
         '<robot name="one" xmlns:xacro="http://www.ros.org/wiki/xacro">'
         '<link name="$(arg base)"/></robot>'
     )
-    assert cli_main(["info", str(path), "--xacro-arg", "base:=chassis", "--json"]) == 0
+    assert cli_main(["info", "--robot", str(path), "--xacro-arg", "base:=chassis", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["root"] == "chassis"
-    assert cli_main(["info", str(path)]) == 1
+    assert cli_main(["info", "--robot", str(path)]) == 1
     err = capsys.readouterr().err
     assert "xacro expansion failed" in err and "base" in err
 

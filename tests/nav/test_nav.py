@@ -175,6 +175,26 @@ def test_navigator_aborts_with_a_reason_when_the_goal_is_walled_off():
     assert "no path" in nav.message
 
 
+def test_a_fine_slam_map_is_navigated_on_5_cm_costmaps_that_keep_thin_walls():
+    """Hector's 2.5 cm map: the costmaps take 5 cm cells (as Nav2's default); a wall one
+    fine cell thick still blocks, and a goal behind it is still refused."""
+    occ = np.zeros((120, 120), dtype=bool)
+    occ[:, 61] = True  # one 2.5 cm cell thick, at an odd column
+    unknown = np.zeros_like(occ)
+    unknown[:10, :10] = True
+    nav = Navigator(occ, (0.0, 0.0), 0.025, Footprint(0.5, 0.4), NavigatorConfig(), unknown)
+    cm = nav.global_costmap
+    assert cm.resolution == 0.05 and cm.shape == (60, 60)
+    assert cm.static[:, 30].all() and cm.static.sum() == 60
+    assert cm.unknown[:5, :5].all() and cm.unknown.sum() == 25
+    nav.set_goal(2.5, 1.5, 0.0)
+    t = 0.0
+    while nav.status is Status.ACTIVE and t < 30:
+        nav.step(t, (0.5, 1.5, 0.0), (0.0, 0.0))
+        t += 0.05
+    assert nav.status is Status.ABORTED and "no path" in nav.message
+
+
 @pytest.mark.parametrize(
     "config",
     [NavigatorConfig(), NavigatorConfig(planner="hybrid", controller="pursuit")],

@@ -97,25 +97,34 @@ def test_pairs_marked_never_touching_stay_apart(spheres: RobotSpheres) -> None:
 
 
 @nb.njit
-def _speeds(q, dq, kin, bodies, pairs, buf):
+def _speeds(q, dq, packed_config):
     """The motion checks' speeds at `q` along `dq`: per body, per pair (its second body
     seen from its first), and the sphere centres."""
+    kin, bodies, _, pairs, _, _, buf = kernels.config_checks(packed_config)
     parent, origin, jtype, axis, src, mult, offset, const = kin
-    poses, centres, bound_c, ready, motion = buf[0], buf[1], buf[2], buf[3], buf[10]
+    poses, centres, bound_c, ready, motion = (
+        buf.poses,
+        buf.centres,
+        buf.bound_c,
+        buf.ready,
+        buf.motion,
+    )
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
-    kernels._bounds(poses, bodies[4], bodies[5], bound_c, ready)
-    for b in range(bodies[4].shape[0]):
-        kernels._place(b, poses, bodies[4], bodies[0], bodies[2], bodies[3], centres, ready)
+    kernels._bounds(poses, bodies.link, bodies.bound_local, bound_c, ready)
+    for b in range(bodies.link.shape[0]):
+        kernels._place(
+            b, poses, bodies.link, bodies.sphere_local, bodies.start, bodies.end, centres, ready
+        )
     for j in range(dq.shape[0]):
         motion[6, j] = dq[j]
     kernels._twists(kin, poses, motion)
-    body = np.empty(bodies[4].shape[0])
+    body = np.empty(bodies.link.shape[0])
     for b in range(body.shape[0]):
-        body[b] = kernels._body_speed(b, poses, bodies[4], bound_c, bodies[6], motion)
+        body[b] = kernels._body_speed(b, poses, bodies.link, bound_c, bodies.bound_r, motion)
     pair = np.empty(pairs.shape[0])
     for p in range(pair.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
-        pair[p] = kernels._pair_speed(a, b, poses, bodies[4], bound_c, bodies[6], motion)
+        pair[p] = kernels._pair_speed(a, b, poses, bodies.link, bound_c, bodies.bound_r, motion)
     return body, pair, centres.copy()
 
 
@@ -126,17 +135,18 @@ def test_speeds_at_a_configuration_bound_the_spheres_motion(robot: str) -> None:
     along random motions: no sphere moves faster, no pair of spheres closes in faster,
     and no speed changes faster than that."""
     spheres = RobotSpheres(Kinematics(load_robot(panda_path() if robot == "panda" else robot)))
-    args = CollisionChecker(spheres, Environment()).kernel_args()
-    body_rate, kin, bodies, pairs, buf = args[1], args[3], args[4], args[6], args[-1]
-    starts, ends = bodies[2], bodies[3]
+    args = kernels.MotionChecks(*CollisionChecker(spheres, Environment()).kernel_args())
+    body_rate, config = args.body_rate, kernels.ConfigChecks(*args.config)
+    bodies, pairs = kernels.Bodies(*config.bodies), config.pairs
+    starts, ends = bodies.start, bodies.end
     rng = np.random.default_rng(11)
     h = 1e-4
     for _ in range(200):
         q = spheres.kin.random(rng, 1)[0]
         dq = rng.normal(size=q.shape) * rng.uniform(0.05, 1.0)
-        body, pair, c0 = _speeds(q, dq, kin, bodies, pairs, buf)
-        cp = _speeds(q + h * dq, dq, kin, bodies, pairs, buf)[2]
-        cm = _speeds(q - h * dq, dq, kin, bodies, pairs, buf)[2]
+        body, pair, c0 = _speeds(q, dq, args.config)
+        cp = _speeds(q + h * dq, dq, args.config)[2]
+        cm = _speeds(q - h * dq, dq, args.config)[2]
         velocity = (cp - cm) / (2 * h)
         accel = np.linalg.norm((cp - 2 * c0 + cm) / h**2, axis=0)
         swing = bodies[7] @ np.abs(dq)

@@ -23,8 +23,9 @@ from robotrial.msgs.sensor_msgs import JointState
 from robotrial.planning import PLANNERS, Problem, planner_class
 from robotrial.planning.problems import desk_task
 from robotrial.planning.smoothing import shortcut
-from robotrial.planning.task import TaskPlanner, plan_task
+from robotrial.planning.task import TaskPlanner
 from robotrial.planning.timing import time_parameterize
+from robotrial.ros.planning_node import answer
 
 START = [-0.785, 0.80, 1.57, 0.0, 0.76, 0.0]  # the hand near (0.15, -0.15, 0.02)
 
@@ -124,9 +125,29 @@ def test_time_parameterization_respects_limits() -> None:
     np.testing.assert_allclose(traj.qd[[0, -1]], 0.0, atol=1e-6)
 
 
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10_000), st.integers(2, 8))
+def test_compiled_timing_keeps_the_limits_and_is_as_fast_as_toppra(seed, n) -> None:
+    from robotrial.benchmarks.planning import _toppra_time
+
+    rng = np.random.default_rng(seed)
+    path = np.cumsum(rng.uniform(-1, 1, (n, 6)), axis=0)
+    vmax = rng.uniform(0.5, 3.0, 6)
+    amax = rng.uniform(1.0, 3.0, 6) * vmax
+    traj = time_parameterize(path, vmax, amax)
+    assert np.all(np.diff(traj.t) > 0)
+    assert np.all(np.abs(traj.qd) <= vmax * (1 + 1e-6))
+    assert np.all(np.abs(traj.qdd) <= amax * (1 + 1e-6))
+    np.testing.assert_allclose(traj.q[[0, -1]], path[[0, -1]])
+    np.testing.assert_allclose(traj.qd[[0, -1]], 0.0, atol=1e-9)
+    # time-optimal under the same limits: not slower than toppra's TOPP-RA
+    assert traj.duration <= 1.02 * _toppra_time(path, vmax, amax)[1]
+    # the tracked curve passes through the samples
+    np.testing.assert_allclose(traj.tracked(traj.duration / (len(traj.t) - 1))[-1], path[-1])
+
+
 def test_plan_task_answers_the_g2rviewer_request(planner) -> None:
-    result = planner.plan(_request(), seed=0)
-    resp = result.response
+    resp, result = answer(planner, _request(), seed=0)
     assert isinstance(resp, PlanTaskResponse)
     assert resp.success, resp.message
     traj = resp.trajectory
@@ -141,9 +162,8 @@ def test_plan_task_answers_the_g2rviewer_request(planner) -> None:
     assert result.exact is not None and result.exact.path_valid(q)[0]
     qd = np.array([p.velocities for p in traj.points])
     assert np.all(np.abs(qd) <= planner.vmax * 1.02)
-    assert resp.planning_time > 0
-    # the same through the module function, as the node calls it
-    assert plan_task(planner.robot, _request(), planner.world).success
+    assert resp.planning_time > 0 and resp.error_code == 1 and not resp.object_held
+    assert answer(planner, _request(), seed=2)[0].success  # a second plan, another seed
 
 
 def test_plan_task_carries_an_object_in_the_hand(planner) -> None:
@@ -153,25 +173,25 @@ def test_plan_task_carries_an_object_in_the_hand(planner) -> None:
     obj = BoxMsg(
         id="cup", size=Vector3(0.03, 0.03, 0.05), pose=Pose.from_pose(GeoPose.from_matrix(held))
     )
-    result = planner.plan(_request(obj=obj, goal=(0.18, 0.2, 0.06)), seed=1)
-    assert result.response.success, result.response.message
-    assert result.response.error_code == PlanTaskResponse.SUCCESS
-    assert result.response.object_held
+    resp, result = answer(planner, _request(obj=obj, goal=(0.18, 0.2, 0.06)), seed=1)
+    assert resp.success, resp.message
+    assert resp.object_held
+    assert resp.error_code == PlanTaskResponse.SUCCESS
     assert "finger_left_link" in result.checker.touch_links
     # the object travels with the hand and stays clear of the box and the table
-    q = np.array([p.positions for p in result.response.trajectory.points])
+    q = np.array([p.positions for p in resp.trajectory.points])
     assert result.exact.path_valid(q)[0]
 
 
 def test_an_object_away_from_the_hand_is_not_held(planner) -> None:
     far = BoxMsg(id="cup", size=Vector3(0.04, 0.04, 0.1), pose=Pose(Point(0.3, -0.3, 0.05)))
-    response = planner.plan(_request(obj=far), seed=1).response
+    response = answer(planner, _request(obj=far), seed=1)[0]
     assert response.success, response.message
     assert not response.object_held and "treated as an obstacle" in response.message
 
 
 def test_goal_out_of_reach_says_how_far(planner) -> None:
-    resp = planner.plan(_request(goal=(1.0, 0.2, 0.02))).response
+    resp, _ = answer(planner, _request(goal=(1.0, 0.2, 0.02)))
     assert not resp.success
     assert "out of reach" in resp.message and " m " in resp.message
     assert resp.error_code == PlanTaskResponse.NO_IK_SOLUTION
@@ -185,17 +205,17 @@ def test_start_in_collision_names_what_touches(planner) -> None:
             pose=Pose(Point(0.15, -0.15, 0.05), Quaternion()),
         )
     ]
-    res = planner.plan(_request(obstacles=inside))
+    resp, res = answer(planner, _request(obstacles=inside))
     assert res.failure == "start_in_collision"
-    assert res.response.error_code == PlanTaskResponse.START_STATE_IN_COLLISION
-    assert "crate" in res.response.message and "touches" in res.response.message
+    assert resp.error_code == PlanTaskResponse.START_STATE_IN_COLLISION
+    assert "crate" in resp.message and "touches" in resp.message
 
 
 def test_goal_in_collision(planner) -> None:
-    res = planner.plan(_request(goal=(0.2, 0.0, 0.15)))
+    resp, res = answer(planner, _request(goal=(0.2, 0.0, 0.15)))
     assert res.failure == "goal_in_collision"
-    assert res.response.error_code == PlanTaskResponse.GOAL_IN_COLLISION
-    assert "C" in res.response.message
+    assert resp.error_code == PlanTaskResponse.GOAL_IN_COLLISION
+    assert "C" in resp.message
 
 
 def test_no_path_within_the_time_limit(planner) -> None:
@@ -213,24 +233,24 @@ def test_no_path_within_the_time_limit(planner) -> None:
         walls.append(
             BoxMsg(id=f"wall{i}", size=Vector3(*size), pose=Pose(Point(*xyz), Quaternion()))
         )
-    res = planner.plan(_request(obstacles=walls, time_limit=0.2))
+    resp, res = answer(planner, _request(obstacles=walls, time_limit=0.2))
     assert res.failure in ("timeout", "goal_in_collision")
-    assert not res.response.success
+    assert not resp.success
     if res.failure == "timeout":
-        assert "no path found" in res.response.message and "0.2 s" in res.response.message
-        assert res.response.error_code == PlanTaskResponse.TIMED_OUT
+        assert "no path found" in resp.message and "0.2 s" in resp.message
+        assert resp.error_code == PlanTaskResponse.TIMED_OUT
 
 
 def test_bad_requests_name_the_field(planner) -> None:
     req = _request()
     req.current_joints.position = req.current_joints.position[:3]
-    refused = planner.plan(req).response
+    refused = answer(planner, req)[0]
     assert "current_joints" in refused.message
     assert refused.error_code == PlanTaskResponse.INVALID_GOAL_CONSTRAINTS
     req = _request(start=[5.0, 0, 0, 0, 0, 0])
-    assert "outside its limits" in planner.plan(req).response.message
+    assert "outside its limits" in answer(planner, req)[0].message
     bad = [BoxMsg(id="x", size=Vector3(-0.1, 0.1, 0.1), pose=Pose())]
-    assert "obstacles[0].size" in planner.plan(_request(obstacles=bad)).response.message
+    assert "obstacles[0].size" in answer(planner, _request(obstacles=bad))[0].message
 
 
 @settings(
@@ -275,44 +295,21 @@ def test_random_obstacles_never_yield_a_colliding_path(desk, boxes, seed) -> Non
 
 
 def test_cli_plan_prints_json_and_writes_plots(tmp_path, capsys) -> None:
-    code = main(
-        [
-            "plan",
-            "--robot",
-            "desk_arm",
-            "--world",
-            "desk",
-            "--goal",
-            "0.18",
-            "0.2",
-            "0.02",
-            "--start",
-            *map(str, START),
-            "--obstacle",
-            "0.1",
-            "0.1",
-            "0.2",
-            "0.2",
-            "0",
-            "0.15",
-            "--seed",
-            "0",
-            "--json",
-            "--plots",
-            str(tmp_path),
-        ]
-    )
+    from robotrial.benchmarks.planning import PLAN_COMMAND
+
+    code = main([*PLAN_COMMAND, "--seed", "0", "--json", "--plot", str(tmp_path / "plan.png")])
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["success"]
     assert out["trajectory"]["joint_names"][0] == "joint1"
     assert out["trajectory"]["points"][-1]["time_from_start"]["sec"] >= 0
-    assert (tmp_path / "joints.png").stat().st_size > 0 and (tmp_path / "ee_path.png").exists()
+    assert out["plots"] == [str(tmp_path / "plan.png")]
+    assert (tmp_path / "plan.png").stat().st_size > 0
 
 
 def test_cli_plan_reads_a_rosbridge_request(tmp_path, capsys) -> None:
     req = tmp_path / "req.json"
     req.write_text(json.dumps(_request(goal=(1.5, 0, 0)).to_dict()))
-    code = main(["plan", "--robot", "desk_arm", "--request", str(req), "--json", "--no-plots"])
+    code = main(["plan", "--robot", "desk_arm", "--request", str(req), "--json"])
     out = json.loads(capsys.readouterr().out)
     assert code == 1 and not out["success"] and out["failure"] == "unreachable"
 
@@ -321,5 +318,5 @@ def test_warm_plans_from_a_free_configuration(planner) -> None:
     # a server calls this at start: a plan that stopped before the tree search would
     # leave the first user's request to compile the planner
     result = planner.warm()
-    assert result is not None and result.response.success, result and result.response.message
-    assert len(result.response.trajectory.points) >= 2
+    assert result is not None and result.success, result and result.message
+    assert len(result.trajectory.t) >= 2

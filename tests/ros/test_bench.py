@@ -22,7 +22,7 @@ def test_bench_rosbridge_runs(tmp_path) -> None:
             "0.2",
             "--clients",
             "1,3",
-            "--out",
+            "--output",
             str(out),
             "--json",
         ],

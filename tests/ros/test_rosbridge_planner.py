@@ -11,26 +11,18 @@ from pathlib import Path
 import pytest
 import roslibpy
 
+from robotrial.benchmarks.planning import DESK_REQUEST
 from robotrial.cli import main
 
 from ..conftest import free_port
 
 pytestmark = pytest.mark.timeout(120)
 
+# the page's desk request, with the all-zero orientation that also means position only
 REQUEST = {
-    "current_joints": {
-        "name": ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6"],
-        "position": [-0.785, 0.8, 1.57, 0.0, 0.76, 0.0],
-    },
-    "obstacles": [
-        {
-            "id": "C",
-            "size": {"x": 0.1, "y": 0.1, "z": 0.2},
-            "pose": {"position": {"x": 0.2, "y": 0.0, "z": 0.15}},
-        }
-    ],
+    **DESK_REQUEST,
     "ee_goal": {
-        "position": {"x": 0.18, "y": 0.2, "z": 0.02},
+        **DESK_REQUEST["ee_goal"],
         "orientation": {"x": 0, "y": 0, "z": 0, "w": 0},
     },
 }

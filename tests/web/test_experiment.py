@@ -302,3 +302,28 @@ def test_planner_refusal_scene_file_and_connection(
         browser.close()
     # The refused connection is logged by the browser itself; nothing else may fail.
     assert [e for e in errors if "127.0.0.1:9" not in e] == []
+
+
+def test_another_arm_of_the_list_plans_through_its_own_service(
+    server: str, chromium: str, chromium_args: list[str]
+) -> None:
+    """Move Robot! works for every arm the server lists, not only its default robot."""
+    errors: list[str] = []
+    goal = (0.25, 0.1, 0.2)
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=chromium, args=chromium_args)
+        page = open_page(browser, f"{server}?robot=manipulator_h&world=desk", errors)
+        assert not page.locator("#move-robot").is_disabled()
+        assert "No planner" not in page.inner_text("#task-message")
+        page.locator("summary", has_text="Goal for the hand").click()
+        for axis, value in zip("xyz", goal, strict=True):
+            type_into(page, f"#goal-{axis}", round(value * 100, 1))
+        page.click("#set-robot")
+        page.click("#move-robot")
+        page.wait_for_function(FINISHED, timeout=90_000)
+        state = page.evaluate("window.robotrial.state()")
+        browser.close()
+    assert state["planner"]["status"] == "planned", state["planner"]["message"]
+    assert state["run"]["finalError"] <= 0.01, state["run"]
+    np.testing.assert_allclose(state["endEffector"], goal, atol=0.01)
+    assert errors == [], errors

@@ -1,57 +1,24 @@
 // The HTTP side of the server: what the page opens on, the built-in robots and worlds,
-// and the URLs of their files. Shapes match src/robotrial/app/server.py.
+// the URLs of their files, and the MuJoCo model for the browser's physics. The types of
+// the answers are generated from the server's models (robotrial.app.models) into
+// generated/api.ts; this module only fetches.
 
-export type Kind = "arm" | "mobile";
+import type { Config, MjcfBundle, RobotList, WorldList } from "./generated/api";
 
-export interface Pair {
-  robot: string;
-  world: string;
-}
+export type {
+  Config,
+  LiveInfo,
+  MjcfBundle,
+  Pair,
+  RobotEntry,
+  SpawnPose,
+  UploadAnswer,
+  WorldEntry,
+} from "./generated/api";
 
-export interface Config extends Pair {
-  /** Path of the rosbridge WebSocket on this server, e.g. "/rosbridge". */
-  rosbridge: string;
-  rosbridge_enabled: boolean;
-  /** The platform the server simulates live (a mobile robot in a room), or null. */
-  live?: LiveInfo | null;
-}
-
-/** A live platform: which robot in which world, and where its odom and map frames
- * start in the world (the spawn pose). */
-export interface LiveInfo extends Pair {
-  origin: Spawn;
-  /** Why it could not start, or null. */
-  error: string | null;
-}
-
-export interface RobotEntry {
-  name: string;
-  kind: Kind;
-  joints: number;
-  /** The world this robot opens in when picked. */
-  world: string;
-  /** True for a robot a user uploaded to this server. */
-  uploaded?: boolean;
-}
-
-export interface Spawn {
-  xyz: [number, number, number];
-  /** x, y, z, w */
-  quat: [number, number, number, number];
-}
-
-export interface WorldEntry {
-  name: string;
-  kind: Kind;
-  description: string;
-  spawn: Spawn;
-}
-
-export interface Catalog {
-  default: Pair;
-  robots: RobotEntry[];
-  worlds: WorldEntry[];
-}
+/** The robots and the worlds together, as the pickers use them. Written here, not
+ * generated: no route answers with it, the page joins /api/robots and /api/worlds. */
+export interface Catalog extends RobotList, WorldList {}
 
 async function getJson<T>(path: string): Promise<T> {
   const response = await fetch(path);
@@ -77,10 +44,16 @@ export function getConfig(): Promise<Config> {
 
 export async function getCatalog(): Promise<Catalog> {
   const [robots, worlds] = await Promise.all([
-    getJson<{ default: Pair; robots: RobotEntry[] }>("/api/robots"),
-    getJson<{ default: Pair; worlds: WorldEntry[] }>("/api/worlds"),
+    getJson<RobotList>("/api/robots"),
+    getJson<WorldList>("/api/worlds"),
   ]);
   return { default: robots.default, robots: robots.robots, worlds: worlds.worlds };
+}
+
+/** The server's MJCF for `robot` in `world`, for the browser's physics. */
+export function fetchMjcf(robot: string, world: string): Promise<MjcfBundle> {
+  const name = encodeURIComponent(robot);
+  return getJson<MjcfBundle>(`/api/robots/${name}/mjcf.json?world=${encodeURIComponent(world)}`);
 }
 
 export function robotFileUrl(name: string): string {

@@ -9,7 +9,8 @@ import {
   worldFileUrl,
   type Catalog,
   type Config,
-  type Spawn,
+  type SpawnPose,
+  type UploadAnswer,
 } from "./api";
 import { ArView, installEmulatorIfAsked } from "./ar/ar";
 import { LiveView } from "./live/live";
@@ -21,10 +22,10 @@ import { TaskPanel } from "./task/panel";
 import { TaskSession } from "./task/session";
 import { el, humanize } from "./ui/dom";
 import { Panel } from "./ui/panel";
-import { UploadSection, type UploadAnswer } from "./upload/upload";
+import { UploadSection } from "./upload/upload";
 import { loadWorld, placeAt } from "./world";
 
-const ORIGIN: Spawn = { xyz: [0, 0, 0], quat: [0, 0, 0, 1] };
+const ORIGIN: SpawnPose = { xyz: [0, 0, 0], quat: [0, 0, 0, 1] };
 
 export class RobotrialApp {
   readonly viewer: Viewer;
@@ -69,7 +70,9 @@ export class RobotrialApp {
       loadScene: (file) => void this.loadScene(file),
       connect: (url) => this.connect(url),
     });
-    this.panel.addTask(taskPanel.main, taskPanel.details, taskPanel.indicator);
+    this.panel.mount(taskPanel.indicator, "header");
+    this.panel.mount(taskPanel.main, "top");
+    this.panel.mount(taskPanel.details);
     const plot = plotCard(view, (kind) => void this.task.exportPlot(kind));
     this.task = new TaskSession(
       {
@@ -77,19 +80,41 @@ export class RobotrialApp {
         connection: this.connection,
         setJoints: (values) => this.setJoints(values),
         lockJoints: (locked) => this.panel.lockJoints(locked),
-        plannerRobot: () => this.config?.robot ?? "",
+        planService: (robot) => this.planService(robot),
+        plannerStatus: () => this.config?.planner ?? null,
       },
       taskPanel,
       plot,
     );
     this.connection.onChange((state) => taskPanel.showConnection(state));
-    this.live = new LiveView(this.viewer, this.connection, (v) => this.setJoints(v), panel);
-    this.ar = new ArView(this.viewer, () => this.robot?.object.parent ?? null, panel);
-    new UploadSection(panel, (answer) => this.addUploadedRobot(answer));
+    this.live = new LiveView(this.viewer, this.connection, (v) => this.setJoints(v));
+    this.panel.mount(this.live.section);
+    this.ar = new ArView(this.viewer, () => this.robot?.object.parent ?? null);
+    this.panel.mount(this.ar.section);
+    this.panel.mount(new UploadSection((answer) => this.addUploadedRobot(answer)).section);
+  }
+
+  /** The PlanTask service for `robot`: the server's default robot answers on
+   * /robotrial/plan_task (as a g2rViewer server does), the others on their own. */
+  private planService(robot: string): string | null {
+    const config = this.config;
+    if (!config) return null;
+    if (robot === config.robot) return "/robotrial/plan_task";
+    return config.plan_services?.[robot] ?? null;
+  }
+
+  /** Read the server's config again until its planner has compiled. */
+  private async watchPlanner(): Promise<void> {
+    while (this.config?.planner === "compiling") {
+      await new Promise((resolve) => setTimeout(resolve, 2000));
+      this.config = await getConfig();
+      this.task.plannerChanged();
+    }
   }
 
   /** A robot the server accepted from an upload: list it in the picker and open it. */
   async addUploadedRobot(answer: UploadAnswer): Promise<void> {
+    this.config = await getConfig();
     this.catalog = await getCatalog();
     this.panel.setCatalog(this.catalog.robots, this.catalog.worlds);
     await this.load(answer.robot.name, answer.robot.world);
@@ -127,6 +152,7 @@ export class RobotrialApp {
     try {
       const [config, catalog] = await Promise.all([getConfig(), getCatalog()]);
       this.config = config;
+      void this.watchPlanner();
       this.live.setInfo(config.live ?? null);
       await installEmulatorIfAsked();
       void this.ar.check();

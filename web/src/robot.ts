@@ -4,9 +4,8 @@
 
 import { Matrix4, Object3D, Quaternion, Vector3 } from "three";
 import { GLTFLoader, type GLTF } from "three/examples/jsm/loaders/GLTFLoader.js";
+import type { Quat, Vec3 } from "./types";
 
-type Vec3 = [number, number, number];
-type Quat = [number, number, number, number];
 /** RDTF stores non-finite floats as the strings "inf", "-inf" and "nan". */
 type Num = number | string;
 

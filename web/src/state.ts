@@ -4,13 +4,14 @@ import type { ArState } from "./ar/ar";
 import type { LiveState } from "./live/live";
 import type { ConnectionState } from "./ros/connection";
 import type { TaskState } from "./task/session";
+import type { Vec3 } from "./types";
 
 export interface RobotrialState extends TaskState {
   robot: string;
   world: string;
   joints: { names: string[]; values: number[] };
   /** The end effector (tcp) in the robot's base frame (m); null before a robot loads. */
-  endEffector: [number, number, number] | null;
+  endEffector: Vec3 | null;
   /** True once the robot and world shown match `robot` and `world` and can be moved. */
   ready: boolean;
   /** Why the last load failed, or null. */

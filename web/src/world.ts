@@ -3,7 +3,7 @@
 
 import { Group, Light, type Object3D } from "three";
 import { GLTFLoader } from "three/examples/jsm/loaders/GLTFLoader.js";
-import type { Spawn } from "./api";
+import type { SpawnPose } from "./api";
 import { enableShadows } from "./scene";
 
 /** Fetch and parse a world's glTF scene, ready to cast and receive shadows. */
@@ -19,7 +19,7 @@ export async function loadWorld(url: string): Promise<Object3D> {
 }
 
 /** A group holding `robot` at the world's spawn pose. */
-export function placeAt(robot: Object3D, spawn: Spawn): Group {
+export function placeAt(robot: Object3D, spawn: SpawnPose): Group {
   const placed = new Group();
   placed.name = "robot";
   placed.position.set(...spawn.xyz);

@@ -21,7 +21,6 @@ from typing import TYPE_CHECKING, Any
 from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
-from pydantic import BaseModel
 from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import FormData
 from starlette.datastructures import UploadFile as StarletteUpload
@@ -30,6 +29,17 @@ from starlette.formparsers import MultiPartException
 
 from robotrial.app.catalog import Asset, Catalog, UnknownName, robot_kind
 from robotrial.app.live import LivePlatform, runs_live
+from robotrial.app.models import (
+    Config,
+    LiveInfo,
+    MjcfBundle,
+    Pair,
+    RobotEntry,
+    RobotList,
+    SpawnPose,
+    UploadAnswer,
+    WorldList,
+)
 from robotrial.app.uploads import (
     MAX_UPLOAD_BYTES,
     UploadRefused,
@@ -43,6 +53,8 @@ from robotrial.model.robot import ModelError
 from robotrial.ros.rosbridge.access import Access
 
 if TYPE_CHECKING:
+    from robotrial.model.robot import RobotModel
+    from robotrial.model.world import World
     from robotrial.planning.task import TaskPlanner
     from robotrial.ros.bus import Bus
 
@@ -61,77 +73,6 @@ MISSING_BUILD_PAGE = """<!doctype html>
 npm run build</code>), then reload. The API works meanwhile: see <a href="/docs">/docs</a>.</p>
 </body></html>
 """
-
-
-class Pair(BaseModel):
-    robot: str
-    world: str
-
-
-class SpawnPose(BaseModel):
-    xyz: list[float]
-    quat: list[float]
-
-
-class LiveInfo(BaseModel):
-    """The simulated platform streaming on rosbridge: which robot in which world, and
-    where its odom and map frames start in the world (the spawn pose)."""
-
-    robot: str
-    world: str
-    origin: SpawnPose
-    error: str | None = None
-
-
-class Config(BaseModel):
-    """What the page needs to start."""
-
-    robot: str
-    world: str
-    rosbridge: str
-    rosbridge_enabled: bool
-    live: LiveInfo | None = None
-
-
-class RobotEntry(BaseModel):
-    name: str
-    kind: str
-    joints: int
-    world: str
-    uploaded: bool = False
-
-
-class UploadAnswer(BaseModel):
-    """A robot accepted from an upload: its catalog entry and what the loader repaired."""
-
-    robot: RobotEntry
-    repairs: list[str]
-
-
-class RobotList(BaseModel):
-    default: Pair
-    robots: list[RobotEntry]
-
-
-class WorldEntry(BaseModel):
-    name: str
-    kind: str
-    description: str
-    spawn: SpawnPose
-
-
-class WorldList(BaseModel):
-    default: Pair
-    worlds: list[WorldEntry]
-
-
-class MjcfBundle(BaseModel):
-    """A MuJoCo model for the browser: MJCF text and the files it names."""
-
-    name: str
-    xml: str
-    assets: dict[str, str]
-    notes: list[str]
 
 
 NOT_FOUND: dict[int | str, dict[str, Any]] = {404: {"description": "no such built-in name"}}
@@ -215,13 +156,21 @@ def create_app(
         if robot_kind(arm) == "arm":
             from robotrial.ros.planning_node import PlanningNode
 
-            planning = PlanningNode(bus, arm, catalog.world(catalog.default_world))
+            planning = PlanningNode(
+                bus, arm, catalog.world(catalog.default_world), robots=lambda n: _arm(catalog, n)
+            )
+            for entry in catalog.robots():
+                if entry["kind"] == "arm":
+                    planning.add_robot(entry["name"])
+    planner_state = {"status": None if planning is None else "compiling"}
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
         if warm:
             task = planning.planner if planning is not None else None
-            threading.Thread(target=_warm, args=(catalog, task), daemon=True).start()
+            threading.Thread(target=_warm, args=(catalog, task, planner_state), daemon=True).start()
+        elif planning is not None:
+            planner_state["status"] = "ready"
         if platform is not None:
             platform.start()
         try:
@@ -274,6 +223,8 @@ def create_app(
                 origin=SpawnPose(xyz=list(platform.spawn.xyz), quat=list(platform.spawn.quat)),
                 error=platform.error,
             ),
+            planner=planner_state["status"],
+            plan_services={} if planning is None else planning.services(),
         )
 
     @app.get("/api/robots", response_model=RobotList, tags=["robots"])
@@ -325,6 +276,8 @@ def create_app(
                 uploads.load, filename, folder / filename, set(catalog.robot_names())
             )
             catalog.add_robot(robot.name, robot.model, robot.rdtf)
+            if planning is not None and robot_kind(robot.model) == "arm":
+                planning.add_robot(robot.name)
         except UploadRefused as exc:
             return JSONResponse({"detail": str(exc)}, status_code=exc.status)
         except ModelError as exc:
@@ -414,9 +367,16 @@ def _glb(asset: Asset, request: Request) -> Response:
     return Response(asset.data, media_type=GLB_MEDIA_TYPE, headers=headers)
 
 
-def _warm(catalog: Catalog, task: TaskPlanner | None) -> None:
+def _arm(catalog: Catalog, name: str) -> tuple[RobotModel, World]:
+    """A robot of the list and the world it opens in, for its planner."""
+    robot = catalog.robot(name)
+    return robot, catalog.world(catalog.world_for(robot_kind(robot)))
+
+
+def _warm(catalog: Catalog, task: TaskPlanner | None, planner: dict[str, str | None]) -> None:
     """Build the default robot's and world's files, then plan once so that the planner's
-    compiled kernels are ready before the first Move Robot!"""
+    compiled kernels are ready before the first Move Robot! (`planner["status"]` says
+    "compiling" until then)."""
     try:
         catalog.warm()
     except Exception as exc:  # the request that needs the file reports the error
@@ -426,3 +386,4 @@ def _warm(catalog: Catalog, task: TaskPlanner | None) -> None:
             task.warm()
         except Exception as exc:  # the first request compiles then, and reports errors
             log.warning("could not warm the planner: %s", exc)
+        planner["status"] = "ready"

@@ -61,8 +61,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="in the apartment, drive from the living room to every other room",
     )
     parser.add_argument("--repeats", type=int, default=30, help="planner timing repetitions")
-    parser.add_argument("--out", metavar="JSON", help="also write the results here")
-    parser.add_argument("--plots", metavar="DIR", help="write a PNG of the paths per row here")
+    parser.add_argument("-o", "--output", metavar="JSON", help="also write the results here")
+    parser.add_argument("--plot", metavar="DIR", help="write a PNG of the paths per row here")
     add_json_flag(parser)
 
 
@@ -165,9 +165,9 @@ def run(args: argparse.Namespace) -> int:
                 s["failures"] = [r.summary() for r in results if not r.success]
                 s["wall_time"] = float(sum(r.wall_time for r in results))
                 rows.append(s)
-                if args.plots:
+                if args.plot:
                     plot_paths(
-                        Path(args.plots)
+                        Path(args.plot)
                         / f"nav_{label.replace(':', '_')}_{planner}_{controller}_{speed:g}.png",
                         nav_map,
                         results,
@@ -184,8 +184,8 @@ def run(args: argparse.Namespace) -> int:
         "planning": timing,
         "paper": PAPER_TABLE1,
     }
-    if args.out:
-        Path(args.out).write_text(json.dumps(result, indent=2, default=float))
+    if args.output:
+        Path(args.output).write_text(json.dumps(result, indent=2, default=float))
     if args.json:
         print_json(result)
         return 0

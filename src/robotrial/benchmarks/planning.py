@@ -6,7 +6,7 @@ planners (sphere checker, compiled) and OMPL's (its Python bindings, with MuJoCo
 state validity callback, as MoveIt pairs OMPL with FCL) run on the same start and goal
 in the same process. Every path we return is checked densely with MuJoCo. `--validate N`
 adds N random desk problems (random boxes, random start and goal) and counts returned
-paths in collision. Writes docs/benchmarks/planning.md and, with --out, JSON.
+paths in collision. Writes docs/benchmarks/planning.md and, with -o/--output, JSON.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import argparse
 import json
 import os
 import platform
+import subprocess
 import sys
 import time
 from datetime import date
@@ -78,7 +79,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="also send N random desk PlanTask requests and count colliding trajectories",
     )
-    parser.add_argument("--out", type=Path, help="write the results as JSON here")
+    parser.add_argument(
+        "--service",
+        action="store_true",
+        help="only the PlanTask service for the desk task: round trip over rosbridge to a warm "
+        "`robotrial rosbridge --robot`, where its time goes, and `robotrial plan` from a fresh "
+        "process (writes docs/benchmarks/planning-service.md)",
+    )
+    parser.add_argument("--calls", type=int, default=50, help="service calls for --service")
+    parser.add_argument("-o", "--output", type=Path, help="write the results as JSON here")
     parser.add_argument(
         "--md",
         type=Path,
@@ -211,6 +220,18 @@ def _summary(times, cpu, runs, lengths, colliding) -> dict[str, Any]:
 # --- random problems for the zero-collision check -----------------------------------------
 
 
+STAGES = {
+    "ik_time": "IK",
+    "scene_time": "scene checkers (kept between requests)",
+    "planner_planning_time": "RRTConnect",
+    "shortcut_time": "shortcutting",
+    "timing_time": "time parameterization",
+    "validation_time": "MuJoCo validation",
+    "total_time": "whole request",
+}
+"""The PlanTask stages whose times a result's stats hold, and their names in reports."""
+
+
 def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str, Any]:
     """Send `n` random PlanTask requests for the desk arm (1 to 4 boxes of random size,
     position and orientation; a random free start; the goal the hand position of another
@@ -224,6 +245,7 @@ def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str
     from robotrial.msgs.robotrial_msgs import PlanTaskRequest
     from robotrial.msgs.sensor_msgs import JointState
     from robotrial.planning.task import TaskPlanner
+    from robotrial.ros.planning_node import answer
 
     robot, world = load_robot("desk_arm"), load_world("desk")
     planner = TaskPlanner(robot, world)
@@ -232,6 +254,7 @@ def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str
     outcomes: dict[str, int] = {}
     colliding = replanned = 0
     times = []
+    stages: dict[str, list[float]] = {k: [] for k in STAGES}
     with progress("random desk requests", n, enabled=show) as advance:
         for k in range(n):
             boxes = []
@@ -262,13 +285,15 @@ def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str
                 obstacles=boxes,
                 ee_goal=PoseMsg(Point(*goal), Quaternion(0.0, 0.0, 0.0, 0.0)),
             )
-            result = planner.plan(request, seed=k)
+            response, result = answer(planner, request, seed=k)
             key = result.failure or "solved"
             outcomes[key] = outcomes.get(key, 0) + 1
-            if result.response.success:
+            if response.success:
                 times.append(result.stats["planner_planning_time"])
+                for k in STAGES:
+                    stages[k].append(float(result.stats.get(k, 0.0)))
                 replanned += int(result.stats.get("attempts", 1) > 1)
-                q = np.array([p.positions for p in result.response.trajectory.points])
+                q = np.array([p.positions for p in response.trajectory.points])
                 if not result.exact.path_valid(q)[0]:  # type: ignore[union-attr]
                     colliding += 1
             advance()
@@ -279,7 +304,244 @@ def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str
         "colliding_paths": colliding,
         "replanned": replanned,
         "median_planning_time_s": float(np.median(times)) if times else None,
+        "median_stage_ms": {k: float(np.median(v)) * 1e3 for k, v in stages.items() if v},
     }
+
+
+# --- the PlanTask service as a user waits for it -----------------------------------------
+
+# the page's request for the desk task, as rosbridge JSON: the paper's start, obstacle C,
+# the goal position without an orientation (position only)
+DESK_REQUEST: dict[str, Any] = {
+    "current_joints": {
+        "name": ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6"],
+        "position": [-0.785, 0.80, 1.57, 0.0, 0.76, 0.0],
+    },
+    "obstacles": [
+        {
+            "id": "C",
+            "size": {"x": 0.1, "y": 0.1, "z": 0.2},
+            "pose": {"position": {"x": 0.2, "y": 0.0, "z": 0.15}},
+        }
+    ],
+    "ee_goal": {"position": {"x": 0.18, "y": 0.2, "z": 0.02}},
+}
+PLAN_COMMAND = [
+    "plan",
+    "--robot",
+    "desk_arm",
+    "--world",
+    "desk",
+    "--goal",
+    "0.18",
+    "0.2",
+    "0.02",
+    "--start",
+    "-0.785",
+    "0.80",
+    "1.57",
+    "0.0",
+    "0.76",
+    "0.0",
+    "--obstacle",
+    "0.1",
+    "0.1",
+    "0.2",
+    "0.2",
+    "0",
+    "0.15",
+]
+PARTS = {  # breakdown: name -> stats key of TaskResult (s)
+    "scene (checkers)": "scene_time",
+    "IK": "ik_time",
+    "planning": "planner_planning_time",
+    "shortcut + rounding": "shortcut_time",
+    "time parameterization": "timing_time",
+    "MuJoCo validation": "validation_time",
+}
+
+
+def _toppra_time(path: np.ndarray, vmax: np.ndarray, amax: np.ndarray) -> tuple[float, float]:
+    """toppra's TOPP-RA on the same densified spline (the baseline the compiled timing
+    replaced): (seconds taken, trajectory duration)."""
+    import toppra as ta
+    import toppra.algorithm as algo
+    import toppra.constraint as constraint
+
+    from robotrial.planning.smoothing import densify
+
+    t0 = time.perf_counter()
+    way = densify(path, 0.05)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(way, axis=0), axis=1))])
+    spline = ta.SplineInterpolator(s / s[-1], way, bc_type="clamped")
+    cons = [
+        constraint.JointVelocityConstraint(np.stack([-vmax, vmax], axis=1)),
+        constraint.JointAccelerationConstraint(np.stack([-amax, amax], axis=1) * 0.85),
+    ]
+    grid = np.linspace(0, 1, int(np.clip(4 * len(way), 200, 1500)))
+    traj = algo.TOPPRA(cons, spline, gridpoints=grid).compute_trajectory()
+    return time.perf_counter() - t0, float(traj.duration)
+
+
+def service_breakdown(calls: int, show: bool = True) -> dict[str, Any]:
+    """The desk request answered in this process as the node answers it, `calls` times:
+    medians of each step, of the conversions from and to rosbridge JSON, and toppra on
+    the same paths for comparison with the compiled time parameterization."""
+    from robotrial.msgs.robotrial_msgs import PlanTaskRequest
+    from robotrial.planning.task import TaskPlanner
+    from robotrial.planning.timing import time_parameterize
+    from robotrial.ros.planning_node import plan_task_response, task_request
+    from robotrial.ros.rosbridge.encoding import dumps
+
+    planner = TaskPlanner(load_robot("desk_arm"), load_world("desk"))
+    wire = json.dumps(DESK_REQUEST)
+    rows: dict[str, list[float]] = {k: [] for k in [*PARTS, "decode + convert", "convert + encode"]}
+    total, toppra, ours, durations = [], [], [], []
+    with progress("service breakdown", calls + 3, enabled=show) as advance:
+        for k in range(calls + 3):
+            t0 = time.perf_counter()
+            task = task_request(PlanTaskRequest.from_dict(json.loads(wire)))
+            t1 = time.perf_counter()
+            result = planner.plan(task)
+            t2 = time.perf_counter()
+            dumps({"op": "service_response", "values": plan_task_response(result).to_dict()})
+            t3 = time.perf_counter()
+            advance()
+            if k < 3 or not result.success:  # the first calls build the scene
+                continue
+            total.append(t3 - t0)
+            rows["decode + convert"].append(t1 - t0)
+            rows["convert + encode"].append(t3 - t2)
+            for name, key in PARTS.items():
+                rows[name].append(result.stats.get(key, 0.0))
+            smooth = result.path
+            t = time.perf_counter()
+            mine = time_parameterize(smooth, planner.vmax, planner.amax)
+            ours.append(time.perf_counter() - t)
+            took, duration = _toppra_time(smooth, planner.vmax, planner.amax)
+            toppra.append(took)
+            durations.append((mine.duration, duration))
+    d = np.array(durations) if durations else np.zeros((1, 2))
+    return {
+        "calls": len(total),
+        "median_total_s": float(np.median(total)) if total else None,
+        "parts_median_s": {k: float(np.median(v)) if v else None for k, v in rows.items()},
+        "timing_ours_median_s": float(np.median(ours)) if ours else None,
+        "timing_toppra_median_s": float(np.median(toppra)) if toppra else None,
+        "duration_ours_over_toppra": float(np.median(d[:, 0] / np.maximum(d[:, 1], 1e-9))),
+    }
+
+
+def service_round_trips(calls: int, show: bool = True) -> dict[str, Any]:
+    """Round trips of the desk request through roslibpy to a warm `robotrial rosbridge
+    --robot desk_arm --world desk` in its own process (the first tenth not counted)."""
+    import roslibpy
+
+    from robotrial.benchmarks.rosbridge import _free_port, _server
+
+    port = _free_port()
+    exe = Path(sys.executable).parent / "robotrial"
+    # compiled and kept first, so that the server starts within _server's wait
+    subprocess.run([str(exe), "warm", "--robot", "desk_arm"], check=True, capture_output=True)
+    cmd = [str(exe), "rosbridge", "--port", str(port), "--robot", "desk_arm", "--world", "desk"]
+    times, planning = [], []
+    with _server(cmd, port):
+        client = roslibpy.Ros(host="127.0.0.1", port=port)
+        client.run(timeout=10)
+        service = roslibpy.Service(client, "/robotrial/plan_task", "robotrial_msgs/PlanTask")
+        warm = max(calls // 10, 3)
+        with progress("service round trips", calls + warm, enabled=show) as advance:
+            for k in range(calls + warm):
+                t0 = time.perf_counter()
+                resp = service.call(roslibpy.ServiceRequest(DESK_REQUEST), timeout=60)
+                dt = time.perf_counter() - t0
+                advance()
+                if not resp["success"]:
+                    raise RuntimeError(f"the desk request failed: {resp['message']}")
+                if k >= warm:
+                    times.append(dt)
+                    planning.append(resp["planning_time"])
+        client.close()
+    t = np.array(times)
+    return {
+        "calls": len(t),
+        "median_s": float(np.median(t)),
+        "p95_s": float(np.percentile(t, 95)),
+        "median_planning_time_s": float(np.median(planning)),
+    }
+
+
+def cold_plan(runs: int = 3) -> dict[str, Any]:
+    """`robotrial plan` for the desk task from a fresh process (numba's and robotrial's
+    caches already filled by `robotrial warm`), wall clock."""
+    exe = Path(sys.executable).parent / "robotrial"
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        subprocess.run([str(exe), *PLAN_COMMAND, "--json"], check=True, capture_output=True)
+        times.append(time.perf_counter() - t0)
+    return {"runs": runs, "median_s": float(np.median(times)), "min_s": float(np.min(times))}
+
+
+def run_service(args: argparse.Namespace) -> int:
+    """`robotrial bench planning --service`."""
+    show = not args.json
+    report = {
+        "date": date.today().isoformat(),
+        "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
+        f"{platform.python_implementation()} {platform.python_version()}",
+        "breakdown": service_breakdown(args.calls, show),
+        "round_trip": service_round_trips(args.calls, show),
+        "cold_plan": cold_plan(),
+    }
+    if args.output:
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        args.output.write_text(json.dumps(report, indent=2))
+    md = args.md.with_name("planning-service.md") if args.md else None
+    if md:
+        md.parent.mkdir(parents=True, exist_ok=True)
+        md.write_text(service_markdown(report))
+    if args.json:
+        print_json(report)
+    else:
+        b, r, c = report["breakdown"], report["round_trip"], report["cold_plan"]
+        rows = [(k, f"{v * 1e3:.3f}") for k, v in b["parts_median_s"].items() if v is not None]
+        rows.append(("whole answer in process", f"{b['median_total_s'] * 1e3:.3f}"))
+        rows.append(("round trip over rosbridge (roslibpy)", f"{r['median_s'] * 1e3:.3f}"))
+        rows.append(("  p95", f"{r['p95_s'] * 1e3:.3f}"))
+        rows.append(("robotrial plan, fresh process", f"{c['median_s'] * 1e3:.0f}"))
+        print_table("PlanTask, desk task (median ms)", ["part", "ms"], rows)
+    return 0
+
+
+def service_markdown(report: dict[str, Any]) -> str:
+    """docs/benchmarks/planning-service.md from a --service report."""
+    b, r, c = report["breakdown"], report["round_trip"], report["cold_plan"]
+    lines = [
+        "# The PlanTask service, end to end",
+        "",
+        f"Measured {report['date']} on {report['machine']} (shared with other jobs) by "
+        "`robotrial bench planning --service`: the g2rViewer desk task (the paper's start, "
+        "obstacle C, the goal position without an orientation) as the page sends it.",
+        "",
+        "| what | median ms |",
+        "| --- | --- |",
+    ]
+    lines += [f"| {k} | {v * 1e3:.3f} |" for k, v in b["parts_median_s"].items() if v is not None]
+    lines += [
+        f"| whole answer in process ({b['calls']} calls) | {b['median_total_s'] * 1e3:.3f} |",
+        f"| round trip over rosbridge, roslibpy to a warm `robotrial rosbridge --robot` "
+        f"({r['calls']} calls) | {r['median_s'] * 1e3:.3f} (p95 {r['p95_s'] * 1e3:.3f}) |",
+        f"| the response's planning_time in those calls | "
+        f"{r['median_planning_time_s'] * 1e3:.3f} |",
+        f"| `robotrial plan` from a fresh process, caches warm ({c['runs']} runs) | "
+        f"{c['median_s'] * 1e3:.0f} |",
+        "",
+        f"Time parameterization on the same paths: compiled {b['timing_ours_median_s'] * 1e3:.3f}"
+        f" ms, toppra {b['timing_toppra_median_s'] * 1e3:.3f} ms; trajectory duration ours / "
+        f"toppra's {b['duration_ours_over_toppra']:.3f}.",
+    ]
+    return "\n".join(lines) + "\n"
 
 
 # --- the whole benchmark ----------------------------------------------------------------
@@ -307,6 +569,8 @@ def _problems(quick: bool) -> list[tuple[str, PlanningProblem, bool]]:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.service:
+        return run_service(args)
     runs = 5 if args.quick else args.runs
     hard_runs = 5 if args.quick else args.hard_runs
     show = not args.json
@@ -381,9 +645,9 @@ def run(args: argparse.Namespace) -> int:
         "speedups": _speedups(results),
         "validation": validation,
     }
-    if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps(report, indent=2))
+    if args.output:
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        args.output.write_text(json.dumps(report, indent=2))
     if args.md:
         args.md.parent.mkdir(parents=True, exist_ok=True)
         args.md.write_text(markdown(report))
@@ -434,6 +698,10 @@ def run(args: argparse.Namespace) -> int:
             print(
                 f"random desk requests: {v['outcomes']}; {v['colliding_paths']} returned "
                 f"paths in collision; {v['replanned']} re-planned after MuJoCo's check"
+            )
+            print(
+                "median ms: "
+                + ", ".join(f"{STAGES[k]} {t:.2f}" for k, t in v["median_stage_ms"].items())
             )
     return 0
 
@@ -558,5 +826,9 @@ def markdown(report: dict[str, Any]) -> str:
             f"dense MuJoCo checking. The planner's first path failed the service's own MuJoCo "
             f"check and was re-planned finer in {v['replanned']} of them. Median RRTConnect "
             f"time {v['median_planning_time_s'] * 1e3:.2f} ms.",
+            "",
+            "Where a solved request's time goes (medians, ms, warm service in one process): "
+            + ", ".join(f"{STAGES[k]} {t:.2f}" for k, t in v["median_stage_ms"].items())
+            + ".",
         ]
     return "\n".join(lines) + "\n"

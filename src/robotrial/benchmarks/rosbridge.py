@@ -44,7 +44,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clients", default="1,10,50", help="subscriber counts, comma-separated")
     parser.add_argument("--queue-length", type=int, default=1, help="subscribers' queue_length")
     parser.add_argument(
-        "--out", type=Path, default=Path("out/bench/rosbridge.json"), help="JSON results file"
+        "-o",
+        "--output",
+        type=Path,
+        default=Path("out/bench/rosbridge.json"),
+        help="JSON results file",
     )
     parser.add_argument(
         "--rs-binary",
@@ -400,8 +404,8 @@ def run(args: argparse.Namespace) -> int:
                 )
         except RuntimeError as exc:
             results["rosbridge_server_rs"] = {"skipped": f"rosbridge-server-rs did not run: {exc}"}
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(results, indent=2))
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    args.output.write_text(json.dumps(results, indent=2))
     if args.json:
         print_json(results)
         return 0
@@ -447,5 +451,5 @@ def run(args: argparse.Namespace) -> int:
     )
     if "skipped" in results["rosbridge_server_rs"]:
         print(f"baseline not measured: {results['rosbridge_server_rs']['skipped']}")
-    print(f"results: {args.out}")
+    print(f"results: {args.output}")
     return 0

@@ -47,7 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--threads", type=int, default=1, help="LiDAR ray-casting threads")
     parser.add_argument("--seeds", type=int, default=10, help="runs of the 10 m odometry drive")
-    parser.add_argument("--out", metavar="JSON", help="also write the results here")
+    parser.add_argument("-o", "--output", metavar="JSON", help="also write the results here")
     add_json_flag(parser)
 
 
@@ -253,8 +253,8 @@ def run(args: argparse.Namespace) -> int:
         "odometry_drift_10m": drift,
         "arm_tracking": tracking,
     }
-    if args.out:
-        Path(args.out).write_text(json.dumps(result, indent=2))
+    if args.output:
+        Path(args.output).write_text(json.dumps(result, indent=2))
     if args.json:
         print_json(result)
         return 0

@@ -56,7 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rerecord", action="store_true", help="simulate even if recorded")
     parser.add_argument("--particles", type=int, default=30, help="GMapping particles")
     parser.add_argument("--short-range", type=float, default=4.0, help="room A check (m)")
-    parser.add_argument("--out", default="bench-slam/slam.json", help="JSON results")
+    parser.add_argument("-o", "--output", default="bench-slam/slam.json", help="JSON results")
     parser.add_argument("--seed", type=int, default=0)
 
 
@@ -207,7 +207,7 @@ def run(args: argparse.Namespace) -> int:
             rows.append(_row(world_name, label, s))
         results["worlds"][world_name] = per
     results["targets"] = check_targets(results["worlds"])
-    out = Path(args.out)
+    out = Path(args.output)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(results, indent=2, default=float))
     print_table("bench slam (ATE and room error in cm, times in ms)", COLUMNS, rows)

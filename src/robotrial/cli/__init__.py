@@ -22,6 +22,7 @@ COMMANDS: dict[str, str] = {
     "info": "info",
     "sim": "sim",
     "plan": "plan",
+    "warm": "warm",
     "rosbridge": "rosbridge",
     "slam": "slam",
     "nav": "nav",

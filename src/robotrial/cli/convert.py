@@ -1,7 +1,8 @@
-"""`robotrial convert IN -o OUT`: a robot or a world into RDTF (.glb) or MJCF (.xml).
+"""`robotrial convert --robot R -o OUT` (or `--world W`): a robot or a world into RDTF
+(.glb) or MJCF (.xml).
 
-Layer 5. IN is a built-in robot name or a URDF / xacro / RDTF file; with `--world`, a
-built-in world name or a world YAML file. OUT's suffix picks the format: `.glb` writes
+Layer 5. R is a built-in robot name or a URDF / xacro / RDTF file; W a built-in world
+name or a world YAML file. OUT's suffix picks the format: `.glb` writes
 RDTF for a robot (docs/rdtf.md) or the browser's glTF scene for a world; `.xml` writes
 MJCF with its mesh files next to it. Prints what it wrote (size, links, joints and the
 repairs the loader made); `--json` prints the same as one object. Errors are one line on
@@ -24,11 +25,9 @@ FORMATS = {".glb": "glb", ".xml": "mjcf"}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "input",
-        metavar="IN",
-        help="built-in robot name, .urdf, .xacro or .glb (with --world: world name or .yaml)",
-    )
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--robot", help="built-in robot name, .urdf, .xacro or .glb file")
+    source.add_argument("--world", help="built-in world name or .yaml file")
     parser.add_argument(
         "-o",
         "--output",
@@ -36,8 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="OUT",
         help="file to write: .glb (RDTF, or glTF scene for a world) or .xml (MJCF)",
     )
-    add_robot_source_arguments(parser)
-    parser.add_argument("--world", action="store_true", help="IN is a world, not a robot")
+    add_robot_source_arguments(parser, robot=False)
     parser.add_argument(
         "--base",
         choices=("fixed", "free", "planar"),
@@ -58,7 +56,7 @@ def _size(n: int) -> str:
 def _convert_robot(args: argparse.Namespace, out: Path, fmt: str) -> dict[str, Any]:
     model = load_robot_from_args(args)
     result: dict[str, Any] = {
-        "input": str(args.input),
+        "input": str(args.robot),
         "kind": "robot",
         "name": model.name,
         "links": len(model.links),
@@ -86,9 +84,9 @@ def _convert_robot(args: argparse.Namespace, out: Path, fmt: str) -> dict[str, A
 def _convert_world(args: argparse.Namespace, out: Path, fmt: str) -> dict[str, Any]:
     from robotrial.model import load_world
 
-    world = load_world(args.input)
+    world = load_world(args.world)
     result: dict[str, Any] = {
-        "input": str(args.input),
+        "input": str(args.world),
         "kind": "world",
         "name": world.name,
         "walls": len(world.walls),
@@ -147,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
             raise ModelError(f"{out}: folder {str(out.parent)!r} does not exist")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            convert = _convert_world if args.world else _convert_robot
+            convert = _convert_world if args.world is not None else _convert_robot
             result = convert(args, out, fmt)
     except (ModelError, OSError, ValueError) as exc:
         # ModelError says what and where; an OSError names the file it failed on

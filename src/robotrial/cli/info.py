@@ -1,6 +1,7 @@
-"""`robotrial info IN`: what a robot description holds, and what the loader repaired.
+"""`robotrial info --robot R`: what a robot description holds, and what the loader
+repaired.
 
-Layer 5. IN is a built-in robot name or a URDF / xacro / RDTF file. Prints the links,
+Layer 5. R is a built-in robot name or a URDF / xacro / RDTF file. Prints the links,
 the joints with their limits, total mass, degrees of freedom, the end effector, the
 sensors and the repairs made while loading; `--json` prints the same as one object.
 """
@@ -22,7 +23,6 @@ HELP = "show a robot's links, joints, mass, DOF, end effector, sensors and loade
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("input", metavar="IN", help="built-in robot name, .urdf, .xacro or .glb")
     add_robot_source_arguments(parser)
     add_json_flag(parser)
 
@@ -95,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
         print_json(info)
         return 0
     out = Console()
-    out.print(f"[bold]{model.name}[/bold]  ({model.source or args.input})")
+    out.print(f"[bold]{model.name}[/bold]  ({model.source or args.robot})")
     out.print(
         f"links {len(model.links)}, joints {len(model.joints)}, DOF {info['dof']}, "
         f"total mass {model.total_mass:.4g} kg, root {model.root}, "

@@ -56,9 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default="mobile_manipulator", help="built-in robot or URDF")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first run")
     parser.add_argument("--time-limit", type=float, help="simulated s before a run gives up")
-    parser.add_argument(
-        "--plot", metavar="PNG", help="where to write the paths (default: nav_WORLD.png)"
-    )
+    parser.add_argument("--plot", metavar="PNG", help="the paths on the map")
     add_json_flag(parser)
 
 
@@ -110,14 +108,10 @@ def run(args: argparse.Namespace) -> int:
             return 2
     summary = summarize(results, best)
     summary["shortest_length"] = length
-    plot = plot_paths(
-        args.plot or f"nav_{world.name}.png",
-        nav_map,
-        results,
-        start,
-        goal,
-        title=f"{world.name}: {summary['successes']}/{len(results)} at {args.speed} m/s",
-    )
+    plot = None
+    if args.plot:
+        title = f"{world.name}: {summary['successes']}/{len(results)} at {args.speed} m/s"
+        plot = str(plot_paths(args.plot, nav_map, results, start, goal, title=title))
     if args.json:
         print_json(
             {
@@ -129,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
                 "controller": args.controller,
                 "runs": [r.summary() for r in results],
                 "summary": summary,
-                "plot": str(plot),
+                "plot": plot,
             }
         )
         return 0 if summary["successes"] == len(results) else 1
@@ -162,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
             )
         ],
     )
-    console.print(f"paths: {plot}")
+    console.print(f"paths: {plot}" if plot else "paths: add --plot PNG to draw them on the map")
     return 0 if summary["successes"] == len(results) else 1
 
 

@@ -13,13 +13,14 @@ from pathlib import Path
 
 import numpy as np
 
+from robotrial.cli.robot_source import add_robot_source_arguments, load_robot_from_args
 from robotrial.console import add_json_flag, console, print_json, print_table
 
 HELP = "plan an arm motion around obstacles to an end-effector goal (the PlanTask service)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--robot", default="desk_arm", help="built-in name or URDF/xacro/RDTF file")
+    add_robot_source_arguments(parser, default="desk_arm")
     parser.add_argument("--world", default="", help="built-in world name or YAML file (optional)")
     parser.add_argument(
         "--goal", nargs=3, type=float, metavar=("X", "Y", "Z"), help="end-effector position (m)"
@@ -67,9 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--seed", type=int, default=None, help="random seed, for a repeatable plan")
     parser.add_argument(
-        "--plots", type=Path, default=Path("plan-plots"), help="folder for the plots"
+        "--plot", type=Path, metavar="PNG", help="joint curves and hand path of the plan"
     )
-    parser.add_argument("--no-plots", action="store_true", help="write no plots")
     add_json_flag(parser)
 
 
@@ -128,11 +128,12 @@ def _empty_box():
 
 
 def run(args: argparse.Namespace) -> int:
-    from robotrial.model import ModelError, load_robot, load_world
+    from robotrial.model import ModelError, load_world
     from robotrial.planning.task import TaskPlanner
+    from robotrial.ros.planning_node import answer
 
     try:
-        robot = load_robot(args.robot)
+        robot = load_robot_from_args(args)
         world = load_world(args.world) if args.world else None
     except (ModelError, KeyError, FileNotFoundError) as exc:
         raise SystemExit(f"robotrial plan: {exc}") from None
@@ -142,11 +143,10 @@ def run(args: argparse.Namespace) -> int:
         home = np.clip(np.zeros(planner.kin.d), planner.kin.lower, planner.kin.upper)
         request.current_joints.name = planner.joint_names
         request.current_joints.position = [float(v) for v in home]
-    result = planner.plan(request, seed=args.seed)
-    resp = result.response
+    resp, result = answer(planner, request, seed=args.seed)
     plots: list[str] = []
-    if resp.success and not args.no_plots:
-        plots = write_plots(result, planner, request, args.plots)
+    if resp.success and args.plot is not None:
+        plots = [write_plot(result, planner, request, args.plot)]
     stats = {k: v for k, v in result.stats.items() if isinstance(v, int | float | str)}
     if args.json:
         out = resp.to_dict()
@@ -169,17 +169,18 @@ def run(args: argparse.Namespace) -> int:
     return 0 if resp.success else 1
 
 
-def write_plots(result, planner, request, folder: Path) -> list[str]:
-    """Joint positions over time (as the platform paper's Figs. 10 to 12) and the
-    end-effector path with the obstacles (as its Fig. 13). Returns the files written."""
+def write_plot(result, planner, request, png: Path) -> str:
+    """Joint positions over time (as the platform paper's Figs. 10 to 12) beside the
+    end-effector path with the obstacles (as its Fig. 13), in one PNG. Returns its path."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     traj = result.trajectory
-    folder.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    png.parent.mkdir(parents=True, exist_ok=True)
+    fig = plt.figure(figsize=(14, 5.5))
+    ax = fig.add_subplot(1, 2, 1)
     for j, name in enumerate(planner.joint_names):
         ax.plot(traj.t, traj.q[:, j], label=name)
     ax.set_xlabel("time (s)")
@@ -187,14 +188,9 @@ def write_plots(result, planner, request, folder: Path) -> list[str]:
     ax.set_title(f"{planner.robot.name}: joint positions ({result.stats.get('planner', '')})")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
-    joints_png = folder / "joints.png"
-    fig.savefig(joints_png, dpi=120)
-    plt.close(fig)
 
     ee = planner.kin.fk(traj.q)[:, planner.kin.tip, :3, 3]
-    fig = plt.figure(figsize=(6.5, 6))
-    ax3 = fig.add_subplot(projection="3d")
+    ax3 = fig.add_subplot(1, 2, 2, projection="3d")
     ax3.plot(ee[:, 0], ee[:, 1], ee[:, 2], color="tab:blue", label="end effector")
     ax3.scatter(*ee[0], color="tab:green", label="start")
     ax3.scatter(*ee[-1], color="tab:red", label="goal")
@@ -210,10 +206,10 @@ def write_plots(result, planner, request, folder: Path) -> list[str]:
     ax3.set_zlim(mid[2] - half, mid[2] + half)
     ax3.legend(loc="upper left", fontsize=8)
     ax3.set_title("end-effector path")
-    path_png = folder / "ee_path.png"
-    fig.savefig(path_png, dpi=120)
+    fig.tight_layout()
+    fig.savefig(png, dpi=120)
     plt.close(fig)
-    return [str(joints_png), str(path_png)]
+    return str(png)
 
 
 def _draw_box(ax, box) -> None:

@@ -1,5 +1,6 @@
 """The options that say where a robot description comes from, shared by the commands
-that read one (`info`, `convert`): search paths for package:// and xacro arguments."""
+that read one: `--robot` (a built-in name or a file), search paths for package:// and
+xacro arguments."""
 
 from __future__ import annotations
 
@@ -9,7 +10,19 @@ from robotrial.model import load_robot
 from robotrial.model.robot import ModelError, RobotModel
 
 
-def add_robot_source_arguments(parser: argparse.ArgumentParser) -> None:
+def add_robot_source_arguments(
+    parser: argparse.ArgumentParser, default: str | None = None, robot: bool = True
+) -> None:
+    """`--robot` (required without a `default`; left out with `robot=False`, for a
+    command that adds its own), `--package-path` and `--xacro-arg`."""
+    if robot:
+        parser.add_argument(
+            "--robot",
+            default=default,
+            required=default is None,
+            help="built-in robot name, .urdf, .xacro or .glb file"
+            + (f" (default {default})" if default else ""),
+        )
     parser.add_argument(
         "--package-path",
         "-p",
@@ -39,12 +52,12 @@ def xacro_arguments(items: list[str]) -> dict[str, str]:
 
 
 def load_robot_from_args(args: argparse.Namespace) -> RobotModel:
-    """The robot named by `args.input` with the search paths and xacro arguments given."""
+    """The robot named by `args.robot` with the search paths and xacro arguments given."""
     xargs = xacro_arguments(args.xacro_arg)
     if not xargs:
-        return load_robot(args.input, package_paths=args.package_path)
-    if not str(args.input).endswith(".xacro"):
-        raise ModelError(f"--xacro-arg given, but {args.input} is not a .xacro file")
+        return load_robot(args.robot, package_paths=args.package_path)
+    if not str(args.robot).endswith(".xacro"):
+        raise ModelError(f"--xacro-arg given, but {args.robot} is not a .xacro file")
     from robotrial.model.urdf import load_urdf
 
-    return load_urdf(args.input, package_paths=args.package_path, xacro_args=xargs)
+    return load_urdf(args.robot, package_paths=args.package_path, xacro_args=xargs)

@@ -47,10 +47,13 @@ def run(args: argparse.Namespace) -> int:
             from robotrial.ros.planning_node import PLAN_TASK, PlanningNode
 
             world = load_world(args.world) if args.world else None
-            PlanningNode(bus, load_robot(args.robot), world)
+            node = PlanningNode(bus, load_robot(args.robot), world)
             console.print(
-                f"{PLAN_TASK} plans for {args.robot}" + (f" in {args.world}" if world else "")
+                f"{PLAN_TASK} plans for {args.robot}"
+                + (f" in {args.world}" if world else "")
+                + "; compiling the planner..."
             )
+            node.planner.warm()
     except (ModelError, ValueError) as exc:
         console.print(f"[red]error:[/red] {exc}")
         return 2

@@ -16,6 +16,7 @@ import sys
 import time
 from pathlib import Path
 
+from robotrial.cli.robot_source import add_robot_source_arguments, load_robot_from_args
 from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
 HELP = "simulate a robot in a world headless (LiDAR, scan, odometry, cameras), record a bag"
@@ -25,7 +26,7 @@ KEYS_HELP = "w/s: faster/slower  a/d: turn left/right  space: stop  q: quit"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--world", default="room_c", help="built-in world name or YAML file")
-    parser.add_argument("--robot", default="mobile_manipulator", help="built-in robot or URDF")
+    add_robot_source_arguments(parser, default="mobile_manipulator")
     parser.add_argument("--duration", type=float, default=60.0, help="simulated seconds")
     parser.add_argument(
         "--drive",
@@ -152,7 +153,7 @@ def plot_trajectories(path: Path, truth: list, odom: list, title: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from robotrial.model import ModelError, load_robot, load_world
+    from robotrial.model import ModelError, load_world
     from robotrial.msgs.nav_msgs import Odometry
     from robotrial.ros.bus import Bus
     from robotrial.ros.recorder import BusRecorder, Recorder, format_of
@@ -168,7 +169,7 @@ def run(args: argparse.Namespace) -> int:
             if format_of(args.record) == "bag" and args.compression == "zstd":
                 raise ValueError(f"{args.record}: a .bag takes --compression lz4 or none")
         world = load_world(args.world)
-        robot, options = _options(args, load_robot(args.robot))
+        robot, options = _options(args, load_robot_from_args(args))
         spawn = world.spawn(args.spawn)
         if args.realtime is not None and not args.realtime > 0:
             raise ValueError(f"--realtime must be positive, got {args.realtime}")

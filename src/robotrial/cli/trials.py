@@ -5,6 +5,8 @@
     robotrial trials run nav --runs 10 --resume          # after Ctrl+C or a lost node
     robotrial trials report trials.db -o trials.html
     robotrial trials paper --quick --workers 2      # both papers, one HTML report
+    robotrial trials carry --object cup --to bedroom  # map, drive, pick, carry, place
+    robotrial trials run carry --set to=kitchen --set to=bedroom --runs 10 --workers 2
 
 A setting given more than once is swept; every combination runs with seeds
 seed..seed+runs-1. Each run is a row of the SQLite database as soon as it ends.
@@ -23,7 +25,7 @@ HELP = "sweeps of trials on local processes or Ray, stored in SQLite; reports; b
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     run = sub.add_parser("run", help="run a sweep (skipping runs the database holds)")
-    run.add_argument("kind", help="trial kind: nav, plan, slam or g2r")
+    run.add_argument("kind", help="trial kind: nav, plan, slam, g2r or carry")
     run.add_argument(
         "--set",
         action="append",
@@ -39,6 +41,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     paper.add_argument("--quick", action="store_true", help="fewer seeds, shorter drives")
     paper.add_argument("-o", "--output", default="paper.html", help="the HTML report")
     _sweep_options(paper, "paper.db")
+    carry = sub.add_parser(
+        "carry", help="one robot maps the home, picks an object, carries it to a room"
+    )
+    carry.add_argument("--world", default="apartment", help="a world with rooms and a route")
+    carry.add_argument("--object", default="cup", help="the object to carry")
+    carry.add_argument("--to", default="bedroom", help="the room to set it down in")
+    carry.add_argument("--slam", default="hector", choices=["hector", "gmapping"])
+    carry.add_argument("--speed", type=float, default=0.5, help="top speed (m/s)")
+    carry.add_argument("--seed", type=int, default=0)
+    carry.add_argument("-o", "--output", default="carry", help="folder for the MCAP, JSON and plot")
+    add_json_flag(carry)
     rep = sub.add_parser("report", help="turn a trial database into an HTML page")
     rep.add_argument("db", help="SQLite file written by `robotrial trials run`")
     rep.add_argument("-o", "--output", help="HTML file (default: the db's name with .html)")
@@ -55,7 +68,9 @@ def _sweep_options(parser: argparse.ArgumentParser, db: str) -> None:
         "--ray", metavar="ADDRESS", help="run on a Ray cluster (e.g. auto, or local to start one)"
     )
     parser.add_argument("--db", default=db, help=f"SQLite file of the runs (default {db})")
-    parser.add_argument("--out", help="folder for files runs write (default: beside the db)")
+    parser.add_argument(
+        "--files", metavar="DIR", help="folder for files runs write (default: beside the db)"
+    )
     parser.add_argument("--resume", action="store_true", help="run what the database lacks")
     add_json_flag(parser)
 
@@ -80,6 +95,8 @@ def settings(items: list[str]) -> dict[str, list]:
 def run(args: argparse.Namespace) -> int:
     if args.action == "report":
         return _report(args)
+    if args.action == "carry":
+        return _carry(args)
     from robotrial.trials.sweep import grid
 
     try:
@@ -123,7 +140,7 @@ def _sweep(args: argparse.Namespace, specs: list, name: str):
     from robotrial.trials.store import TrialStore
     from robotrial.trials.sweep import AlreadyRun, LocalExecutor, RayExecutor, run_sweep
 
-    out = Path(args.out) if args.out else Path(args.db).with_suffix("")
+    out = Path(args.files) if args.files else Path(args.db).with_suffix("")
     failed: list[str] = []
     try:
         store = TrialStore(args.db)
@@ -207,3 +224,47 @@ def _report(args: argparse.Namespace) -> int:
     out.write_text(page)
     console.print(f"wrote {out}")
     return 0
+
+
+def _carry(args: argparse.Namespace) -> int:
+    from robotrial.trials.carry import CarrySetup, run_carry
+
+    try:
+        setup = CarrySetup(
+            world=args.world, object=args.object, to=args.to, slam=args.slam, speed=args.speed
+        )
+        out = Path(args.output)
+        with progress(
+            f"carry {args.object} to the {args.to}", setup.time_limit, enabled=not args.json
+        ) as advance:
+            seen = [0.0]
+
+            def on_progress(phase: str, t: float) -> None:
+                advance(t - seen[0])
+                seen[0] = t
+
+            result = run_carry(setup, args.seed, out, on_progress)
+    except (KeyError, ValueError) as exc:
+        console.print(f"[red]robotrial trials carry: {str(exc).strip(chr(34))}[/red]")
+        return 2
+    summary = result.summary()
+    if args.json:
+        print_json(summary)
+    else:
+        print_table(
+            f"carry {args.object} to the {args.to}, seed {args.seed}: "
+            + ("success" if result.success else f"failed in {result.failed_phase}"),
+            ["phase", "start (s)", "time (s)", "wall (s)"],
+            [[p["phase"], p["start"], p["time"], p["wall_time"]] for p in summary["phases"]],
+        )
+        if not result.success:
+            console.print(f"[red]{result.failed_phase}: {result.reason}[/red]")
+        else:
+            console.print(
+                f"placed {100 * (result.place_error or 0):.1f} cm from the place point, "
+                f"tilted {summary['tilt_deg']} deg; {result.sim_time:.0f} s simulated in "
+                f"{result.wall_time:.0f} s ({summary['real_time_factor']}x real time)"
+            )
+        console.print(f"grasp: {result.grasp or 'none'}")
+        console.print(f"wrote {out}/carry_{args.seed}.mcap, .json and .png")
+    return 0 if result.success else 1

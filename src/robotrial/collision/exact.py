@@ -10,6 +10,7 @@ anything static. `path_valid` checks a path densely.
 from __future__ import annotations
 
 import itertools
+import weakref
 from collections.abc import Sequence
 
 import numpy as np
@@ -22,6 +23,11 @@ from robotrial.model.robot import Collision, Joint, Link
 from robotrial.model.world import Obstacle, World
 
 HELD_LINK = "held_object"
+
+
+_EXCLUDED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""Per robot (its sphere model), the link pairs its MJCF keeps from colliding: found once,
+they spare every later check a second build of the model."""
 
 
 class ExactChecker:
@@ -63,6 +69,7 @@ class ExactChecker:
                 obstacles=world.obstacles + extra,
                 spawns={"default": Pose()},
             )
+        known = _EXCLUDED.get(checker.robot) if held is None else None
         self.doc = to_mjcf(
             robot,
             world,
@@ -70,7 +77,10 @@ class ExactChecker:
             actuators="none",
             self_collision=True,
             visuals=False,
+            excludes=known,
         )
+        if held is None:
+            _EXCLUDED[checker.robot] = self.doc.excluded
         self.model = self.doc.compile()
         self.data = mujoco.MjData(self.model)
         self.tolerance = tolerance
@@ -118,7 +128,7 @@ class ExactChecker:
         keep = (dist < -self.tolerance) & self._counts[b[:, 0], b[:, 1]]
         return geoms[keep]
 
-    def contacts(self, q: np.ndarray) -> list[tuple[str, str, float]]:
+    def contacts(self, q: np.ndarray) -> list[tuple[str, str]]:
         """Contacts that count at `q`: (robot body, other body or geom name)."""
         import mujoco
 
@@ -139,15 +149,24 @@ class ExactChecker:
     def path_valid(self, path: np.ndarray, step: float | None = None) -> tuple[bool, int]:
         """Check a path densely (every `step` rad; default: the sphere model's resolution
         halved). Returns (valid, index of the first colliding sample or -1)."""
+        import mujoco
+
         path = np.atleast_2d(np.asarray(path, dtype=float))
+        if not len(path):
+            return True, -1
         res = self.checker.resolution / 2 if step is None else np.full(path.shape[1], step)
-        k = 0
+        pieces = []
         for a, b in itertools.pairwise(path):
             n = max(int(np.ceil(np.max(np.abs(b - a) / res))), 1)
-            for t in np.arange(n) / n:
-                if not self.valid(a + t * (b - a)):
-                    return False, k
-                k += 1
-        if len(path) and not self.valid(path[-1]):
-            return False, k
+            pieces.append(a + (np.arange(n) / n)[:, None] * (b - a))
+        qs = np.vstack([*pieces, path[-1:]])
+        qpos = np.tile(self._qpos0, (len(qs), 1))
+        qpos[:, self._adr] = self._mult * qs[:, self._src] + self._off
+        model, data = self.model, self.data
+        for k, row in enumerate(qpos):
+            data.qpos[:] = row
+            mujoco.mj_kinematics(model, data)
+            mujoco.mj_collision(model, data)
+            if data.ncon and len(self._hits()):
+                return False, k
         return True, -1

@@ -16,10 +16,12 @@ third of the planner's time.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba as nb
 import numpy as np
 
-from robotrial.kinematics.chain import PRISMATIC, REVOLUTE, fk_single
+from robotrial.kinematics.chain import PRISMATIC, REVOLUTE, TreeArrays, fk_single
 
 # the motion and configuration checks may fuse multiply-adds and assume no NaNs (the
 # geometry has none): 9 % less time, the same answers on the benchmark problems
@@ -27,6 +29,114 @@ _FAST = {"nnan", "nsz", "reassoc", "contract", "arcp"}
 _FAR = 1e30  # a gap larger than any scene
 # The per-sphere loops count with unsigned integers: a signed index may be negative
 # (numba then counts from the end), which turns SIMD loads into gathers.
+
+
+class Shapes(NamedTuple):
+    """Obstacles: boxes (inverse poses, half extents), cylinders (inverse poses, radii,
+    half lengths) and spheres (centres, radii)."""
+
+    box_inv: np.ndarray
+    box_half: np.ndarray
+    cyl_inv: np.ndarray
+    cyl_r: np.ndarray
+    cyl_h: np.ndarray
+    sph_c: np.ndarray
+    sph_r: np.ndarray
+
+
+class Obstacles(NamedTuple):
+    """The shapes and what a clearance query looks at (`item_lists`): every item, and
+    those reachable inside the joint limits."""
+
+    shapes: Shapes
+    every: np.ndarray
+    reachable: np.ndarray
+
+
+class Bodies(NamedTuple):
+    """The robot's sphere bodies in the frames of the collapsed tree: sphere centres
+    (one row per axis) and radii, each body's run of spheres [start, end), its node,
+    its bounding sphere (centre, radius), and which planning joints swing which (see
+    `CollisionChecker._ancestry`)."""
+
+    sphere_local: np.ndarray
+    radius: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    link: np.ndarray
+    bound_local: np.ndarray
+    bound_r: np.ndarray
+    ancestry: np.ndarray
+
+
+class Scratch(NamedTuple):
+    """The kernels' working space (`buffers`)."""
+
+    poses: np.ndarray
+    centres: np.ndarray
+    bound_c: np.ndarray
+    ready: np.ndarray
+    body_speed: np.ndarray
+    pair_speed: np.ndarray
+    ring: np.ndarray
+    lists: np.ndarray
+    gaps: np.ndarray
+    pool: np.ndarray
+    motion: np.ndarray
+
+
+class ConfigChecks(NamedTuple):
+    """What the configuration kernels take: the tree, the bodies, which bodies can
+    touch obstacles, the self pairs (upper body first), the padding against obstacles
+    (m), the obstacles and scratch space."""
+
+    kin: TreeArrays
+    bodies: Bodies
+    env_bodies: np.ndarray
+    pairs: np.ndarray
+    pad: float
+    env: Obstacles
+    buf: Scratch
+
+
+class MotionChecks(NamedTuple):
+    """What the motion kernels take: the check resolution per joint, how fast bodies
+    move and pairs close in per unit of each joint (`CollisionChecker._travel_bounds`),
+    and the configuration kernels' arguments."""
+
+    resolution: np.ndarray
+    body_rate: np.ndarray
+    pair_rate: np.ndarray
+    config: ConfigChecks
+
+
+def packed(checks: tuple) -> tuple:
+    """`checks` (a `MotionChecks` or `ConfigChecks`) as plain nested tuples, the form
+    the kernels called from Python take: numba's dispatcher types plain tuples in C and
+    named ones in Python, 4 us more a call (a tenth of a short planning query). The
+    kernels name them again with `motion_checks` and `config_checks`."""
+    return tuple(packed(x) if isinstance(x, tuple) else x for x in checks)
+
+
+@nb.njit(cache=True, inline="always")
+def config_checks(t) -> ConfigChecks:
+    """`ConfigChecks` from its `packed` form."""
+    kin, bodies, env_bodies, pairs, pad, env, buf = t
+    return ConfigChecks(
+        TreeArrays(*kin),
+        Bodies(*bodies),
+        env_bodies,
+        pairs,
+        pad,
+        Obstacles(Shapes(*env[0]), env[1], env[2]),
+        Scratch(*buf),
+    )
+
+
+@nb.njit(cache=True, inline="always")
+def motion_checks(t) -> MotionChecks:
+    """`MotionChecks` from its `packed` form."""
+    return MotionChecks(t[0], t[1], t[2], config_checks(t[3]))
 
 
 @nb.njit(cache=True, inline="always")
@@ -95,9 +205,9 @@ def _spheres_to_point(centres, radius, s0, s1, px, py, pz, extra, gaps) -> float
 
 
 @nb.njit(cache=True, inline="always")
-def _point_gap2(k, env, x, y, z) -> float:
+def _point_gap2(k, shapes, x, y, z) -> float:
     """Squared distance from point (x, y, z) to environment shape k (0 inside)."""
-    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env[:7]
+    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = shapes
     n_box, n_cyl = box_inv.shape[0], cyl_inv.shape[0]
     if k < n_box:
         inv, half = box_inv, box_half
@@ -129,10 +239,10 @@ def _point_gap2(k, env, x, y, z) -> float:
 
 
 @nb.njit(cache=True, inline="always")
-def _shape_gaps(k, env, centres, radius, s0, s1, gaps) -> float:
+def _shape_gaps(k, shapes, centres, radius, s0, s1, gaps) -> float:
     """Surface gaps from spheres s0..s1 to environment shape k (boxes, then cylinders,
     then spheres) into `gaps`; returns the smallest."""
-    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = env[:7]
+    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = shapes
     n_box, n_cyl = box_inv.shape[0], cyl_inv.shape[0]
     if k < n_box:
         return _spheres_to_box(centres, radius, s0, s1, box_inv, k, box_half, gaps)
@@ -198,7 +308,7 @@ def _twists(kin, poses, motion) -> None:
     """Each node's angular (rows 0-2) and origin's linear (rows 3-5) velocity per unit
     of the motion (row 6: the change of each planning joint) at the configuration
     whose link poses `poses` holds."""
-    parent, jtype, axis, src, mult = kin[0], kin[2], kin[3], kin[4], kin[5]
+    parent, jtype, axis, src, mult = kin.parent, kin.jtype, kin.axis, kin.src, kin.mult
     for i in range(6):
         motion[i, 0] = 0.0
     for k in range(1, parent.shape[0]):
@@ -281,7 +391,7 @@ def item_lists(never: np.ndarray, n_pairs: int) -> tuple[np.ndarray, np.ndarray]
     return every, reachable
 
 
-def buffers(kin, bodies, n_items: int, n_pairs: int, queue: int) -> tuple:
+def buffers(kin: TreeArrays, bodies: Bodies, n_items: int, n_pairs: int, queue: int) -> Scratch:
     """Scratch space for the kernels: link poses, sphere centres (x, y and z rows),
     body bounds (rows), which bodies have their spheres placed, the speeds of bodies
     (the bound over a motion, how fast it may change, the speed at the configuration
@@ -290,39 +400,55 @@ def buffers(kin, bodies, n_items: int, n_pairs: int, queue: int) -> tuple:
     per sphere, a pool for the item lists, and the links' velocities (rows 0-5) along
     the motion (row 6). The kernels allocate nothing: they are compiled without
     reference counting, which would cost more than the geometry."""
-    n_bodies, n_nodes, d = bodies[4].shape[0], kin[0].shape[0], bodies[7].shape[0]
-    return (
+    n_bodies, n_nodes, d = bodies.link.shape[0], kin.parent.shape[0], bodies.ancestry.shape[0]
+    n_spheres = bodies.radius.shape[0]
+    return Scratch(
         np.empty((n_nodes, 4, 4)),
-        np.empty((3, bodies[1].shape[0])),
+        np.empty((3, n_spheres)),
         np.empty((3, n_bodies)),
         np.zeros(n_bodies, dtype=np.bool_),
         np.zeros((3, n_bodies)),
         np.zeros((2, max(n_pairs, 1))),
         np.empty((queue, 2)),
         np.empty((queue, 2), dtype=np.int64),
-        np.empty(bodies[1].shape[0]),
+        np.empty(n_spheres),
         np.empty(min(queue * max(n_items, 1), 1 << 16), dtype=np.int64),
         np.empty((7, max(n_nodes, d))),
     )
 
 
 @nb.njit(cache=True, _nrt=False)
-def config_valid(q, kin, bodies, env_bodies, pairs, pad, env, buf) -> bool:
-    """True when configuration `q` is free of self and environment contacts. `buf` is
-    scratch space from `buffers`."""
+def config_valid(q, checks) -> bool:
+    """True when configuration `q` is free of self and environment contacts (`checks`:
+    a `ConfigChecks`)."""
+    kin, bodies, env_bodies, pairs, pad, env, buf = checks
     return (
         _listed_clearance(
-            q, 0.0, buf[4], buf[5], kin, bodies, env_bodies, pairs, pad, env, buf, env[7]
+            q,
+            0.0,
+            buf.body_speed,
+            buf.pair_speed,
+            kin,
+            bodies,
+            env_bodies,
+            pairs,
+            pad,
+            env,
+            buf,
+            env.every,
         )
         >= 0.0
     )
 
 
 @nb.njit(cache=True)
-def valid_batch(qs, kin, bodies, env_bodies, pairs, pad, env, buf) -> np.ndarray:
+def valid_batch(qs, packed_checks) -> np.ndarray:
+    """Which configurations of `qs` (N, d) are free (`packed_checks`: a `ConfigChecks`,
+    `packed`)."""
+    checks = config_checks(packed_checks)
     out = np.empty(qs.shape[0], dtype=np.bool_)
     for i in range(qs.shape[0]):
-        out[i] = config_valid(qs[i], kin, bodies, env_bodies, pairs, pad, env, buf)
+        out[i] = config_valid(qs[i], checks)
     return out
 
 
@@ -336,7 +462,7 @@ def config_clearance(
     smallest gap over speed. -1 when `q` is in contact. For configurations inside the
     joint limits (it skips what `never` rules out there)."""
     return _listed_clearance(
-        q, cap, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, env[8]
+        q, cap, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, env.reachable
     )
 
 
@@ -363,7 +489,7 @@ def _listed_clearance(
         items,
         0,
         items.shape[0],
-        buf[9],
+        buf.pool,
         0,
         False,
     )
@@ -412,12 +538,19 @@ def _clearance(
     spheres that cannot make it within `cap` are not opened.
 
     With `local`, the speeds are also bounded by those at `q` (from the links'
-    velocities along the motion in buf[10][6]) plus how much they may grow within the
+    velocities along the motion in buf.motion[6]) plus how much they may grow within the
     stretch (body_speed[1], pair_speed[1]): near the middle of a stretch a body
     usually moves much slower than its bound over all configurations."""
     parent, origin, jtype, axis, src, mult, offset, const = kin
-    sphere_local, radius, body_start, body_end, body_link, bound_local, bound_r = bodies[:7]
-    poses, centres, bound_c, ready, gaps, motion = buf[0], buf[1], buf[2], buf[3], buf[8], buf[10]
+    sphere_local, radius, bound_local, bound_r = (
+        bodies.sphere_local,
+        bodies.radius,
+        bodies.bound_local,
+        bodies.bound_r,
+    )
+    body_start, body_end, body_link = bodies.start, bodies.end, bodies.link
+    poses, centres, bound_c, ready = buf.poses, buf.centres, buf.bound_c, buf.ready
+    gaps, motion = buf.gaps, buf.motion
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
     _bounds(poses, body_link, bound_local, bound_c, ready)
     best = cap
@@ -438,7 +571,7 @@ def _clearance(
             b = env_bodies[e]
             v = body_speed[0, b] if moving else 0.0
             r = bound_r[b] + pad
-            g2 = _point_gap2(k, env, bound_c[0, b], bound_c[1, b], bound_c[2, b])
+            g2 = _point_gap2(k, env.shapes, bound_c[0, b], bound_c[1, b], bound_c[2, b])
             near = v  # the fastest the body may come nearer on average within `best`
             if local:  # at its speed here and how fast that may grow
                 s, g = body_speed[2, b], body_speed[1, b]
@@ -449,7 +582,9 @@ def _clearance(
             if g2 > (r + best * near) ** 2:
                 continue
             _place(b, poses, body_link, sphere_local, body_start, body_end, centres, ready)
-            gap = _shape_gaps(k, env, centres, radius, body_start[b], body_end[b], gaps) - pad
+            gap = (
+                _shape_gaps(k, env.shapes, centres, radius, body_start[b], body_end[b], gaps) - pad
+            )
         else:
             p = item - _PAIR
             a, b = pairs[p, 0], pairs[p, 1]
@@ -483,9 +618,7 @@ def _clearance(
 
 
 @nb.njit(cache=True, _nrt=False, fastmath=_FAST)
-def segment_clearance(
-    a, b, c_a, resolution, body_rate, pair_rate, kin, bodies, env_bodies, pairs, pad, env, buf, q
-) -> float:
+def segment_clearance(a, b, c_a, checks, q) -> float:
     """Is the straight motion a -> b free? -1 when not, else the clearance at `b` in units
     of this motion (at most 1). `b` is checked, `a` is assumed free; `c_a` is its
     clearance for this motion when known (from the previous step of a straight walk),
@@ -500,14 +633,17 @@ def segment_clearance(
     The check at the centre of a stretch of half length w also lists the items
     (body-shape and body-body pairs) within w of their speed: the checks inside the
     stretch ask for at most their distance to its border, so nothing else can answer
-    them, and they look at that list alone. `buf` and `q` are scratch space."""
+    them, and they look at that list alone. `checks` is a `MotionChecks`; `q` is
+    scratch space."""
+    resolution, body_rate, pair_rate, config = checks
+    kin, bodies, env_bodies, pairs, pad, env, buf = config
     d = a.shape[0]
     span = 0.0
     for j in range(d):
         span = max(span, abs(b[j] - a[j]) / resolution[j])
     n = max(int(np.ceil(span)), 1)
-    body_speed, pair_speed, ring, lists, pool = buf[4], buf[5], buf[6], buf[7], buf[9]
-    motion = buf[10]
+    body_speed, pair_speed, ring, lists = buf.body_speed, buf.pair_speed, buf.ring, buf.lists
+    pool, motion = buf.pool, buf.motion
     body_speed[:] = 0.0
     pair_speed[:] = 0.0
     for j in range(d):
@@ -531,7 +667,7 @@ def segment_clearance(
     # list pool[l0:l1]; x0 < 0 marks a stretch from `a` whose clearance is not known
     # yet (a blocked motion often fails at its centre first). They are disjoint and
     # longer than `floor`, so fewer than n are ever waiting.
-    reachable = env[8]
+    reachable = env.reachable
     n_items = reachable.shape[0]
     for i in range(n_items):
         pool[i] = reachable[i]
@@ -539,7 +675,7 @@ def segment_clearance(
     x_end = 1.0 - c_b
     if c_a >= x_end:
         return c_b
-    _growth(a, b, body_rate, pair_rate, bodies[7], body_speed, pair_speed, motion)
+    _growth(a, b, body_rate, pair_rate, bodies.ancestry, body_speed, pair_speed, motion)
     ring[0, 0], ring[0, 1] = c_a if c_a >= 0.0 else -1.0, x_end
     lists[0, 0], lists[0, 1] = 0, n_items
     head, tail = 0, 1
@@ -652,28 +788,13 @@ def _grid_walk(
 
 
 @nb.njit(cache=True)
-def motions_valid(
-    a, b, resolution, body_rate, pair_rate, kin, bodies, env_bodies, pairs, pad, env, buf
-) -> np.ndarray:
+def motions_valid(a, b, packed_checks) -> np.ndarray:
     """For each row i: is the straight joint-space motion a[i] -> b[i] free? Ends excluded
-    for `a` (assumed valid), included for `b`."""
+    for `a` (assumed valid), included for `b`. `packed_checks`: a `MotionChecks`,
+    `packed`."""
+    checks = motion_checks(packed_checks)
     q = np.empty(a.shape[1])
     out = np.empty(a.shape[0], dtype=np.bool_)
     for m in range(a.shape[0]):
-        out[m] = 0.0 <= segment_clearance(
-            a[m],
-            b[m],
-            -1.0,
-            resolution,
-            body_rate,
-            pair_rate,
-            kin,
-            bodies,
-            env_bodies,
-            pairs,
-            pad,
-            env,
-            buf,
-            q,
-        )
+        out[m] = 0.0 <= segment_clearance(a[m], b[m], -1.0, checks, q)
     return out

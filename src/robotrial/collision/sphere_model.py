@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -66,6 +67,9 @@ class RobotSpheres:
             for name in kin.link_names
             if name in by_link
         ]
+        # what every checker of this robot computes alike, by (what, body, padding):
+        # a request builds a checker, and these took half its time
+        self._memo: dict[tuple[str, str, float], Any] = {}
         self.disabled, self.reasons = self._disable_pairs(samples, seed)
         self.step = float(step)
         self.resolution = self._resolution(step, seed)
@@ -180,6 +184,9 @@ class RobotSpheres:
         per unit of each link's joint: the farthest it gets from the joint's axis (the
         sampled maximum plus 10 %) for a revolute joint, 1 for a prismatic one, 0 for
         joints that do not move it. Times |mult| (mimic joints)."""
+        key = ("arms", body.name, float(padding))
+        if body.name != OBJECT and key in self._memo:
+            return self._memo[key]
         kin = self.kin
         lb = kin.link_index[body.link]
         out = np.zeros(len(kin.link_names))
@@ -195,6 +202,34 @@ class RobotSpheres:
             arm = np.cross(world - self._poses[:, k, None, :3, 3], u[:, None, :])
             r = np.linalg.norm(arm, axis=-1) + body.radii
             out[k] = 1.1 * (float(r.max()) + padding) * abs(kin.mult[k])
+        if body.name != OBJECT:
+            self._memo[key] = out
+        return out
+
+    def sweep(
+        self, body: Body, joints: np.ndarray, rates: np.ndarray, padding: float, samples: int
+    ) -> tuple[np.ndarray, np.ndarray, float]:
+        """Where `body`'s spheres go while `joints` (one or two) sweep their ranges on a
+        grid, the others at mid-range: the sphere centres (N, 3), their radii grown by
+        `padding`, and how far a sphere may move between grid points (`rates`: the body's
+        travel per unit of each planning joint)."""
+        key = (f"sweep {samples}", body.name, float(padding))
+        if body.name != OBJECT and key in self._memo:
+            return self._memo[key]
+        kin = self.kin
+        per = samples if len(joints) == 1 else int(np.sqrt(3 * samples))
+        axes = [np.linspace(kin.lower[j], kin.upper[j], per) for j in joints]
+        margin = sum(rates[j] * (kin.upper[j] - kin.lower[j]) / (per - 1) / 2 for j in joints)
+        qs = np.tile(0.5 * (kin.lower + kin.upper), (per ** len(joints), 1))
+        for j, values in zip(joints, np.meshgrid(*axes, indexing="ij"), strict=True):
+            qs[:, j] = values.ravel()
+        m = kin.fk(qs)[:, kin.link_index[body.link]]
+        pts = (np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]).reshape(
+            -1, 3
+        )
+        out = (pts, np.tile(body.radii, len(qs)) + padding, float(margin))
+        if body.name != OBJECT:
+            self._memo[key] = out
         return out
 
 
@@ -240,7 +275,7 @@ class Environment:
         self.poses.append(m)
         self.dims.append(dims)
 
-    def arrays(self, keep: Sequence[int] | None = None) -> tuple:
+    def arrays(self, keep: Sequence[int] | None = None) -> kernels.Shapes:
         """The tuple the kernels take: box inverse poses and half extents, cylinder
         inverse poses, radii and half lengths, sphere centres and radii (of the shapes
         in `keep`, default all)."""
@@ -251,7 +286,7 @@ class Environment:
 
         bi, ci, si = pick("box"), pick("cylinder"), pick("sphere")
         inv = [np.linalg.inv(m) for m in self.poses]
-        return (
+        return kernels.Shapes(
             np.array([inv[i] for i in bi]).reshape(-1, 4, 4),
             np.array([self.dims[i] for i in bi]).reshape(-1, 3),
             np.array([inv[i] for i in ci]).reshape(-1, 4, 4),
@@ -340,13 +375,23 @@ class CollisionChecker:
         env_arrays = self._reachable_env()
         self.never_touching = self._never_touching(env_arrays)
         items = kernels.item_lists(self.never_touching, len(self.pairs))
-        self._env = (*env_arrays, *items)
+        self._env = kernels.Obstacles(env_arrays, *items)
         longest = int(np.ceil(np.max((self.kin.upper - self.kin.lower) / self.resolution)))
-        self._buf = kernels.buffers(
+        buf = kernels.buffers(
             self._kin_args, self._bodies, len(items[1]), len(self.pairs), longest + 4
         )
+        config = kernels.ConfigChecks(
+            self._kin_args,
+            self._bodies,
+            self.env_bodies,
+            self._kernel_pairs,
+            self.padding,
+            self._env,
+            buf,
+        )
+        self._checks = kernels.packed(kernels.MotionChecks(self.resolution, *self._travel, config))
 
-    def _reachable_env(self) -> tuple:
+    def _reachable_env(self) -> kernels.Shapes:
         """The environment arrays without shapes no moving body can reach (table legs,
         a floor far below the arm): fewer tests for every check."""
         reach = self.robot.reach + self.padding + 1e-3
@@ -361,35 +406,23 @@ class CollisionChecker:
         ]
         return self.env.arrays(keep)
 
-    def _never_touching(self, env: tuple, samples: int = 512) -> np.ndarray:
+    def _never_touching(self, env: kernels.Shapes, samples: int = 512) -> np.ndarray:
         """(env bodies, shapes) True where a body that only one or two planning joints
         move cannot reach the shape anywhere in those joints' ranges (a first link turning
         above the table it stands on). The joints are swept on a grid; between grid points
         a body moves at most its travel bound times half a step, which the gap must
         exceed. Clearances then ignore those pairs: they would otherwise set the pace of
         every motion check while never being in danger."""
-        n_shapes = len(env[0]) + len(env[2]) + len(env[5])  # boxes, cylinders, spheres
+        n_shapes = len(env.box_inv) + len(env.cyl_inv) + len(env.sph_c)
         out = np.zeros((len(self.env_bodies), n_shapes), dtype=bool)
         rates = self._travel[0]
-        kin = self.kin
         for e, bi in enumerate(self.env_bodies):
             joints = np.nonzero(rates[bi] > 0)[0]
             if self.bodies[bi].name == OBJECT or not 1 <= len(joints) <= 2 or n_shapes == 0:
                 continue
-            per = samples if len(joints) == 1 else int(np.sqrt(3 * samples))
-            axes = [np.linspace(kin.lower[j], kin.upper[j], per) for j in joints]
-            margin = sum(
-                rates[bi, j] * (kin.upper[j] - kin.lower[j]) / (per - 1) / 2 for j in joints
+            pts, radii, margin = self.robot.sweep(
+                self.bodies[bi], joints, rates[bi], self.padding, samples
             )
-            qs = np.tile(0.5 * (kin.lower + kin.upper), (per ** len(joints), 1))
-            for j, values in zip(joints, np.meshgrid(*axes, indexing="ij"), strict=True):
-                qs[:, j] = values.ravel()
-            body = self.bodies[bi]
-            m = kin.fk(qs)[:, kin.link_index[body.link]]
-            pts = (
-                np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]
-            ).reshape(-1, 3)
-            radii = np.tile(body.radii, len(qs)) + self.padding
             gaps = _shape_gaps(pts, *env)
             out[e] = np.min(gaps - radii[:, None], axis=0) > margin
         return out
@@ -436,7 +469,7 @@ class CollisionChecker:
             body_link.append(node[li])
             bound_local.append(m[:3, :3] @ c + m[:3, 3])
             bound_r.append(float(np.max(np.linalg.norm(b.centres - c, axis=1) + b.radii)))
-        self._bodies = (
+        self._bodies = kernels.Bodies(
             np.ascontiguousarray(np.vstack(local).T),  # one row per axis
             np.concatenate(radius),
             np.array(starts, dtype=np.int64),
@@ -473,29 +506,15 @@ class CollisionChecker:
     def upper(self) -> np.ndarray:
         return self.kin.upper
 
-    def _config_args(self) -> tuple:
-        """What every configuration kernel takes after the configuration: kinematics,
-        bodies, env bodies, pairs, padding, environment, scratch."""
-        return (
-            self._kin_args,
-            self._bodies,
-            self.env_bodies,
-            self._kernel_pairs,
-            self.padding,
-            self._env,
-            self._buf,
-        )
-
     def valid(self, qs: np.ndarray) -> np.ndarray:
         """(N,) bool: which configurations of (N, d) are free."""
         q = np.ascontiguousarray(np.atleast_2d(np.asarray(qs, dtype=float)))
-        return kernels.valid_batch(q, *self._config_args())
+        return kernels.valid_batch(q, self._checks[3])
 
     def kernel_args(self) -> tuple:
-        """What the motion kernels (`kernels.segment_clearance`, `kernels.motions_valid`)
-        take after the motion itself: resolution, body and pair travel bounds, then the
-        configuration kernels' arguments."""
-        return (self.resolution, *self._travel, *self._config_args())
+        """What the motion kernels take after the motion: a `kernels.MotionChecks`,
+        `kernels.packed`. Compiled planners call the kernels with it."""
+        return self._checks
 
     def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) bool: which straight segments a[i] -> b[i] are free (a[i] assumed free).
@@ -505,7 +524,7 @@ class CollisionChecker:
         return kernels.motions_valid(
             np.ascontiguousarray(np.atleast_2d(a), dtype=float),
             np.ascontiguousarray(np.atleast_2d(b), dtype=float),
-            *self.kernel_args(),
+            self.kernel_args(),
         )
 
     def motion_valid(self, a: np.ndarray, b: np.ndarray) -> bool:

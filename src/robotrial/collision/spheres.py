@@ -26,7 +26,7 @@ from functools import lru_cache
 import numba as nb
 import numpy as np
 
-from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
+from robotrial.geometry import Box, Cylinder, Mesh, Shape, Sphere
 from robotrial.model.robot import CollisionSphere, RobotModel
 
 FIRST_BULGE = 0.005  # m: the tightest tolerance tried
@@ -441,18 +441,6 @@ def _spheres_of(shapes: list[Shape], budget: int) -> list[tuple[np.ndarray, np.n
     return out
 
 
-def box_spheres(size, max_spheres: int = 16) -> tuple[np.ndarray, np.ndarray]:
-    """Centres (n, 3) and radii (n,) of spheres covering a box centred at the origin."""
-    return _spheres_of([Box(tuple(size))], max_spheres)[0]
-
-
-def cylinder_spheres(
-    radius: float, length: float, max_spheres: int = 16
-) -> tuple[np.ndarray, np.ndarray]:
-    """Spheres covering a cylinder along z centred at the origin."""
-    return _spheres_of([Cylinder(radius, length)], max_spheres)[0]
-
-
 def shape_spheres(shape: Shape, max_spheres: int = 16) -> tuple[np.ndarray, np.ndarray]:
     """Spheres (centres in the shape's frame, radii) that cover `shape`; a mesh is
     covered through its convex hull."""
@@ -480,10 +468,3 @@ def link_spheres(model: RobotModel, max_per_shape: int = 12) -> list[CollisionSp
                 for c, r in zip(world, radii, strict=True)
             )
     return out
-
-
-def pose_spheres(shape: Shape, pose: Pose, max_spheres: int = 16) -> tuple[np.ndarray, np.ndarray]:
-    """Spheres covering `shape` placed at `pose`: centres in the pose's parent frame."""
-    centres, radii = shape_spheres(shape, max_spheres)
-    m = pose.matrix()
-    return centres @ m[:3, :3].T + m[:3, 3], radii

@@ -10,6 +10,7 @@ values, and mimic joints follow their master.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -17,6 +18,21 @@ import numpy as np
 from robotrial.model.robot import RobotModel
 
 FIXED, REVOLUTE, PRISMATIC = 0, 1, 2
+
+
+class TreeArrays(NamedTuple):
+    """A kinematic tree as the compiled kernels take it, one row per link: parent
+    index, joint origin (4x4), joint type, axis, driving planning variable (-1 for
+    none), mimic multiplier and offset, and the value of joints no variable drives."""
+
+    parent: np.ndarray
+    origin: np.ndarray
+    jtype: np.ndarray
+    axis: np.ndarray
+    src: np.ndarray
+    mult: np.ndarray
+    offset: np.ndarray
+    const: np.ndarray
 
 
 _PIO2_HI, _PIO2_LO = 1.5707963267948966, 6.123233995736766e-17  # pi/2 = hi + lo
@@ -273,8 +289,8 @@ class Kinematics:
         )
         self.tip = self.link_index[self.tip_name]
 
-    def _args(self):
-        return (
+    def _args(self) -> TreeArrays:
+        return TreeArrays(
             self.parent,
             self.origin,
             self.jtype,
@@ -285,7 +301,7 @@ class Kinematics:
             self.const,
         )
 
-    def collapsed(self) -> tuple[tuple, np.ndarray, np.ndarray]:
+    def collapsed(self) -> tuple[TreeArrays, np.ndarray, np.ndarray]:
         """The same tree with only the links a planning variable moves (and the root):
         every other link rides rigidly on its nearest such ancestor. Returns the kernel
         arguments of the smaller tree, the node of each link in it, and each link's
@@ -307,7 +323,7 @@ class Kinematics:
             )
         idx = np.array(keep)
         origin = np.array([rel[self.parent[k]] @ self.origin[k] for k in keep[1:]])
-        args = (
+        args = TreeArrays(
             np.concatenate([[-1], node[self.parent[idx[1:]]]]).astype(np.int64),
             np.concatenate([self.origin[:1], origin.reshape(-1, 4, 4)]),
             self.jtype[idx].copy(),

@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation
 
 from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Shape, Sphere
 from robotrial.model.meshes import load_mesh
-from robotrial.model.robot import Inertial, Joint, ModelError, RobotModel
+from robotrial.model.robot import Inertial, Joint, ModelError, RobotModel, Sensor
 from robotrial.model.world import Light, Obstacle, World
 
 if TYPE_CHECKING:
@@ -71,13 +71,15 @@ class MjcfDocument:
     """An MJCF model: the XML text and the mesh files it names (binary STL bytes).
 
     `notes` lists what the writer changed to make the description acceptable to MuJoCo
-    (e.g. a massless link given a tiny mass), one sentence each.
+    (e.g. a massless link given a tiny mass), one sentence each. `excluded`: the robot
+    link pairs kept from colliding with each other (with self-collision on).
     """
 
     name: str
     xml: str
     assets: Mapping[str, bytes] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    excluded: tuple[tuple[str, str], ...] = ()
 
     def compile(self) -> mujoco.MjModel:
         """The compiled MuJoCo model; ModelError with MuJoCo's message if it is refused."""
@@ -596,23 +598,30 @@ class _Writer:
                 el.set("forcerange", _nums([-effort, effort]))
         self.actuators.append(el)
 
-    def _sensor(self, body: ET.Element, s) -> None:
+    def _sensor(self, body: ET.Element, s: Sensor) -> None:
+        """A site at the sensor's frame (LiDARs cast their rays from it), plus what its
+        type needs from MuJoCo (`_SENSOR_ELEMENTS`)."""
         site = ET.SubElement(body, "site", name=s.name, size="0.01")
         _set_pose(site, s.origin)
-        if s.type in ("camera", "depth_camera"):
-            # A sensor frame looks along +x with z up (ROS body convention); a MuJoCo
-            # camera looks along -z with y up.
-            to_cam = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
-            rot = s.origin.rotation() @ to_cam
-            cam = ET.SubElement(body, "camera", name=s.name, pos=_nums(s.origin.xyz))
-            cam.set("quat", _nums(_wxyz(Rotation.from_matrix(rot).as_quat())))
-            fov = float(s.params.get("fov", np.deg2rad(45.0)))
-            cam.set("fovy", _num(np.rad2deg(fov)))
-        elif s.type == "imu":
-            self.sensors.append(ET.Element("gyro", name=f"{s.name}/gyro", site=s.name))
-            self.sensors.append(
-                ET.Element("accelerometer", name=f"{s.name}/accelerometer", site=s.name)
-            )
+        add = _SENSOR_ELEMENTS.get(s.type)
+        if add is not None:
+            add(self, body, s)
+
+    def _camera(self, body: ET.Element, s: Sensor) -> None:
+        # A sensor frame looks along +x with z up (ROS body convention); a MuJoCo
+        # camera looks along -z with y up.
+        to_cam = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+        rot = s.origin.rotation() @ to_cam
+        cam = ET.SubElement(body, "camera", name=s.name, pos=_nums(s.origin.xyz))
+        cam.set("quat", _nums(_wxyz(Rotation.from_matrix(rot).as_quat())))
+        fov = float(s.params.get("fov", np.deg2rad(45.0)))
+        cam.set("fovy", _num(np.rad2deg(fov)))
+
+    def _imu(self, body: ET.Element, s: Sensor) -> None:
+        self.sensors.append(ET.Element("gyro", name=f"{s.name}/gyro", site=s.name))
+        self.sensors.append(
+            ET.Element("accelerometer", name=f"{s.name}/accelerometer", site=s.name)
+        )
 
     # world -----------------------------------------------------------------------------
 
@@ -666,6 +675,10 @@ class _Writer:
         el.set("specular", "0.1 0.1 0.1")
 
 
+_SENSOR_ELEMENTS = {"camera": _Writer._camera, "depth_camera": _Writer._camera, "imu": _Writer._imu}
+"""What each sensor type adds to MJCF besides its site (LiDARs need only the site)."""
+
+
 def to_mjcf(
     robot: RobotModel | None = None,
     world: World | None = None,
@@ -682,6 +695,7 @@ def to_mjcf(
     collisions: bool = True,
     max_mesh_faces: int = MAX_MESH_FACES,
     name: str = "",
+    excludes: tuple[tuple[str, str], ...] | None = None,
 ) -> MjcfDocument:
     """Build the MJCF of a robot, a world, or a robot standing in a world.
 
@@ -696,7 +710,9 @@ def to_mjcf(
     `self_collision`: let the robot's non-adjacent links collide with each other
     (pairs already touching in the zero configuration are excluded). `max_mesh_faces`:
     meshes with more triangles are simplified (at most MuJoCo's STL limit, 200,000; less
-    makes lighter documents for a browser).
+    makes lighter documents for a browser). `excludes`: with self-collision, the link
+    pairs to exclude when already known (a document's `excluded`); None finds them,
+    which builds the model twice.
     """
     if robot is None and world is None:
         raise ModelError("to_mjcf needs a robot, a world or both")
@@ -719,6 +735,8 @@ def to_mjcf(
         actuators, kp, kv, armature, self_collision, visuals, collisions, max_mesh_faces
     )
     doc_name = name or "+".join(x.name for x in (robot, world) if x is not None)
+    if self_collision and robot is not None and excludes is not None:
+        return _build(doc_name, robot, world, base, spawn, opts, timestep, excludes)
     doc = _build(doc_name, robot, world, base, spawn, opts, timestep, excludes=())
     if self_collision and robot is not None:
         pairs = _touching_pairs(doc, robot)
@@ -765,7 +783,9 @@ def _build(
         ET.SubElement(root, "sensor").extend(w.sensors)
     ET.indent(root)
     xml = ET.tostring(root, encoding="unicode")
-    return MjcfDocument(name=name, xml=xml, assets=w.meshes.assets, notes=tuple(w.notes))
+    return MjcfDocument(
+        name=name, xml=xml, assets=w.meshes.assets, notes=tuple(w.notes), excluded=excludes
+    )
 
 
 def _defaults(root: ET.Element, opts: _Options) -> None:

@@ -26,14 +26,14 @@ import pygltflib
 from scipy.spatial.transform import Rotation
 
 from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
-from robotrial.model.meshes import load_mesh
-from robotrial.model.rdtf import (
+from robotrial.model.gltf import (
     PHYSICS_EXTENSION,
     SHAPES_EXTENSION,
     Y_TO_Z,
     GltfBuilder,
     primitive_triangles,
 )
+from robotrial.model.meshes import load_mesh
 from robotrial.model.robot import ModelError
 from robotrial.model.world import Light, Obstacle, World
 

@@ -182,20 +182,16 @@ def _parse_xml(text: str | bytes, source: str, repairs: list[str] | None = None)
     """The root <robot> element. With `repairs`, XML slips that ROS's parser accepts are
     made good (see _tolerated) and described there; otherwise they are errors."""
     data = text.encode("utf-8") if isinstance(text, str) else text
+    # made good before parsing: libxml2 does not always stop at bytes after the root
+    # (a NUL may end its input), so waiting for its error would miss some
+    fixed, done = _tolerated(data) if repairs is not None else (data, [])
     parser = etree.XMLParser(remove_comments=True, huge_tree=True, resolve_entities=False)
     try:
-        root = etree.fromstring(data, parser)
+        root = etree.fromstring(fixed, parser)
     except etree.XMLSyntaxError as exc:
-        fixed, done = _tolerated(data) if repairs is not None else (data, [])
         line = exc.lineno if exc.lineno else "?"
-        error = ModelError(f"{source}:{line}: not well-formed XML: {exc.msg}")
-        if not done:
-            raise error from exc
-        try:
-            root = etree.fromstring(fixed, parser)
-        except etree.XMLSyntaxError:
-            raise error from exc
-        assert repairs is not None
+        raise ModelError(f"{source}:{line}: not well-formed XML: {exc.msg}") from exc
+    if repairs is not None:
         repairs.extend(f"{source}: {d} (as ROS's URDF parser does)" for d in done)
     if root is None or etree.QName(root).localname != "robot":
         tag = etree.QName(root).localname if root is not None else "nothing"

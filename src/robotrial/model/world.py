@@ -55,9 +55,25 @@ class Floor:
 
 
 @dataclass(frozen=True)
+class Room:
+    """A named rectangle of the floor plan ((xmin, ymin), (xmax, ymax)) and, when things
+    may be set down there, a place: the point (x, y) on top of the furniture `place_on`."""
+
+    name: str
+    bounds: tuple[tuple[float, float], tuple[float, float]]
+    place_on: str = ""
+    place: tuple[float, float] | None = None
+
+    def contains(self, x: float, y: float) -> bool:
+        (x0, y0), (x1, y1) = self.bounds
+        return x0 <= x <= x1 and y0 <= y <= y1
+
+
+@dataclass(frozen=True)
 class World:
     """A room or a scene. `interior` is the free rectangle ((xmin, ymin), (xmax, ymax))
-    that the walls enclose, used to score maps; `spawns` are named robot poses."""
+    that the walls enclose, used to score maps; `spawns` are named robot poses; `rooms`
+    name parts of the floor plan."""
 
     name: str
     floor: Floor = Floor()
@@ -69,6 +85,7 @@ class World:
     interior: tuple[tuple[float, float], tuple[float, float]] | None = None
     description: str = ""
     source: str = ""
+    rooms: tuple[Room, ...] = ()
 
     @property
     def static_bodies(self) -> tuple[Obstacle, ...]:
@@ -83,6 +100,20 @@ class World:
         raise KeyError(
             f"world {self.name!r} has no spawn pose {name!r}; it has {sorted(self.spawns)}"
         )
+
+    def room(self, name: str) -> Room:
+        for r in self.rooms:
+            if r.name == name:
+                return r
+        have = ", ".join(r.name for r in self.rooms) or "none"
+        raise KeyError(f"world {self.name!r} has no room {name!r}; its rooms: {have}")
+
+    def body(self, name: str) -> Obstacle:
+        """A wall, obstacle or object by name."""
+        for b in self.static_bodies + self.objects:
+            if b.name == name:
+                return b
+        raise KeyError(f"world {self.name!r} has no body {name!r}")
 
 
 # --- YAML ---------------------------------------------------------------------------
@@ -229,12 +260,18 @@ def world_from_dict(d: Any, source: str = "", base: Path | None = None) -> World
             lo = _floats(d["interior"][0], 2, "interior[0]")
             hi = _floats(d["interior"][1], 2, "interior[1]")
             interior = (lo, hi)
+        rooms = tuple(_room(r, f"rooms[{i}]") for i, r in enumerate(d.get("rooms", []) or []))
     except ModelError as exc:
         raise ModelError(_where(source, str(exc))) from None
     names = [b.name for b in walls + obstacles + objects]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise ModelError(_where(source, f"duplicate body names {dup}"))
+    for i, r in enumerate(rooms):
+        if r.place_on and r.place_on not in names:
+            raise ModelError(
+                _where(source, f"rooms[{i}].place.surface: no body {r.place_on!r} in the world")
+            )
     return World(
         name=str(d.get("name", Path(source).stem if source else "world")),
         floor=floor,
@@ -244,9 +281,26 @@ def world_from_dict(d: Any, source: str = "", base: Path | None = None) -> World
         lights=lights,
         spawns=spawns,
         interior=interior,  # type: ignore[arg-type]
+        rooms=rooms,
         description=str(d.get("description", "")),
         source=source,
     )
+
+
+def _room(d: Any, what: str) -> Room:
+    if not isinstance(d, dict) or "name" not in d:
+        raise ModelError(f"{what}: a room is a mapping with a name, min and max")
+    lo = _floats(d.get("min"), 2, f"{what}.min")
+    hi = _floats(d.get("max"), 2, f"{what}.max")
+    if not (lo[0] < hi[0] and lo[1] < hi[1]):
+        raise ModelError(f"{what}.min must be below and left of max, got {lo} and {hi}")
+    place = d.get("place")
+    if place is None:
+        return Room(str(d["name"]), (lo, hi))  # type: ignore[arg-type]
+    if not isinstance(place, dict) or "surface" not in place or "xy" not in place:
+        raise ModelError(f"{what}.place: give surface (a furniture name) and xy")
+    xy = _floats(place["xy"], 2, f"{what}.place.xy")
+    return Room(str(d["name"]), (lo, hi), str(place["surface"]), xy)  # type: ignore[arg-type]
 
 
 def load_world_file(path: str | Path) -> World:

@@ -48,6 +48,11 @@ class Quaternion(Message):
     def to_array(self) -> np.ndarray:
         return np.array([self.x, self.y, self.z, self.w])
 
+    @staticmethod
+    def from_yaw(yaw: float) -> Quaternion:
+        """A turn of `yaw` radians about z (a heading on the floor)."""
+        return Quaternion(x=0.0, y=0.0, z=float(np.sin(yaw / 2)), w=float(np.cos(yaw / 2)))
+
 
 @message("geometry_msgs/msg/Pose")
 class Pose(Message):
@@ -58,6 +63,11 @@ class Pose(Message):
     def from_pose(pose: geometry.Pose) -> Pose:
         """From robotrial's own Pose (xyz + quaternion x, y, z, w)."""
         return Pose(Point(*pose.xyz), Quaternion(*pose.quat))
+
+    @staticmethod
+    def planar(x: float, y: float, yaw: float) -> Pose:
+        """A pose on the floor: (x, y) at height 0, heading `yaw` (rad)."""
+        return Pose(Point(x=float(x), y=float(y), z=0.0), Quaternion.from_yaw(yaw))
 
     def to_pose(self) -> geometry.Pose:
         """To robotrial's own Pose; raises ValueError on an all-zero quaternion."""

@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import re
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import robotrial.msgs  # noqa: F401  (registers every type)
@@ -120,15 +121,21 @@ def generate() -> str:
     return "\n".join(out) + "\n"
 
 
-def main(argv: list[str] | None = None) -> int:
+def write_generated(argv: list[str] | None, module: str, generate: Callable[[], str]) -> int:
+    """The `main` of a generator module: write `generate()` to the one path in `argv`
+    (default: the command line); 2 with a usage line otherwise."""
     argv = sys.argv[1:] if argv is None else argv
     if len(argv) != 1:
-        print("usage: python -m robotrial.msgs.typescript OUT.ts", file=sys.stderr)
+        print(f"usage: python -m {module} OUT.ts", file=sys.stderr)
         return 2
     path = Path(argv[0])
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(generate())
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    return write_generated(argv, "robotrial.msgs.typescript", generate)
 
 
 if __name__ == "__main__":

@@ -95,6 +95,26 @@ class Inflation:
         return out
 
 
+def coarsen(
+    occupied: np.ndarray, unknown: np.ndarray | None, resolution: float, target: float
+) -> tuple[np.ndarray, np.ndarray | None, float]:
+    """A map at least twice as fine as `target` (m) in cells of about `target`: a cell is
+    occupied where any of its map cells is, unknown where all are. The corner stays."""
+    k = round(target / resolution)
+    if k < 2:
+        return occupied, unknown, resolution
+    rows, cols = occupied.shape
+    pad = ((0, -rows % k), (0, -cols % k))
+
+    def blocks(a: np.ndarray, fill: bool) -> np.ndarray:
+        a = np.pad(np.asarray(a, dtype=bool), pad, constant_values=fill)
+        return a.reshape(a.shape[0] // k, k, a.shape[1] // k, k)
+
+    occ = blocks(occupied, False).any(axis=(1, 3))
+    unk = None if unknown is None else blocks(unknown, True).all(axis=(1, 3)) & ~occ
+    return occ, unk, resolution * k
+
+
 class Costmap:
     """A layered costmap over a fixed grid: `origin` (x, y of the corner of cell (0, 0)),
     `resolution` (m per cell). Call `update()` after changing layers; `cost` and
@@ -108,6 +128,7 @@ class Costmap:
         footprint: Footprint,
         inflation: Inflation = Inflation(),
         unknown: np.ndarray | None = None,
+        marks: np.ndarray | None = None,
     ) -> None:
         occ = np.asarray(occupied, dtype=bool)
         if occ.ndim != 2 or occ.size == 0:
@@ -131,6 +152,8 @@ class Costmap:
         self.obstacles = np.zeros_like(occ)
         self.cost = np.zeros(occ.shape, dtype=np.uint8)
         self.distance = np.zeros(occ.shape)
+        if marks is not None:
+            self.mark(marks)
         self.update()
 
     @property
@@ -236,9 +259,12 @@ class Costmap:
 
     # --- windows -----------------------------------------------------------------------
 
-    def window(self, center: tuple[float, float], size: float) -> Costmap:
+    def window(
+        self, center: tuple[float, float], size: float, marks: np.ndarray | None = None
+    ) -> Costmap:
         """A rolling local costmap: a `size` x `size` m window of this map's static layer
-        centred on `center`, with an empty obstacle layer (cells outside this map: free)."""
+        centred on `center`, its obstacle layer holding the world points `marks` (none by
+        default; cells outside this map: free)."""
         n = max(3, int(np.ceil(size / self.resolution)))
         c = self.world_to_cell(np.asarray(center, dtype=float))
         r0, c0 = int(c[0]) - n // 2, int(c[1]) - n // 2
@@ -253,7 +279,7 @@ class Costmap:
             self.origin[0] + c0 * self.resolution,
             self.origin[1] + r0 * self.resolution,
         )
-        return Costmap(occ, origin, self.resolution, self.footprint, self.inflation, unk)
+        return Costmap(occ, origin, self.resolution, self.footprint, self.inflation, unk, marks)
 
 
 @numba.njit(cache=True)

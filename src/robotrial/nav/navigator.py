@@ -25,7 +25,7 @@ from enum import Enum
 
 import numpy as np
 
-from robotrial.nav.costmap import Costmap, Footprint, Inflation
+from robotrial.nav.costmap import Costmap, Footprint, Inflation, coarsen
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
 from robotrial.nav.hybrid import HybridAStar, HybridConfig, footprint_hits
 from robotrial.nav.planners import PLANNERS, NoPath, StartBlocked, make_planner, smooth
@@ -57,7 +57,8 @@ class NavigatorConfig:
     'dwa' or 'pursuit' (regulated pure pursuit, for footprint plans), both within the
     limits of `dwa`.
     `turn_yaw_rate` (rad/s) and `turn_acc` (rad/s^2) bound the final turn in place to
-    the goal's heading (None: the DWA's limits)."""
+    the goal's heading (None: the DWA's limits). `costmap_resolution` (m): the costmaps'
+    cell size; a map at least twice as fine is coarsened to it (None: the map's)."""
 
     planner: str = "dijkstra"
     hybrid: HybridConfig = field(default_factory=HybridConfig)
@@ -78,6 +79,7 @@ class NavigatorConfig:
     turn_yaw_rate: float | None = None
     turn_acc: float | None = None
     obstacle_range: float = 3.0
+    costmap_resolution: float | None = 0.05
 
 
 @dataclass
@@ -108,6 +110,10 @@ class Navigator:
     ) -> None:
         self.config = config
         self.footprint = footprint
+        if config.costmap_resolution is not None:
+            occupied, unknown, resolution = coarsen(
+                occupied, unknown, resolution, config.costmap_resolution
+            )
         self.global_costmap = Costmap(
             occupied, origin, resolution, footprint, config.inflation, unknown
         )
@@ -183,12 +189,9 @@ class Navigator:
         cm = self.global_costmap
         cm.mark_and_clear(sensor_xy, points_xy, mark_range=self.config.obstacle_range)
         self._dirty = True
-        local = cm.window(sensor_xy, self.config.local_size)
         pts = np.asarray(points_xy, dtype=float).reshape(-1, 2)
         near = np.hypot(*(pts - np.asarray(sensor_xy)).T) <= self.config.obstacle_range
-        local.mark(pts[near])
-        local.update()
-        self.local_costmap = local
+        self.local_costmap = cm.window(sensor_xy, self.config.local_size, pts[near])
 
     # --- the control step --------------------------------------------------------------
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -32,6 +32,18 @@ class Checker(Protocol):
 
     def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) bool: straight segments a[i] -> b[i] free (a[i] assumed free)."""
+        ...
+
+
+@runtime_checkable
+class CompiledChecker(Checker, Protocol):
+    """A checker whose motion checks are compiled kernels: a planner whose loop is
+    compiled (RRTConnect) calls `collision.kernels.segment_clearance` and `config_valid`
+    with `kernel_args()` instead of calling back into Python."""
+
+    def kernel_args(self) -> tuple:
+        """The kernels' arguments after the motion (`collision.kernels.MotionChecks`,
+        packed as plain tuples)."""
         ...
 
 

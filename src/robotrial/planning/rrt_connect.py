@@ -18,9 +18,10 @@ from typing import Any
 import numba as nb
 import numpy as np
 
-from robotrial.collision.kernels import config_valid, segment_clearance
+from robotrial.collision.kernels import config_valid, motion_checks, segment_clearance
 from robotrial.planning.base import (
     Checker,
+    CompiledChecker,
     Planner,
     PlanResult,
     Problem,
@@ -72,55 +73,31 @@ def _steer(a, b, step, out) -> bool:
 
 
 @nb.njit(cache=True, _nrt=False)
-def _grow(
-    first,
-    start,
-    goals,
-    seed,
-    work,
-    tq,
-    tpar,
-    uq,
-    upar,
-    counts,
-    t_is_start,
-    lower,
-    upper,
-    step,
-    iters,
-    resolution,
-    body_rate,
-    pair_rate,
-    kin,
-    bodies,
-    env_bodies,
-    pairs,
-    pad,
-    env,
-    buf,
-):
-    """Run up to `iters` RRTConnect iterations on trees t (tq, tpar) and u.
-
-    counts = [n_t, n_u, iterations done] is updated in place. Returns (status, i_t, i_u,
+def _grow(first, start, goals, seed, work, trees, t_is_start, lower, upper, step, iters, packed):
+    """Run up to `iters` RRTConnect iterations on `trees`: (nodes, parents) of tree t,
+    extended first, the same of tree u, and counts = [n_t, n_u, iterations done],
+    updated in place. `packed` is the checker's `kernel_args()`. Returns (status, i_t, i_u,
     t_is_start): status 1 when node i_t of t and node i_u of u are the same point (the
     trees met), 0 when the iterations ran out, -1 when a tree is full. With `first`, the
     query starts here: seed the generator, check the ends, fill the roots of tq (the
     start) and uq (the free goals), try the direct motion; status 2 when that motion is
     free, -2 for a start in contact, -3 when no goal is free.
     """
-    args = (kin, bodies, env_bodies, pairs, pad, env, buf)
+    tq, tpar, uq, upar, counts = trees
+    checks = motion_checks(packed)
+    config = checks.config
     scratch, target, q_new, q_next = work[0], work[1], work[2], work[3]
     d = lower.shape[0]
     if first:
         np.random.seed(seed)  # noqa: NPY002 (numba has only the legacy generator)
-        if not config_valid(start, *args):
+        if not config_valid(start, config):
             return -2, 0, 0, t_is_start
         for j in range(d):
             tq[0, j] = start[j]
         tpar[0] = -1
         ng = 0
         for g in range(goals.shape[0]):
-            if config_valid(goals[g], *args):
+            if config_valid(goals[g], config):
                 for j in range(d):
                     uq[ng, j] = goals[g, j]
                 upar[ng] = -1
@@ -128,9 +105,7 @@ def _grow(
         counts[0], counts[1], counts[2] = 1, ng, 0
         if ng == 0:
             return -3, 0, 0, t_is_start
-        if 0.0 <= segment_clearance(
-            start, uq[0], -1.0, resolution, body_rate, pair_rate, *args, scratch
-        ):
+        if 0.0 <= segment_clearance(start, uq[0], -1.0, checks, scratch):
             return 2, 0, 0, t_is_start
     nt, nu = counts[0], counts[1]
     cap = tq.shape[0]
@@ -143,9 +118,7 @@ def _grow(
             target[j] = lower[j] + np.random.random() * (upper[j] - lower[j])  # noqa: NPY002
         near = _nearest(tq, nt, target)
         _steer(tq[near], target, step, q_new)
-        if 0.0 <= segment_clearance(
-            tq[near], q_new, -1.0, resolution, body_rate, pair_rate, *args, scratch
-        ):
+        if 0.0 <= segment_clearance(tq[near], q_new, -1.0, checks, scratch):
             for j in range(d):
                 tq[nt, j] = q_new[j]
             tpar[nt] = near
@@ -158,9 +131,7 @@ def _grow(
                 length = _distance(uq[k], q_next)
                 if c_k >= 0.0 and length > 0.0:
                     c_k *= step / length  # the walk's last step may be shorter
-                c_k = segment_clearance(
-                    uq[k], q_next, c_k, resolution, body_rate, pair_rate, *args, scratch
-                )
+                c_k = segment_clearance(uq[k], q_next, c_k, checks, scratch)
                 if c_k < 0.0:
                     break
                 for j in range(d):
@@ -219,12 +190,11 @@ class RRTConnect(Planner):
         """With the sphere checker, the whole query (end checks, direct motion, the
         tree loop, the path) runs compiled; one call to the kernel for every `CHUNK`
         iterations."""
-        args = getattr(checker, "kernel_args", None)
-        if args is None:
+        if not isinstance(checker, CompiledChecker):
             return super().solve(problem, checker)
         t0 = time.perf_counter()
         deadline = t0 + problem.time_limit
-        args = args()
+        checks = checker.kernel_args()
         ws = _workspace(checker, len(problem.goals))
         trees, parents, counts, work = ws.trees, ws.parents, ws.counts, ws.work
         seed = (problem.seed if problem.seed is not None else random.getrandbits(31)) & 0x7FFFFFFF
@@ -240,17 +210,13 @@ class RRTConnect(Planner):
                 problem.goals,
                 seed,
                 work,
-                trees[t],
-                parents[t],
-                trees[u],
-                parents[u],
-                counts,
+                (trees[t], parents[t], trees[u], parents[u], counts),
                 t == 0,
                 lower,
                 upper,
                 step,
                 CHUNK,
-                *args,
+                checks,
             )
             first = False
             if status == -2:

@@ -6,8 +6,6 @@ valid: shortcuts replace a stretch by a straight segment only when that segment 
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 
 from robotrial.planning.base import Checker
@@ -30,12 +28,12 @@ def reduce_vertices(path: np.ndarray, checker: Checker) -> np.ndarray:
     return np.array(out)
 
 
-def _at(path: np.ndarray, cum: np.ndarray, s: float) -> tuple[np.ndarray, int]:
-    """The point at arc length `s` and the index of the segment it lies on."""
-    k = int(np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(path) - 2))
+def _at(path: np.ndarray, cum: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The points at arc lengths `s` (n,) and the indices of the segments they lie on."""
+    k = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(path) - 2)
     seg = cum[k + 1] - cum[k]
-    t = 0.0 if seg <= 0 else (s - cum[k]) / seg
-    return path[k] + t * (path[k + 1] - path[k]), k
+    t = np.where(seg > 0, (s - cum[k]) / np.where(seg > 0, seg, 1.0), 0.0)
+    return path[k] + t[:, None] * (path[k + 1] - path[k]), k
 
 
 def shortcut(
@@ -51,32 +49,33 @@ def shortcut(
         if cum[-1] <= 0:
             break
         s = np.sort(rng.uniform(0, cum[-1], size=(16, 2)), axis=1)
-        a = np.array([_at(path, cum, x)[0] for x in s[:, 0]])
-        b = np.array([_at(path, cum, x)[0] for x in s[:, 1]])
-        ok = checker.motions_valid(a, b)
+        a, ka = _at(path, cum, s[:, 0])
+        b, kb = _at(path, cum, s[:, 1])
         done += 16
-        best, gain = -1, 1e-6
-        for m in np.nonzero(ok)[0]:
-            ka, kb = _at(path, cum, s[m, 0])[1], _at(path, cum, s[m, 1])[1]
-            if ka == kb:
-                continue
-            g = (s[m, 1] - s[m, 0]) - float(np.linalg.norm(b[m] - a[m]))
-            if g > gain:
-                best, gain = m, g
-        if best < 0:
+        # only pairs on different segments can shorten the path
+        gain = (s[:, 1] - s[:, 0]) - np.linalg.norm(b - a, axis=1)
+        gain[ka == kb] = 0.0
+        try_ = np.nonzero(gain > 1e-6)[0]
+        if len(try_) == 0:
             continue
-        ka, kb = _at(path, cum, s[best, 0])[1], _at(path, cum, s[best, 1])[1]
-        path = np.vstack([path[: ka + 1], a[best], b[best], path[kb + 1 :]])
+        ok = checker.motions_valid(a[try_], b[try_])
+        if not np.any(ok):
+            continue
+        best = try_[ok][int(np.argmax(gain[try_][ok]))]
+        path = np.vstack([path[: ka[best] + 1], a[best], b[best], path[kb[best] + 1 :]])
     return reduce_vertices(path, checker)
 
 
 def densify(path: np.ndarray, step: float) -> np.ndarray:
     """Insert waypoints so that no segment is longer than `step` (joint-space L2)."""
-    out = [path[0]]
-    for a, b in itertools.pairwise(path):
-        n = max(int(np.ceil(np.linalg.norm(b - a) / step)), 1)
-        out.extend(a + (b - a) * (k / n) for k in range(1, n + 1))
-    return np.array(out)
+    path = np.asarray(path, dtype=float)
+    if len(path) < 2:
+        return path.copy()
+    d = np.diff(path, axis=0)
+    n = np.maximum(np.ceil(np.linalg.norm(d, axis=1) / step).astype(int), 1)
+    seg = np.repeat(np.arange(len(d)), n)  # the segment of each new point
+    frac = (np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n) + 1) / np.repeat(n, n)
+    return np.vstack([path[:1], path[seg] + frac[:, None] * d[seg]])
 
 
 def round_corners(path: np.ndarray, checker: Checker, fraction: float = 0.25) -> np.ndarray:

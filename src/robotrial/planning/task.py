@@ -1,21 +1,31 @@
 """The PlanTask service logic: the g2rViewer "Move Robot!" request in, a timed path out.
 
-Layer 3. `TaskPlanner` holds what a robot contributes once (kinematics, link spheres and
-self-collision pairs); each request adds its obstacles and the carried object, solves IK
-for the end-effector goal, plans, shortcuts and rounds the path, times it with toppra,
-and validates the timed trajectory densely with MuJoCo before answering. Failures are
-explicit: a goal out of reach (by how much), a start or goal in collision (which links
-touch what), no path within the time limit.
+Layer 3, over arrays and geometry (the ROS messages are converted in
+`robotrial.ros.planning_node`). `TaskPlanner` holds what a robot contributes once
+(kinematics, link spheres and self-collision pairs); each request adds its obstacles and
+the carried object, solves IK for the end-effector goal, plans, shortcuts and rounds the
+path, times it, and validates the timed trajectory densely with MuJoCo before answering.
+The collision checkers of the last few scenes are kept, so a request in a scene already
+seen (the same obstacles, the same object) builds nothing. Failures are explicit: a goal
+out of reach (by how much), a start or goal in collision (which links touch what), no
+path within the time limit.
 """
 
 from __future__ import annotations
 
+import hashlib
+import os
+import pickle
 import time
+from collections import OrderedDict
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+import robotrial.collision
+import robotrial.kinematics
 from robotrial.collision.exact import ExactChecker
 from robotrial.collision.sphere_model import (
     OBJECT,
@@ -29,12 +39,6 @@ from robotrial.kinematics.chain import Kinematics, default_planning_joints
 from robotrial.kinematics.ik import solve_ik
 from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
-from robotrial.msgs.builtin_interfaces import Duration
-from robotrial.msgs.geometry_msgs import Point, Quaternion
-from robotrial.msgs.geometry_msgs import Pose as PoseMsg
-from robotrial.msgs.robotrial_msgs import PlanTaskRequest, PlanTaskResponse
-from robotrial.msgs.sensor_msgs import JointState
-from robotrial.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
 from robotrial.planning import planner_class
 from robotrial.planning.base import Problem, path_length
 from robotrial.planning.smoothing import densify, round_corners, shortcut
@@ -42,17 +46,23 @@ from robotrial.planning.timing import Trajectory, time_parameterize
 
 DEFAULT_TIME_LIMIT = 2.0  # s
 HOLD_DISTANCE = 0.05  # m: an object this close to the tcp is in the hand
-# TaskResult.failure -> the response's error_code
-FAILURE_CODES = {
-    "bad_request": PlanTaskResponse.INVALID_GOAL_CONSTRAINTS,
-    "start_in_collision": PlanTaskResponse.START_STATE_IN_COLLISION,
-    "unreachable": PlanTaskResponse.NO_IK_SOLUTION,
-    "goal_in_collision": PlanTaskResponse.GOAL_IN_COLLISION,
-    "timeout": PlanTaskResponse.TIMED_OUT,
-    "invalid_path": PlanTaskResponse.INVALID_MOTION_PLAN,
-}
 DEFAULT_ACCEL_RATIO = 2.0  # joint acceleration limit = ratio x velocity limit, per second
 FLOOR_THICKNESS = 0.1  # m
+SCENES_KEPT = 8  # collision checkers of this many recent scenes are kept
+REFERENCE_PERIOD = 0.1  # s between the trajectory's samples; trackers interpolate (Hermite)
+CACHE_ENV = "ROBOTRIAL_CACHE"  # folder for what is computed once per robot (default ~/.cache)
+
+Obstacles = list[tuple[str, Shape, Pose]]
+
+FAILURES = (
+    "bad_request",
+    "start_in_collision",
+    "unreachable",
+    "goal_in_collision",
+    "timeout",
+    "planning_failed",
+    "invalid_path",
+)
 
 
 class TaskError(ValueError):
@@ -60,15 +70,34 @@ class TaskError(ValueError):
 
 
 @dataclass
+class TaskRequest:
+    """One Move Robot! request: from the joints `positions` (named by `joint_names`; none:
+    the planning joints, or all of the robot's joints, by count) to the end effector at
+    `goal_position` (m, base frame) with `goal_orientation` (quaternion x, y, z, w; None:
+    position only), around `obstacles`, carrying `object` (name, box, pose; None: nothing).
+    `planner` "" is the default; `time_limit` 0 s is the default."""
+
+    positions: np.ndarray
+    goal_position: np.ndarray
+    goal_orientation: np.ndarray | None = None
+    joint_names: list[str] = field(default_factory=list)
+    obstacles: Obstacles = field(default_factory=list)
+    object: tuple[str, Box, Pose] | None = None
+    planner: str = ""
+    time_limit: float = 0.0
+
+
+@dataclass
 class TaskResult:
-    """A PlanTask answer with what the response has no field for.
+    """A PlanTask answer. `failure`: "" on success, else one of FAILURES; `message` says
+    what happened in words; `object_held`: the object counted as held in the hand (else
+    as an obstacle); `planning_time` in seconds, the whole request."""
 
-    `failure`: "" on success, else bad_request, start_in_collision, unreachable,
-    goal_in_collision, timeout or invalid_path.
-    """
-
-    response: PlanTaskResponse
+    success: bool = False
     failure: str = ""
+    message: str = ""
+    object_held: bool = False
+    planning_time: float = 0.0
     stats: dict[str, Any] = field(default_factory=dict)
     start: np.ndarray | None = None
     path: np.ndarray | None = None
@@ -77,27 +106,78 @@ class TaskResult:
     checker: CollisionChecker | None = None
     exact: ExactChecker | None = None
 
-
-def _box_of(msg, what: str) -> tuple[Box, Pose] | None:
-    """A robotrial_msgs/Box as a shape and pose; None when all sizes are 0."""
-    size = np.array([msg.size.x, msg.size.y, msg.size.z], dtype=float)
-    if not np.all(np.isfinite(size)) or np.any(size < 0):
-        raise TaskError(f"{what}.size must be finite and non-negative, got {tuple(size)}")
-    if np.all(size == 0):
-        return None
-    if np.any(size == 0):
-        raise TaskError(f"{what}.size has a zero edge {tuple(size)}; give all three edges")
-    return Box(tuple(size)), _pose_of(msg.pose, what + ".pose")  # type: ignore[arg-type]
+    @property
+    def goal_joints(self) -> np.ndarray | None:
+        """The trajectory's last configuration (None when nothing was planned)."""
+        return None if self.trajectory is None else self.trajectory.q[-1]
 
 
-def _pose_of(msg, what: str, identity_if_zero: bool = True) -> Pose:
-    q = np.array([msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w])
-    p = np.array([msg.position.x, msg.position.y, msg.position.z])
-    if not np.all(np.isfinite(p)) or not np.all(np.isfinite(q)):
-        raise TaskError(f"{what} has a non-finite number")
-    if np.allclose(q, 0) and identity_if_zero:
-        q = np.array([0.0, 0.0, 0.0, 1.0])
-    return Pose(tuple(p), tuple(q))  # type: ignore[arg-type]
+@dataclass
+class _Scene:
+    """What one set of obstacles and held object costs to build, kept for the next request."""
+
+    env: Environment
+    obstacles: Obstacles
+    held: HeldObject | None
+    checker: CollisionChecker
+    exact: ExactChecker | None
+
+
+def _scene_key(obstacles: Obstacles, held: HeldObject | None, start: np.ndarray) -> tuple:
+    """What a scene's checkers depend on: the obstacles, and the held object with the
+    configuration it is picked up in (which links may touch it)."""
+    parts: list[Any] = [
+        (name, type(shape).__name__, repr(shape), pose.matrix().tobytes())
+        for name, shape, pose in obstacles
+    ]
+    if held is not None:
+        parts.append((repr(held.shape), held.pose_in_link.tobytes(), held.link, start.tobytes()))
+    return tuple(parts)
+
+
+def cache_dir() -> Path:
+    """Where per-robot results are kept between processes: $ROBOTRIAL_CACHE, else
+    $XDG_CACHE_HOME/robotrial, else ~/.cache/robotrial."""
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "robotrial"
+
+
+def _code_digest() -> bytes:
+    """The source of the modules that compute a robot's spheres and pairs: a new version
+    of them must not read an old answer."""
+    h = hashlib.sha256()
+    for package in (robotrial.collision, robotrial.kinematics):
+        for f in sorted(Path(package.__path__[0]).glob("*.py")):
+            h.update(f.read_bytes())
+    return h.digest()
+
+
+def robot_spheres(kin: Kinematics) -> RobotSpheres:
+    """The robot's spheres and self-collision pairs (seconds of work for a robot: sphere
+    covers of every shape, thousands of sampled configurations), kept on disk by robot,
+    joint group and code version, so that a fresh process reads them back."""
+    key = hashlib.sha256(pickle.dumps((kin.model, kin.joint_names)) + _code_digest()).hexdigest()[
+        :32
+    ]
+    path = cache_dir() / "robot-spheres" / f"{key}.pickle"
+    try:
+        spheres = pickle.loads(path.read_bytes())
+        if isinstance(spheres, RobotSpheres):
+            spheres.kin = kin
+            return spheres
+    except Exception:  # not kept yet, unreadable, or from other code: compute it
+        pass
+    spheres = RobotSpheres(kin)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_bytes(pickle.dumps(spheres))
+        tmp.replace(path)
+    except OSError:
+        pass  # a read-only home: compute it again next time
+    return spheres
 
 
 class TaskPlanner:
@@ -119,7 +199,7 @@ class TaskPlanner:
         self.world = world
         self.joint_names = list(joints) if joints else default_planning_joints(robot)
         self.kin = Kinematics(robot, self.joint_names)
-        self.spheres = RobotSpheres(self.kin)
+        self.spheres = robot_spheres(self.kin)
         self.padding = float(padding)
         self.validate = validate
         lim = {j.name: j.limit for j in robot.joints}
@@ -130,6 +210,7 @@ class TaskPlanner:
             ]
         )
         self.amax = DEFAULT_ACCEL_RATIO * self.vmax
+        self._scenes: OrderedDict[tuple, _Scene] = OrderedDict()
         self.world_env = Environment()
         if world is not None:
             fl = world.floor
@@ -185,80 +266,89 @@ class TaskPlanner:
         if len(free) < 2:
             return None
         hand = self.kin.link_pose(free[1])[:3, 3]
-        request = PlanTaskRequest(
-            current_joints=JointState(name=list(self.joint_names), position=list(free[0])),
-            ee_goal=PoseMsg(Point(*hand), Quaternion(0, 0, 0, 0)),
-        )
-        return self.plan(request, seed=0)
+        return self.plan(TaskRequest(free[0], hand, joint_names=list(self.joint_names)), seed=0)
 
-    def plan(self, request: PlanTaskRequest, seed: int | None = None) -> TaskResult:
-        """Answer one request (never raises for a bad request: the response says why)."""
+    def plan(self, request: TaskRequest, seed: int | None = None) -> TaskResult:
+        """Answer one request (never raises for a bad request: the result says why)."""
         t0 = time.perf_counter()
+        result = TaskResult(joint_names=self.joint_names)
         try:
-            result = self._plan(request, seed, t0)
+            self._plan(request, seed, result)
         except TaskError as exc:
-            response = PlanTaskResponse(
-                success=False,
-                message=str(exc),
-                error_code=FAILURE_CODES["bad_request"],
-            )
-            result = TaskResult(response, "bad_request")
-        result.response.planning_time = time.perf_counter() - t0
-        result.stats["total_time"] = result.response.planning_time
-        result.joint_names = self.joint_names
+            self._fail(result, "bad_request", str(exc))
+        result.planning_time = time.perf_counter() - t0
+        result.stats["total_time"] = result.planning_time
         return result
 
-    def _plan(self, request: PlanTaskRequest, seed: int | None, t0: float) -> TaskResult:
-        rng = np.random.default_rng(seed)
-        js = request.current_joints
-        start = self.start_from(list(js.name), list(js.position))
-        stats: dict[str, Any] = {}
-
+    def _scene(self, obstacles: Obstacles, held: HeldObject | None, start: np.ndarray) -> _Scene:
+        """The checkers for these obstacles and this held object: kept from an earlier
+        request in the same scene, else built (and the oldest kept scene dropped)."""
+        key = _scene_key(obstacles, held, start)
+        scene = self._scenes.get(key)
+        if scene is not None:
+            self._scenes.move_to_end(key)
+            return scene
         env = Environment(
             list(self.world_env.names),
             list(self.world_env.kinds),
             list(self.world_env.poses),
             list(self.world_env.dims),
         )
-        obstacles: list[tuple[str, Shape, Pose]] = []
-        for i, box in enumerate(request.obstacles):
-            what = f"obstacles[{i}]"
-            sb = _box_of(box, what)
-            if sb is not None:
-                obstacles.append((box.id or f"obstacle{i}", *sb))
+        for name, shape, pose in obstacles:
+            env.add(name, shape, pose)
+        checker = CollisionChecker(self.spheres, env, self.padding, held, held_touch_at=start)
+        exact = None
+        if self.validate:
+            exact = ExactChecker(
+                checker,
+                self.world,
+                obstacles,
+                held=(held.shape, Pose.from_matrix(held.pose_in_link), held.link) if held else None,
+            )
+        scene = _Scene(env, obstacles, held, checker, exact)
+        self._scenes[key] = scene
+        while len(self._scenes) > SCENES_KEPT:
+            self._scenes.popitem(last=False)
+        return scene
+
+    def _plan(self, request: TaskRequest, seed: int | None, result: TaskResult) -> None:
+        rng = np.random.default_rng(seed)
+        start = self.start_from(list(request.joint_names), list(request.positions))
+        stats = result.stats
+        result.start = start
+
+        obstacles = list(request.obstacles)
         held = None
         held_note = ""
-        obj = _box_of(request.object, "object")
-        if obj is not None:
-            shape, pose = obj
+        if request.object is not None:
+            name, shape, pose = request.object
             tcp = self.kin.link_pose(start)
             in_tcp = np.linalg.inv(tcp) @ pose.matrix()
             gap = np.maximum(np.abs(in_tcp[:3, 3] @ in_tcp[:3, :3]) - np.asarray(shape.size) / 2, 0)
             if float(np.linalg.norm(gap)) <= HOLD_DISTANCE:
                 held = HeldObject(shape, in_tcp, self.kin.tip_name)
+                result.object_held = True
             else:
-                obstacles.append((request.object.id or OBJECT, shape, pose))
+                obstacles.append((name or OBJECT, shape, pose))
                 held_note = " (the object is not at the hand, so it is treated as an obstacle)"
-        for name, shape, pose in obstacles:
-            env.add(name, shape, pose)
-        checker = CollisionChecker(self.spheres, env, self.padding, held, held_touch_at=start)
-        response = PlanTaskResponse(object_held=held is not None)
-        result = TaskResult(response, stats=stats, start=start, checker=checker)
+        t = time.perf_counter()
+        scene = self._scene(obstacles, held, start)
+        stats["scene_time"] = time.perf_counter() - t
+        checker, exact = scene.checker, scene.exact
+        result.checker, result.exact = checker, exact
 
         if not checker.valid(start[None])[0]:
             touching = sorted(checker.contacts(start))
-            return self._fail(
-                result, "start_in_collision", "start in collision: " + _describe(touching)
-            )
+            self._fail(result, "start_in_collision", "start in collision: " + _describe(touching))
+            return
 
         # --- the goal, by IK
-        o = request.ee_goal.orientation
-        position_only = np.allclose([o.x, o.y, o.z, o.w], 0.0)
-        goal_pose = None if position_only else _pose_of(request.ee_goal, "ee_goal")
-        p = request.ee_goal.position
-        target = np.array([p.x, p.y, p.z], dtype=float)
-        if not np.all(np.isfinite(target)):
-            raise TaskError("ee_goal.position has a non-finite number")
+        target = np.asarray(request.goal_position, dtype=float)
+        if target.shape != (3,) or not np.all(np.isfinite(target)):
+            raise TaskError(f"ee_goal.position must be three finite numbers, got {target}")
+        goal_pose = None
+        if request.goal_orientation is not None:
+            goal_pose = Pose(tuple(target), tuple(request.goal_orientation))  # type: ignore[arg-type]
         ik_target = target if goal_pose is None else goal_pose.matrix()
         t_ik = time.perf_counter()
         ik = solve_ik(self.kin, ik_target, start, rng=rng, accept=checker.valid)
@@ -273,41 +363,37 @@ class TaskPlanner:
                     if goal_pose is not None
                     else ""
                 )
-                return self._fail(
+                self._fail(
                     result,
                     "unreachable",
                     f"goal out of reach: the end effector gets no closer than "
                     f"{free.position_error:.3f} m to ({where}){turn}; the target is "
                     f"{np.linalg.norm(target - base):.3f} m from the robot's base",
                 )
+                return
             touching = sorted(checker.contacts(free.q))
-            return self._fail(
+            self._fail(
                 result,
                 "goal_in_collision",
                 "goal in collision: every IK solution found collides, e.g. " + _describe(touching),
             )
+            return
         goal = ik.q
         stats["ik_solutions"] = len(ik.solutions)
 
         # --- plan, shortcut, round, time, validate; retry finer if MuJoCo disagrees
-        planner = planner_class(request.planner)()
+        try:
+            planner = planner_class(request.planner)()
+        except ValueError as exc:
+            raise TaskError(f"planner: {exc}") from None
         limit = request.time_limit if request.time_limit > 0 else DEFAULT_TIME_LIMIT
-        exact = None
-        if self.validate:
-            t = time.perf_counter()
-            exact = ExactChecker(
-                checker,
-                self.world,
-                obstacles,
-                held=(held.shape, Pose.from_matrix(held.pose_in_link), held.link) if held else None,
-            )
-            stats["exact_build_time"] = time.perf_counter() - t
-        result.exact = exact
+        if not np.isfinite(limit):
+            raise TaskError(f"time_limit must be a finite number of seconds, got {limit}")
         for attempt in range(3):
             if attempt:
                 checker = CollisionChecker(
                     self.spheres,
-                    env,
+                    scene.env,
                     self.padding + 0.005 * attempt,
                     held,
                     held_touch_at=start,
@@ -317,26 +403,37 @@ class TaskPlanner:
             stats.update({f"planner_{k}": v for k, v in res.stats.items()})
             stats["planner"] = planner.name
             stats["attempts"] = attempt + 1
-            if not res.success:
-                return self._fail(
+            if not res.success and res.status == "timeout":
+                self._fail(
                     result,
                     "timeout",
                     f"no path found by {planner.name} within {limit:g} s "
                     f"({res.stats.get('nodes', 0)} nodes explored)",
                 )
+                return
+            if not res.success:
+                self._fail(
+                    result,
+                    "planning_failed",
+                    f"{planner.name} stopped without a path ({res.status.replace('_', ' ')}, "
+                    f"attempt {attempt + 1} of 3 with a padding of "
+                    f"{1e3 * checker.padding:.0f} mm)",
+                )
+                return
             t_post = time.perf_counter()
             path = shortcut(res.path, checker, rng)
             smooth = round_corners(path, checker)
-            stats["shortcut_time"] = time.perf_counter() - t_post
+            stats["shortcut_time"] = stats.get("shortcut_time", 0.0) + time.perf_counter() - t_post
             traj = self._timed_and_checked(smooth, path, checker, exact, stats)
             if traj is not None:
                 break
         else:
-            return self._fail(
+            self._fail(
                 result,
                 "invalid_path",
                 "every planned path failed the dense MuJoCo check (3 attempts, finer each time)",
             )
+            return
         result.path = path
         result.trajectory = traj
         result.checker = checker
@@ -344,44 +441,39 @@ class TaskPlanner:
         stats["waypoints"] = len(path)
         stats["duration"] = traj.duration
         checked = ", validated with MuJoCo" if exact is not None else ""
-        result.response = PlanTaskResponse(
-            success=True,
-            message=(
-                f"planned with {planner.name} in {res.planning_time * 1e3:.1f} ms; "
-                f"{len(path)} waypoints, {traj.duration:.2f} s trajectory{checked}{held_note}"
-            ),
-            goal_joints=[float(v) for v in traj.q[-1]],
-            trajectory=to_joint_trajectory(self.joint_names, traj),
-            error_code=PlanTaskResponse.SUCCESS,
-            object_held=held is not None,
+        result.success = True
+        result.message = (
+            f"planned with {planner.name} in {res.planning_time * 1e3:.1f} ms; "
+            f"{len(path)} waypoints, {traj.duration:.2f} s trajectory{checked}{held_note}"
         )
-        return result
 
     def _timed_and_checked(self, smooth, path, checker, exact, stats) -> Trajectory | None:
         """Time the rounded path, else the plain one with denser waypoints; keep the first
-        whose samples pass the dense check (MuJoCo when validating, else the spheres)."""
+        whose motion as a tracker follows it (Hermite between the samples) passes the
+        dense check (MuJoCo when validating, else the spheres)."""
         for candidate, gap in ((smooth, 0.05), (path, 0.01)):
             t = time.perf_counter()
-            traj = time_parameterize(candidate, self.vmax, self.amax, max_gap=gap)
-            stats["timing_time"] = time.perf_counter() - t
+            traj = time_parameterize(
+                candidate, self.vmax, self.amax, period=REFERENCE_PERIOD, max_gap=gap
+            )
+            tracked = traj.tracked(REFERENCE_PERIOD / 2)
+            stats["timing_time"] = stats.get("timing_time", 0.0) + time.perf_counter() - t
             t = time.perf_counter()
             if exact is not None:
-                ok, _ = exact.path_valid(traj.q)
+                ok, _ = exact.path_valid(tracked)
             else:
-                dense = densify(traj.q, float(np.min(checker.resolution)) / 2)
+                dense = densify(tracked, float(np.min(checker.resolution)) / 2)
                 ok = bool(np.all(checker.valid(dense)))
-            stats["validation_time"] = time.perf_counter() - t
+            stats["validation_time"] = stats.get("validation_time", 0.0) + time.perf_counter() - t
+            stats["timed_candidates"] = stats.get("timed_candidates", 0) + 1
             if ok:
                 return traj
         return None
 
-    def _fail(self, result: TaskResult, failure: str, message: str) -> TaskResult:
+    def _fail(self, result: TaskResult, failure: str, message: str) -> None:
+        result.success = False
         result.failure = failure
-        held = result.response.object_held
-        result.response = PlanTaskResponse(
-            success=False, message=message, error_code=FAILURE_CODES[failure], object_held=held
-        )
-        return result
+        result.message = message
 
 
 def _describe(pairs: list[tuple[str, str]]) -> str:
@@ -390,37 +482,3 @@ def _describe(pairs: list[tuple[str, str]]) -> str:
     return "; ".join(f"{a} touches {b}" for a, b in pairs[:6]) + (
         f" (and {len(pairs) - 6} more)" if len(pairs) > 6 else ""
     )
-
-
-def to_joint_trajectory(names: list[str], traj: Trajectory) -> JointTrajectory:
-    """A trajectory_msgs/JointTrajectory of the samples (time from the start)."""
-    points = [
-        JointTrajectoryPoint(
-            positions=[float(v) for v in traj.q[i]],
-            velocities=[float(v) for v in traj.qd[i]],
-            accelerations=[float(v) for v in traj.qdd[i]],
-            time_from_start=Duration.from_sec(float(traj.t[i])),
-        )
-        for i in range(len(traj.t))
-    ]
-    return JointTrajectory(joint_names=list(names), points=points)
-
-
-_PLANNERS: dict[tuple[int, int], tuple[RobotModel, World | None, TaskPlanner]] = {}
-
-
-def task_planner(robot: RobotModel, world: World | None = None) -> TaskPlanner:
-    """The TaskPlanner for this robot and world, built once and reused."""
-    key = (id(robot), id(world))
-    hit = _PLANNERS.get(key)
-    if hit is None or hit[0] is not robot or hit[1] is not world:
-        hit = (robot, world, TaskPlanner(robot, world))
-        _PLANNERS[key] = hit
-    return hit[2]
-
-
-def plan_task(
-    robot: RobotModel, request: PlanTaskRequest, world: World | None = None
-) -> PlanTaskResponse:
-    """The /robotrial/plan_task service: a PlanTask request in, its response out."""
-    return task_planner(robot, world).plan(request).response

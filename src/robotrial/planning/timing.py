@@ -1,19 +1,26 @@
-"""Time parameterization under joint velocity and acceleration limits, with toppra.
+"""Time parameterization under joint velocity and acceleration limits.
 
 Layer 3. The geometric path is densified (so the interpolating spline cannot stray from
-the checked segments), fitted with a clamped cubic spline (zero velocity at both ends),
-and retimed time-optimally by TOPP-RA; the result is sampled at a fixed period.
+the checked segments) and fitted with a clamped cubic spline q(s) (zero velocity at both
+ends). Along it, the fastest admissible speed profile is found as TOPP-RA does (Pham and
+Pham, 2018): with x = ds/dt squared and u = d2s/dt2, the limits are linear in (u, x) at
+each grid point; a backward pass finds, per grid point, the largest x from which the end
+can still be reached at rest, and a forward pass accelerates as hard as that allows.
+Both passes are compiled; the result is sampled at a fixed period.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
+from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from robotrial.planning.smoothing import densify
 
-ACCEL_MARGIN = 0.85
+ACCEL_MARGIN = 0.97  # the limits hold at grid points; the rest is scaled out below
+BISECTIONS = 40
 
 
 @dataclass
@@ -30,6 +37,95 @@ class Trajectory:
     def duration(self) -> float:
         return float(self.t[-1]) if len(self.t) else 0.0
 
+    def tracked(self, step: float) -> np.ndarray:
+        """Positions every `step` seconds as a tracker follows the samples: a cubic
+        Hermite curve through their positions and velocities (the page's and the
+        simulator's joint reference), ends included."""
+        if len(self.t) < 2:
+            return self.q.copy()
+        t = np.linspace(0.0, self.duration, max(int(np.ceil(self.duration / step)), 1) + 1)
+        return CubicHermiteSpline(self.t, self.q, self.qd)(t)
+
+
+@nb.njit(cache=True)
+def _u_range(x, dq, ddq, amax, two_ds) -> tuple[float, float]:
+    """The accelerations u allowed at speed squared x on the stage from grid point i to
+    i + 1 (rows 0 and 1 of dq, ddq): |dq u + ddq x| <= amax at both ends, with the speed
+    squared at the far end x + two_ds u (TOPP-RA's interpolation scheme)."""
+    lo, hi = -np.inf, np.inf
+    for end in range(2):
+        for j in range(dq.shape[1]):
+            k = dq[end, j] + (two_ds * ddq[end, j] if end else 0.0)
+            c = ddq[end, j] * x
+            if abs(k) < 1e-12:
+                if abs(c) > amax[j]:
+                    return np.inf, -np.inf
+                continue
+            a = (-amax[j] - c) / k
+            b = (amax[j] - c) / k
+            if a > b:
+                a, b = b, a
+            lo = max(lo, a)
+            hi = min(hi, b)
+    return lo, hi
+
+
+@nb.njit(cache=True)
+def _reaches(x, target, dq, ddq, amax, two_ds) -> bool:
+    """From speed squared x, does an allowed u lead to some y in [0, target]?"""
+    ulo, uhi = _u_range(x, dq, ddq, amax, two_ds)
+    return ulo <= uhi and max(x + two_ds * ulo, 0.0) <= min(x + two_ds * uhi, target)
+
+
+@nb.njit(cache=True)
+def _profile(dq, ddq, vmax, amax, ds) -> np.ndarray:
+    """Speed squared x (n,) along the grid: the time-optimal profile from rest to rest."""
+    n, d = dq.shape
+    xmax = np.empty(n)
+    for i in range(n):
+        m = np.inf
+        for j in range(d):
+            if abs(dq[i, j]) > 1e-12:
+                m = min(m, (vmax[j] / abs(dq[i, j])) ** 2)
+        xmax[i] = min(m, 1e12)
+    xmax[0] = 0.0
+    xmax[n - 1] = 0.0
+    # backward: the largest x at i from which some allowed u reaches [0, k[i + 1]]
+    k = np.empty(n)
+    k[n - 1] = 0.0
+    for i in range(n - 2, -1, -1):
+        two_ds = 2.0 * (ds[i + 1] - ds[i])
+        rows, rows2 = dq[i : i + 2], ddq[i : i + 2]
+        lo, hi = 0.0, xmax[i]
+        if _reaches(hi, k[i + 1], rows, rows2, amax, two_ds):
+            k[i] = hi
+            continue
+        # bracket the answer near the next point's value (the bound may be 1e12 where
+        # the path barely moves), then bisect: precision relative to the answer
+        x = min(max(k[i + 1], 1e-9), hi)
+        if _reaches(x, k[i + 1], rows, rows2, amax, two_ds):
+            lo = x
+            while 2.0 * lo < hi and _reaches(2.0 * lo, k[i + 1], rows, rows2, amax, two_ds):
+                lo *= 2.0
+            hi = min(2.0 * lo, hi)
+        else:
+            hi = x
+        for _ in range(BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            if _reaches(mid, k[i + 1], rows, rows2, amax, two_ds):
+                lo = mid
+            else:
+                hi = mid
+        k[i] = lo
+    # forward: accelerate as hard as allowed while staying within the controllable set
+    x = np.empty(n)
+    x[0] = 0.0
+    for i in range(n - 1):
+        two_ds = 2.0 * (ds[i + 1] - ds[i])
+        uhi = _u_range(x[i], dq[i : i + 2], ddq[i : i + 2], amax, two_ds)[1]
+        x[i + 1] = max(min(k[i + 1], x[i] + two_ds * uhi), 0.0)
+    return x
+
 
 def time_parameterize(
     path: np.ndarray,
@@ -39,10 +135,6 @@ def time_parameterize(
     max_gap: float = 0.05,
 ) -> Trajectory:
     """A time-optimal trajectory along `path` with |qd| <= vmax and |qdd| <= amax."""
-    import toppra as ta
-    import toppra.algorithm as algo
-    import toppra.constraint as constraint
-
     path = np.asarray(path, dtype=float)
     vmax = np.asarray(vmax, dtype=float)
     amax = np.asarray(amax, dtype=float)
@@ -54,20 +146,47 @@ def time_parameterize(
     keep = np.concatenate([[True], np.linalg.norm(np.diff(way, axis=0), axis=1) > 1e-9])
     way = way[keep]
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(way, axis=0), axis=1))])
-    spline = ta.SplineInterpolator(s / s[-1], way, bc_type="clamped")
-    vel = constraint.JointVelocityConstraint(np.stack([-vmax, vmax], axis=1))
-    # TOPP-RA holds the limits at grid points; the spline between them may exceed the
-    # acceleration limit slightly, so it is given a margin
-    acc = constraint.JointAccelerationConstraint(np.stack([-amax, amax], axis=1) * ACCEL_MARGIN)
-    gridpoints = np.linspace(0, 1, int(np.clip(4 * len(way), 200, 1500)))
-    instance = algo.TOPPRA(
-        [vel, acc], spline, gridpoints=gridpoints, parametrizer="ParametrizeConstAccel"
+    spline = CubicSpline(s / s[-1], way, bc_type="clamped")
+    # the spline's knots are grid points too: between two grid points the path is then
+    # one cubic, and the limits' excess inside an interval a low-order polynomial
+    grid = np.union1d(np.linspace(0, 1, int(np.clip(4 * len(way), 200, 1500))), s / s[-1])
+    dq, ddq = spline(grid, 1), spline(grid, 2)
+    x = _profile(dq, ddq, vmax, amax * ACCEL_MARGIN, grid)
+    # constant u on each interval: dt = 2 ds / (sd_i + sd_{i+1})
+    sd = np.sqrt(np.maximum(x, 0.0))
+    step = np.diff(grid)
+    dt = 2.0 * step / np.maximum(sd[:-1] + sd[1:], 1e-12)
+    u = (x[1:] - x[:-1]) / (2.0 * step)
+    # the limits hold at the grid points; between them the path's curvature may push a
+    # joint past them: slow the whole trajectory down uniformly by the largest excess
+    # (speeds scale with 1/c, accelerations with 1/c^2), measured inside every interval
+    f = np.linspace(0.0, 1.0, 9)[:, None]
+    x_in = x[:-1] + f * (x[1:] - x[:-1])  # x is linear in s on an interval
+    s_in = grid[:-1] + f * step
+    d1, d2 = spline(s_in.ravel(), 1), spline(s_in.ravel(), 2)
+    v_in = np.sqrt(np.maximum(x_in, 0.0)).ravel()[:, None]
+    a_in = d2 * x_in.ravel()[:, None] + d1 * np.tile(u, len(f))[:, None]
+    c = max(
+        1.0,
+        float(np.max(np.abs(d1) * v_in / vmax)),
+        float(np.sqrt(np.max(np.abs(a_in) / amax))),
     )
-    traj = instance.compute_trajectory()
-    if traj is None:
-        raise RuntimeError("toppra found no feasible time parameterization for the path")
-    n = max(int(np.ceil(traj.duration / period)), 1)
-    t = np.linspace(0.0, traj.duration, n + 1)
-    q = traj(t)
+    dt *= c
+    times = np.concatenate([[0.0], np.cumsum(dt)])
+    duration = float(times[-1])
+    n = max(int(np.ceil(duration / period)), 1)
+    t = np.linspace(0.0, duration, n + 1)
+    i = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(step) - 1)
+    tau = t - times[i]
+    tau = tau / c  # in the unscaled time of the profile
+    v = sd[i] + u[i] * tau
+    pos = np.minimum(grid[i] + sd[i] * tau + 0.5 * u[i] * tau**2, grid[i + 1])
+    pos[-1] = 1.0
+    v[-1] = 0.0
+    d1 = spline(pos, 1)
+    q = spline(pos)
+    qd = d1 * (v / c)[:, None]
+    qdd = (spline(pos, 2) * (v**2)[:, None] + d1 * u[i][:, None]) / c**2
     q[0], q[-1] = path[0], path[-1]
-    return Trajectory(t, q, traj(t, 1), traj(t, 2))
+    qd[0], qd[-1] = 0.0, 0.0
+    return Trajectory(t, q, qd, qdd)

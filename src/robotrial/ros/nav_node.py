@@ -29,7 +29,6 @@ import numpy as np
 
 from robotrial.msgs.builtin_interfaces import Time
 from robotrial.msgs.geometry_msgs import (
-    Point,
     Pose,
     PoseArray,
     PoseStamped,
@@ -55,14 +54,6 @@ def _yaw(q: Quaternion) -> float:
     return float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)))
 
 
-def _quat(yaw: float) -> Quaternion:
-    return Quaternion(x=0.0, y=0.0, z=float(np.sin(yaw / 2)), w=float(np.cos(yaw / 2)))
-
-
-def _pose(x: float, y: float, yaw: float) -> Pose:
-    return Pose(position=Point(x=float(x), y=float(y), z=0.0), orientation=_quat(yaw))
-
-
 def costmap_message(cm: Costmap, stamp: float, frame: str = "map") -> OccupancyGrid:
     """A costmap as nav_msgs/OccupancyGrid (0..100, -1 unknown)."""
     cost = cm.cost.astype(np.int32)
@@ -76,7 +67,7 @@ def costmap_message(cm: Costmap, stamp: float, frame: str = "map") -> OccupancyG
             resolution=cm.resolution,
             width=cols,
             height=rows,
-            origin=_pose(cm.origin[0], cm.origin[1], 0.0),
+            origin=Pose.planar(cm.origin[0], cm.origin[1], 0.0),
         ),
         data=data.astype(np.int8).ravel().tolist(),
     )
@@ -224,7 +215,7 @@ class NavNode(Node):
             Path(
                 header=head,
                 poses=[
-                    PoseStamped(header=head, pose=_pose(x, y, t))
+                    PoseStamped(header=head, pose=Pose.planar(x, y, t))
                     for (x, y), t in zip(path, yaws, strict=True)
                 ],
             )
@@ -241,9 +232,9 @@ class NavNode(Node):
         self.pose_pub.publish(
             PoseWithCovarianceStamped(
                 header=head,
-                pose=PoseWithCovariance(pose=_pose(*est), covariance=c.ravel().tolist()),
+                pose=PoseWithCovariance(pose=Pose.planar(*est), covariance=c.ravel().tolist()),
             )
         )
         self.cloud_pub.publish(
-            PoseArray(header=head, poses=[_pose(*p) for p in self.amcl.particles])
+            PoseArray(header=head, poses=[Pose.planar(*p) for p in self.amcl.particles])
         )

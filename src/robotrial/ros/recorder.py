@@ -2,8 +2,9 @@
 (layer 4).
 
 `Recorder` writes robotrial.msgs messages; `BusRecorder` subscribes to topics of a bus
-and records what they carry (like `ros2 bag record`). Serialization goes through the
-`rosbags` type stores (ROS 2 Humble CDR, ROS 1 Noetic); the MCAP schemas are the full
+and records what they carry (like `ros2 bag record`). Messages are serialized by
+`robotrial.msgs.cdr` (ROS 2 CDR, ROS 1) and read back through the `rosbags` type stores
+(ROS 2 Humble, ROS 1 Noetic); the MCAP schemas are the full
 `.msg` definitions of robotrial.msgs, in the `ros2msg` encoding that ROS 2 tools write,
 and its chunks are compressed (LZ4 by default: quick to write; zstd: smaller; both as
 rosbag2 and the MCAP tools write them, and Foxglove and Lichtblick read them).
@@ -16,18 +17,16 @@ from __future__ import annotations
 
 import struct
 import threading
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
-from rosbags.interfaces import Nodetype
 from rosbags.rosbag1 import Writer as Bag1Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-from robotrial.msgs import Message, lookup_message
+from robotrial.msgs import Message, cdr, lookup_message
 from robotrial.msgs.core import definition, dependencies, full_definition
 from robotrial.msgs.names import LATCHED_TOPICS
 from robotrial.ros.bus import Bus, Node
@@ -80,99 +79,9 @@ def ensure_type(store, cls: type[Message], dialect: str) -> None:
     _READY.add(key)
 
 
-_DTYPES = {
-    "bool": np.bool_,
-    "byte": np.uint8,
-    "char": np.uint8,
-    "int8": np.int8,
-    "uint8": np.uint8,
-    "int16": np.int16,
-    "uint16": np.uint16,
-    "int32": np.int32,
-    "uint32": np.uint32,
-    "int64": np.int64,
-    "uint64": np.uint64,
-    "float32": np.float32,
-    "float64": np.float64,
-}
-
-
-def _default(store, desc) -> Any:
-    kind, detail = desc
-    if kind == Nodetype.BASE:
-        return "" if detail[0] == "string" else (False if detail[0] == "bool" else 0)
-    if kind == Nodetype.NAME:
-        return _converter(store, detail)(None)
-    (sub_kind, sub_detail), length = detail
-    n = length if kind == Nodetype.ARRAY else 0
-    if sub_kind == Nodetype.BASE and sub_detail[0] != "string":
-        return np.zeros(n, dtype=_DTYPES[sub_detail[0]])
-    return [_default(store, (sub_kind, sub_detail)) for _ in range(n)]
-
-
-def _field_converter(store, desc) -> Callable[[Any], Any] | None:
-    """How to turn one of our field values into the rosbags value (None: as it is)."""
-    kind, detail = desc
-    if kind == Nodetype.BASE:
-        return None
-    if kind == Nodetype.NAME:
-        return _converter(store, detail)
-    (sub_kind, sub_detail), _ = detail
-    if sub_kind == Nodetype.BASE and sub_detail[0] != "string":
-        dtype = _DTYPES[sub_detail[0]]
-
-        def numbers(value: Any) -> np.ndarray:
-            if isinstance(value, bytes | bytearray | memoryview):
-                return np.frombuffer(value, dtype=np.uint8).astype(dtype, copy=False)
-            return np.asarray(value, dtype=dtype)
-
-        return numbers
-    inner = _field_converter(store, (sub_kind, sub_detail))
-    if inner is None:
-        return list
-    return lambda value: [inner(v) for v in value]
-
-
-_CONVERTERS: dict[tuple[int, str], Callable[[Any], Any]] = {}
-_MISSING = object()
-
-
-def _converter(store, typename: str) -> Callable[[Any], Any]:
-    """A function from our message of `typename` to the store's object (None: defaults);
-    built once per type and store."""
-    key = (id(store), typename)
-    fn = _CONVERTERS.get(key)
-    if fn is not None:
-        return fn
-    cls = store.types[typename]
-    _, fields = store.fielddefs[typename]
-    plan: list[tuple[str, Callable[[Any], Any] | None, Any]] = []
-
-    def build(msg: Any) -> Any:
-        aliases = getattr(msg, "__aliases__", {})
-        kwargs = {}
-        for name, conv, desc in plan:
-            value = _MISSING if msg is None else getattr(msg, aliases.get(name, name), _MISSING)
-            if value is _MISSING:
-                kwargs[name] = _default(store, desc)
-            else:
-                kwargs[name] = value if conv is None else conv(value)
-        return cls(**kwargs)
-
-    _CONVERTERS[key] = build
-    plan.extend((name, _field_converter(store, desc), desc) for name, desc in fields)
-    return build
-
-
 def serialize(msg: Message, dialect: str = "ros2") -> bytes:
-    """CDR (ros2) or ROS 1 bytes of a message."""
-    store = typestore(dialect)
-    cls = type(msg)
-    ensure_type(store, cls, dialect)
-    obj = _converter(store, cls.__ros_type__)(msg)
-    if dialect == "ros2":
-        return bytes(store.serialize_cdr(obj, cls.__ros_type__))
-    return bytes(store.serialize_ros1(obj, cls.__ros_type__))
+    """CDR (ros2) or ROS 1 bytes of a message (the bytes rosbridge's cbor-raw sends)."""
+    return cdr.serialize(msg) if dialect == "ros2" else cdr.serialize_ros1(msg)
 
 
 def _field_back(value: Any, spec) -> Any:

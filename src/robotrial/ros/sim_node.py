@@ -257,6 +257,27 @@ def reference_from_message(msg: JointTrajectory) -> JointReference:
     return JointReference(msg.joint_names, times, pos, vel)
 
 
+Topics = dict[str, tuple[str, type]]
+"""stream -> (topic, message type)"""
+
+SENSOR_TOPICS: dict[str, Callable[[str, bool], Topics]] = {
+    "lidar": lambda name, first: {name: ("/points" if first else f"/{name}/points", PointCloud2)},
+    "imu": lambda name, first: {name: ("/imu" if name == "imu" else f"/{name}/imu", Imu)},
+    "camera": lambda name, first: {
+        name: (f"/{name}/image_raw", Image),
+        f"{name}/info": (f"/{name}/camera_info", CameraInfo),
+    },
+    "depth_camera": lambda name, first: {
+        name: (f"/{name}/depth/image_raw", Image),
+        f"{name}/info": (f"/{name}/depth/camera_info", CameraInfo),
+        f"{name}/points": (f"/{name}/points", PointCloud2),
+    },
+}
+"""For each sensor type (`sim.sensor_kinds.SENSOR_KINDS`), the topics of a sensor's
+streams, given its name and whether it is the first of its type (the first LiDAR
+publishes /points, as a robot with one LiDAR does in ROS)."""
+
+
 class SimNode(Node):
     """Puts a Simulation on the bus and steps it: `run(duration)` in the caller's thread
     (as fast as possible or paced), or `start()`/`stop()` in a background thread.
@@ -272,26 +293,16 @@ class SimNode(Node):
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._pubs: dict[str, Any] = {}
-        lidars = [s.name for s in sim.robot.sensors if s.type == "lidar"]
         self.topics: dict[str, tuple[str, type]] = {
             "scan": ("/scan", LaserScan),
             "odom": ("/odom", Odometry),
             "ground_truth": (GROUND_TRUTH, Odometry),
             "joint_states": ("/joint_states", JointState),
         }
+        seen: set[str] = set()
         for s in sim.robot.sensors:
-            if s.type == "lidar":
-                topic = "/points" if s.name == lidars[0] else f"/{s.name}/points"
-                self.topics[s.name] = (topic, PointCloud2)
-            elif s.type == "imu":
-                self.topics[s.name] = ("/imu" if s.name == "imu" else f"/{s.name}/imu", Imu)
-            elif s.type == "camera":
-                self.topics[s.name] = (f"/{s.name}/image_raw", Image)
-                self.topics[f"{s.name}/info"] = (f"/{s.name}/camera_info", CameraInfo)
-            elif s.type == "depth_camera":
-                self.topics[s.name] = (f"/{s.name}/depth/image_raw", Image)
-                self.topics[f"{s.name}/info"] = (f"/{s.name}/depth/camera_info", CameraInfo)
-                self.topics[f"{s.name}/points"] = (f"/{s.name}/points", PointCloud2)
+            self.topics.update(SENSOR_TOPICS[s.type](s.name, s.type not in seen))
+            seen.add(s.type)
         for topic, cls in self.topics.values():
             self._pubs[topic] = self.create_publisher(topic, cls)
         self._tf = self.create_publisher("/tf", TFMessage)

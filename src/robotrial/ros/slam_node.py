@@ -24,7 +24,6 @@ from scipy.spatial.transform import Rotation
 
 from robotrial.msgs.builtin_interfaces import Time
 from robotrial.msgs.geometry_msgs import (
-    Point,
     Pose,
     PoseStamped,
     Quaternion,
@@ -108,10 +107,6 @@ def scan_to_beams(
     )
 
 
-def _quat(yaw: float) -> Quaternion:
-    return Quaternion(x=0.0, y=0.0, z=float(np.sin(yaw / 2)), w=float(np.cos(yaw / 2)))
-
-
 def grid_message(grid: LogOddsGrid, stamp: float, frame: str = "map") -> OccupancyGrid:
     """The map as nav_msgs/OccupancyGrid (100 occupied, 0 free, -1 unknown)."""
     values = grid.ros_values()
@@ -123,9 +118,7 @@ def grid_message(grid: LogOddsGrid, stamp: float, frame: str = "map") -> Occupan
             resolution=float(grid.resolution),
             width=w,
             height=h,
-            origin=Pose(
-                position=Point(x=grid.origin[0], y=grid.origin[1], z=0.0), orientation=_quat(0.0)
-            ),
+            origin=Pose.planar(grid.origin[0], grid.origin[1], 0.0),
         ),
         data=values.ravel().tolist(),
     )
@@ -224,7 +217,7 @@ class SlamNode(Node):
         self._pose_pub.publish(
             PoseStamped(
                 header=header,
-                pose=Pose(position=Point(x=pose[0], y=pose[1], z=0.0), orientation=_quat(pose[2])),
+                pose=Pose.planar(*pose[:3]),
             )
         )
         if odom is not None:
@@ -241,7 +234,7 @@ class SlamNode(Node):
                         child_frame_id=child,
                         transform=Transform(
                             translation=Vector3(x=m2o[0], y=m2o[1], z=0.0),
-                            rotation=_quat(m2o[2]),
+                            rotation=Quaternion.from_yaw(m2o[2]),
                         ),
                     )
                 ]

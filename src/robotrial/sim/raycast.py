@@ -28,7 +28,8 @@ _PRIMITIVES = {_PLANE, _SPHERE, _CAPSULE, _ELLIPSOID, _CYLINDER, _BOX}
 
 class RayScene:
     """Some geoms of a model (the environment) copied into a small MuJoCo model of their
-    own, to cast rays against.
+    own, to cast rays against. An object the gripper holds (its collisions switched off)
+    is left out, as a robot's self filter would leave it out of its scans.
 
     Casting against a copy that holds only the walls, obstacles and objects (not the
     robot's visual and collision geoms) is several times faster. Geoms of moving bodies
@@ -40,7 +41,9 @@ class RayScene:
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, geoms: np.ndarray) -> None:
         spec = mujoco.MjSpec()
+        self.source = model
         self.bodies: list[int] = []
+        self._probe: list[int] = []
         mocap: dict[int, Any] = {}
         for g in np.asarray(geoms, dtype=int):
             b = int(model.geom_bodyid[g])
@@ -48,6 +51,7 @@ class RayScene:
             if moving and b not in mocap:
                 mocap[b] = spec.worldbody.add_body(mocap=True)
                 self.bodies.append(b)
+                self._probe.append(int(g))
             parent = mocap[b] if moving else spec.worldbody
             gtype = mujoco.mjtGeom(int(model.geom_type[g]))
             if moving:
@@ -121,13 +125,16 @@ class RayScene:
         if not self.bodies:
             mujoco.mj_kinematics(self.model, self.data)
             return
-        for i, b in enumerate(self.bodies):
-            self.data.mocap_pos[i] = data.xpos[b]
+        m = self.source
+        for i, (b, g) in enumerate(zip(self.bodies, self._probe, strict=True)):
+            held = m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0
+            self.data.mocap_pos[i] = _AWAY if held else data.xpos[b]
             self.data.mocap_quat[i] = data.xquat[b]
         mujoco.mj_kinematics(self.model, self.data)
 
 
 _MINVAL = 1e-15
+_AWAY = np.array([0.0, 0.0, -1e4])  # where a held object's copy waits, out of every beam
 
 
 @numba.njit(cache=True, inline="always")

@@ -9,6 +9,7 @@ Images follow the ROS optical convention: x right, y down, z forward, in the fra
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -16,6 +17,16 @@ import numpy as np
 from robotrial.gl import INSTALL_HINT
 from robotrial.sim.build import RAY_GROUP
 from robotrial.sim.controllers import joint_dof
+
+
+@dataclass
+class Reading:
+    """One sample of a stream: its name, kind and data (a dataclass from sim.lidar or
+    this module)."""
+
+    stream: str
+    kind: str
+    data: Any
 
 
 @dataclass

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 import mujoco
 import numpy as np
@@ -28,7 +27,7 @@ from robotrial.geometry import Pose
 from robotrial.kinematics.reference import link_poses
 from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
-from robotrial.sim.build import RAY_GROUP, compile_world
+from robotrial.sim.build import compile_world
 from robotrial.sim.controllers import (
     BaseController,
     DriveLimits,
@@ -36,15 +35,14 @@ from robotrial.sim.controllers import (
     JointController,
     JointReference,
 )
-from robotrial.sim.lidar import Lidar, LidarPattern, RayScene, ScanConfig
+from robotrial.sim.lidar import RayScene, ScanConfig
 from robotrial.sim.odometry import OdometryNoise, WheelOdometry
 from robotrial.sim.scene import SimWorld
-from robotrial.sim.sensors import Camera, Imu, JointStates, OdometryReading, depth_to_points
+from robotrial.sim.sensor_kinds import SENSOR_KINDS, Reader, ray_scene_of
+from robotrial.sim.sensors import JointStates, OdometryReading, Reading
 from robotrial.sim.tf import TfTree, chain_to_root
 
 DEFAULT_RATES = {"odom": 50.0, "ground_truth": 50.0, "joint_states": 50.0}
-SCAN_ABOVE_FLOOR = 0.1
-"""m: the 2D scan keeps points from this height above the floor to 0.5 m above the LiDAR."""
 
 
 @dataclass(frozen=True)
@@ -64,21 +62,11 @@ class StreamSettings:
 
 
 @dataclass
-class Reading:
-    """One sample of a stream: its name, kind and data (a dataclass from sim.lidar or
-    sim.sensors)."""
-
-    stream: str
-    kind: str
-    data: Any
-
-
-@dataclass
 class _Stream:
     name: str
     kind: str
     period: float
-    read: Callable[[float], list[Reading]]
+    read: Reader
     next_due: float = 0.0
 
 
@@ -202,20 +190,30 @@ class Simulation:
     def _stream_names(self) -> list[str]:
         names = list(DEFAULT_RATES)
         for s in self.robot.sensors:
-            names.append(s.name)
-            if s.type == "depth_camera":
-                names.append(f"{s.name}/points")
-        if any(s.type == "lidar" for s in self.robot.sensors):
-            names.append("scan")
-        return names
+            names += [s.name, *SENSOR_KINDS[s.type].extra_streams(s)]
+        return list(dict.fromkeys(names))
 
-    def _settings(self, name: str) -> StreamSettings:
-        return self.options.streams.get(name, StreamSettings())
+    def settings(self, stream: str) -> StreamSettings:
+        """The options' overrides for one stream (defaults when none)."""
+        return self.options.streams.get(stream, StreamSettings())
 
-    def _add(
-        self, name: str, kind: str, rate: float, read: Callable[[float], list[Reading]]
-    ) -> None:
-        st = self._settings(name)
+    def ray_scene(self) -> RayScene | None:
+        """The LiDARs' shared ray-cast scene, or None when they see the robot too."""
+        if self.options.lidar_sees_robot:
+            return None
+        if self._scene is None:
+            self._scene = ray_scene_of(self.world)
+        return self._scene
+
+    def claim(self, stream: str) -> bool:
+        """True the first time a sensor asks for shared stream `stream` (the 2D scan
+        comes from the first LiDAR)."""
+        first = stream not in self._claimed
+        self._claimed.add(stream)
+        return first
+
+    def _add(self, name: str, kind: str, rate: float, read: Reader) -> None:
+        st = self.settings(name)
         if not st.enabled:
             return
         hz = st.rate_hz or rate
@@ -224,10 +222,10 @@ class Simulation:
         self.streams.append(_Stream(name, kind, 1.0 / hz, read))
 
     def _build_streams(self) -> None:
-        w, opts = self.world, self.options
+        w = self.world
         self._mobile = w.planar or (w.base_body >= 0 and w.model.body_jntadr[w.base_body] >= 0)
         self._scene: RayScene | None = None
-        model = w.model
+        self._claimed: set[str] = set()
         if self.state_reader is not None:
             self._add(
                 "joint_states", "joint_states", DEFAULT_RATES["joint_states"], self._read_joints
@@ -235,109 +233,25 @@ class Simulation:
         if self._mobile:
             self._add("odom", "odom", DEFAULT_RATES["odom"], self._read_odom)
             self._add("ground_truth", "odom", DEFAULT_RATES["ground_truth"], self._read_truth)
-        first_lidar = True
         for s in self.robot.sensors:
-            st = self._settings(s.name)
+            st = self.settings(s.name)
             if not st.enabled:
                 continue
-            frame = self.tf.sensor_frames[s.name]
+            kind = SENSOR_KINDS[s.type]
             params = dict(s.params)
             if st.noise is not None:
-                params["noise"] = st.noise
-                if s.type == "imu":
-                    params["noise_gyro"] = params["noise_accel"] = st.noise
-            if s.type == "lidar":
-                pattern = LidarPattern.from_params(params)
-                scene = None
-                if not opts.lidar_sees_robot:
-                    if self._scene is None:
-                        env = np.nonzero(model.geom_group == RAY_GROUP)[0]
-                        self._scene = RayScene(model, w.data, env)
-                    scene = self._scene
-                lidar = Lidar(
-                    model, s.name, pattern, frame, threads=opts.lidar_threads, scene=scene
-                )
-                self.closers.append(lidar.close)
-                scan_cfg = opts.scan or ScanConfig(
-                    min_height=SCAN_ABOVE_FLOOR - self._height_above_floor(s.name),
-                    max_height=0.5,
-                    angle_increment=pattern.horizontal_resolution,
-                    range_min=pattern.range_min,
-                    range_max=min(pattern.range_max, 30.0),
-                )
-                want_scan = first_lidar and self._settings("scan").enabled
-                self._add(
-                    s.name,
-                    "points",
-                    s.rate_hz,
-                    self._lidar_reader(s.name, lidar, scan_cfg if want_scan else None),
-                )
-                first_lidar = False
-            elif s.type in ("camera", "depth_camera"):
-                if not opts.cameras:
-                    continue
-                depth = s.type == "depth_camera"
-                cam = Camera(
-                    model,
-                    s.name,
-                    width=int(params.get("width", 320)),
-                    height=int(params.get("height", 240)),
-                    depth=depth,
-                    frame=frame,
-                    noise=float(params.get("noise", 0.0)),
-                    near=float(params.get("near", 0.05)),
-                    far=float(params.get("far", 10.0)),
-                )
-                self.closers.append(cam.close)
-                self._add(s.name, "image", s.rate_hz, self._camera_reader(s.name, cam, depth))
-            elif s.type == "imu":
-                imu = Imu(
-                    model,
-                    s.name,
-                    frame,
-                    noise_gyro=float(params.get("noise_gyro", params.get("noise", 0.0))),
-                    noise_accel=float(params.get("noise_accel", params.get("noise", 0.0))),
-                )
-                self._add(
-                    s.name,
-                    "imu",
-                    s.rate_hz,
-                    lambda t, imu=imu, n=s.name: [
-                        Reading(n, "imu", imu.read(self.world.data, self.world.rng, t))
-                    ],
-                )
+                params.update(dict.fromkeys(kind.noise_params, st.noise))
+            read = kind.build(self, s, params, self.tf.sensor_frames[s.name])
+            if read is not None:
+                self._add(s.name, kind.reading, s.rate_hz, read)
 
-    def _height_above_floor(self, site: str) -> float:
+    def height_above_floor(self, site: str) -> float:
         """Height (m) of a sensor site above the floor geom (z = 0 without one)."""
         model, data = self.world.model, self.world.data
         sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
         fid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "floor")
         floor = float(data.geom_xpos[fid][2]) if fid >= 0 else 0.0
         return float(data.site_xpos[sid][2]) - floor
-
-    def _lidar_reader(self, name: str, lidar: Lidar, scan: ScanConfig | None):
-        def read(t: float) -> list[Reading]:
-            cloud = lidar.sweep(self.world.data, self.world.rng, t)
-            out = [Reading(name, "points", cloud)]
-            if scan is not None:
-                sc = lidar.scan(scan)
-                sc.scan_time = 1.0 / max(1e-9, self._settings(name).rate_hz or 10.0)
-                out.append(Reading("scan", "scan", sc))
-            return out
-
-        return read
-
-    def _camera_reader(self, name: str, cam: Camera, depth: bool):
-        def read(t: float) -> list[Reading]:
-            img = cam.read(self.world.data, self.world.rng, t)
-            out = [Reading(name, "image", img)]
-            if depth and self._settings(f"{name}/points").enabled:
-                out.append(
-                    Reading(f"{name}/points", "points_xyz", (t, img.frame, depth_to_points(img, 2)))
-                )
-            return out
-
-        return read
 
     def _read_joints(self, t: float) -> list[Reading]:
         assert self.state_reader is not None

@@ -17,6 +17,7 @@ import numpy as np
 
 from robotrial.geometry import Pose
 from robotrial.model.robot import RobotModel
+from robotrial.sim.sensor_kinds import SENSOR_KINDS
 
 OPTICAL = Pose.from_xyz_rpy((0, 0, 0), (-np.pi / 2, 0.0, -np.pi / 2))
 
@@ -86,15 +87,21 @@ class TfTree:
             self.sensor_frames[s.name] = frame
             if frame not in self.links:
                 statics.append(Transform(s.link, frame, s.origin.xyz, s.origin.quat))
-            if s.type in ("camera", "depth_camera"):
+            if SENSOR_KINDS[s.type].optical_frame:
                 statics.append(Transform(frame, frame + "_optical", OPTICAL.xyz, OPTICAL.quat))
         self.movable = [
             j
             for j in robot.topological_joints()
             if j.type in ("revolute", "continuous", "prismatic")
         ]
-        self._axes = [np.asarray(j.axis, float) / np.linalg.norm(j.axis) for j in self.movable]
-        self._rots = [j.origin.rotation() for j in self.movable]
+        axes = [np.asarray(j.axis, float) / np.linalg.norm(j.axis) for j in self.movable]
+        # per movable joint, as plain floats (this runs at the joint state rate): the unit
+        # axis, and for a prismatic joint its direction in the parent frame
+        self._axes = [tuple(map(float, a)) for a in axes]
+        self._slides = [
+            tuple(map(float, j.origin.rotation() @ a)) if j.type == "prismatic" else None
+            for j, a in zip(self.movable, axes, strict=True)
+        ]
         for j in robot.topological_joints():
             if j.type == "fixed":
                 statics.append(Transform(j.parent, j.child, j.origin.xyz, j.origin.quat))
@@ -111,18 +118,18 @@ class TfTree:
         """Transforms of the movable joints at joint `values` (missing joints at 0; mimic
         joints follow their leader)."""
         out = []
-        for j, axis, rot in zip(self.movable, self._axes, self._rots, strict=True):
+        for j, axis, slide in zip(self.movable, self._axes, self._slides, strict=True):
             v = values.get(j.name)
             if v is None and j.mimic is not None:
                 v = j.mimic.multiplier * values.get(j.mimic.joint, 0.0) + j.mimic.offset
             v = float(v or 0.0)
-            if j.type == "prismatic":
-                d = rot @ (axis * v)
-                xyz = tuple(float(a + b) for a, b in zip(j.origin.xyz, d, strict=True))
-                out.append(Transform(j.parent, j.child, xyz, j.origin.quat))  # type: ignore[arg-type]
+            if slide is not None:
+                x, y, z = j.origin.xyz
+                xyz = (x + slide[0] * v, y + slide[1] * v, z + slide[2] * v)
+                out.append(Transform(j.parent, j.child, xyz, j.origin.quat))
             else:
-                h = 0.5 * v
-                turn = (*(float(a) * math.sin(h) for a in axis), math.cos(h))
+                sin = math.sin(0.5 * v)
+                turn = (axis[0] * sin, axis[1] * sin, axis[2] * sin, math.cos(0.5 * v))
                 quat = quat_multiply(j.origin.quat, turn)
                 out.append(Transform(j.parent, j.child, j.origin.xyz, quat))
         return out

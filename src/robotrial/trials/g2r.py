@@ -24,12 +24,8 @@ def desk_run(obstacle: bool, planner: str, seed: int, out: Path) -> Outcome:
     from robotrial.geometry import Pose
     from robotrial.kinematics.chain import Kinematics
     from robotrial.model import load_robot, load_world
-    from robotrial.msgs.geometry_msgs import Pose as PoseMsg
-    from robotrial.msgs.geometry_msgs import Vector3
-    from robotrial.msgs.robotrial_msgs import Box, PlanTaskRequest
-    from robotrial.msgs.sensor_msgs import JointState
     from robotrial.planning.problems import DESK_OBSTACLE, desk_task
-    from robotrial.planning.task import TaskPlanner
+    from robotrial.planning.task import TaskPlanner, TaskRequest
     from robotrial.sim import SimOptions, Simulation
     from robotrial.sim.controllers import JointReference
 
@@ -38,23 +34,23 @@ def desk_run(obstacle: bool, planner: str, seed: int, out: Path) -> Outcome:
     planner_ = TaskPlanner(robot, world)
     kin = Kinematics(robot, planner_.joint_names)
     goal = Pose.from_matrix(kin.link_pose(problem.goal))
-    name, shape, pose = DESK_OBSTACLE
-    boxes = [Box(name, Vector3(*shape.size), PoseMsg.from_pose(pose))] if obstacle else []
-    request = PlanTaskRequest(
-        current_joints=JointState(name=planner_.joint_names, position=list(problem.start)),
-        obstacles=boxes,
-        object=Box(),
-        ee_goal=PoseMsg.from_pose(goal),
+    _, shape, pose = DESK_OBSTACLE
+    request = TaskRequest(
+        positions=np.asarray(problem.start),
+        joint_names=planner_.joint_names,
+        goal_position=np.asarray(goal.xyz),
+        goal_orientation=np.asarray(goal.quat),
+        obstacles=[DESK_OBSTACLE] if obstacle else [],
         planner=planner,
         time_limit=5.0,
     )
     result = planner_.plan(request, seed=seed)
     figures: dict = {
         "obstacle": obstacle,
-        "planning_time": result.response.planning_time,
-        "message": result.response.message,
+        "planning_time": result.planning_time,
+        "message": result.message,
     }
-    if not result.response.success or result.trajectory is None:
+    if not result.success or result.trajectory is None:
         return Outcome(False, figures, {})
     traj = result.trajectory
     sim = Simulation.create(world, robot, seed=seed, options=SimOptions(cameras=False))

@@ -13,6 +13,9 @@ run again from its row. `KINDS` is the table: a new kind is a function and an en
 - `g2r`: the g2rViewer desk experiment: the desk arm plans (the PlanTask service) from one
   side of obstacle C to the other (or with no obstacle), the motion runs in MuJoCo, and
   the hand's path under physics is compared with the planned one; a plot of both.
+- `carry`: the whole platform in one task (`robotrial trials carry`): map with SLAM,
+  navigate on that map, pick an object, carry it to a room and place it; success, the
+  failed phase and each phase's time, the MCAP, JSON and plot beside the database.
 """
 
 from __future__ import annotations
@@ -143,6 +146,16 @@ def _g2r(config: dict[str, Any], seed: int, out: Path) -> Outcome:
     return desk_run(bool(config["obstacle"]), str(config["planner"]), seed, out)
 
 
+def _carry(config: dict[str, Any], seed: int, out: Path) -> Outcome:
+    from robotrial.trials.carry import CarrySetup, run_carry
+
+    setup = CarrySetup(**config)
+    run_dir = out / f"carry_{setup.object}_{setup.to}"
+    r = run_carry(setup, seed, run_dir)
+    files = {k: str(run_dir / f"carry_{seed}.{k}") for k in ("mcap", "json", "png")}
+    return Outcome(r.success, r.summary(), files)
+
+
 KINDS: dict[str, TrialKind] = {
     "nav": TrialKind(
         "nav",
@@ -165,6 +178,12 @@ KINDS: dict[str, TrialKind] = {
         _plan,
     ),
     "g2r": TrialKind("g2r", {"obstacle": True, "planner": "rrt_connect"}, "ee_deviation", _g2r),
+    "carry": TrialKind(
+        "carry",
+        {"world": "apartment", "object": "cup", "to": "bedroom", "slam": "hector", "speed": 0.5},
+        "sim_time",
+        _carry,
+    ),
     "slam": TrialKind(
         "slam",
         {"world": "room_a", "method": "gmapping", "duration": 120.0, "speed": 0.3},

@@ -84,8 +84,16 @@ class LocalExecutor:
         self._pool_of: dict[Future, ProcessPoolExecutor] = {}
 
     def submit(self, spec: RunSpec, out: str) -> Future:
-        if self._pool is None:
-            self._pool = ProcessPoolExecutor(self.workers, mp_context=get_context("spawn"))
+        if self._pool is not None:
+            try:
+                return self._submit(spec, out)
+            except BrokenProcessPool:  # a worker died since the last answer was read
+                self.close()
+        self._pool = ProcessPoolExecutor(self.workers, mp_context=get_context("spawn"))
+        return self._submit(spec, out)
+
+    def _submit(self, spec: RunSpec, out: str) -> Future:
+        assert self._pool is not None
         handle = self._pool.submit(execute, spec.kind, spec.config, spec.seed, out)
         self._pool_of[handle] = self._pool
         return handle

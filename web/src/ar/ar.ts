@@ -17,6 +17,7 @@ import {
   type Object3D,
 } from "three";
 import type { Viewer } from "../scene";
+import type { Quat, Vec3 } from "../types";
 import "./ar.css";
 import { el } from "../ui/dom";
 
@@ -24,9 +25,9 @@ export type ArSessionState = "unsupported" | "available" | "active" | "placed";
 
 export interface ArPlacement {
   /** The robot's base in the AR session's `local` reference space (y up, metres). */
-  xyz: [number, number, number];
+  xyz: Vec3;
   /** Its orientation there (x, y, z, w): the robot's z axis along the space's y. */
-  quat: [number, number, number, number];
+  quat: Quat;
 }
 
 export interface ArState {
@@ -57,6 +58,8 @@ export class ArView {
   private placement: ArPlacement | null = null;
   /** Where the robot would stand if the user tapped now. */
   private pending: ArPlacement | null = null;
+  /** The panel section: the app mounts it (Panel.mount). */
+  readonly section: HTMLElement;
   private readonly button = el("button", { type: "button", id: "ar-enter" }, "View in AR");
   private readonly note = el("p", { class: "hint", id: "ar-status" }, "Checking for AR…");
   private readonly overlay = el("div", { class: "ar-overlay", id: "ar-overlay", hidden: "" });
@@ -66,7 +69,6 @@ export class ArView {
   constructor(
     private readonly viewer: Viewer,
     private readonly robotHolder: () => Object3D | null,
-    panelRoot: HTMLElement,
   ) {
     this.reticle = new Mesh(
       new RingGeometry(0.07, 0.09, 40).rotateX(-Math.PI / 2),
@@ -91,8 +93,12 @@ export class ArView {
     });
     this.overlay.append(this.overlayText, ...taskButtons, exit);
     document.body.append(this.overlay);
-    panelRoot.append(
-      el("section", { class: "ar", id: "ar" }, el("h2", {}, "Augmented reality"), this.note, this.button),
+    this.section = el(
+      "section",
+      { class: "ar", id: "ar" },
+      el("h2", {}, "Augmented reality"),
+      this.note,
+      this.button,
     );
     this.button.disabled = true;
     this.button.addEventListener("click", () => void this.enter());

@@ -100,7 +100,8 @@ export class LiveView {
   private renderTimer: number | undefined;
   private lastJoints = -Infinity;
   private pickingGoal = false;
-  private readonly section: HTMLElement;
+  /** The panel section: the app mounts it (Panel.mount). */
+  readonly section: HTMLElement;
   private readonly statusLine = el("p", { class: "hint", id: "live-status" });
   private readonly goalButton = el(
     "button",
@@ -112,7 +113,6 @@ export class LiveView {
     private readonly viewer: Viewer,
     private readonly ros: RosConnection,
     private readonly setJoints: (values: Record<string, number>) => void,
-    panelRoot: HTMLElement,
   ) {
     this.overlay.name = "live-overlay";
     this.scanPoints.frustumCulled = false;
@@ -134,7 +134,6 @@ export class LiveView {
       ),
       this.goalButton,
     );
-    panelRoot.append(this.section);
     this.goalButton.addEventListener("click", () => this.armGoal(!this.pickingGoal));
     this.listenForGoalClicks(viewer.renderer.domElement);
     window.addEventListener("keydown", (e) => this.key(e, true));

@@ -8,17 +8,8 @@
 
 import type { MainModule, MjData, MjModel } from "mujoco-js";
 import { Matrix4, Quaternion, Vector3 } from "three";
-
-export type Vec3 = [number, number, number];
-/** x, y, z, w */
-export type Quat = [number, number, number, number];
-
-/** The server's MJCF: the XML and the mesh files it names (base64). */
-export interface MjcfBundle {
-  name: string;
-  xml: string;
-  assets: Record<string, string>;
-}
+import type { MjcfBundle } from "../api";
+import type { Quat, Vec3 } from "../types";
 
 /** A box in the robot's base frame: full edge lengths, centre and orientation. */
 export interface BoxSpec {
@@ -59,18 +50,6 @@ export function mujoco(): Promise<MainModule> {
     return mj;
   });
   return module;
-}
-
-/** The server's MJCF for `robot` in `world`. */
-export async function fetchMjcf(robot: string, world: string): Promise<MjcfBundle> {
-  const name = encodeURIComponent(robot);
-  const path = `/api/robots/${name}/mjcf.json?world=${encodeURIComponent(world)}`;
-  const response = await fetch(path);
-  if (!response.ok) {
-    const { errorText } = await import("../api");
-    throw new Error(await errorText(path, response));
-  }
-  return (await response.json()) as MjcfBundle;
 }
 
 /** A compiled MuJoCo model of the robot, its scene, the obstacles and the object, and

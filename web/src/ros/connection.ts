@@ -119,11 +119,13 @@ export class RosConnection {
     listener(this.state());
   }
 
-  /** Call a platform service; rejects with the server's message when it fails. */
+  /** Call a platform service (`at`: where it is offered when not at `name`, as another
+   * robot's PlanTask); rejects with the server's message when it fails. */
   call<N extends ServiceName>(
     name: N,
     request: Call<N>["request"],
     timeoutMs = 60_000,
+    at: string = name,
   ): Promise<Call<N>["response"]> {
     const ros = this.ros;
     if (!ros || this.status !== "connected") {
@@ -131,7 +133,7 @@ export class RosConnection {
     }
     const service = new Service<Call<N>["request"], Call<N>["response"]>({
       ros,
-      name,
+      name: at,
       serviceType: SERVICES[name],
     });
     return new Promise((resolve, reject) => {

@@ -5,10 +5,7 @@
 // All positions are in the robot's base frame (m), z up, as in the PlanTask service.
 
 import type { Box as BoxMsg, PlanTaskRequest } from "../generated/msgs";
-
-export type Vec3 = [number, number, number];
-/** x, y, z, w */
-export type Quat = [number, number, number, number];
+import type { Quat, Vec3 } from "../types";
 
 export interface TaskBox {
   id: string;

@@ -26,7 +26,8 @@ import {
 } from "three";
 import { TransformControls } from "three/examples/jsm/controls/TransformControls.js";
 import type { Viewer } from "../scene";
-import type { Quat, TaskBox, Vec3 } from "./arrangement";
+import type { Quat, Vec3 } from "../types";
+import type { TaskBox } from "./arrangement";
 
 export type GizmoMode = "translate" | "rotate" | "scale";
 /** What can be picked: an obstacle by id, the object, or the goal. */

@@ -5,7 +5,8 @@
 
 import type { ConnectionState } from "../ros/connection";
 import { el } from "../ui/dom";
-import { quatYaw, type TaskBox, type Vec3, yawQuat } from "./arrangement";
+import type { Vec3 } from "../types";
+import { quatYaw, type TaskBox, yawQuat } from "./arrangement";
 import type { GizmoMode, Pick } from "./editor";
 
 export interface TaskActions {
@@ -48,11 +49,11 @@ const STATUS_TEXT: Record<ConnectionState["status"], string> = {
 };
 
 export class TaskPanel {
-  /** The buttons and message: goes near the top of the panel. */
+  /** The buttons and message: mounted under the pickers (slot "top"). */
   readonly main: HTMLElement;
   /** Obstacles, object, goal, scene file, connection: further down. */
   readonly details: HTMLElement;
-  /** The connection indicator: goes in the panel's header. */
+  /** The connection indicator: mounted in the panel's header (slot "header"). */
   readonly indicator: HTMLElement;
 
   private readonly setButton = button(

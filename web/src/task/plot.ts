@@ -1,9 +1,9 @@
 // The hand's path in the browser's simulation against the path the server planned (the
 // g2rViewer paper's Figs. 12 and 13): x, y and z over time, and a view from above with
-// the obstacles and the goal. Drawn as SVG; exported as CSV and PNG.
+// the obstacles and the goal. Drawn as SVG; turned into CSV and PNG for exports.ts.
 
-import type { TaskBox, Vec3 } from "./arrangement";
-import { quatYaw } from "./arrangement";
+import type { Vec3 } from "../types";
+import { quatYaw, type TaskBox } from "./arrangement";
 
 /** One sample of a run: time since the motion began (s) and both hand positions (m). */
 export interface PathSample {
@@ -230,18 +230,6 @@ export async function chartPng(svg: SVGSVGElement): Promise<Blob> {
   } finally {
     URL.revokeObjectURL(url);
   }
-}
-
-/** Offer `blob` to the user as a file named `name`. */
-export function download(blob: Blob, name: string): void {
-  const url = URL.createObjectURL(blob);
-  const a = document.createElement("a");
-  a.href = url;
-  a.download = name;
-  document.body.append(a);
-  a.click();
-  a.remove();
-  setTimeout(() => URL.revokeObjectURL(url), 1000);
 }
 
 function node(tag: string, attributes: Record<string, string>): SVGElement & SVGSVGElement {

@@ -4,7 +4,7 @@
 
 import { type JointReference, JointTracker } from "../physics/controller";
 import type { Contact, PhysicsWorld } from "../physics/world";
-import type { Vec3 } from "./arrangement";
+import type { Vec3 } from "../types";
 import type { PathSample } from "./plot";
 
 /** How long the run goes on after the reference ends, for the arm to settle (s). */

@@ -1,42 +1,36 @@
-// The g2rViewer workflow for an arm: arrange obstacles, the object and the goal; Set
-// Robot fixes the start; Move Robot! asks the planner (/robotrial/plan_task through
-// rosbridge) and plays its answer in the browser's physics; Reset Robot goes back to
-// editing. Also the scene file, and the plot of the hand's path.
+// The g2rViewer workflow for an arm, as a state machine over the phases editing, set,
+// planning, moving and done: arrange obstacles, the object and the goal; Set Robot
+// fixes the start; Move Robot! asks the planner (planner_client.ts) and plays its
+// answer in the browser's physics; Reset Robot goes back to editing. What it says is
+// worded in wording.ts; the scene and path files are written by exports.ts.
 
 import { Matrix4, Quaternion, Vector3 } from "three";
-import { type JointTrajectory, PlanTaskResponse } from "../generated/msgs";
-import { JointReference, JointTracker } from "../physics/controller";
-import { fetchMjcf, type MjcfBundle, mujoco, PhysicsWorld } from "../physics/world";
+import { fetchMjcf, type MjcfBundle } from "../api";
+import type { PlanTaskResponse } from "../generated/msgs";
+import { type JointReference, JointTracker } from "../physics/controller";
+import { mujoco, PhysicsWorld } from "../physics/world";
 import type { Robot } from "../robot";
 import type { RosConnection } from "../ros/connection";
 import type { Viewer } from "../scene";
+import type { Quat, Vec3 } from "../types";
 import {
   type Arrangement,
   DEFAULT_OBJECT_SIZE,
   DEFAULT_OBSTACLE_SIZE,
   parseSceneFile,
-  planRequest,
-  type Quat,
-  sceneFile,
   type TaskBox,
-  type Vec3,
 } from "./arrangement";
-import { humanize } from "../ui/dom";
 import { TaskEditor } from "./editor";
+import { savePath, saveSceneFile } from "./exports";
 import type { MessageKind, Phase, TaskPanel } from "./panel";
-import { chartImage, chartPng, download, pathChart, pathCsv } from "./plot";
+import { PlannerClient } from "./planner_client";
+import { chartImage, pathChart } from "./plot";
 import { MotionRun, type RunResult } from "./run";
+import * as wording from "./wording";
 
 /** An object this close to the hand (m, from the tcp to the box) is in the hand: the
  * planner's rule (robotrial.planning.task.HOLD_DISTANCE). */
 const HOLD_DISTANCE = 0.05;
-/** How long to wait for /robotrial/joint_reference when the answer has no trajectory. */
-const REFERENCE_WAIT_MS = 5000;
-/** When to tell the user that planning takes longer than usual, and when to give up (ms). */
-const PATIENCE_MS = 5000;
-const PLAN_TIMEOUT_MS = 120_000;
-/** Speed of the fallback move to the goal joints when no trajectory comes (rad/s). */
-const FALLBACK_SPEED = 0.5;
 
 export interface PlannerState {
   status: "idle" | "planning" | "planned" | "refused" | "unreachable";
@@ -75,8 +69,11 @@ export interface TaskHost {
   setJoints(values: Record<string, number>): void;
   /** Allow or block the joint sliders. */
   lockJoints(locked: boolean): void;
-  /** The robot the server's planner plans for (its catalog name). */
-  plannerRobot(): string;
+  /** The PlanTask service that plans for `robot` (a catalog name), or null when no
+   * planner on this server plans for it. */
+  planService(robot: string): string | null;
+  /** "compiling" while the server's planner compiles its kernels, else "ready" or null. */
+  plannerStatus(): string | null;
 }
 
 export class TaskSession {
@@ -100,8 +97,7 @@ export class TaskSession {
   private physicsKey = "";
   private bundle: Promise<MjcfBundle> | null = null;
   private nextObstacle = 1;
-  private lastReference: JointReference | null = null;
-  private referenceWaiters: Array<(r: JointReference) => void> = [];
+  private readonly plannerClient: PlannerClient;
   private lastResult: RunResult | null = null;
 
   constructor(
@@ -118,7 +114,9 @@ export class TaskSession {
       },
       (pick) => panel.showSelection(pick),
     );
-    host.connection.subscribe("/robotrial/joint_reference", (msg) => this.onReference(msg));
+    this.plannerClient = new PlannerClient(host.connection, (reference) =>
+      this.onReference(reference),
+    );
     host.connection.onChange(() => this.showPhase());
   }
 
@@ -144,7 +142,7 @@ export class TaskSession {
       this.panel.showObject(this.editor.object());
       this.panel.showObstacles(this.editor.obstacles());
     }
-    this.say("Arrange the scene, press Set Robot, then Move Robot!");
+    this.say(wording.ARRANGE);
     this.showPhase();
     // Fetch the physics model and MuJoCo when the page is idle, so Move Robot! does
     // not wait for them.
@@ -192,15 +190,10 @@ export class TaskSession {
     this.host.lockJoints(true);
     this.editor.setLocked(true);
     this.showPhase();
-    const object = this.start.object
-      ? this.held
-        ? " The object is in the hand."
-        : " The object is not in the hand: it stays where it is."
-      : "";
-    this.say(`Robot set.${object} Press Move Robot! to plan and move.`);
+    this.say(wording.robotSet(this.start.object ? this.held : null));
     // Build the physics now (and let the browser compile its hot code) while the user
     // reads; Move Robot! then starts at once.
-    this.ensurePhysics().catch((err) => console.warn("physics:", errorText(err)));
+    this.ensurePhysics().catch((err) => console.warn("physics:", wording.errorText(err)));
   }
 
   addObstacle(): void {
@@ -228,7 +221,7 @@ export class TaskSession {
     this.editor.setLocked(false);
     this.editor.showPaths([], []);
     this.showPhase();
-    this.say("The robot and the object can be moved again.");
+    this.say(wording.EDITABLE_AGAIN);
   }
 
   /** Plan with the server, then move in the browser's physics. */
@@ -241,30 +234,20 @@ export class TaskSession {
     this.phase = "planning";
     this.planner = { status: "planning", message: "", planningTime: null, goalJoints: [] };
     this.runState = null;
-    this.lastReference = null;
     this.showPhase();
-    this.say("Planning a path…");
-    // The first plan after the server starts also prepares the planner: say so.
-    const patience = window.setTimeout(() => {
-      if (this.phase === "planning") {
-        this.say("Still planning… the first plan after the server starts can take a minute.");
-      }
-    }, PATIENCE_MS);
+    this.say(wording.PLANNING);
     let response: PlanTaskResponse;
     try {
-      response = await this.host.connection.call(
-        "/robotrial/plan_task",
-        planRequest(arrangement, names),
-        PLAN_TIMEOUT_MS,
-      );
+      const service = this.host.planService(this.robotName) ?? "/robotrial/plan_task";
+      response = await this.plannerClient.plan(arrangement, names, service, () => {
+        if (this.phase === "planning") this.say(wording.STILL_PLANNING);
+      });
     } catch (err) {
-      this.planner = { ...this.planner, status: "unreachable", message: errorText(err) };
+      this.planner = { ...this.planner, status: "unreachable", message: wording.errorText(err) };
       this.phase = "set";
       this.showPhase();
-      this.say(`Could not reach the planner: ${errorText(err)}`, "error");
+      this.say(wording.unreachable(err), "error");
       return;
-    } finally {
-      window.clearTimeout(patience);
     }
     if (!response.success) {
       this.planner = {
@@ -275,7 +258,7 @@ export class TaskSession {
       };
       this.phase = "set";
       this.showPhase();
-      this.say(`The planner says no: ${plainReason(response)}`, "error");
+      this.say(wording.refused(response), "error");
       return;
     }
     // Whether the object moves with the hand is the server's call, made once.
@@ -287,13 +270,13 @@ export class TaskSession {
       goalJoints: [...response.goal_joints],
     };
     try {
-      const reference = await this.referenceFor(response, arrangement);
+      const reference = await this.plannerClient.reference(response, names, arrangement.joints);
       await this.play(reference);
     } catch (err) {
       if ((this.phase as Phase) === "moving") {
         this.phase = "set";
         this.showPhase();
-        this.say(`The motion could not run: ${errorText(err)}`, "error");
+        this.say(wording.motionFailed(err), "error");
       }
     }
   }
@@ -346,14 +329,12 @@ export class TaskSession {
   // --- scene files ---------------------------------------------------------------------
 
   saveScene(): void {
-    const blob = new Blob(
-      [sceneFile(this.start && this.phase !== "editing" ? this.start : this.arrangement())],
-      {
-        type: "application/json",
-      },
+    saveSceneFile(
+      this.start && this.phase !== "editing" ? this.start : this.arrangement(),
+      this.robotName,
+      this.worldName,
     );
-    download(blob, `${this.robotName}-${this.worldName}-scene.json`);
-    this.say("Scene saved as a file.", "ok");
+    this.say(wording.SCENE_SAVED, "ok");
   }
 
   /** Load a scene; returns the robot and world it names, for the app to switch to. */
@@ -362,7 +343,7 @@ export class TaskSession {
     try {
       scene = parseSceneFile(await file.text());
     } catch (err) {
-      this.say(`Could not load ${file.name}: ${errorText(err)}`, "error");
+      this.say(wording.sceneNotLoaded(file.name, err), "error");
       return null;
     }
     return scene;
@@ -379,7 +360,7 @@ export class TaskSession {
     this.panel.showObstacles(this.editor.obstacles());
     this.panel.showObject(this.editor.object());
     this.panel.showGoal(this.editor.goal());
-    this.say("Scene loaded.", "ok");
+    this.say(wording.SCENE_LOADED, "ok");
   }
 
   // --- the plot --------------------------------------------------------------------------
@@ -387,12 +368,7 @@ export class TaskSession {
   async exportPlot(kind: "csv" | "png"): Promise<void> {
     const result = this.lastResult;
     if (!result) return;
-    const stem = `${this.robotName}-hand-path`;
-    if (kind === "csv") {
-      download(new Blob([pathCsv(result.samples)], { type: "text/csv" }), `${stem}.csv`);
-    } else {
-      download(await chartPng(this.chart(result)), `${stem}.png`);
-    }
+    await savePath(kind, this.robotName, result.samples, () => this.chart(result));
   }
 
   // --- internals -------------------------------------------------------------------------
@@ -496,56 +472,12 @@ export class TaskSession {
     return pose;
   }
 
-  private async referenceFor(
-    response: PlanTaskResponse,
-    start: Arrangement,
-  ): Promise<JointReference> {
-    if (response.trajectory.points.length > 0) return new JointReference(response.trajectory);
-    // A ROS system that answers with goal joints only sends the motion on the topic.
-    const fromTopic = await new Promise<JointReference | null>((resolve) => {
-      if (this.lastReference) return resolve(this.lastReference);
-      const timer = setTimeout(() => resolve(null), REFERENCE_WAIT_MS);
-      this.referenceWaiters.push((r) => {
-        clearTimeout(timer);
-        resolve(r);
-      });
-    });
-    if (fromTopic) return fromTopic;
-    const names = this.robot!.joints.map((j) => j.name).slice(0, response.goal_joints.length);
-    const from = names.map((n) => start.joints[n] ?? 0);
-    const span = Math.max(...response.goal_joints.map((g, i) => Math.abs(g - from[i])), 1e-3);
-    const trajectory: JointTrajectory = {
-      header: { stamp: { sec: 0, nanosec: 0 }, frame_id: "" },
-      joint_names: names,
-      points: [from, response.goal_joints].map((positions, i) => ({
-        positions,
-        velocities: names.map(() => 0),
-        accelerations: [],
-        effort: [],
-        time_from_start: { sec: i * Math.ceil(span / FALLBACK_SPEED), nanosec: 0 },
-      })),
-    };
-    return new JointReference(trajectory);
-  }
-
-  private onReference(msg: JointTrajectory): void {
-    let reference: JointReference;
-    try {
-      reference = new JointReference(msg);
-    } catch (err) {
-      console.warn("ignored a joint reference:", errorText(err));
-      return;
-    }
-    this.lastReference = reference;
-    const waiters = this.referenceWaiters;
-    this.referenceWaiters = [];
-    for (const w of waiters) w(reference);
-    // A reference from elsewhere (another ROS tool) moves a set robot too.
+  /** A motion arrived on the topic: one from elsewhere (another ROS tool) moves a set
+   * robot too. */
+  private onReference(reference: JointReference): void {
     if ((this.phase === "set" || this.phase === "done") && !this.run) {
       if (this.phase === "done") this.restoreStart();
-      void this.play(reference).catch((err) =>
-        this.say(`The motion could not run: ${errorText(err)}`, "error"),
-      );
+      void this.play(reference).catch((err) => this.say(wording.motionFailed(err), "error"));
     }
   }
 
@@ -554,7 +486,7 @@ export class TaskSession {
     if (!robot) return;
     this.phase = "moving";
     this.showPhase();
-    this.say("Moving…");
+    this.say(wording.MOVING);
     const world = await this.ensurePhysics();
     world.reset((this.start ?? this.arrangement()).joints);
     const tracker = new JointTracker(world);
@@ -618,7 +550,7 @@ export class TaskSession {
     this.phase = "done";
     this.showPhase();
     this.showPlot(result);
-    this.say(...summary(result));
+    this.say(...wording.runSummary(result));
   }
 
   private showPlot(result: RunResult): void {
@@ -654,15 +586,18 @@ export class TaskSession {
 
   private showPhase(): void {
     const connected = this.host.connection.state().status === "connected";
-    const ours = this.robotName === this.host.plannerRobot();
-    this.panel.setPhase(this.phase, connected && this.robot !== null && ours);
-    if (this.phase === "editing" && this.robot && !ours) {
-      this.say(
-        `The planner on this server plans for the ` +
-          `${humanize(this.host.plannerRobot()).toLowerCase()}; ` +
-          "this robot can be arranged but not moved.",
-      );
+    const planned = this.host.planService(this.robotName) !== null;
+    this.panel.setPhase(this.phase, connected && this.robot !== null && planned);
+    if (this.phase === "editing" && this.robot && !planned) {
+      this.say(wording.noPlanner(this.robotName));
+    } else if (this.phase === "editing" && this.robot && this.host.plannerStatus() === "compiling") {
+      this.say(wording.plannerCompiling());
     }
+  }
+
+  /** The server's planner changed (a robot added, compiling done): show what it allows. */
+  plannerChanged(): void {
+    this.showPhase();
   }
 
   private say(text: string, kind: MessageKind = "info"): void {
@@ -674,50 +609,4 @@ export class TaskSession {
 function whenIdle(task: () => void): void {
   if ("requestIdleCallback" in window) requestIdleCallback(task, { timeout: 3000 });
   else setTimeout(task, 1500);
-}
-
-/** The message for the end of a run, and whether it is good news. */
-function summary(r: RunResult): [string, MessageKind] {
-  const length = (m: number) =>
-    m < 0.001
-      ? "less than 1 mm"
-      : m < 0.01
-        ? `${(m * 1000).toFixed(1)} mm`
-        : `${(m * 100).toFixed(1)} cm`;
-  const touched = r.contacts.length
-    ? `it touched ${[...new Set(r.contacts.map((c) => c.b))].join(", ")} (${r.contacts
-        .map((c) => c.a)
-        .join(", ")})`
-    : "no contact with obstacles";
-  const reached = r.finalError <= 0.01;
-  const text =
-    `${reached ? "Done" : "Finished"}: the hand is ${length(r.finalError)} from the goal; ` +
-    `${touched}; ` +
-    `it followed the plan within ${length(r.rmsGap)} (RMS).`;
-  return [text, reached && r.contacts.length === 0 ? "ok" : "error"];
-}
-
-/** The planner's reason, said plainly from its error code, with the message's details. */
-function plainReason(response: PlanTaskResponse): string {
-  const plain: Record<number, string> = {
-    [PlanTaskResponse.NO_IK_SOLUTION]: "the goal is out of the arm's reach",
-    [PlanTaskResponse.START_STATE_IN_COLLISION]: "the robot starts out touching something",
-    [PlanTaskResponse.GOAL_IN_COLLISION]:
-      "the hand cannot be at the goal without touching something",
-    [PlanTaskResponse.TIMED_OUT]: "no way around the obstacles was found in time",
-    [PlanTaskResponse.INVALID_MOTION_PLAN]: "no path the robot can follow safely was found",
-    [PlanTaskResponse.INVALID_GOAL_CONSTRAINTS]: "the request is not one the planner can take",
-  };
-  const message = response.message;
-  const said = plain[response.error_code];
-  if (!said) return message || "no reason given.";
-  // The message is "<what>: <details>"; the details say which link, how far, how long.
-  const colon = message.indexOf(":");
-  const detail = (colon >= 0 ? message.slice(colon + 1) : message).trim().replace(/\.$/, "");
-  if (!detail) return `${said}.`;
-  return `${said}. ${detail.charAt(0).toUpperCase()}${detail.slice(1)}.`;
-}
-
-function errorText(err: unknown): string {
-  return err instanceof Error ? err.message : String(err);
 }

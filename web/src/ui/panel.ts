@@ -1,9 +1,11 @@
 // The side panel: robot and world pickers, the end-effector read-out, one slider per
-// driven joint, and a status line. It only shows things and reports what the user
-// did; the app decides what happens.
+// driven joint, and a status line; other parts of the page (the task, the live view,
+// AR, uploads) mount their sections into it. It only shows things and reports what the
+// user did; the app decides what happens.
 
 import type { RobotEntry, WorldEntry } from "../api";
 import type { ActuatedJoint } from "../robot";
+import type { Vec3 } from "../types";
 import { el, humanize } from "./dom";
 
 export interface PanelActions {
@@ -16,6 +18,10 @@ export interface PanelActions {
 }
 
 export type Status = "loading" | "ready" | "error";
+
+/** Where a mounted section goes: in the header beside the status line, right under the
+ * pickers, or at the end of the panel. */
+export type Slot = "header" | "top" | "end";
 
 const GROUP_TITLES: Record<string, string> = {
   arm: "Arm",
@@ -42,6 +48,8 @@ export class Panel {
   private readonly brand: HTMLElement;
   private readonly pickers: HTMLElement;
   private readonly root: HTMLElement;
+  /** The last element of the "top" slot: the next one goes after it. */
+  private topEnd: HTMLElement;
   private jointsLocked = false;
   private robots: RobotEntry[] = [];
   private worlds: WorldEntry[] = [];
@@ -55,6 +63,7 @@ export class Panel {
       el("label", {}, el("span", {}, "Robot"), this.robotPicker),
       el("label", {}, el("span", {}, "Place"), this.worldPicker),
     );
+    this.topEnd = this.pickers;
     root.append(
       this.brand,
       this.pickers,
@@ -83,12 +92,17 @@ export class Panel {
     this.setEndEffector(null);
   }
 
-  /** Place the task's parts: its buttons under the pickers, its details at the end and
-   * the connection indicator in the header. */
-  addTask(main: HTMLElement, details: HTMLElement, indicator: HTMLElement): void {
-    this.brand.append(indicator);
-    this.pickers.after(main);
-    this.root.append(details);
+  /** Add `section` to the panel at `slot`; sections in one slot keep the order they
+   * were mounted in. */
+  mount(section: HTMLElement, slot: Slot = "end"): void {
+    if (slot === "header") {
+      this.brand.append(section);
+    } else if (slot === "top") {
+      this.topEnd.after(section);
+      this.topEnd = section;
+    } else {
+      this.root.append(section);
+    }
   }
 
   /** Block the joint sliders (the robot is set or moving) or free them again. */
@@ -160,7 +174,7 @@ export class Panel {
   }
 
   /** The end-effector position (m) or null while nothing is loaded. */
-  setEndEffector(xyz: [number, number, number] | null): void {
+  setEndEffector(xyz: Vec3 | null): void {
     const cells = ["x", "y", "z"].flatMap((axis, i) => [
       el("dt", {}, axis),
       el("dd", { "data-axis": axis }, xyz ? `${(xyz[i] * 100).toFixed(1)} cm` : "–"),

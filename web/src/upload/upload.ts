@@ -2,19 +2,13 @@
 // RDTF file to the server (POST /api/robots/upload) and, once accepted, opens the robot.
 // What the server refuses is shown in words: which file, which element, which line.
 
-import { errorText, type RobotEntry } from "../api";
+import { errorText, type UploadAnswer } from "../api";
 import "./upload.css";
 import { pageToken } from "../ros/connection";
 import { el } from "../ui/dom";
 
 export const UPLOAD_URL = "/api/robots/upload";
 const ACCEPT = ".zip,.urdf,.xacro,.glb";
-
-export interface UploadAnswer {
-  robot: RobotEntry;
-  /** What the loader repaired (missing inertials and the like). */
-  repairs: string[];
-}
 
 /** Send `file` to the server; resolves with the new robot's entry, rejects with the
  * server's reason. */
@@ -37,6 +31,8 @@ export async function uploadRobot(file: File): Promise<UploadAnswer> {
 }
 
 export class UploadSection {
+  /** The panel section: the app mounts it (Panel.mount). */
+  readonly section: HTMLElement;
   private readonly input = el("input", {
     type: "file",
     id: "robot-upload",
@@ -46,23 +42,18 @@ export class UploadSection {
   private readonly message = el("p", { class: "upload-message", id: "upload-message", role: "status" });
 
   /** `accepted(entry)`: the app adds the robot to its pickers and opens it. */
-  constructor(
-    panelRoot: HTMLElement,
-    private readonly accepted: (answer: UploadAnswer) => Promise<void>,
-  ) {
-    panelRoot.append(
+  constructor(private readonly accepted: (answer: UploadAnswer) => Promise<void>) {
+    this.section = el(
+      "section",
+      { class: "upload", id: "upload" },
+      el("h2", {}, "Your own robot"),
       el(
-        "section",
-        { class: "upload", id: "upload" },
-        el("h2", {}, "Your own robot"),
-        el(
-          "p",
-          { class: "hint" },
-          "A zip with a URDF (or xacro) and its meshes, a .xacro, or an RDTF .glb.",
-        ),
-        this.input,
-        this.message,
+        "p",
+        { class: "hint" },
+        "A zip with a URDF (or xacro) and its meshes, a .xacro, or an RDTF .glb.",
       ),
+      this.input,
+      this.message,
     );
     this.input.addEventListener("change", () => {
       const file = this.input.files?.[0];

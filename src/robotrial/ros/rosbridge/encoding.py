@@ -20,6 +20,7 @@ import json
 import math
 from typing import Any
 
+import orjson
 from PIL import Image
 
 from robotrial.msgs import cbor
@@ -59,10 +60,11 @@ def check_depth(value: Any, where: str, limit: int = MAX_DEPTH) -> None:
 
 
 def dumps(op: dict[str, Any]) -> str:
-    """Compact JSON text of an operation; non-finite floats written as null."""
+    """Compact JSON text of an operation; non-finite floats written as null. orjson
+    writes a trajectory's floats about ten times faster than the json module."""
     try:
-        return json.dumps(op, separators=(",", ":"), allow_nan=False)
-    except ValueError:
+        return orjson.dumps(op).decode()
+    except TypeError:  # what orjson does not take (integers past 64 bits, odd keys)
         return json.dumps(_sanitize(op), separators=(",", ":"), allow_nan=False)
 
 

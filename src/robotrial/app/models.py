@@ -1,0 +1,137 @@
+"""The JSON the web server answers with (layer 5): one pydantic model per shape.
+
+The routes in robotrial.app.server validate their answers with these models and
+describe them in the OpenAPI schema; robotrial.app.typescript writes the web client's
+types from them (web/src/generated/api.ts). A field's docstring is its description in
+both. Every field is in every answer, defaults included, and the serialization schema
+says so (`json_schema_serialization_defaults_required`).
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict
+
+from robotrial.app.catalog import Kind
+
+
+class ApiModel(BaseModel):
+    """The base of the answers: field docstrings describe the fields, and a field with a
+    default is still required in the serialization schema (it is always sent)."""
+
+    model_config = ConfigDict(
+        use_attribute_docstrings=True, json_schema_serialization_defaults_required=True
+    )
+
+
+class Pair(ApiModel):
+    """A robot and a world, by name."""
+
+    robot: str
+    world: str
+
+
+class SpawnPose(ApiModel):
+    """Where a robot's base stands in a world."""
+
+    xyz: tuple[float, float, float]
+    """Position (m)."""
+    quat: tuple[float, float, float, float]
+    """Orientation as a unit quaternion: x, y, z, w."""
+
+
+class LiveInfo(ApiModel):
+    """The simulated platform streaming on rosbridge: which robot in which world, and
+    where its odom and map frames start in the world (the spawn pose)."""
+
+    robot: str
+    world: str
+    origin: SpawnPose
+    error: str | None = None
+    """Why it could not start, or null."""
+
+
+class Config(ApiModel):
+    """What the page needs to start."""
+
+    robot: str
+    """The robot the page opens on: the server's default."""
+    world: str
+    """The world the page opens on: the server's default."""
+    rosbridge: str
+    """Path of the rosbridge WebSocket on this server, e.g. "/rosbridge"."""
+    rosbridge_enabled: bool
+    """Whether this server offers rosbridge there."""
+    live: LiveInfo | None = None
+    """The platform the server simulates live (a mobile robot in a room), or null."""
+    planner: str | None = None
+    """The planning service: "compiling" while its kernels compile at start (a first
+    Move Robot! would wait for them), "ready", or null when the server has none."""
+    plan_services: dict[str, str] = {}
+    """Robot name -> its PlanTask service (robotrial.ros.planning_node.robot_service)."""
+
+
+class RobotEntry(ApiModel):
+    """A robot the server offers."""
+
+    name: str
+    kind: Kind
+    joints: int
+    """How many joints it drives."""
+    world: str
+    """The world this robot opens in when picked."""
+    uploaded: bool = False
+    """True for a robot a user uploaded to this server."""
+
+
+class UploadAnswer(ApiModel):
+    """A robot accepted from an upload: its catalog entry and what the loader repaired."""
+
+    robot: RobotEntry
+    repairs: list[str]
+    """What the loader repaired (missing inertials and the like)."""
+
+
+class RobotList(ApiModel):
+    """The robots the server offers, and its default robot and world."""
+
+    default: Pair
+    robots: list[RobotEntry]
+
+
+class WorldEntry(ApiModel):
+    """A world the server offers."""
+
+    name: str
+    kind: Kind
+    """arm: a tabletop scene; mobile: a room."""
+    description: str
+    spawn: SpawnPose
+    """Where a robot stands in it."""
+
+
+class WorldList(ApiModel):
+    """The worlds the server offers, and its default robot and world."""
+
+    default: Pair
+    worlds: list[WorldEntry]
+
+
+class MjcfBundle(ApiModel):
+    """A MuJoCo model for the browser: MJCF text and the files it names."""
+
+    name: str
+    xml: str
+    assets: dict[str, str]
+    """The files the XML names (meshes), base64, by file name."""
+    notes: list[str]
+    """What the MJCF writer had to change."""
+
+
+API_MODELS: tuple[type[ApiModel], ...] = (
+    Config,
+    RobotList,
+    WorldList,
+    UploadAnswer,
+    MjcfBundle,
+)
+"""What the routes answer with; the models they hold come with them."""

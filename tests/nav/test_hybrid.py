@@ -128,3 +128,29 @@ def test_every_apartment_room_is_reachable_from_the_living_room_for_the_footprin
     s, g = world.spawn("default"), world.spawn(room)
     poses = HybridAStar().plan_poses(cm, (*s.xyz[:2], s.yaw), g.xyz[:2])
     assert _overlaps(poses, cm, fp) == 0
+
+
+def test_a_base_past_the_study_doorway_is_told_to_turn_before_it_backs_up():
+    """In the 1.1 m corridor, slanted past the study's doorway, the base finds no forward
+    way in; backing straight up at its slant would scrape the corridor wall, so the plan
+    that may reverse first turns the base on the spot, then backs it up clear."""
+    from robotrial.model import load_world
+    from robotrial.model.gridmap import world_map
+
+    m = world_map(load_world("apartment"))
+    cm = Costmap(m.occupied, m.origin, m.resolution, Footprint(0.99, 0.67))
+    planner, pose, goal = HybridAStar(), (6.51, 4.95, 0.93), (6.5, 6.6)
+    with pytest.raises(NoPath):
+        planner.plan(cm, pose, goal)
+    heading, run = planner.reverse_run(cm, pose, goal)
+    assert run > 0.05 and abs(heading - pose[2]) > 0.3
+
+    def backed(yaw: float) -> np.ndarray:
+        d = np.linspace(0.0, run + 0.1, 8)[:, None]
+        return np.column_stack(
+            [pose[0] - d * np.cos(yaw), pose[1] - d * np.sin(yaw), np.full_like(d, yaw)]
+        )
+
+    assert planner.collides(cm, backed(pose[2])).any()
+    assert not planner.collides(cm, backed(heading)).any()
+    assert planner.plan(cm, tuple(backed(heading)[-1]), goal)[-1] == pytest.approx(goal, abs=0.1)

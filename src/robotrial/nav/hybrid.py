@@ -411,20 +411,26 @@ class HybridAStar:
 
     def reverse_run(
         self, costmap: Costmap, start: tuple[float, ...], goal: tuple[float, ...]
-    ) -> float:
-        """How far (m) a plan that may also drive backwards (at `reverse_penalty`, 3 if
-        unset) backs up from `start` before it first drives forwards; raises NoPath."""
+    ) -> tuple[float, float]:
+        """Where a plan that may also drive backwards (at `reverse_penalty`, 3 if unset)
+        first backs up from `start`: the heading (rad) it turns to on the spot before, and
+        how far (m) it backs up before it first drives forwards (0: it does not); raises
+        NoPath."""
         penalty = self.config.reverse_penalty or 3.0
         back = HybridAStar(replace(self.config, reverse_penalty=penalty))
         poses = back.plan_poses(costmap, start, goal)
         d = np.diff(poses[:, :2], axis=0)
         along = d[:, 0] * np.cos(poses[1:, 2]) + d[:, 1] * np.sin(poses[1:, 2])
+        moving = np.flatnonzero(np.abs(along) > 1e-9)
+        if len(moving) == 0 or along[moving[0]] > 0.0:
+            return float(poses[0, 2]), 0.0
+        yaw = float(poses[moving[0], 2])
         run = 0.0
-        for a in along:
+        for a in along[moving[0] :]:
             if a > 1e-9:
                 break
             run -= a
-        return float(run)
+        return yaw, float(run)
 
     def plan(
         self, costmap: Costmap, start: tuple[float, ...], goal: tuple[float, ...]

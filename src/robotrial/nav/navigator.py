@@ -90,6 +90,7 @@ class _Behaviour:
     turned: float = 0.0
     last_yaw: float = 0.0
     distance: float = 0.0
+    heading: float | None = None  # a back-up first turns on the spot to this yaw
 
 
 def _wrap(a: float) -> float:
@@ -292,16 +293,19 @@ class Navigator:
                     # the goal was reachable from an earlier pose: the base has come to
                     # one it cannot turn from (overshot a corner), so it backs up as far
                     # as a plan that may reverse says
-                    try:
-                        back = self.hybrid.reverse_run(self.global_costmap, pose, self.goal)
-                    except NoPath:
-                        back = 0.0
-                    back = min(max(back + 0.1, self.config.backup_distance), 1.5)
-                    self.recoveries.append(Recovery.BACK_UP.value)
-                    length = back / self.config.backup_speed + 2.0
                     yaw = float(pose[2])
+                    try:
+                        heading, back = self.hybrid.reverse_run(
+                            self.global_costmap, pose, self.goal
+                        )
+                    except NoPath:
+                        heading, back = yaw, 0.0
+                    back = min(max(back + 0.1, self.config.backup_distance), 1.5)
+                    turn = abs(_wrap(heading - yaw)) / (0.5 * self.config.dwa.max_yaw_rate)
+                    self.recoveries.append(Recovery.BACK_UP.value)
+                    length = turn + back / self.config.backup_speed + 2.0
                     self._behaviour = _Behaviour(
-                        Recovery.BACK_UP, now + length, yaw, 0.0, yaw, distance=back
+                        Recovery.BACK_UP, now + length, yaw, 0.0, yaw, back, heading
                     )
             return False
         self.plan_times.append(time.perf_counter() - t0)
@@ -396,6 +400,15 @@ class Navigator:
                 if self._touches(local, nxt):
                     done = True
             done = done or b.turned >= 2 * np.pi
+            cmd = (0.0, w)
+        elif b.heading is not None and abs(err := _wrap(b.heading - float(pose[2]))) > 0.05:
+            # the reverse plan's turn on the spot before it backs up
+            rate = 0.5 * self.config.dwa.max_yaw_rate
+            w = float(np.sign(err) * min(rate, max(0.15, 2.0 * abs(err))))
+            if local is not None:
+                nxt = rollout(tuple(pose), np.array([0.0]), np.array([w]), 5, 0.1)
+                if self._touches(local, nxt):
+                    b.heading = None
             cmd = (0.0, w)
         else:
             travelled = 0.0

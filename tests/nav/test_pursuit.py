@@ -82,6 +82,39 @@ def test_pursuit_keeps_speed_through_a_doorway_the_footprint_clears():
         PursuitConfig(min_lookahead=0.0)
 
 
+def test_scan_marks_on_a_doorway_jamb_count_as_the_jamb_but_a_box_in_the_doorway_stops_the_base():
+    """Localization a few cm off puts the scan's view of a jamb a cell into a 1.0 m
+    doorway; the base passes 6.5 cm from the real jamb all the same, and is held short of
+    a box standing in the doorway."""
+    fp = Footprint(0.99, 0.67)
+    occ = np.zeros((100, 200), dtype=bool)  # 10 x 5 m
+    occ[:, 99:101] = True  # a wall at x = 5 m ...
+    occ[40:60, 99:101] = False  # ... with a 1.0 m doorway, y 2.0 .. 3.0
+    y = 2.43  # the plan passes 7 cm south of the doorway's middle
+    path = np.column_stack([np.linspace(1.0, 9.0, 161), np.full(161, y)])
+    start = np.array([1.0, y, 0.0])
+    jamb = np.array([[4.975, 2.075], [5.025, 2.075]])  # the south jamb seen 5 cm north
+    seen = Costmap(occ, (0.0, 0.0), 0.05, fp, Inflation(1.0, 3.0), marks=jamb)
+    poses, _ = _drive(PursuitController(fp, FAST), seen, path, start, 600)
+    assert poses[-1, 0] > 8.8
+    assert not footprint_hits(Costmap(occ, (0.0, 0.0), 0.05, fp), poses, 0.06).any()
+    # taken as an obstacle, the mark holds the base before the doorway
+    strict = PursuitController(fp, FAST, PursuitConfig(wall_tolerance=0.0))
+    held, _ = _drive(strict, seen, path, start, 300)
+    assert held[:, 0].max() < 4.6
+
+    box = Costmap(occ, (0.0, 0.0), 0.05, fp, Inflation(1.0, 3.0), marks=np.array([[5.0, 2.5]]))
+    controller, pose, vel = PursuitController(fp, FAST), start, (0.0, 0.0)
+    for _ in range(600):
+        res = controller.compute(tuple(pose), vel, path, box, goal_distance=9.0 - pose[0])
+        if not res.ok:
+            break
+        vel = (res.v, res.w)
+        pose = compose(pose, _arc(res.v, res.w, 0.05))
+        assert not footprint_hits(box, pose[None], 0.0).any()
+    assert pose[0] < 4.6  # held before the box, never through it
+
+
 @pytest.mark.slow
 def test_mobile_manipulator_drives_into_the_apartment_study():
     from robotrial.model import load_world

@@ -391,13 +391,7 @@ class HybridAStar:
         more than `wall_tolerance` from them (nearer ones are those walls seen from a
         pose a little off, which would narrow every doorway), and unknown ones unless
         allowed."""
-        out = costmap.static.copy()
-        if costmap.obstacles.any():
-            near = (
-                ndimage.distance_transform_edt(~costmap.static) * costmap.resolution
-                <= self.config.wall_tolerance
-            )
-            out |= costmap.obstacles & ~near
+        out = costmap.lethal & ~wall_marks(costmap, self.config.wall_tolerance)
         if not self.config.allow_unknown:
             out |= costmap.cost == UNKNOWN
         return out
@@ -530,6 +524,15 @@ class HybridAStar:
         poses = np.vstack([poses, [g[0], g[1], poses[-1, 2]]])
         poses[:, 2] = (poses[:, 2] + np.pi) % (2 * np.pi) - np.pi
         return poses
+
+
+def wall_marks(costmap: Costmap, tolerance: float) -> np.ndarray:
+    """Obstacle-layer cells within `tolerance` (m) of the static map's: the walls seen
+    from a pose a little off (localization error), not new obstacles."""
+    if not costmap.obstacles.any() or tolerance <= 0.0:
+        return np.zeros(costmap.shape, dtype=bool)
+    near = ndimage.distance_transform_edt(~costmap.static) * costmap.resolution <= tolerance
+    return costmap.obstacles & near & ~costmap.static
 
 
 def footprint_hits(

@@ -293,20 +293,8 @@ class Navigator:
                     # the goal was reachable from an earlier pose: the base has come to
                     # one it cannot turn from (overshot a corner), so it backs up as far
                     # as a plan that may reverse says
-                    yaw = float(pose[2])
-                    try:
-                        heading, back = self.hybrid.reverse_run(
-                            self.global_costmap, pose, self.goal
-                        )
-                    except NoPath:
-                        heading, back = yaw, 0.0
-                    back = min(max(back + 0.1, self.config.backup_distance), 1.5)
-                    turn = abs(_wrap(heading - yaw)) / (0.5 * self.config.dwa.max_yaw_rate)
                     self.recoveries.append(Recovery.BACK_UP.value)
-                    length = turn + back / self.config.backup_speed + 2.0
-                    self._behaviour = _Behaviour(
-                        Recovery.BACK_UP, now + length, yaw, 0.0, yaw, back, heading
-                    )
+                    self._back_up(now, pose)
             return False
         self.plan_times.append(time.perf_counter() - t0)
         self._no_path = 0
@@ -367,14 +355,28 @@ class Navigator:
             self.path = None
             self._behaviour = None
             return
-        length = (
-            2 * np.pi / max(self.config.dwa.max_yaw_rate, 0.1) + 2.0
-            if kind is Recovery.ROTATE
-            else self.config.backup_distance / self.config.backup_speed + 2.0
-        )
-        self._behaviour = _Behaviour(
-            kind, now + length, float(pose[2]), 0.0, float(pose[2]), self.config.backup_distance
-        )
+        if kind is Recovery.BACK_UP:
+            self._back_up(now, pose)
+            return
+        length = 2 * np.pi / max(self.config.dwa.max_yaw_rate, 0.1) + 2.0
+        self._behaviour = _Behaviour(kind, now + length, float(pose[2]), 0.0, float(pose[2]))
+
+    def _back_up(self, now: float, pose: np.ndarray) -> None:
+        """Start backing up: `backup_distance` straight back, or, with a footprint planner,
+        as a plan that may also reverse does (turning on the spot to the heading it backs
+        up at, as far as it backs up: at least `backup_distance`, at most 1.5 m)."""
+        yaw = float(pose[2])
+        heading, back = yaw, 0.0
+        if self.config.planner in ("hybrid", "auto"):
+            try:
+                heading, back = self.hybrid.reverse_run(self.global_costmap, pose, self.goal)
+            except NoPath:
+                pass
+            back += 0.1
+        back = min(max(back, self.config.backup_distance), 1.5)
+        turn = abs(_wrap(heading - yaw)) / (0.5 * self.config.dwa.max_yaw_rate)
+        length = turn + back / self.config.backup_speed + 2.0
+        self._behaviour = _Behaviour(Recovery.BACK_UP, now + length, yaw, 0.0, yaw, back, heading)
 
     def _touches(self, costmap: Costmap, poses: np.ndarray) -> bool:
         """Whether the footprint touches an obstacle at any of the poses: the rectangle

@@ -23,7 +23,7 @@ import numpy as np
 
 from robotrial.nav.costmap import Costmap, Footprint
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, carrot, rollout
-from robotrial.nav.hybrid import footprint_hits
+from robotrial.nav.hybrid import footprint_hits, wall_marks
 
 
 @dataclass(frozen=True)
@@ -33,7 +33,9 @@ class PursuitConfig:
     `rotate_speed` (rad/s) of that turn; a path point where the heading changes by more
     than `corner_angle` (rad) from one stretch to the next is a corner (a turn on the
     spot in the plan), driven to until within `corner_reach` (m); `creep_speed` (m/s)
-    forwards or backwards while turning where a turn on the spot is blocked."""
+    forwards or backwards while turning where a turn on the spot is blocked;
+    scan marks within `wall_tolerance` (m) of the map's walls are those walls, as
+    Hybrid-A* takes them, and do not block."""
 
     lookahead_time: float = 1.0
     min_lookahead: float = 0.3
@@ -43,6 +45,7 @@ class PursuitConfig:
     corner_angle: float = 0.3
     corner_reach: float = 0.08
     creep_speed: float = 0.05
+    wall_tolerance: float = 0.1
 
     def __post_init__(self) -> None:
         if not 0 < self.min_lookahead <= self.max_lookahead:
@@ -141,8 +144,9 @@ class PursuitController:
         ]
         # a base already within the margin (localization moved it there) may still move
         # as long as it touches nothing
+        blocked = costmap.lethal & ~wall_marks(costmap, c.wall_tolerance)
         here = np.asarray(pose, dtype=float)[None]
-        margin = lim.margin if not footprint_hits(costmap, here, lim.margin).any() else 0.0
+        margin = lim.margin if not footprint_hits(costmap, here, lim.margin, blocked).any() else 0.0
         for v, w in candidates:
             if v == 0.0 and w == 0.0:
                 continue
@@ -152,6 +156,6 @@ class PursuitController:
             if goal_distance is not None:
                 travelled = abs(v) * lim.sim_dt * np.arange(steps)
                 traj = traj[travelled <= goal_distance + 0.2]
-            if not footprint_hits(costmap, traj, margin).any():
+            if not footprint_hits(costmap, traj, margin, blocked).any():
                 return DWAResult(v, w, True, traj, len(candidates))
         return DWAResult(0.0, 0.0, False, np.zeros((0, 3)), len(candidates))

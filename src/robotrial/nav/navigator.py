@@ -376,7 +376,10 @@ class Navigator:
         back = min(max(back, self.config.backup_distance), 1.5)
         turn = abs(_wrap(heading - yaw)) / (0.5 * self.config.dwa.max_yaw_rate)
         length = turn + back / self.config.backup_speed + 2.0
-        self._behaviour = _Behaviour(Recovery.BACK_UP, now + length, yaw, 0.0, yaw, back, heading)
+        turn_first = heading if abs(_wrap(heading - yaw)) > 0.05 else None
+        self._behaviour = _Behaviour(
+            Recovery.BACK_UP, now + length, yaw, 0.0, yaw, back, turn_first
+        )
 
     def _touches(self, costmap: Costmap, poses: np.ndarray) -> bool:
         """Whether the footprint touches an obstacle at any of the poses: the rectangle
@@ -403,15 +406,18 @@ class Navigator:
                     done = True
             done = done or b.turned >= 2 * np.pi
             cmd = (0.0, w)
-        elif b.heading is not None and abs(err := _wrap(b.heading - float(pose[2]))) > 0.05:
+        elif b.heading is not None:
             # the reverse plan's turn on the spot before it backs up
+            err = _wrap(b.heading - float(pose[2]))
             rate = 0.5 * self.config.dwa.max_yaw_rate
             w = float(np.sign(err) * min(rate, max(0.15, 2.0 * abs(err))))
             if local is not None:
                 nxt = rollout(tuple(pose), np.array([0.0]), np.array([w]), 5, 0.1)
                 if self._touches(local, nxt):
                     b.heading = None
-            cmd = (0.0, w)
+            if abs(err) <= 0.05:
+                b.heading = None  # turned: back up from here on
+            cmd = (0.0, w) if b.heading is not None else (0.0, 0.0)
         else:
             travelled = 0.0
             if local is not None:

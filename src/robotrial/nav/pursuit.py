@@ -34,8 +34,8 @@ class PursuitConfig:
     than `corner_angle` (rad) from one stretch to the next is a corner (a turn on the
     spot in the plan), driven to until within `corner_reach` (m); `creep_speed` (m/s)
     forwards or backwards while turning where a turn on the spot is blocked;
-    scan marks within `wall_tolerance` (m) of the map's walls are those walls, as
-    Hybrid-A* takes them, and do not block."""
+    scan marks within `wall_tolerance` (m; two 5 cm cells, diagonally too) of the map's
+    walls are those walls seen from a pose a little off, and do not block."""
 
     lookahead_time: float = 1.0
     min_lookahead: float = 0.3
@@ -45,7 +45,7 @@ class PursuitConfig:
     corner_angle: float = 0.3
     corner_reach: float = 0.08
     creep_speed: float = 0.05
-    wall_tolerance: float = 0.1
+    wall_tolerance: float = 0.12
 
     def __post_init__(self) -> None:
         if not 0 < self.min_lookahead <= self.max_lookahead:

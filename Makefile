@@ -12,7 +12,7 @@ PORT ?= 8000
 
 .PHONY: setup run test lint format web clean bench
 
-setup: $(STAMP) $(WEB_STAMP) tools/node_modules/.package-lock.json tests/ros/node/node_modules/.package-lock.json
+setup: $(STAMP) $(WEB_STAMP) tools/node_modules/.package-lock.json tests/ros/node/node_modules/.package-lock.json tests/ros/foxglove_node/node_modules/.package-lock.json
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
@@ -24,6 +24,11 @@ $(STAMP): pyproject.toml
 # roslib (roslibjs) for the Node interop test in tests/ros
 tests/ros/node/node_modules/.package-lock.json: tests/ros/node/package.json tests/ros/node/package-lock.json
 	cd tests/ros/node && npm ci --no-audit --no-fund
+	touch $@
+
+# @foxglove/ws-protocol for the Foxglove bridge test in tests/ros
+tests/ros/foxglove_node/node_modules/.package-lock.json: tests/ros/foxglove_node/package.json tests/ros/foxglove_node/package-lock.json
+	cd tests/ros/foxglove_node && npm ci --no-audit --no-fund
 	touch $@
 
 web/node_modules/.package-lock.json: web/package.json web/package-lock.json

@@ -195,7 +195,12 @@ def test_a_fine_slam_map_is_navigated_on_5_cm_costmaps_that_keep_thin_walls():
     assert nav.status is Status.ABORTED and "no path" in nav.message
 
 
-def test_nav_node_plans_and_commands_on_the_bus():
+@pytest.mark.parametrize(
+    "config",
+    [NavigatorConfig(), NavigatorConfig(planner="hybrid", controller="pursuit")],
+    ids=["dijkstra-dwa", "hybrid-pursuit"],
+)
+def test_nav_node_plans_and_commands_on_the_bus(config):
     from robotrial.msgs.builtin_interfaces import Time
     from robotrial.msgs.geometry_msgs import (
         Point,
@@ -214,7 +219,7 @@ def test_nav_node_plans_and_commands_on_the_bus():
     got: dict[str, list] = {}
     for topic in ("/cmd_vel", "/plan", GLOBAL_COSTMAP, "/move_base/status"):
         bus.subscribe(topic, lambda m, t=topic: got.setdefault(t, []).append(m))
-    node = NavNode(bus, Footprint(0.5, 0.4))
+    node = NavNode(bus, Footprint(0.5, 0.4), config=config)
     start = PoseWithCovarianceStamped(
         header=Header(frame_id="map"),
         pose=PoseWithCovariance(

@@ -113,6 +113,7 @@ def create_app(
     live: bool = False,
     planner: bool = False,
     access: Access | None = None,
+    foxglove_port: int | None = None,
 ) -> FastAPI:
     """The web app, opening on `robot` in `world`.
 
@@ -127,6 +128,10 @@ def create_app(
     `/robotrial/plan_task` for it in `world`, the page's Move Robot!. `access`: which
     origins may connect to rosbridge and upload, and the token (robotrial.ros.rosbridge.
     access; default: the page's own origin and clients without one, no token).
+    `foxglove_port`: with a `bus`, also serve it over the Foxglove WebSocket protocol on
+    that port (robotrial.ros.foxglove_bridge; 0: any free port; None: not at all), on the
+    address `access` listens on; `app.state.foxglove` is the bridge once started (None if
+    the port could not be opened; the reason is logged).
     Raises ModelError if `robot` or `world` is not built in.
     """
     try:
@@ -173,9 +178,13 @@ def create_app(
             planner_state["status"] = "ready"
         if platform is not None:
             platform.start()
+        if foxglove_port is not None and bus is not None:
+            app.state.foxglove = _start_foxglove(bus, access, foxglove_port, catalog)
         try:
             yield
         finally:
+            if app.state.foxglove is not None:
+                app.state.foxglove.destroy()
             if platform is not None:
                 platform.stop()
             if planning is not None:
@@ -191,6 +200,7 @@ def create_app(
     )
     app.state.catalog = catalog
     app.state.uploads = uploads
+    app.state.foxglove = None
 
     @app.exception_handler(UnknownName)
     async def unknown_name(_: Request, exc: UnknownName) -> JSONResponse:
@@ -328,6 +338,19 @@ def create_app(
     if bus is not None:
         mount_rosbridge(app, bus, access)
     return app
+
+
+def _start_foxglove(bus: Bus, access: Access, port: int, catalog: Catalog) -> Any:
+    """The Foxglove bridge on `port`, serving the default robot's meshes; None (logged)
+    when the port cannot be opened, so the page keeps working."""
+    from robotrial.ros.foxglove_bridge import FoxgloveBridge
+
+    try:
+        robot = catalog.robot(catalog.default_robot)
+        return FoxgloveBridge(bus, host=access.listen_host, port=port, robot=robot, access=access)
+    except OSError as exc:
+        log.error("Foxglove: %s", exc)
+        return None
 
 
 async def _bounded_form(request: Request, limit: int) -> FormData:

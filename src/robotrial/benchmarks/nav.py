@@ -3,13 +3,14 @@
 Rooms A, B and C (start `default` (1, 1), goal (6.8, 6.6, 0)), `--runs` runs each (10 in
 the paper; seeds vary sensor noise, odometry slip and the initial pose guess) at 0.3
 m/s (the paper's speed) and at the base's top speed 1.0 m/s, plus the apartment
-(`default` -> `kitchen`, through the doorway between the two lower rooms; its 1.1 m
-corridor is narrower than the robot's 1.2 m turning circle). Each row: successes,
-collisions, mean/min/max time of the successes, the shortest possible time (shortest
-collision-free path for the footprint's inscribed radius over the top speed) and their
-ratio, beside the paper's figures.
-Then the global planner's time per call (Dijkstra and A*) on each map and the local
-planner's (DWA) step time, measured on the maps apart from the trials.
+(`default` -> `kitchen`, through the doorway between the two lower rooms; with
+`--apartment`, from the living room to every other room: kitchen, corridor, bedroom,
+study). `--methods` runs each row with several global planner / local controller pairs
+(e.g. `dijkstra/dwa hybrid/pursuit`). Each row: successes, collisions, mean/min/max time
+of the successes, the shortest possible time (shortest collision-free path for the
+footprint's inscribed radius over the top speed) and their ratio, beside the paper's
+figures. Then each global planner's time per call (Dijkstra, A*, Hybrid-A*) on each map
+and the DWA's step time, measured on the maps apart from the trials.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from robotrial.cli.nav import CONTROLLERS, PLANNERS, add_planner_argument
 from robotrial.console import add_json_flag, print_json, print_table, progress
 
 HELP = "Table 1 of the platform paper (rooms A, B, C; apartment) at 0.3 and 1.0 m/s; planner times"
@@ -33,6 +35,8 @@ ROOMS = {
     "room_c": ("default", (6.8, 6.6, 0.0)),
     "apartment": ("default", "kitchen"),
 }
+# the apartment's routes from the living room to every other room (`--apartment`)
+APARTMENT_ROUTES = ("kitchen", "corridor", "bedroom", "study")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -43,7 +47,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--worlds", nargs="+", default=list(ROOMS), choices=list(ROOMS), help="which worlds"
     )
-    parser.add_argument("--planner", choices=("dijkstra", "astar"), default="dijkstra")
+    add_planner_argument(parser)
+    parser.add_argument(
+        "--methods",
+        nargs="+",
+        metavar="PLANNER/CONTROLLER",
+        help="run every row with each of these (e.g. dijkstra/dwa hybrid/pursuit); "
+        "default: --planner with DWA",
+    )
+    parser.add_argument(
+        "--apartment",
+        action="store_true",
+        help="in the apartment, drive from the living room to every other room",
+    )
     parser.add_argument("--repeats", type=int, default=30, help="planner timing repetitions")
     parser.add_argument("-o", "--output", metavar="JSON", help="also write the results here")
     parser.add_argument("--plot", metavar="DIR", help="write a PNG of the paths per row here")
@@ -61,17 +77,18 @@ def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
     """Median wall time (ms) of one global plan (Dijkstra, A*) and one DWA step."""
     from robotrial.nav.costmap import Costmap
     from robotrial.nav.dwa import DWAConfig, DWAPlanner
+    from robotrial.nav.hybrid import HybridAStar
     from robotrial.nav.planners import AStar, Dijkstra
 
     cm = Costmap(nav_map.occupied, nav_map.origin, nav_map.resolution, footprint)
     out = {}
     path = None
-    for planner in (Dijkstra(), AStar()):
-        path = planner.plan(cm, start[:2], goal[:2])
+    for planner, s in ((HybridAStar(), start), (Dijkstra(), start[:2]), (AStar(), start[:2])):
+        path = planner.plan(cm, s, goal[:2])
         times = []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            planner.plan(cm, start[:2], goal[:2])
+            planner.plan(cm, s, goal[:2])
             times.append(time.perf_counter() - t0)
         out[f"{planner.name}_ms"] = 1e3 * float(np.median(times))
     dwa = DWAPlanner(footprint, DWAConfig(max_speed=1.0, max_yaw_rate=1.6))
@@ -105,45 +122,64 @@ def run(args: argparse.Namespace) -> int:
         print("robotrial bench nav: --runs must be at least 1")
         return 2
     footprint = footprint_of_robot("mobile_manipulator")
+    methods = [m.split("/") if "/" in m else [m, "dwa"] for m in args.methods or [args.planner]]
+    for planner, controller in methods:
+        if planner not in PLANNERS or controller not in CONTROLLERS:
+            print(
+                f"robotrial bench nav: unknown method {planner}/{controller}: planners "
+                f"{', '.join(PLANNERS)}; controllers {', '.join(CONTROLLERS)}"
+            )
+            return 2
+    routes = [(name, ROOMS[name][0], ROOMS[name][1]) for name in args.worlds]
+    if args.apartment:
+        routes = [r for r in routes if r[0] != "apartment"]
+        routes += [("apartment", "default", room) for room in APARTMENT_ROUTES]
     rows, timing = [], {}
-    total = len(args.worlds) * len(args.speeds) * args.runs
+    total = len(routes) * len(args.speeds) * len(methods) * args.runs
     with progress("bench nav", total=total, enabled=not args.json) as advance:
-        for name in args.worlds:
+        for name, start_name, goal_spec in routes:
             world = load_world(name)
             nav_map = world_map(world)
-            start_name, goal_spec = ROOMS[name]
             goal = _goal(world, goal_spec)
             start = start_pose(world, start_name)
-            timing[name] = planner_times(nav_map, footprint, start, goal, args.repeats)
-            timing[name]["map_cells"] = int(nav_map.occupied.size)
-            for speed in args.speeds:
+            label = name if isinstance(goal_spec, tuple) else f"{name}:{goal_spec}"
+            timing[label] = planner_times(nav_map, footprint, start, goal, args.repeats)
+            timing[label]["map_cells"] = int(nav_map.occupied.size)
+            for speed, (planner, controller) in ((v, m) for v in args.speeds for m in methods):
                 setup = NavTrialSetup(
-                    world=name, goal=goal, start=start_name, speed=speed, planner=args.planner
+                    world=name,
+                    goal=goal,
+                    start=start_name,
+                    speed=speed,
+                    planner=planner,
+                    controller=controller,
                 )
+                method = f"{planner}/{controller}"
                 length, best = shortest_time(setup, nav_map, footprint, world)
                 results = []
                 for i in range(args.runs):
                     results.append(run_once(setup, i, nav_map, world))
                     advance()
                 s = summarize(results, best)
-                s.update(world=name, speed=speed, shortest_length=length)
+                s.update(world=label, speed=speed, method=method, shortest_length=length)
                 s["failures"] = [r.summary() for r in results if not r.success]
                 s["wall_time"] = float(sum(r.wall_time for r in results))
                 rows.append(s)
                 if args.plot:
                     plot_paths(
-                        Path(args.plot) / f"nav_{name}_{speed:g}.png",
+                        Path(args.plot)
+                        / f"nav_{label.replace(':', '_')}_{planner}_{controller}_{speed:g}.png",
                         nav_map,
                         results,
                         start,
                         goal,
-                        title=f"{name}: {s['successes']}/{s['runs']} at {speed:g} m/s",
+                        title=f"{label}, {method}: {s['successes']}/{s['runs']} at {speed:g} m/s",
                     )
     result = {
         "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
         "date": time.strftime("%Y-%m-%d"),
         "runs_per_row": args.runs,
-        "planner": args.planner,
+        "methods": [f"{p}/{c}" for p, c in methods],
         "rows": rows,
         "planning": timing,
         "paper": PAPER_TABLE1,
@@ -160,6 +196,7 @@ def run(args: argparse.Namespace) -> int:
         table.append(
             (
                 s["world"],
+                s["method"],
                 s["speed"],
                 f"{s['successes']}/{s['runs']}",
                 s["collisions"],
@@ -175,6 +212,7 @@ def run(args: argparse.Namespace) -> int:
         "navigation trials (times in simulated s, successes only)",
         [
             "world",
+            "method",
             "m/s",
             "success",
             "collisions",
@@ -189,9 +227,16 @@ def run(args: argparse.Namespace) -> int:
     )
     print_table(
         "planning time per call (ms, median)",
-        ["world", "cells", "Dijkstra", "A*", "DWA step"],
+        ["world", "cells", "Dijkstra", "A*", "Hybrid-A*", "DWA step"],
         [
-            (w, t["map_cells"], fmt(t["dijkstra_ms"]), fmt(t["astar_ms"]), fmt(t["dwa_step_ms"]))
+            (
+                w,
+                t["map_cells"],
+                fmt(t["dijkstra_ms"]),
+                fmt(t["astar_ms"]),
+                fmt(t["hybrid_ms"]),
+                fmt(t["dwa_step_ms"]),
+            )
             for w, t in timing.items()
         ],
     )

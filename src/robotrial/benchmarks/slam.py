@@ -58,6 +58,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--short-range", type=float, default=4.0, help="room A check (m)")
     parser.add_argument("-o", "--output", default="bench-slam/slam.json", help="JSON results")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--real", action="store_true", help="public real-robot CARMEN logs")
+    parser.add_argument("--log-dir", help="--real: folder of the logs (default: the cache)")
+    parser.add_argument("--no-fetch", action="store_true", help="--real: download nothing")
 
 
 def truth_map_run(rec, resolution: float):
@@ -141,6 +144,10 @@ COLUMNS = [
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.real:
+        from robotrial.benchmarks.slam_real import run_real
+
+        return run_real(args)
     from robotrial.model import load_world
     from robotrial.model.world import world_from_dict
     from robotrial.trials.slam import (

@@ -3,7 +3,8 @@
     robotrial nav --world room_b --goal 6.8 6.6 0 --runs 10 --speed 0.3 [--map room_b.yaml]
 
 Runs the mobile manipulator from the world's start to the goal `runs` times (seeds
-seed..seed+runs-1) with AMCL, the global planner, DWA and recoveries in the simulator;
+seed..seed+runs-1) with AMCL, the global planner (`--planner`), the local controller
+(`--controller`) and recoveries in the simulator;
 prints success and time per run and the mean, min and max time of the successes (or
 JSON with --json), and writes a PNG of the true paths over the map.
 """
@@ -14,7 +15,22 @@ import argparse
 
 from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
-HELP = "navigate to a goal with AMCL, Dijkstra/A* and DWA in the simulator; success and time"
+HELP = "navigate to a goal with AMCL, a global planner and a local controller in the simulator"
+
+
+# the navigator's global planners and local controllers (robotrial.nav.navigator)
+PLANNERS = ("dijkstra", "astar", "hybrid", "auto")
+CONTROLLERS = ("dwa", "pursuit")
+
+
+def add_planner_argument(parser: argparse.ArgumentParser) -> None:
+    """The --planner option (also `robotrial bench nav`'s)."""
+    parser.add_argument(
+        "--planner",
+        choices=PLANNERS,
+        default="dijkstra",
+        help="global planner (hybrid: Hybrid-A* with the footprint; auto: A*, hybrid where needed)",
+    )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -30,7 +46,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--map", metavar="YAML", help="map_server map (default: ground truth)")
     parser.add_argument("--runs", type=int, default=1, help="how many runs (seeds differ)")
     parser.add_argument("--speed", type=float, default=0.3, help="top speed (m/s)")
-    parser.add_argument("--planner", choices=("dijkstra", "astar"), default="dijkstra")
+    add_planner_argument(parser)
+    parser.add_argument(
+        "--controller",
+        choices=CONTROLLERS,
+        default="dwa",
+        help="local controller (pursuit: regulated pure pursuit, for --planner hybrid)",
+    )
     parser.add_argument("--robot", default="mobile_manipulator", help="built-in robot or URDF")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first run")
     parser.add_argument("--time-limit", type=float, help="simulated s before a run gives up")
@@ -62,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
             map_path=args.map,
             speed=args.speed,
             planner=args.planner,
+            controller=args.controller,
             time_limit=args.time_limit,
         )
         nav_map = file_map(args.map) if args.map else world_map(world)
@@ -97,6 +120,7 @@ def run(args: argparse.Namespace) -> int:
                 "speed": args.speed,
                 "map": nav_map.source,
                 "planner": args.planner,
+                "controller": args.controller,
                 "runs": [r.summary() for r in results],
                 "summary": summary,
                 "plot": plot,

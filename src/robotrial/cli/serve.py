@@ -24,6 +24,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--world", default=DEFAULT_WORLD, help=f"world the page opens on (default {DEFAULT_WORLD})"
     )
+    parser.add_argument(
+        "--foxglove-port",
+        type=int,
+        default=8765,
+        metavar="PORT",
+        help="also serve the topics over the Foxglove WebSocket protocol, for Foxglove and "
+        "Lichtblick (default 8765, on --host; 0: off)",
+    )
     add_access_arguments(parser)
 
 
@@ -36,17 +44,28 @@ def run(args: argparse.Namespace) -> int:
     from robotrial.ros.bus import Bus
 
     try:
+        if not 0 <= args.foxglove_port <= 65535:
+            raise ValueError(f"--foxglove-port must be 0 (off) to 65535, got {args.foxglove_port}")
         access = access_from(args)
-        app = create_app(args.robot, args.world, bus=Bus(), live=True, planner=True, access=access)
+        app = create_app(
+            args.robot,
+            args.world,
+            bus=Bus(),
+            live=True,
+            planner=True,
+            access=access,
+            foxglove_port=args.foxglove_port or None,
+        )
     except (ModelError, ValueError) as exc:
         console.print(f"[red]error:[/red] {exc}")
         return 2
     shown = "127.0.0.1" if args.host in ("0.0.0.0", "::") else args.host
     host = f"[{shown}]" if ":" in shown else shown
     key = f"?token={access.token}" if access.token else ""
+    foxglove = f"; Foxglove at ws://{host}:{args.foxglove_port}/{key}" if args.foxglove_port else ""
     print(
         f"robotrial: open http://{host}:{args.port}/{key} ({args.robot} in {args.world}); "
-        f"rosbridge at ws://{host}:{args.port}{ROSBRIDGE_PATH}; Ctrl+C stops",
+        f"rosbridge at ws://{host}:{args.port}{ROSBRIDGE_PATH}{foxglove}; Ctrl+C stops",
         flush=True,
     )
     uvicorn.run(app, host=args.host, port=args.port, log_level="warning")

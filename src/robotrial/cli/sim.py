@@ -65,6 +65,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="DEG",
         help="override the LiDAR's horizontal step (0.1 to 0.4 deg)",
     )
+    parser.add_argument(
+        "--foxglove-port",
+        type=int,
+        default=0,
+        metavar="PORT",
+        help="serve the topics live over the Foxglove WebSocket protocol on this port "
+        "(e.g. 8765; paced at real time unless --realtime says otherwise; default 0: off)",
+    )
+    parser.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="address the Foxglove server listens on (default 127.0.0.1: this computer only)",
+    )
     add_json_flag(parser)
 
 
@@ -157,7 +170,7 @@ def run(args: argparse.Namespace) -> int:
     from robotrial.msgs.nav_msgs import Odometry
     from robotrial.ros.bus import Bus
     from robotrial.ros.recorder import BusRecorder, Recorder, format_of
-    from robotrial.ros.sim_node import SimNode
+    from robotrial.ros.sim_node import ROBOT_DESCRIPTION, SimNode
     from robotrial.sim.drives import SquareDrive
     from robotrial.sim.simulation import Simulation
 
@@ -173,6 +186,8 @@ def run(args: argparse.Namespace) -> int:
         spawn = world.spawn(args.spawn)
         if args.realtime is not None and not args.realtime > 0:
             raise ValueError(f"--realtime must be positive, got {args.realtime}")
+        if not 0 <= args.foxglove_port <= 65535:
+            raise ValueError(f"--foxglove-port must be 0 (off) to 65535, got {args.foxglove_port}")
         sim = Simulation.create(world, robot, seed=args.seed, spawn=spawn, options=options)
         if args.drive is None:
             args.drive = "square" if sim.base is not None else "none"
@@ -189,7 +204,7 @@ def run(args: argparse.Namespace) -> int:
 
     bus = Bus()
     node = SimNode(bus, sim)
-    topics = sorted({t for t, _ in node.topics.values()} | {"/tf", "/tf_static"})
+    topics = sorted({t for t, _ in node.topics.values()} | {"/tf", "/tf_static", ROBOT_DESCRIPTION})
     recorder = Recorder(args.record, args.compression) if args.record else None
     if recorder is not None:
         BusRecorder(bus, recorder, topics)
@@ -208,8 +223,29 @@ def run(args: argparse.Namespace) -> int:
     bus.subscribe("/ground_truth", on_truth)
     bus.subscribe("/odom", on_odom)
 
+    foxglove = None
+    if args.foxglove_port:
+        from robotrial.ros.foxglove_bridge import FoxgloveBridge
+        from robotrial.ros.rosbridge.access import Access
+
+        try:
+            foxglove = FoxgloveBridge(
+                bus,
+                host=args.host,
+                port=args.foxglove_port,
+                robot=robot,
+                access=Access(listen_host=args.host),
+            )
+        except OSError as exc:
+            console.print(f"[red]robotrial sim: {exc}")
+            sim.close()
+            return 2
+        console.print(f"Foxglove and Lichtblick: open connection {foxglove.url}")
+
     teleop = None
     realtime = args.realtime
+    if foxglove is not None and realtime is None:
+        realtime = 1.0
     if args.drive == "keys":
         lim = sim.base.limits if sim.base else None
         try:
@@ -247,6 +283,8 @@ def run(args: argparse.Namespace) -> int:
             except KeyboardInterrupt:
                 interrupted = True
     finally:
+        if foxglove is not None:
+            foxglove.destroy()
         if teleop is not None:
             teleop.close()
         if recorder is not None:

@@ -4,6 +4,7 @@ the live simulator, and score it against the world's ground truth (layer 5).
     robotrial slam --method gmapping --bag run.mcap -o room_c
     robotrial slam --method hector --live --world room_a --duration 60 -o room_a_hector
     robotrial slam --method graph --bag apartment.mcap --world apartment -o apartment_graph
+    robotrial slam --method hector --log intel.clf --relations intel.relations -o intel
 
 writes room_c.pgm + room_c.yaml (map_server), room_c.tum (the trajectory) and room_c.png
 (the map with the trajectory over the ground truth), and prints the scores (or --json).
@@ -17,7 +18,7 @@ from pathlib import Path
 
 from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
-HELP = "SLAM (gmapping, hector, graph) from a recording or live; map files, trajectory, scores"
+HELP = "SLAM (gmapping, hector, graph) from a recording, a CARMEN log or live: maps, scores"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -25,6 +26,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--bag", metavar="FILE", help="a recording (.mcap or ROS 1 .bag)")
     src.add_argument("--live", action="store_true", help="drive the simulator and map live")
+    src.add_argument("--log", metavar="FILE", help="a real-robot CARMEN log (.clf, .log)")
+    parser.add_argument("--relations", metavar="FILE", help="--log: relations to score against")
     parser.add_argument("-o", "--output", default="map", help="output stem (STEM.pgm, .yaml, ...)")
     parser.add_argument(
         "--world",
@@ -89,6 +92,13 @@ def run(args: argparse.Namespace) -> int:
     except (ValueError, KeyError, ModelError) as exc:
         console.print(f"[red]robotrial slam: {exc}")
         return 2
+    if args.relations and not args.log:
+        console.print("[red]robotrial slam: --relations scores a --log run; give --log FILE")
+        return 2
+    if args.log:
+        from robotrial.cli.slam_log import run_log
+
+        return run_log(args, params)
     try:
         if args.bag:
             run_, rec = _offline(args, params, trial)

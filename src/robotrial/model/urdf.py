@@ -105,6 +105,26 @@ def load_urdf(
     return urdf_from_string(data, str(p), p.parent, package_paths, confined=confined)
 
 
+def description_text(robot: RobotModel) -> str:
+    """The URDF text of a robot loaded from a file (xacro expanded), as ROS's
+    `robot_description` parameter holds it: what the file says, URIs unchanged.
+
+    ModelError when the robot did not come from a readable file (built in code, or
+    from an RDTF whose source is no longer on disk).
+    """
+    p = Path(robot.source) if robot.source else None
+    if p is None or not p.is_file():
+        raise ModelError(f"robot {robot.name!r}: no URDF file to describe it ({robot.source!r})")
+    if p.suffix.lower() in XACRO_SUFFIXES:
+        return expand_xacro(p)
+    if p.suffix.lower() != ".urdf":
+        raise ModelError(f"{p}: a robot description is a .urdf or .xacro file")
+    try:
+        return p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ModelError(f"{p}: cannot read: {exc}") from exc
+
+
 def urdf_from_string(
     text: str | bytes,
     source: str = "<string>",

@@ -16,7 +16,10 @@ cells:
 
 The footprint is covered by circles (`Footprint.circles`); an arc is admissible when
 every circle stays `margin` clear of obstacles in the costmap's distance field for as
-long as the base needs to stop on it, plus a second. Near the
+long as the base needs to stop on it, plus a second. With `exact_footprint` the
+rectangle itself, grown by `margin`, is checked against the lethal cells instead (the
+circles reach 0.25 m past the ends of a 0.99 x 0.67 m base, too far to turn in a
+corridor). Near the
 goal the speed is capped so that the base can stop on it, and the path ahead caps it
 too (`path_speed`): slow where the path is narrow or bends, braking in time. Where a
 narrow stretch lies ahead the arcs are held closer to the path, so doorways are entered
@@ -30,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robotrial.nav.costmap import MAX_INFLATED, Costmap, Footprint
+from robotrial.nav.hybrid import footprint_hits
 
 
 @dataclass(frozen=True)
@@ -63,6 +67,10 @@ class DWAConfig:
     narrow_lookahead: float = 0.8
     goal_heading_bias: float = 0.0
     goal_heading_range: float = 1.0
+    footprint_speed: bool = False
+    exact_footprint: bool = False
+    tight_clearance: float = 0.0
+    ample_clearance: float = 0.1
 
     def __post_init__(self) -> None:
         for k in ("max_speed", "max_yaw_rate", "acc_lim_v", "acc_lim_w", "period", "sim_time"):
@@ -171,13 +179,21 @@ class DWAPlanner:
         return vv.ravel(), ww.ravel()
 
     def path_speed(
-        self, pose: tuple[float, float, float], path: np.ndarray, costmap: Costmap
+        self,
+        pose: tuple[float, float, float],
+        path: np.ndarray,
+        costmap: Costmap,
+        footprint_speed: bool | None = None,
     ) -> float:
         """The speed (m/s) from which the base can still slow down, at `acc_lim_v`, to
         what each point of the path ahead allows: `narrow_speed` where the path's
         clearance (distance to the nearest obstacle beyond the inscribed radius) is
         below `narrow_clearance`, rising to the top speed at `open_clearance`, and no faster than
-        `curve_factor * max_yaw_rate / curvature` where the path bends."""
+        `curve_factor * max_yaw_rate / curvature` where the path bends. With
+        `footprint_speed` the clearance is the footprint's, facing along the path, and the
+        speed rises from `narrow_speed` at `tight_clearance` to the top at `ample_clearance`
+        (a straight doorway the rectangle passes with room to spare is no reason to slow);
+        `footprint_speed` given here overrides the configuration's."""
         c = self.config
         _, i0 = carrot(path, np.asarray(pose[:2], dtype=float), 0.0)
         ahead = path[i0:]
@@ -188,12 +204,22 @@ class DWAPlanner:
         reach = c.max_speed**2 / (2 * 0.8 * c.acc_lim_v) + 0.5
         n = int(np.searchsorted(s, reach)) + 1
         ahead, s = ahead[:n], s[:n]
-        clear = costmap.distance_at(ahead) - self.footprint.inscribed_radius
-        frac = np.clip(
-            (clear - c.narrow_clearance) / max(c.open_clearance - c.narrow_clearance, 1e-6),
-            0.0,
-            1.0,
-        )
+        if c.footprint_speed if footprint_speed is None else footprint_speed:
+            d = np.diff(ahead, axis=0)
+            yaw = np.arctan2(d[:, 1], d[:, 0])
+            poses = np.column_stack([ahead, np.append(yaw, yaw[-1])])
+            if c.exact_footprint:
+                # the largest of a few margins the rectangle keeps at each point
+                clear = np.zeros(len(poses))
+                for m in np.linspace(c.tight_clearance, c.ample_clearance, 3):
+                    clear[~footprint_hits(costmap, poses, float(m))] = m
+            else:
+                clear = footprint_clearance(costmap, self.footprint, poses)
+            lo, hi = c.tight_clearance, c.ample_clearance
+        else:
+            clear = costmap.distance_at(ahead) - self.footprint.inscribed_radius
+            lo, hi = c.narrow_clearance, c.open_clearance
+        frac = np.clip((clear - lo) / max(hi - lo, 1e-6), 0.0, 1.0)
         # a path point inside the inscribed radius is an obstacle newly in the way, which
         # the arcs' scoring steers around, not a passage to hold to
         frac[clear < 0.0] = 1.0
@@ -232,6 +258,8 @@ class DWAPlanner:
         ahead = ahead[: max(n, 2)]
         d = np.diff(ahead, axis=0)
         poses = np.column_stack([ahead[1:], np.arctan2(d[:, 1], d[:, 0])])
+        if c.exact_footprint:
+            return not footprint_hits(costmap, poses, 0.0).any()
         return bool(footprint_clearance(costmap, self.footprint, poses).min() >= 0.0)
 
     def compute(
@@ -253,6 +281,9 @@ class DWAPlanner:
             raise ValueError("DWA: the global path is empty")
         v_path = self.path_speed(pose, path, costmap)
         v_cap = min(c.max_speed, v_path)
+        if c.footprint_speed:
+            # how narrow the way ahead is still follows the centre's clearance
+            v_path = self.path_speed(pose, path, costmap, footprint_speed=False)
         # where the path ahead is narrow, hold to it more tightly (doorways are entered
         # along their axis, not at a slant)
         narrow = 0.0
@@ -274,7 +305,11 @@ class DWAPlanner:
         relevant = np.ones((len(v), steps), dtype=bool)
         if goal_distance is not None:
             relevant = np.abs(v)[:, None] * (t[None, :] - c.sim_dt) <= goal_distance + 0.2
-        clear_all = footprint_clearance(costmap, self.footprint, traj)
+        if c.exact_footprint:
+            hit = footprint_hits(costmap, traj, c.margin)
+            clear_all = np.where(hit, -np.inf, np.inf)
+        else:
+            clear_all = footprint_clearance(costmap, self.footprint, traj)
         clear_all = np.where(relevant, clear_all, np.inf)
         clear = np.where(t[None, :] <= horizon[:, None], clear_all, np.inf).min(axis=1)
         ok = clear >= c.margin

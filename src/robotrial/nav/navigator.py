@@ -27,7 +27,12 @@ import numpy as np
 
 from robotrial.nav.costmap import Costmap, Footprint, Inflation, coarsen
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
-from robotrial.nav.planners import NoPath, make_planner, smooth
+from robotrial.nav.hybrid import HybridAStar, HybridConfig, footprint_hits
+from robotrial.nav.planners import PLANNERS, NoPath, StartBlocked, make_planner, smooth
+from robotrial.nav.pursuit import PursuitConfig, PursuitController
+
+GLOBAL_PLANNERS = (*PLANNERS, "hybrid", "auto")
+CONTROLLERS = ("dwa", "pursuit")
 
 
 class Status(Enum):
@@ -46,11 +51,19 @@ class Recovery(Enum):
 @dataclass(frozen=True)
 class NavigatorConfig:
     """Tolerances (m, rad), timing (s), local window size (m) and the sub-planners.
+    `planner`: 'dijkstra' or 'astar' (the grid, the centre keeping the inscribed radius),
+    'hybrid' (Hybrid-A* over poses with the footprint), or 'auto' (A*, and Hybrid-A*
+    where the footprint facing along A*'s path would touch something). `controller`:
+    'dwa' or 'pursuit' (regulated pure pursuit, for footprint plans), both within the
+    limits of `dwa`.
     `turn_yaw_rate` (rad/s) and `turn_acc` (rad/s^2) bound the final turn in place to
     the goal's heading (None: the DWA's limits). `costmap_resolution` (m): the costmaps'
     cell size; a map at least twice as fine is coarsened to it (None: the map's)."""
 
     planner: str = "dijkstra"
+    hybrid: HybridConfig = field(default_factory=HybridConfig)
+    controller: str = "dwa"
+    pursuit: PursuitConfig = field(default_factory=PursuitConfig)
     xy_tolerance: float = 0.15
     yaw_tolerance: float = 0.15
     replan_period: float = 1.0
@@ -76,6 +89,8 @@ class _Behaviour:
     start_yaw: float = 0.0
     turned: float = 0.0
     last_yaw: float = 0.0
+    distance: float = 0.0
+    heading: float | None = None  # a back-up first turns on the spot to this yaw
 
 
 def _wrap(a: float) -> float:
@@ -103,8 +118,23 @@ class Navigator:
         self.global_costmap = Costmap(
             occupied, origin, resolution, footprint, config.inflation, unknown
         )
-        self.planner = make_planner(config.planner)
-        self.dwa = DWAPlanner(footprint, config.dwa)
+        if config.planner not in GLOBAL_PLANNERS:
+            raise ValueError(
+                f"unknown global planner {config.planner!r}; choose from {list(GLOBAL_PLANNERS)}"
+            )
+        grid = "astar" if config.planner in ("hybrid", "auto") else config.planner
+        self.planner = make_planner(grid)
+        self.hybrid = HybridAStar(config.hybrid)
+        self.plans_by: list[str] = []
+        if config.controller not in CONTROLLERS:
+            raise ValueError(
+                f"unknown controller {config.controller!r}; choose from {list(CONTROLLERS)}"
+            )
+        self.controller: DWAPlanner | PursuitController = (
+            DWAPlanner(footprint, config.dwa)
+            if config.controller == "dwa"
+            else PursuitController(footprint, config.dwa, config.pursuit)
+        )
         self.local_costmap: Costmap | None = None
         self.status = Status.IDLE
         self.message = ""
@@ -119,6 +149,7 @@ class Navigator:
         self._behaviour: _Behaviour | None = None
         self._next_recovery = 0
         self._no_path = 0
+        self._planned = False
         self._rotating = False
         self._dirty = False
         self._blocked_since: float | None = None
@@ -139,6 +170,7 @@ class Navigator:
         self._behaviour = None
         self._next_recovery = 0
         self._no_path = 0
+        self._planned = False
         self._rotating = False
         self._blocked_since = None
 
@@ -207,7 +239,7 @@ class Navigator:
             local = self.global_costmap.window(tuple(pose_a[:2]), self.config.local_size)
             self.local_costmap = local
         t0 = time.perf_counter()
-        res = self.dwa.compute(
+        res = self.controller.compute(
             tuple(pose_a), self._command, self.path, local, goal_distance=dist, goal_yaw=goal[2]
         )
         self.local_times.append(time.perf_counter() - t0)
@@ -247,7 +279,7 @@ class Navigator:
             self._dirty = False
         t0 = time.perf_counter()
         try:
-            path = self.planner.plan(self.global_costmap, tuple(pose[:2]), tuple(self.goal[:2]))
+            path = self._global_path(pose)
         except NoPath as err:
             self.plan_times.append(time.perf_counter() - t0)
             self._no_path += 1
@@ -257,12 +289,42 @@ class Navigator:
             else:
                 self.global_costmap.clear_obstacles()
                 self._dirty = True
+                if self._planned and self.config.planner in ("hybrid", "auto"):
+                    # the goal was reachable from an earlier pose: the base has come to
+                    # one it cannot turn from (overshot a corner), so it backs up as far
+                    # as a plan that may reverse says
+                    self.recoveries.append(Recovery.BACK_UP.value)
+                    self._back_up(now, pose)
             return False
         self.plan_times.append(time.perf_counter() - t0)
         self._no_path = 0
-        self.path = smooth(path, self.global_costmap)
+        self._planned = True
+        self.path = path
         self._last_plan = now
         return True
+
+    def _global_path(self, pose: np.ndarray) -> np.ndarray:
+        """The configured planner's path from `pose` to the goal; raises NoPath."""
+        cm, goal = self.global_costmap, tuple(self.goal[:2])
+        kind = self.config.planner
+        if kind in ("hybrid", "auto"):
+            if kind == "auto":
+                path = smooth(self.planner.plan(cm, tuple(pose[:2]), goal), cm)
+                d = np.diff(path, axis=0)
+                along = np.column_stack([path[1:], np.arctan2(d[:, 1], d[:, 0])])
+                if not self.hybrid.collides(cm, along).any():
+                    self.plans_by.append("grid")
+                    return path
+            try:
+                path = self.hybrid.plan(cm, tuple(pose), goal)
+                self.plans_by.append("hybrid")
+                return path
+            except StartBlocked:
+                # a base whose footprint already touches something (as mapped) plans
+                # its way out on the grid, where cells near the start stay open
+                pass
+        self.plans_by.append("grid")
+        return smooth(self.planner.plan(cm, tuple(pose[:2]), goal), cm)
 
     def _track_progress(self, now: float, pose: np.ndarray) -> None:
         since, where = self._progress
@@ -293,12 +355,38 @@ class Navigator:
             self.path = None
             self._behaviour = None
             return
-        length = (
-            2 * np.pi / max(self.config.dwa.max_yaw_rate, 0.1) + 2.0
-            if kind is Recovery.ROTATE
-            else self.config.backup_distance / self.config.backup_speed + 2.0
-        )
+        if kind is Recovery.BACK_UP:
+            self._back_up(now, pose)
+            return
+        length = 2 * np.pi / max(self.config.dwa.max_yaw_rate, 0.1) + 2.0
         self._behaviour = _Behaviour(kind, now + length, float(pose[2]), 0.0, float(pose[2]))
+
+    def _back_up(self, now: float, pose: np.ndarray) -> None:
+        """Start backing up: `backup_distance` straight back, or, with a footprint planner,
+        as a plan that may also reverse does (turning on the spot to the heading it backs
+        up at, as far as it backs up: at least `backup_distance`, at most 1.5 m)."""
+        yaw = float(pose[2])
+        heading, back = yaw, 0.0
+        if self.config.planner in ("hybrid", "auto"):
+            try:
+                heading, back = self.hybrid.reverse_run(self.global_costmap, pose, self.goal)
+            except NoPath:
+                pass
+            back += 0.1
+        back = min(max(back, self.config.backup_distance), 1.5)
+        turn = abs(_wrap(heading - yaw)) / (0.5 * self.config.dwa.max_yaw_rate)
+        length = turn + back / self.config.backup_speed + 2.0
+        turn_first = heading if abs(_wrap(heading - yaw)) > 0.05 else None
+        self._behaviour = _Behaviour(
+            Recovery.BACK_UP, now + length, yaw, 0.0, yaw, back, turn_first
+        )
+
+    def _touches(self, costmap: Costmap, poses: np.ndarray) -> bool:
+        """Whether the footprint touches an obstacle at any of the poses: the rectangle
+        itself where the controller checks it so, else its covering circles."""
+        if self.config.dwa.exact_footprint:
+            return bool(footprint_hits(costmap, poses, 0.0).any())
+        return bool(footprint_clearance(costmap, self.footprint, poses).min() < 0.0)
 
     def _recover(
         self, now: float, pose: np.ndarray, velocity: tuple[float, float]
@@ -314,21 +402,33 @@ class Navigator:
             w = 0.5 * self.config.dwa.max_yaw_rate
             if local is not None:
                 nxt = rollout(tuple(pose), np.array([0.0]), np.array([w]), 5, 0.1)
-                if footprint_clearance(local, self.footprint, nxt).min() < 0.0:
+                if self._touches(local, nxt):
                     done = True
             done = done or b.turned >= 2 * np.pi
             cmd = (0.0, w)
+        elif b.heading is not None:
+            # the reverse plan's turn on the spot before it backs up
+            err = _wrap(b.heading - float(pose[2]))
+            rate = 0.5 * self.config.dwa.max_yaw_rate
+            w = float(np.sign(err) * min(rate, max(0.15, 2.0 * abs(err))))
+            if local is not None:
+                nxt = rollout(tuple(pose), np.array([0.0]), np.array([w]), 5, 0.1)
+                if self._touches(local, nxt):
+                    b.heading = None
+            if abs(err) <= 0.05:
+                b.heading = None  # turned: back up from here on
+            cmd = (0.0, w) if b.heading is not None else (0.0, 0.0)
         else:
             travelled = 0.0
             if local is not None:
                 nxt = rollout(
                     tuple(pose), np.array([-self.config.backup_speed]), np.array([0.0]), 5, 0.1
                 )
-                if footprint_clearance(local, self.footprint, nxt).min() < 0.0:
+                if self._touches(local, nxt):
                     done = True
             b.turned += abs(velocity[0]) * self.config.dwa.period
             travelled = b.turned
-            done = done or travelled >= self.config.backup_distance
+            done = done or travelled >= b.distance
             cmd = (-self.config.backup_speed, 0.0)
         if done:
             self._behaviour = None

@@ -26,6 +26,10 @@ class NoPath(RuntimeError):
     """No path exists (the message says why: start or goal blocked, or unreachable)."""
 
 
+class StartBlocked(NoPath):
+    """The robot's footprint already touches an obstacle where the search would start."""
+
+
 @numba.njit(cache=True)
 def _heap_push(keys, vals, size, key, val):
     i = size

@@ -62,18 +62,24 @@ def typestore(dialect: str):
         return _STORES[dialect]
 
 
+def _store_name(cls: type[Message]) -> str:
+    """The name rosbags keeps a type under: a service's request and response
+    (`pkg/srv/Name_Request`) go under `pkg/msg/...`, the only middle part it keeps."""
+    return cls.__ros_type__.replace("/srv/", "/msg/", 1)
+
+
 def ensure_type(store, cls: type[Message], dialect: str) -> None:
     """Register `cls` (and what it contains) in the store if the store lacks it."""
     key = (id(store), cls.__ros_type__)
     if key in _READY:
         return
-    missing = [c for c in dependencies(cls) if c.__ros_type__ not in store.types]
+    missing = [c for c in dependencies(cls) if _store_name(c) not in store.types]
     if not missing:
         _READY.add(key)
         return
     types: dict = {}
     for c in missing:
-        types.update(get_types_from_msg(definition(c, dialect), c.__ros_type__))
+        types.update(get_types_from_msg(definition(c, dialect), _store_name(c)))
     with _STORE_LOCK:
         store.register(types)
     _READY.add(key)
@@ -118,9 +124,9 @@ def deserialize(data: bytes, type_name: str, dialect: str = "ros2") -> Message:
     store = typestore(dialect)
     ensure_type(store, cls, dialect)
     if dialect == "ros2":
-        obj = store.deserialize_cdr(data, cls.__ros_type__)
+        obj = store.deserialize_cdr(data, _store_name(cls))
     else:
-        obj = store.deserialize_ros1(data, cls.__ros_type__)
+        obj = store.deserialize_ros1(data, _store_name(cls))
     return from_rosbags(obj, cls)
 
 

@@ -13,6 +13,7 @@ sensor topics a Gazebo robot has):
 | `/joint_states` | sensor_msgs/JointState | all actuated joints |
 | `/tf` | tf2_msgs/TFMessage | odom -> base, movable joints |
 | `/tf_static` | tf2_msgs/TFMessage (latched) | fixed joints, sensor mounts |
+| `/robot_description` | std_msgs/String (latched) | the robot's URDF, when it came from a file |
 | `/NAME/image_raw`, `/NAME/camera_info` | Image rgb8, CameraInfo | each camera |
 | `/NAME/depth/image_raw`, `/NAME/depth/camera_info` | Image 32FC1, CameraInfo | depth camera |
 | `/NAME/points` | sensor_msgs/PointCloud2 (x, y, z) | depth camera, from the image |
@@ -52,7 +53,7 @@ from robotrial.msgs.sensor_msgs import (
     PointCloud2,
     PointField,
 )
-from robotrial.msgs.std_msgs import Header
+from robotrial.msgs.std_msgs import Header, String
 from robotrial.msgs.tf2_msgs import TFMessage
 from robotrial.msgs.trajectory_msgs import JointTrajectory
 from robotrial.ros.bus import Bus, Node
@@ -66,6 +67,7 @@ from robotrial.sim.tf import Transform as SimTransform
 from robotrial.sim.tf import planar_transform
 
 GROUND_TRUTH = "/ground_truth"
+ROBOT_DESCRIPTION = "/robot_description"
 log = logging.getLogger(__name__)
 
 
@@ -307,6 +309,7 @@ class SimNode(Node):
             self._pubs[topic] = self.create_publisher(topic, cls)
         self._tf = self.create_publisher("/tf", TFMessage)
         self._tf_static = self.create_publisher("/tf_static", TFMessage, latched=True)
+        self._description = self.create_publisher(ROBOT_DESCRIPTION, String, latched=True)
         self.create_subscription("/cmd_vel", Twist, self._on_cmd_vel)
         self.create_subscription("/robotrial/joint_reference", JointTrajectory, self._on_reference)
         self._started = False
@@ -381,8 +384,24 @@ class SimNode(Node):
         self._started = True
         self._tf_static.publish(tf_message(self.sim.tf.static, self.sim.world.time))
         self.counts["/tf_static"] = 1
+        self.publish_description()
         for r in self.sim.start():
             self.publish_reading(r)
+
+    def publish_description(self) -> None:
+        """Latch the robot's URDF on /robot_description (as robot_state_publisher does),
+        so Foxglove's 3D panel and RViz draw the robot; a robot without a URDF file
+        publishes nothing."""
+        from robotrial.model.robot import ModelError
+        from robotrial.model.urdf import description_text
+
+        try:
+            text = description_text(self.sim.robot)
+        except ModelError as exc:
+            log.info("no %s: %s", ROBOT_DESCRIPTION, exc)
+            return
+        self._description.publish(String(data=text))
+        self.counts[ROBOT_DESCRIPTION] = 1
 
     def step(self) -> None:
         """One control period of the simulation, its readings published."""

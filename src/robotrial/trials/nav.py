@@ -3,8 +3,9 @@
 One run: the mobile manipulator spawns at the world's start pose in the MuJoCo
 simulation; AMCL starts from a guess near the spawn (off by a seeded error) and
 localizes on the map from the 2D scan (the VLP-16 cut to a plane) and the wheel
-odometry (with slip); the navigator plans (Dijkstra or A*), drives with DWA and
-recovers when stuck. The loop runs as fast as the CPU allows, on the simulation clock.
+odometry (with slip); the navigator plans (Dijkstra, A*, or Hybrid-A* with the
+footprint), drives with DWA or pure pursuit and recovers when stuck. The loop runs as
+fast as the CPU allows, on the simulation clock.
 
 A run succeeds when the navigator reports the goal reached, the base truly stands
 within `success_radius` of the goal, and the robot never touched a wall or an obstacle
@@ -65,7 +66,8 @@ PAPER_TABLE1 = {
 @dataclass(frozen=True)
 class NavTrialSetup:
     """What a trial is: world, robot, start (spawn name or pose), goal (x, y, yaw), the
-    map (None: the world's ground truth), the top speed (m/s) and the planner."""
+    map (None: the world's ground truth), the top speed (m/s), the global planner and
+    the local controller."""
 
     world: str = "room_b"
     goal: tuple[float, float, float] = (6.8, 6.6, 0.0)
@@ -74,6 +76,7 @@ class NavTrialSetup:
     map_path: str | None = None
     speed: float = 0.3
     planner: str = "dijkstra"
+    controller: str = "dwa"
     time_limit: float | None = None
     initial_error: tuple[float, float] = (0.1, 0.05)
     success_radius: float = 0.3
@@ -198,9 +201,11 @@ def navigator_config(
     max_accel: float,
     planner: str,
     max_yaw_accel: float = 2.0,
+    controller: str = "dwa",
 ) -> NavigatorConfig:
     """The navigation stack's settings for a top speed (m/s); the final turn in place
-    uses the base's own yaw rate and acceleration limits."""
+    uses the base's own yaw rate and acceleration limits. With a footprint-aware planner
+    ('hybrid', 'auto') the DWA also caps its speed by the footprint's clearance."""
     yaw_rate = min(max_yaw_rate, max(0.8, 1.6 * speed))
     dwa = DWAConfig(
         max_speed=speed,
@@ -211,9 +216,16 @@ def navigator_config(
         lookahead=max(0.8, 1.5 * speed),
         goal_heading_bias=0.5,
         goal_heading_range=1.5,
+        footprint_speed=planner in ("hybrid", "auto"),
+        exact_footprint=planner in ("hybrid", "auto"),
+        narrow_speed=0.3,
     )
     return NavigatorConfig(
-        planner=planner, dwa=dwa, turn_yaw_rate=max_yaw_rate, turn_acc=max_yaw_accel
+        planner=planner,
+        dwa=dwa,
+        controller=controller,
+        turn_yaw_rate=max_yaw_rate,
+        turn_acc=max_yaw_accel,
     )
 
 
@@ -260,7 +272,12 @@ def _drive(
     limits = DriveLimits.from_metadata(sim.robot.metadata.get("drive", {}) or {})
     speed = min(setup.speed, limits.max_speed)
     config = navigator_config(
-        speed, limits.max_yaw_rate, limits.max_accel, setup.planner, limits.max_yaw_accel
+        speed,
+        limits.max_yaw_rate,
+        limits.max_accel,
+        setup.planner,
+        limits.max_yaw_accel,
+        setup.controller,
     )
     footprint = footprint_of(sim)
     nav = Navigator(

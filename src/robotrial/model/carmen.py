@@ -1,0 +1,288 @@
+"""CARMEN robot logs and SLAM relation files, read into and written from arrays (layer 1).
+
+The public 2D laser data sets of the SLAM literature (Intel Research Lab, ACES, Freiburg
+079, MIT Killian Court) are CARMEN logs: one message a line, the message type first. A
+log is a recording format, so it is read here at the edge, beside the map files; SLAM
+(layer 3) only ever sees the arrays. The lines read:
+
+- ``FLASER n r1 .. rn x y theta odom_x odom_y odom_theta timestamp host logger_ts``
+  (old style: the laser's pose, then the robot's odometry; the beams are assumed to
+  span 180 degrees from -90, as the CARMEN front laser of these logs did);
+- ``ROBOTLASER1 type start fov res max_range accuracy remission_mode n r1 .. rn
+  m e1 .. em laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv
+  forward_safety side_safety turn_axis timestamp host logger_ts`` (new style);
+- ``RAWLASER1 type start fov res max_range accuracy remission_mode n r1 .. rn m e1 .. em
+  timestamp host logger_ts`` (a scan without poses);
+- ``ODOM x y theta tv rv accel timestamp host logger_ts``.
+
+Every other message type (PARAM, TRUEPOS, SYNC, a g2o file's VERTEX_SE2 ...) is passed
+over and counted. A line of a known type that cannot be read is an error naming the
+file and the line (``strict=True``) or is skipped and listed in `CarmenLog.skipped`.
+
+A relation file (Kuemmerle et al. 2009, "On measuring the accuracy of SLAM algorithms")
+holds one relation a line: ``t1 t2 x y z roll pitch yaw``, the motion of the robot from
+its pose at time t1 to its pose at time t2, in the frame of the first.
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import math
+import zipfile
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+# What stands for "no return" in old-style logs that carry no maximum range: the SICK
+# LMS of these data sets reports 81.91 m (or more) when nothing reflected.
+FLASER_MAX_RANGE = 81.9
+
+
+class CarmenError(ValueError):
+    """A line of a CARMEN log or a relation file that cannot be read."""
+
+
+@dataclass(frozen=True)
+class CarmenScan:
+    """One laser scan: ranges (m, inf where nothing returned), the angle of the first
+    beam and between beams (rad, in the laser's frame), the maximum range (m)."""
+
+    stamp: float
+    ranges: np.ndarray
+    angle_min: float
+    angle_increment: float
+    range_max: float
+
+
+@dataclass
+class CarmenLog:
+    """Scans in time order; odometry as rows (stamp, x, y, yaw); the laser's pose on the
+    robot's base (x, y, yaw); lines skipped as (line number, reason); how many lines of
+    other message types were passed over."""
+
+    scans: list[CarmenScan]
+    odom: np.ndarray
+    laser_pose: tuple[float, float, float]
+    source: str = ""
+    skipped: list[tuple[int, str]] = field(default_factory=list)
+    other_lines: int = 0
+
+    @property
+    def duration(self) -> float:
+        return self.scans[-1].stamp - self.scans[0].stamp if len(self.scans) > 1 else 0.0
+
+
+def _floats(tokens: list[str], start: int, count: int, what: str) -> list[float]:
+    if len(tokens) < start + count:
+        raise CarmenError(f"{what}: expected {start + count} fields or more, got {len(tokens)}")
+    try:
+        return [float(t) for t in tokens[start : start + count]]
+    except ValueError as exc:
+        raise CarmenError(f"{what}: {exc}") from None
+
+
+def _count(tokens: list[str], at: int, what: str) -> int:
+    if len(tokens) <= at:
+        raise CarmenError(f"{what}: the line ends before the number of readings")
+    try:
+        n = int(tokens[at])
+    except ValueError:
+        raise CarmenError(f"{what}: number of readings {tokens[at]!r} is not an integer") from None
+    if n < 0:
+        raise CarmenError(f"{what}: negative number of readings {n}")
+    return n
+
+
+def _no_return(ranges: np.ndarray, max_range: float) -> np.ndarray:
+    """Ranges with readings at or past the maximum (the sensor's "nothing") as inf."""
+    r = np.asarray(ranges, dtype=np.float64)
+    return np.where(r >= max_range - 1e-6, np.inf, r)
+
+
+def _flaser_angles(n: int) -> tuple[float, float]:
+    """First beam and increment of an old-style scan: 180 degrees from -90; 181 and 361
+    beams include both ends (1 and 0.5 degree steps), other counts do not."""
+    step = math.pi / (n - 1) if n in (181, 361) else math.pi / max(n, 1)
+    return -math.pi / 2, step
+
+
+@dataclass
+class _Parsed:
+    scans: list[CarmenScan] = field(default_factory=list)
+    odom: list[tuple[float, float, float, float]] = field(default_factory=list)
+    scan_odom: list[tuple[float, float, float, float]] = field(default_factory=list)
+    mounts: list[tuple[float, float, float]] = field(default_factory=list)
+
+
+def _mount(laser: list[float], robot: list[float]) -> tuple[float, float, float]:
+    """The laser's pose on the base, from both poses in the odometry frame."""
+    c, s = math.cos(robot[2]), math.sin(robot[2])
+    dx, dy = laser[0] - robot[0], laser[1] - robot[1]
+    yaw = (laser[2] - robot[2] + math.pi) % (2 * math.pi) - math.pi
+    return (c * dx + s * dy, -s * dx + c * dy, yaw)
+
+
+def _line(kind: str, tokens: list[str], out: _Parsed) -> None:
+    if kind == "FLASER":
+        n = _count(tokens, 1, kind)
+        v = _floats(tokens, 2, n + 7, kind)
+        laser, robot, stamp = v[n : n + 3], v[n + 3 : n + 6], v[n + 6]
+        a0, da = _flaser_angles(n)
+        ranges = _no_return(np.array(v[:n]), FLASER_MAX_RANGE)
+        out.scans.append(CarmenScan(stamp, ranges, a0, da, FLASER_MAX_RANGE))
+        out.scan_odom.append((stamp, *robot))
+        out.mounts.append(_mount(laser, robot))
+    elif kind in ("ROBOTLASER1", "RAWLASER1"):
+        start, _fov, res, max_range, _acc, _mode = _floats(tokens, 2, 6, kind)
+        n = _count(tokens, 8, kind)
+        ranges = np.array(_floats(tokens, 9, n, kind))
+        m = _count(tokens, 9 + n, kind + " remissions")
+        at = 10 + n + m
+        if kind == "ROBOTLASER1":
+            v = _floats(tokens, at, 12, kind)
+            laser, robot, stamp = v[0:3], v[3:6], v[11]
+            out.scan_odom.append((stamp, *robot))
+            out.mounts.append(_mount(laser, robot))
+        else:
+            stamp = _floats(tokens, at, 1, kind)[0]
+        if not max_range > 0 or not res > 0:
+            raise CarmenError(f"{kind}: maximum range {max_range} and resolution {res} must be > 0")
+        out.scans.append(CarmenScan(stamp, _no_return(ranges, max_range), start, res, max_range))
+    elif kind == "ODOM":
+        x, y, th, _tv, _rv, _acc, stamp = _floats(tokens, 1, 7, kind)
+        out.odom.append((stamp, x, y, th))
+
+
+KNOWN = ("FLASER", "ROBOTLASER1", "RAWLASER1", "ODOM")
+
+
+def parse_carmen(lines: Iterable[str], source: str = "log", strict: bool = False) -> CarmenLog:
+    """A CarmenLog from the lines of a log. `strict`: a malformed line of a known type
+    raises CarmenError naming `source` and the line; otherwise it is skipped and listed.
+
+    Odometry comes from the robot poses on the laser lines (one per scan, what the
+    mapping programs of these logs used); ODOM lines are used only when no laser line
+    carries a pose. The laser's pose on the base is taken from the first laser line whose
+    two poses are less than 1 m apart (these logs keep it fixed)."""
+    out = _Parsed()
+    skipped: list[tuple[int, str]] = []
+    other = 0
+    for number, raw in enumerate(lines, start=1):
+        tokens = raw.split()
+        if not tokens or tokens[0].startswith("#"):
+            continue
+        kind = tokens[0]
+        if kind not in KNOWN:
+            other += 1
+            continue
+        try:
+            _line(kind, tokens, out)
+        except CarmenError as exc:
+            if strict:
+                raise CarmenError(f"{source}, line {number}: {exc}") from None
+            skipped.append((number, str(exc)))
+    if not out.scans:
+        detail = f" ({len(skipped)} laser lines could not be read)" if skipped else ""
+        raise CarmenError(
+            f"{source}: no laser scans (FLASER, ROBOTLASER1 or RAWLASER1 lines){detail}"
+        )
+    track = out.scan_odom or out.odom
+    odom = np.array(sorted(track), dtype=np.float64).reshape(-1, 4)
+    if odom.shape[0]:
+        # Keep one row per stamp (a log may repeat one): interpolation needs them apart.
+        keep = np.concatenate([[True], np.diff(odom[:, 0]) > 0])
+        odom = odom[keep]
+    scans = sorted(out.scans, key=lambda s: s.stamp)
+    # A laser pose far from the odometry is a corrected pose, not the mount: leave it.
+    mount = next((m for m in out.mounts if math.hypot(m[0], m[1]) < 1.0), (0.0, 0.0, 0.0))
+    return CarmenLog(scans, odom, mount, source, skipped, other)
+
+
+def _text_lines(path: Path) -> list[str]:
+    """The lines of a plain, gzip or zip (first member) text file."""
+    data = path.read_bytes()
+    if data[:2] == b"\x1f\x8b":
+        data = gzip.decompress(data)
+    elif data[:4] == b"PK\x03\x04":
+        with zipfile.ZipFile(io.BytesIO(data)) as z:
+            names = [n for n in z.namelist() if not n.endswith("/") and "__MACOSX" not in n]
+            if not names:
+                raise CarmenError(f"{path}: the zip archive holds no file")
+            data = z.read(names[0])
+    return data.decode("utf-8", errors="replace").splitlines()
+
+
+def read_carmen(path: str | Path, strict: bool = False) -> CarmenLog:
+    """A CARMEN log file (.clf, .log, .g2o with ROBOTLASER1 lines; plain, .gz or .zip)."""
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"{p}: no such CARMEN log")
+    return parse_carmen(_text_lines(p), str(p), strict)
+
+
+def write_carmen(
+    path: str | Path,
+    scans: Iterable[CarmenScan],
+    odom_at_scans: np.ndarray,
+    laser_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    host: str = "robotrial",
+) -> None:
+    """Write scans with the robot's odometry pose at each (rows x, y, yaw) as ROBOTLASER1
+    lines, and the same poses as ODOM lines: a log any CARMEN reader opens."""
+    lx, ly, lth = laser_pose
+    with open(path, "w") as f:
+        f.write("# CARMEN log written by robotrial\n")
+        for s, (x, y, th) in zip(scans, np.asarray(odom_at_scans), strict=True):
+            c, sn = math.cos(th), math.sin(th)
+            laser = (x + c * lx - sn * ly, y + sn * lx + c * ly, th + lth)
+            r = np.where(np.isfinite(s.ranges), s.ranges, s.range_max)
+            fov = s.angle_increment * max(len(r) - 1, 0)
+            f.write(f"ODOM {x:.6f} {y:.6f} {th:.6f} 0 0 0 {s.stamp:.6f} {host} {s.stamp:.6f}\n")
+            f.write(
+                f"ROBOTLASER1 0 {s.angle_min:.6f} {fov:.6f} {s.angle_increment:.6f} "
+                f"{s.range_max:.3f} 0.01 0 {len(r)} "
+                + " ".join(f"{v:.3f}" for v in r)
+                + f" 0 {laser[0]:.6f} {laser[1]:.6f} {laser[2]:.6f} {x:.6f} {y:.6f} {th:.6f}"
+                f" 0 0 0 0 0 {s.stamp:.6f} {host} {s.stamp:.6f}\n"
+            )
+
+
+def parse_relations(lines: Iterable[str], source: str = "relations") -> np.ndarray:
+    """Relations as rows (t1, t2, x, y, yaw) from ``t1 t2 x y z roll pitch yaw`` lines
+    (the planar part; z, roll and pitch are 0 in the 2D data sets). A line that cannot
+    be read raises CarmenError naming it."""
+    rows = []
+    for number, raw in enumerate(lines, start=1):
+        tokens = raw.split()
+        if not tokens or tokens[0].startswith("#"):
+            continue
+        try:
+            if len(tokens) < 8:
+                raise CarmenError(
+                    f"expected 8 fields (t1 t2 x y z roll pitch yaw), got {len(tokens)}"
+                )
+            t1, t2, x, y, _z, _roll, _pitch, yaw = _floats(tokens, 0, 8, "relation")
+        except CarmenError as exc:
+            raise CarmenError(f"{source}, line {number}: {exc}") from None
+        rows.append((t1, t2, x, y, yaw))
+    if not rows:
+        raise CarmenError(f"{source}: no relations")
+    return np.array(rows, dtype=np.float64)
+
+
+def read_relations(path: str | Path) -> np.ndarray:
+    """A relation file of Kuemmerle et al. as rows (t1, t2, x, y, yaw)."""
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"{p}: no such relation file")
+    return parse_relations(_text_lines(p), str(p))
+
+
+def write_relations(path: str | Path, relations: np.ndarray) -> None:
+    """Rows (t1, t2, x, y, yaw) as a relation file (z, roll, pitch written as 0)."""
+    with open(path, "w") as f:
+        for t1, t2, x, y, yaw in np.asarray(relations):
+            f.write(f"{t1:.6f} {t2:.6f} {x:.6f} {y:.6f} 0 0 0 {yaw:.6f}\n")

@@ -1,0 +1,112 @@
+"""SLAM over real-robot CARMEN logs: a log as a Recording, the relation scores of a run,
+and where the public logs are looked for (layer 5).
+
+The public data sets (Intel Research Lab, ACES, Freiburg 079) come with relation files
+(Kuemmerle et al. 2009): the relative pose between chosen pairs of scans, found by hand-
+checked matching. A run is scored by how well its relative motions agree with them
+(`robotrial.slam.metrics.relation_metric`). The logs are never part of the repository:
+they are looked for in a cache folder (`cache_dir`), where a user puts them.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robotrial.model.carmen import CarmenLog, read_carmen, read_relations
+from robotrial.slam.metrics import relation_metric
+from robotrial.trials.slam import Recording, ScanSample, SlamRun
+
+
+def recording_from_log(log: CarmenLog) -> Recording:
+    """What the SLAM runner takes, from a CARMEN log: its scans and odometry; no ground
+    truth (real logs have none), the laser 0.3 m above the floor (unused by SLAM)."""
+    scans = [
+        ScanSample(s.stamp, s.ranges, s.angle_min, s.angle_increment, 0.0, s.range_max)
+        for s in log.scans
+    ]
+    return Recording(scans, log.odom, np.zeros((0, 4)), log.laser_pose, 0.3, log.source)
+
+
+def load_log(path: str | Path, strict: bool = False) -> tuple[Recording, CarmenLog]:
+    """A CARMEN log file as a Recording (and the log, for its counts of skipped lines)."""
+    log = read_carmen(path, strict)
+    return recording_from_log(log), log
+
+
+def relation_scores(run: SlamRun, relations_file: str | Path) -> dict[str, float]:
+    """The relative-pose error of a run against a relation file."""
+    return relation_metric(run.stamps, run.poses, read_relations(relations_file))
+
+
+def cache_dir() -> Path:
+    """Where real logs are kept: $XDG_CACHE_HOME/robotrial/slam-logs, else
+    ~/.cache/robotrial/slam-logs."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "robotrial" / "slam-logs"
+
+
+@dataclass(frozen=True)
+class PublicLog:
+    """A public data set: the file names looked for in the cache, and the translational
+    relation error (mean, std, m) published for it by Kuemmerle et al. (2009), by method."""
+
+    name: str
+    title: str
+    log_names: tuple[str, ...]
+    relation_names: tuple[str, ...]
+    published: dict[str, tuple[float, float]]
+
+
+# Kuemmerle et al. 2009, their table of absolute translational errors (m, mean ± std)
+# for sequential scan matching, a Rao-Blackwellized particle filter (GMapping, 50
+# particles) and graph mapping. These figures are as a later survey quotes that table;
+# they were not checked against the paper itself (docs/benchmarks/slam.md).
+PUBLIC_LOGS: tuple[PublicLog, ...] = (
+    PublicLog(
+        "intel",
+        "Intel Research Lab",
+        ("intel.clf", "intel.log", "intel.gfs.log", "intel.clf.gz"),
+        ("intel.relations", "intel.relations.txt"),
+        {"scan matching": (0.220, 0.296), "RBPF": (0.070, 0.083), "graph mapping": (0.031, 0.026)},
+    ),
+    PublicLog(
+        "aces",
+        "ACES building",
+        ("aces.clf", "aces.log", "aces.clf.gz"),
+        ("aces.relations", "aces.relations.txt"),
+        {"scan matching": (0.173, 0.614), "RBPF": (0.060, 0.049), "graph mapping": (0.044, 0.044)},
+    ),
+    PublicLog(
+        "fr079",
+        "Freiburg building 079",
+        ("fr079.clf", "fr079.log", "fr079-uncorrected.clf", "fr079.clf.gz"),
+        ("fr079.relations", "fr079.relations.txt"),
+        {"scan matching": (0.258, 0.427), "RBPF": (0.061, 0.044), "graph mapping": (0.056, 0.042)},
+    ),
+)
+
+
+def find_public(log: PublicLog, folder: Path | None = None) -> tuple[Path | None, Path | None]:
+    """The log and relation files of a public data set in the cache (None when absent)."""
+    folder = folder or cache_dir()
+    found = [folder / n for n in log.log_names if (folder / n).is_file()]
+    rel = [folder / n for n in log.relation_names if (folder / n).is_file()]
+    return (found[0] if found else None), (rel[0] if rel else None)
+
+
+def summary(run: SlamRun, scores: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Time per scan (ms, mean and p95) and the relation scores of a run."""
+    t = run.scan_times
+    out: dict[str, Any] = {
+        "scans": len(t),
+        "time_per_scan_ms": float(t.mean() * 1e3) if len(t) else 0.0,
+        "time_per_scan_p95_ms": float(np.percentile(t, 95) * 1e3) if len(t) else 0.0,
+    }
+    if scores is not None:
+        out["relations"] = scores
+    return out

@@ -1,0 +1,156 @@
+"""Hybrid-A* with the rectangular footprint: it refuses corners the rectangle cannot
+take (where the inscribed-radius grid planners see a way), finds poses that really clear
+every obstacle, keeps a minimum turning radius, and settles the apartment's reachability."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from robotrial.nav.costmap import Costmap, Footprint, Inflation
+from robotrial.nav.hybrid import HybridAStar, HybridConfig
+from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
+from robotrial.nav.planners import AStar, NoPath
+
+
+def _overlaps(poses: np.ndarray, cm: Costmap, fp: Footprint) -> int:
+    """How many poses, interpolated 12 times between consecutive ones, put a point of the
+    rectangle (sampled every 1-2 cm) on an occupied cell: checked apart from the planner."""
+    u, v = np.meshgrid(
+        np.linspace(-fp.length / 2, fp.length / 2, 60), np.linspace(-fp.width / 2, fp.width / 2, 40)
+    )
+    u, v = u.ravel(), v.ravel()
+    bad = 0
+    for a, b in itertools.pairwise(poses):
+        turn = (b[2] - a[2] + np.pi) % (2 * np.pi) - np.pi
+        for t in np.linspace(0.0, 1.0, 12):
+            x, y = a[:2] + t * (b[:2] - a[:2])
+            th = a[2] + t * turn
+            px = x + np.cos(th) * u - np.sin(th) * v
+            py = y + np.sin(th) * u + np.cos(th) * v
+            rc = cm.world_to_cell(np.stack([px, py], axis=1))
+            bad += bool(cm.static[rc[:, 0], rc[:, 1]].any())
+    return bad
+
+
+def _corner(width: float) -> Costmap:
+    """An L-shaped corridor `width` m wide: east along y 1..1+width, then north."""
+    res = 0.05
+    occ = np.ones((120, 120), dtype=bool)  # 6 x 6 m
+    n = round(width / res)
+    occ[20 : 20 + n, 4:100] = False  # the east leg, x 0.2 .. 5.0
+    occ[20:116, 100 - n : 100] = False  # the north leg, ends at x = 5.0
+    return Costmap(occ, (0.0, 0.0), res, Footprint(1.0, 0.4), Inflation(0.3, 3.0))
+
+
+def test_a_corner_the_rectangle_cannot_turn_is_refused_though_the_grid_sees_a_way():
+    # legs 0.55 m wide: the inscribed circle (0.2 m) passes, a 1.0 x 0.4 m rectangle
+    # cannot (the longest rectangle of width w that turns a corner of two legs a wide
+    # is 2 (a sqrt(2) - w) long: 0.76 m here)
+    cm = _corner(0.55)
+    start, goal = (0.8, 1.275, 0.0), (4.725, 5.2)
+    assert len(AStar().plan(cm, start[:2], goal)) > 10
+    with pytest.raises(NoPath, match=r"no motion of the 1\.00 x 0\.40 m footprint"):
+        HybridAStar().plan(cm, start, goal)
+
+
+def test_a_wide_enough_corner_is_planned_with_poses_clear_of_the_walls():
+    cm = _corner(1.0)
+    start, goal = (0.8, 1.5, 0.0), (4.5, 5.2)
+    hy = HybridAStar()
+    poses = hy.plan_poses(cm, start, goal)
+    assert np.hypot(*(poses[-1, :2] - goal)) < 1e-9
+    assert _overlaps(poses, cm, cm.footprint) == 0
+    assert not hy.collides(cm, poses).any()
+    path = hy.plan(cm, start, goal)
+    assert np.hypot(*np.diff(path, axis=0).T).max() <= 0.051
+
+
+def test_a_minimum_turning_radius_is_kept_and_the_base_never_turns_on_the_spot():
+    occ = np.zeros((100, 100), dtype=bool)
+    occ[[0, -1], :] = occ[:, [0, -1]] = True
+    cm = Costmap(occ, (0.0, 0.0), 0.05, Footprint(0.6, 0.4), Inflation(0.3, 3.0))
+    radius = 1.0
+    hy = HybridAStar(HybridConfig(turning_radius=radius))
+    # the goal lies behind the start: the base has to drive round
+    poses = hy.plan_poses(cm, (2.5, 2.5, 0.0), (1.5, 2.5))
+    step = np.hypot(*np.diff(poses[:-1, :2], axis=0).T)
+    turn = np.abs((np.diff(poses[:-1, 2]) + np.pi) % (2 * np.pi) - np.pi)
+    assert (step > 0.1).all(), "no turns on the spot"
+    assert (turn / step <= 1.01 / radius).all()  # chords are a little shorter than arcs
+    assert turn.sum() > np.pi / 2
+    spin = HybridAStar().plan_poses(cm, (2.5, 2.5, 0.0), (1.5, 2.5))
+    assert len(spin) < len(poses), "a base that turns on the spot has the shorter way"
+
+
+def test_bad_starts_and_goals_are_named():
+    cm = _corner(1.0)
+    hy = HybridAStar()
+    with pytest.raises(NoPath, match="outside the map"):
+        hy.plan(cm, (0.8, 1.5, 0.0), (40.0, 1.5))
+    with pytest.raises(NoPath, match="touches an obstacle there in every heading"):
+        hy.plan(cm, (0.8, 1.5, 0.0), (3.0, 3.0))
+    with pytest.raises(NoPath, match="at the start"):
+        hy.plan(cm, (0.8, 1.5, np.pi / 2), (4.5, 5.2))
+    with pytest.raises(ValueError, match="turning_radius"):
+        HybridConfig(turning_radius=-1.0)
+
+
+def test_navigator_with_the_footprint_planner_aborts_where_only_the_grid_sees_a_way():
+    cm = _corner(0.55)
+    navs = {}
+    for planner in ("astar", "hybrid"):
+        nav = Navigator(
+            cm.static, cm.origin, cm.resolution, cm.footprint, NavigatorConfig(planner=planner)
+        )
+        nav.set_goal(4.725, 5.2, 0.0)
+        for t in np.arange(0.0, 3.0, 0.05):
+            nav.step(float(t), (0.8, 1.275, 0.0), (0.0, 0.0))
+            if nav.status is not Status.ACTIVE:
+                break
+        navs[planner] = nav
+    assert navs["astar"].plans_by and "no path" not in navs["astar"].message
+    assert navs["hybrid"].status is Status.ABORTED
+    assert "no motion of the 1.00 x 0.40 m footprint" in navs["hybrid"].message
+
+
+@pytest.mark.parametrize("room", ["kitchen", "corridor", "bedroom", "study"])
+def test_every_apartment_room_is_reachable_from_the_living_room_for_the_footprint(room):
+    from robotrial.model import load_world
+    from robotrial.model.gridmap import world_map
+
+    world = load_world("apartment")
+    m = world_map(world)
+    fp = Footprint(0.99, 0.67)  # the mobile manipulator's
+    cm = Costmap(m.occupied, m.origin, m.resolution, fp)
+    s, g = world.spawn("default"), world.spawn(room)
+    poses = HybridAStar().plan_poses(cm, (*s.xyz[:2], s.yaw), g.xyz[:2])
+    assert _overlaps(poses, cm, fp) == 0
+
+
+def test_a_base_past_the_study_doorway_is_told_to_turn_before_it_backs_up():
+    """In the 1.1 m corridor, slanted past the study's doorway, the base finds no forward
+    way in; backing straight up at its slant would scrape the corridor wall, so the plan
+    that may reverse first turns the base on the spot, then backs it up clear."""
+    from robotrial.model import load_world
+    from robotrial.model.gridmap import world_map
+
+    m = world_map(load_world("apartment"))
+    cm = Costmap(m.occupied, m.origin, m.resolution, Footprint(0.99, 0.67))
+    planner, pose, goal = HybridAStar(), (6.51, 4.95, 0.93), (6.5, 6.6)
+    with pytest.raises(NoPath):
+        planner.plan(cm, pose, goal)
+    heading, run = planner.reverse_run(cm, pose, goal)
+    assert run > 0.05 and abs(heading - pose[2]) > 0.3
+
+    def backed(yaw: float) -> np.ndarray:
+        d = np.linspace(0.0, run + 0.1, 8)[:, None]
+        return np.column_stack(
+            [pose[0] - d * np.cos(yaw), pose[1] - d * np.sin(yaw), np.full_like(d, yaw)]
+        )
+
+    assert planner.collides(cm, backed(pose[2])).any()
+    assert not planner.collides(cm, backed(heading)).any()
+    assert planner.plan(cm, tuple(backed(heading)[-1]), goal)[-1] == pytest.approx(goal, abs=0.1)

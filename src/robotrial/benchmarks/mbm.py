@@ -1,0 +1,397 @@
+"""MotionBenchMaker's Panda problems: `robotrial bench planning --suite mbm` (layer 5).
+
+The seven Panda scenes of MotionBenchMaker (bookshelf small/tall/thin, box, cage, table
+pick, table under pick; 100 problems each), as VAMP publishes them inside its source
+distribution on PyPI (Apache-2.0). The data is fetched at benchmark time with `pip
+download` and cached outside the repository (`$XDG_CACHE_HOME/robotrial/mbm`, else
+~/.cache/robotrial/mbm). Each scene YAML is a MoveIt PlanningScene (boxes, cylinders,
+spheres), each request a MotionPlanRequest (start joints, goal joint constraints). Our
+RRTConnect and OMPL's RRTConnect with the MuJoCo check solve the same problems on the
+Panda of example-robot-data; every path is checked densely with MuJoCo.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from datetime import date
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from robotrial.geometry import Box, Cylinder, Pose, Shape, Sphere
+
+VAMP_SDIST = "vamp-planner==0.6.4"
+PROBLEMS_MEMBER = "resources/panda/problems.tar.bz2"
+SCENES = [
+    "bookshelf_small",
+    "bookshelf_tall",
+    "bookshelf_thin",
+    "box",
+    "cage",
+    "table_pick",
+    "table_under_pick",
+]
+# VAMP's published figure (README of vamp-planner 0.6.4): RRTConnect over all seven Panda
+# scenes, median 35 us on one core of a consumer desktop PC; no per-scene figure found
+VAMP_MEDIAN_US = 35.0
+FINGERS = {"panda_finger_joint1": 0.04, "panda_finger_joint2": 0.04}
+GRIPPER_LINKS = {"panda_leftfinger", "panda_rightfinger", "panda_hand"}
+
+
+HELP = "MotionBenchMaker's Panda problems: our RRTConnect vs OMPL's with MuJoCo, per scene"
+
+
+def add_suite_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of the suite itself (also taken by `bench planning --suite mbm`)."""
+    parser.add_argument(
+        "--problems", type=int, default=100, help="problems per MotionBenchMaker scene (1-100)"
+    )
+    parser.add_argument("--scenes", nargs="+", help="MotionBenchMaker scenes (default: all)")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_suite_arguments(parser)
+    parser.add_argument("--time-limit", type=float, default=10.0, help="s per problem")
+    parser.add_argument("--no-ompl", action="store_true", help="skip the OMPL baseline")
+    parser.add_argument("-o", "--output", type=Path, help="write the results as JSON here")
+    parser.add_argument(
+        "--md", type=Path, default=Path("docs/benchmarks/mbm.md"), help="markdown to write"
+    )
+    parser.add_argument("--json", action="store_true", help="print the results as JSON")
+
+
+class MbmError(RuntimeError):
+    """The problem set cannot be had or read (says what and where)."""
+
+
+def cache_dir() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "robotrial" / "mbm"
+
+
+def fetch(cache: Path | None = None) -> Path:
+    """The folder of the Panda problems (one sub-folder per scene), downloaded once."""
+    cache = cache or cache_dir()
+    problems = cache / "problems"
+    if (problems / "box_panda").is_dir():
+        return problems
+    cache.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        command = [sys.executable, "-m", "pip", "download", "--no-deps", "--no-binary", ":all:"]
+        done = subprocess.run(
+            [*command, "-d", tmp, VAMP_SDIST], capture_output=True, text=True, check=False
+        )
+        sdists = list(Path(tmp).glob("vamp_planner-*.tar.gz"))
+        if done.returncode != 0 or not sdists:
+            raise MbmError(
+                f"could not download {VAMP_SDIST}'s source from PyPI: "
+                + (done.stderr.strip().splitlines() or ["no file"])[-1]
+            )
+        with tarfile.open(sdists[0]) as sdist:
+            member = next((m for m in sdist.getmembers() if m.name.endswith(PROBLEMS_MEMBER)), None)
+            if member is None:
+                raise MbmError(f"{sdists[0].name} holds no {PROBLEMS_MEMBER}")
+            inner = sdist.extractfile(member)
+            assert inner is not None
+            with tarfile.open(fileobj=inner, mode="r:bz2") as tar:
+                tar.extractall(cache, filter="data")
+    if not (problems / "box_panda").is_dir():
+        raise MbmError(f"{PROBLEMS_MEMBER} did not unpack into {problems}")
+    return problems
+
+
+def _pose(p: dict[str, Any]) -> Pose:
+    return Pose(tuple(map(float, p["position"])), tuple(map(float, p["orientation"])))  # type: ignore[arg-type]
+
+
+def _shape(prim: dict[str, Any], where: str) -> Shape:
+    kind, dims = str(prim.get("type", "")).lower(), [float(v) for v in prim["dimensions"]]
+    if kind in ("box", "1"):
+        return Box((dims[0], dims[1], dims[2]))
+    if kind in ("cylinder", "3"):  # MoveIt: height, radius
+        return Cylinder(radius=dims[1], length=dims[0])
+    if kind in ("sphere", "2"):
+        return Sphere(dims[0])
+    raise MbmError(f"{where}: primitive type {prim.get('type')!r} is not a box, cylinder or sphere")
+
+
+def read_scene(path: Path) -> list[tuple[str, Shape, Pose]]:
+    """The obstacles of a MoveIt PlanningScene YAML (world.collision_objects)."""
+    data = yaml.safe_load(Path(path).read_text())
+    out = []
+    objects = ((data or {}).get("world") or {}).get("collision_objects") or []
+    for i, ob in enumerate(objects):
+        name = str(ob.get("id") or f"object{i}")
+        base = _pose(ob["pose"]) if "pose" in ob else Pose()
+        for k, (prim, pose) in enumerate(
+            zip(ob.get("primitives") or [], ob.get("primitive_poses") or [], strict=True)
+        ):
+            where = f"{path}: collision_objects[{i}] ({name}) primitive {k}"
+            out.append((f"{name}_{k}" if k else name, _shape(prim, where), base @ _pose(pose)))
+    return out
+
+
+def read_request(path: Path, joints: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Start and goal of a MotionPlanRequest YAML, over `joints` (by name)."""
+    data = yaml.safe_load(Path(path).read_text())
+    state = data["start_state"]["joint_state"]
+    start = dict(zip(state["name"], state["position"], strict=True))
+    goal = {
+        c["joint_name"]: c["position"]
+        for c in data["goal_constraints"][0]["joint_constraints"]  # one goal per request
+    }
+    missing = [j for j in joints if j not in start or j not in goal]
+    if missing:
+        raise MbmError(f"{path}: the request gives no start or goal for {missing}")
+    return np.array([start[j] for j in joints], float), np.array([goal[j] for j in joints], float)
+
+
+def problems(folder: Path, scene: str, count: int, robot, spheres=None) -> list[Any]:
+    """The first `count` problems of `scene` as PlanningProblems for `robot` (the Panda)."""
+    from robotrial.collision.sphere_model import CollisionChecker, RobotSpheres
+    from robotrial.kinematics.chain import Kinematics
+    from robotrial.model.world import Floor, World
+    from robotrial.planning.problems import PlanningProblem
+
+    # the fingers open (the requests' own 0.065 m is past the Panda's 0.04 m limit), as
+    # MBM's grasp goals around the objects need them
+    kin = spheres.kin if spheres is not None else Kinematics(robot, fixed=FINGERS)
+    spheres = spheres or RobotSpheres(kin)
+    # MBM's tables stand below the robot's base: no floor at z = 0
+    world = World(name="mbm", floor=Floor(height=-5.0))
+    where = folder / f"{scene}_panda"
+    out = []
+    for k in range(1, count + 1):
+        obstacles = read_scene(where / f"scene{k:04d}.yaml")
+        start, goal = read_request(where / f"request{k:04d}.yaml", kin.joint_names)
+        env = _environment(obstacles)
+        # a pick goal closes the hand around its object: as MoveIt's allowed collisions
+        # let the fingers touch it there, the object the fingers alone touch at the goal
+        # leaves the scene (counted in the report)
+        touched = CollisionChecker(spheres, env).contacts(goal)
+        grasped = {ob for link, ob in touched if link in GRIPPER_LINKS}
+        if grasped and all(link in GRIPPER_LINKS for link, _ in touched):
+            obstacles = [o for o in obstacles if o[0] not in grasped]
+            env = _environment(obstacles)
+        else:
+            grasped = set()
+        out.append(
+            PlanningProblem(
+                f"{scene}/{k}", f"MotionBenchMaker {scene} #{k}" + (
+                    f" (grasped {', '.join(sorted(grasped))} left out)" if grasped else ""
+                ), robot, kin, spheres,
+                obstacles, start, goal, world, env,
+            )
+        )  # fmt: skip
+    return out
+
+
+def _environment(obstacles: list[tuple[str, Shape, Pose]]):
+    from robotrial.collision.sphere_model import Environment
+
+    env = Environment()
+    for name, shape, pose in obstacles:
+        env.add(name, shape, pose)
+    return env
+
+
+def _stats(times: list[float]) -> dict[str, float | None]:
+    if not times:
+        return {"median_ms": None, "p95_ms": None}
+    t = 1e3 * np.array(times)
+    return {"median_ms": float(np.median(t)), "p95_ms": float(np.percentile(t, 95))}
+
+
+def run_scene(probs: list[Any], time_limit: float, ompl: bool, on_problem=None) -> dict[str, Any]:
+    """Ours and OMPL's RRTConnect on each problem once; paths checked densely by MuJoCo."""
+    from robotrial.benchmarks.planning import _ompl
+    from robotrial.planning import PLANNERS
+    from robotrial.planning.base import Problem
+
+    ours_t, ompl_t, rows = [], [], []
+    if probs:  # untimed: numba compiles (or loads its cache) on the first call
+        PLANNERS["rrt_connect"]().solve(
+            Problem(probs[0].start, probs[0].goal[None], 0.05, 0), probs[0].checker()
+        )
+    for k, prob in enumerate(probs):
+        checker = prob.checker()
+        exact = prob.exact(checker)
+        start_ok, goal_ok = exact.valid(prob.start), exact.valid(prob.goal)
+        res = PLANNERS["rrt_connect"]().solve(
+            Problem(prob.start, prob.goal[None], time_limit, k), checker
+        )
+        row: dict[str, Any] = {
+            "problem": prob.name,
+            "valid_ends_mujoco": bool(start_ok and goal_ok),
+            "ours_solved": bool(res.success),
+            "ours_ms": 1e3 * res.planning_time,
+            "ours_colliding": bool(res.success and not exact.path_valid(res.path)[0]),
+        }
+        if res.success:
+            ours_t.append(res.planning_time)
+        if ompl:
+            o = _ompl(prob, exact, "rrt_connect", 1, time_limit, time_limit)
+            row.update(
+                ompl_solved=o["success"] > 0,
+                ompl_ms=1e3 * o["median_s"],
+                ompl_colliding=o["invalid_paths"] > 0,
+            )
+            if o["success"] > 0:
+                ompl_t.append(o["median_s"])
+        rows.append(row)
+        if on_problem is not None:
+            on_problem()
+    out: dict[str, Any] = {
+        "problems": len(rows),
+        "ours": {"solved": len(ours_t), **_stats(ours_t)},
+        "ours_colliding": sum(r["ours_colliding"] for r in rows),
+        "ends_colliding_in_mujoco": sum(not r["valid_ends_mujoco"] for r in rows),
+        "grasped_left_out": sum("left out" in p.description for p in probs),
+        "rows": rows,
+    }
+    if ompl:
+        out["ompl"] = {"solved": len(ompl_t), **_stats(ompl_t)}
+        out["ompl_colliding"] = sum(r.get("ompl_colliding", False) for r in rows)
+        out["ompl_solved_ours_not"] = sum(
+            1 for r in rows if r.get("ompl_solved") and not r["ours_solved"]
+        )
+        o, m = out["ompl"]["median_ms"], out["ours"]["median_ms"]
+        out["speedup"] = o / m if o and m else None
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    """`robotrial bench planning --suite mbm`."""
+    import json
+    import platform
+
+    from robotrial.benchmarks.planning import panda_path
+    from robotrial.console import console, print_json, print_table, progress
+    from robotrial.model import load_robot
+
+    show = not args.json
+    try:
+        folder = fetch()
+    except MbmError as exc:
+        console.print(f"[red]MotionBenchMaker problems unavailable:[/red] {exc}")
+        return 2
+    scenes = args.scenes or SCENES
+    unknown = [s for s in scenes if s not in SCENES]
+    if unknown:
+        console.print(f"[red]unknown scene(s) {unknown}[/red]; choose from {', '.join(SCENES)}")
+        return 2
+    panda = load_robot(panda_path())
+    t0 = time.time()
+    results: dict[str, Any] = {}
+    spheres = None
+    with progress("MotionBenchMaker", len(scenes) * args.problems, enabled=show) as advance:
+        for scene in scenes:
+            probs = problems(folder, scene, args.problems, panda, spheres)
+            spheres = probs[0].spheres
+            results[scene] = run_scene(probs, args.time_limit, not args.no_ompl, advance)
+    report = {
+        "date": date.today().isoformat(),
+        "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
+        f"{platform.python_implementation()} {platform.python_version()}",
+        "seconds": time.time() - t0,
+        "problems_per_scene": args.problems,
+        "time_limit_s": args.time_limit,
+        "source": f"{VAMP_SDIST} source distribution on PyPI, {PROBLEMS_MEMBER} (Apache-2.0)",
+        "scenes": results,
+    }
+    if args.output:
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        args.output.write_text(json.dumps(report, indent=2))
+    md = args.md.with_name("mbm.md") if args.md else None
+    if md:
+        md.parent.mkdir(parents=True, exist_ok=True)
+        md.write_text(markdown(report))
+    if args.json:
+        print_json(report)
+    else:
+        print_table("MotionBenchMaker, Panda (RRTConnect)", *_table(report))
+    return 0
+
+
+def _ms(v: float | None) -> str:
+    return "-" if v is None else (f"{v:.3f}" if v < 10 else f"{v:.1f}")
+
+
+def _table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+    cols = [
+        "scene",
+        "solved ours / OMPL",
+        "median ms ours",
+        "p95 ms ours",
+        "median ms OMPL",
+        "p95 ms OMPL",
+        "speed-up",
+        "colliding ours / OMPL",
+    ]
+    rows = []
+    for scene, r in report["scenes"].items():
+        o = r.get("ompl", {})
+        rows.append(
+            [
+                scene,
+                f"{r['ours']['solved']} / {o.get('solved', '-')} of {r['problems']}",
+                _ms(r["ours"]["median_ms"]),
+                _ms(r["ours"]["p95_ms"]),
+                _ms(o.get("median_ms")),
+                _ms(o.get("p95_ms")),
+                f"{r['speedup']:.0f}x" if r.get("speedup") else "-",
+                f"{r['ours_colliding']} / {r.get('ompl_colliding', '-')}",
+            ]
+        )
+    return cols, rows
+
+
+def markdown(report: dict[str, Any]) -> str:
+    cols, rows = _table(report)
+    lines = [
+        "# MotionBenchMaker (Panda): `robotrial bench planning --suite mbm`",
+        "",
+        f"Measured {report['date']} on {report['machine']}; the first "
+        f"{report['problems_per_scene']} problems of each scene, one run each, "
+        f"{report['time_limit_s']:g} s limit. Data: {report['source']}, fetched at "
+        "benchmark time into the user's cache. Ours: RRTConnect on the sphere model. "
+        "OMPL: RRTConnect (OMPL 2 Python bindings) with MuJoCo as its validity checker, "
+        "MoveIt's motion resolution. Every solved path is checked densely with MuJoCo.",
+        "",
+        "| " + " | ".join(cols) + " |",
+        "| " + " | ".join("---" for _ in cols) + " |",
+        *("| " + " | ".join(r) + " |" for r in rows),
+        "",
+        f"VAMP (published, README of {VAMP_SDIST}): RRTConnect over all seven scenes, "
+        f"median {VAMP_MEDIAN_US:g} us on one core of a consumer desktop PC (SIMD, AVX2); "
+        "no per-scene figures were found.",
+        "",
+    ]
+    grasped = {s: r["grasped_left_out"] for s, r in report["scenes"].items()}
+    if any(grasped.values()):
+        lines.append(
+            "Pick goals close the hand around an object; as MoveIt's allowed collisions "
+            "let the fingers touch it there, that object is left out of the scene (for "
+            "both planners) where only the gripper touches it at the goal: "
+            + ", ".join(f"{s} {n}" for s, n in grasped.items() if n)
+            + " problems."
+        )
+        lines.append("")
+    ends = {s: r["ends_colliding_in_mujoco"] for s, r in report["scenes"].items()}
+    if any(ends.values()):
+        lines.append(
+            "Problems whose start or goal touches something in our MuJoCo model of the "
+            "Panda (example-robot-data's meshes, not MBM's collision spheres): "
+            + ", ".join(f"{s} {n}" for s, n in ends.items() if n)
+            + "."
+        )
+        lines.append("")
+    return "\n".join(lines)

@@ -4,8 +4,7 @@
 `Lidar` casts them from a MuJoCo site: against a `RayScene` (the environment's geoms, in
 compiled code: sim/raycast.py), or against the whole model with mj_multiRay;
 `laserscan_from_points` turns a point cloud into a planar scan the way ROS's
-pointcloud_to_laserscan does (a height band, one point per angle bin: the nearest
-surface, read at the ring nearest the laser's height), and
+pointcloud_to_laserscan does (a height band, the nearest point per angle bin), and
 `Lidar.scan` does the same for a sweep without computing angles.
 """
 
@@ -250,8 +249,6 @@ class Lidar:
             config.max_height,
             config.range_min,
             config.range_max,
-            # Returns of one surface spread with the range noise: keep 5 sigma of them.
-            max(config.surface_tolerance, 5.0 * self.pattern.noise),
             out,
         )
         return _make_scan(config, nbins, out, cloud.stamp, cloud.frame)
@@ -263,21 +260,10 @@ class Lidar:
 
 
 @numba.njit(cache=True)
-def _bin_of(x, y, angle_min, inc, wrap, nbins):
-    a = np.arctan2(y, x)
-    if wrap and a < angle_min:
-        a += 2.0 * np.pi
-    k = int(np.floor((a - angle_min) / inc + 0.5))
-    if wrap and k == nbins:
-        k = 0
-    return k
-
-
-@numba.njit(cache=True)
-def _flatten(points, min_h, max_h, rmin, rmax, angle_min, inc, wrap, tol, out):
-    """Per angle bin of the points inside the height band: among the points within
-    `tol` of the nearest, the horizontal range of the one at the smallest elevation."""
+def _flatten(points, min_h, max_h, rmin, rmax, angle_min, inc, wrap, out):
+    """Nearest horizontal range per angle bin of the points inside the height band."""
     nbins = out.shape[0]
+    two_pi = 2.0 * np.pi
     for i in range(points.shape[0]):
         z = points[i, 2]
         if z < min_h or z > max_h:
@@ -287,57 +273,35 @@ def _flatten(points, min_h, max_h, rmin, rmax, angle_min, inc, wrap, tol, out):
         r = np.sqrt(x * x + y * y)
         if r < rmin or r > rmax:
             continue
-        k = _bin_of(x, y, angle_min, inc, wrap, nbins)
+        a = np.arctan2(y, x)
+        if wrap and a < angle_min:
+            a += two_pi
+        k = int(np.floor((a - angle_min) / inc + 0.5))
+        if wrap and k == nbins:
+            k = 0
         if 0 <= k < nbins and r < out[k]:
             out[k] = r
-    nearest = out.copy()
-    height = np.full(nbins, np.inf)
-    for i in range(points.shape[0]):
-        z = points[i, 2]
-        if z < min_h or z > max_h:
-            continue
-        x = np.float64(points[i, 0])
-        y = np.float64(points[i, 1])
-        r = np.sqrt(x * x + y * y)
-        if r < rmin or r > rmax:
-            continue
-        k = _bin_of(x, y, angle_min, inc, wrap, nbins)
-        # Elevation by its tangent, which range noise does not move; the first of two
-        # rings at the same elevation (above and below) is kept, whatever its range.
-        slope = abs(z) / max(r, 1e-9)
-        if 0 <= k < nbins and r <= nearest[k] + tol and slope < height[k] - 1e-6:
-            height[k] = slope
-            out[k] = r
 
 
 @numba.njit(cache=True)
-def _flatten_beams(directions, ranges, cols, min_h, max_h, rmin, rmax, tol, out):
+def _flatten_beams(directions, ranges, cols, min_h, max_h, rmin, rmax, out):
     """`_flatten` of the points `_returns` makes from `ranges`, with beam i in bin
     i % cols (its azimuth's bin)."""
-    height = np.full(out.shape[0], np.inf)
-    nearest = np.full(out.shape[0], np.inf)
-    for sweep in range(2):
-        for i in range(ranges.shape[0]):
-            r = ranges[i]
-            if not np.isfinite(r):
-                continue
-            z = np.float32(directions[i, 2] * r)
-            if z < min_h or z > max_h:
-                continue
-            x = np.float64(np.float32(directions[i, 0] * r))
-            y = np.float64(np.float32(directions[i, 1] * r))
-            h = np.sqrt(x * x + y * y)
-            if h < rmin or h > rmax:
-                continue
-            k = i % cols
-            if sweep == 0:
-                if h < nearest[k]:
-                    nearest[k] = h
-            elif h <= nearest[k] + tol and abs(directions[i, 2]) < height[k] - 1e-6:
-                # The ring nearest the laser's height; of two at the same elevation
-                # (above and below) the first, whatever its range.
-                height[k] = abs(directions[i, 2])
-                out[k] = h
+    for i in range(ranges.shape[0]):
+        r = ranges[i]
+        if not np.isfinite(r):
+            continue
+        z = np.float32(directions[i, 2] * r)
+        if z < min_h or z > max_h:
+            continue
+        x = np.float64(np.float32(directions[i, 0] * r))
+        y = np.float64(np.float32(directions[i, 1] * r))
+        h = np.sqrt(x * x + y * y)
+        if h < rmin or h > rmax:
+            continue
+        k = i % cols
+        if h < out[k]:
+            out[k] = h
 
 
 @numba.njit(cache=True)
@@ -368,17 +332,8 @@ class ScanConfig:
     angle_increment: float = np.deg2rad(0.4)
     range_min: float = 0.4
     range_max: float = 30.0
-    # Of the returns in a bin within this distance (m) of the nearest, the one from the
-    # ring nearest the laser's height (the smallest elevation) is taken: the nearest
-    # alone, the minimum of several noisy returns, reads walls short (1.5 cm with 1 cm
-    # noise); one return chosen by its ring, not its range, is unbiased, and a nearer
-    # obstacle still wins over the wall behind it. `Lidar.scan` widens it to 5 times the
-    # range noise when that is larger.
-    surface_tolerance: float = 0.05
 
     def __post_init__(self) -> None:
-        if self.surface_tolerance < 0:
-            raise ValueError(f"scan: surface_tolerance must be >= 0, got {self.surface_tolerance}")
         if self.max_height < self.min_height:
             raise ValueError("scan: max_height is below min_height")
         if not self.angle_increment > 0:
@@ -397,8 +352,7 @@ def laserscan_from_points(
     frame: str = "",
 ) -> Scan:
     """Flatten (N, 3) points into a planar scan: keep points whose z (after `transform`,
-    a 4x4 into the scan frame) lies in the height band, then per angle bin the point
-    nearest the laser's height among those within `surface_tolerance` of the nearest."""
+    a 4x4 into the scan frame) lies in the height band, then the nearest per angle bin."""
     p = np.asarray(points)
     if p.dtype not in (np.float32, np.float64):
         p = p.astype(np.float64)
@@ -416,7 +370,6 @@ def laserscan_from_points(
         config.angle_min,
         config.angle_increment,
         full_turn,
-        config.surface_tolerance,
         out,
     )
     return _make_scan(config, nbins, out, stamp, frame)

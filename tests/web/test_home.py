@@ -1,12 +1,13 @@
-"""My home, in the page: a household draws two rooms sharing a wall and a 0.6 m doorway
-with the clicks a user would make; the YAML it downloads loads as a world with two rooms
+"""My home, in the page: a household draws two rooms sharing a wall, a 0.6 m doorway, a
+table and a cup on it with the clicks a user would make; the YAML it downloads loads as a world with two rooms
 and a 0.6 m gap in the shared wall; the doorway widened to 0.9 m by typing survives a
 reload (localStorage); sent to the server the home joins the world picker with a robot
-in it; a room left open, and a width that is not a number, get a message and change
-nothing."""
+in it; a room left open, overlapping furniture and a width that is not a number get a
+message, and undo/redo take changes back and forth."""
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +54,7 @@ def gaps_on_line_x(world: World, x: float) -> list[float]:
         if along_y and abs(centre[0] - x) < 1e-6:
             spans.append((centre[1] - length / 2, centre[1] + length / 2))
     spans.sort()
-    return [round(b[0] - a[1], 3) for a, b in zip(spans, spans[1:], strict=False)]
+    return [round(b[0] - a[1], 3) for a, b in itertools.pairwise(spans)]
 
 
 def download(page: Page, path: Path) -> World:
@@ -82,6 +83,13 @@ def test_draw_save_reload_and_send_a_home(
         page.click("#home-tool-door")
         page.fill("#home-door-width", "0.6")
         click_at(page, 4.02, 1.5)
+        page.click("#home-tool-furniture")
+        page.select_option("#home-preset", "table")
+        click_at(page, 5.5, 1.5)
+        page.click("#home-tool-object")
+        click_at(page, 5.5, 1.5)
+        page.fill("#object-0-name", "cup")
+        page.press("#object-0-name", "Enter")
         assert page.locator("#home-problems li.ok").count() == 1
         page.screenshot(path=artifacts / "web_home_drawn.png")
 
@@ -90,6 +98,9 @@ def test_draw_save_reload_and_send_a_home(
         assert world.rooms[0].bounds == ((0.0, 0.0), (4.0, 3.0))
         assert gaps_on_line_x(world, 4.0) == [0.6]
         assert gaps_on_line_x(world, 0.0) == [] and gaps_on_line_x(world, 7.0) == []
+        table = world.body("table")
+        assert table.geometry.size == (1.2, 0.8, 0.75) and table.pose.xyz == (5.5, 1.5, 0.375)
+        assert world.body("cup").pose.xyz[2] == pytest.approx(0.79)  # on the table
 
         page.fill("#door-0-width", "0.9")
         page.press("#door-0-width", "Enter")
@@ -135,5 +146,12 @@ def test_draw_save_reload_and_send_a_home(
         assert page.locator("#home-problems li.ok").count() == 1
         page.keyboard.press("Control+Shift+z")
         assert "Room 3 is not closed" in page.locator("#home-problems").inner_text()
+
+        # Overlapping furniture is named; undo takes the second table away again.
+        page.click("#home-tool-furniture")
+        click_at(page, 6.0, 1.8)
+        assert "table 2 overlaps table" in page.locator("#home-problems").inner_text()
+        page.click("#home-undo")
+        assert "overlaps" not in page.locator("#home-problems").inner_text()
         assert not errors, errors
         browser.close()

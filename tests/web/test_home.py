@@ -1,9 +1,9 @@
 """My home, in the page: a household draws two rooms sharing a wall, a 0.6 m doorway, a
-table and a cup on it with the clicks a user would make; the YAML it downloads loads as a world with two rooms
-and a 0.6 m gap in the shared wall; the doorway widened to 0.9 m by typing survives a
-reload (localStorage); sent to the server the home joins the world picker with a robot
-in it; a room left open, overlapping furniture and a width that is not a number get a
-message, and undo/redo take changes back and forth."""
+table and a cup on it with the clicks a user would make; the YAML it downloads loads as
+a world with two rooms and a 0.6 m gap in the shared wall; the doorway widened to 0.9 m
+by typing survives a reload (localStorage); sent to the server the home joins the world
+picker with a robot in it; a room left open, overlapping furniture and a width that is
+not a number get a message, and undo/redo take changes back and forth."""
 
 from __future__ import annotations
 

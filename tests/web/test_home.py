@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 from playwright.sync_api import Page, sync_playwright
 
 from robotrial.model import load_world
@@ -146,6 +147,21 @@ def test_draw_save_reload_and_send_a_home(
         assert page.locator("#home-problems li.ok").count() == 1
         page.keyboard.press("Control+Shift+z")
         assert "Room 3 is not closed" in page.locator("#home-problems").inner_text()
+
+        # A floor-plan image (400 x 300 px, shown at 1 cm a pixel until scaled): two marks
+        # 2 m apart declared 3 m make it 6 m wide.
+        image = tmp_path / "plan.png"
+        Image.new("RGB", (400, 300), "white").save(image)
+        page.set_input_files("#home-image", str(image))
+        page.wait_for_selector("#home-background")
+        assert page.locator("#home-background").get_attribute("width") == "4"
+        click_at(page, 0, 5)
+        click_at(page, 2, 5)
+        page.fill("#home-known-length", "3")
+        page.click("#home-set-scale")
+        assert float(page.locator("#home-background").get_attribute("width")) == pytest.approx(
+            6, abs=0.05
+        )
 
         # Overlapping furniture is named; undo takes the second table away again.
         page.click("#home-tool-furniture")

@@ -77,6 +77,15 @@ export class HomeSection {
   });
   private readonly preset = el("select", { id: "home-preset" });
   private readonly fileInput = el("input", { type: "file", id: "home-open", accept: ".yaml,.yml" });
+  private readonly imageInput = el("input", {
+    type: "file",
+    id: "home-image",
+    accept: "image/png,image/jpeg",
+  });
+  private readonly knownLength = el("input", { id: "home-known-length", type: "text", inputmode: "decimal" });
+  /** The floor-plan image under the plan: its data URL, size in pixels, metres per pixel. */
+  private background: { url: string; width: number; height: number; mpp: number } | null = null;
+  private marks: XY[] = [];
   private readonly toolButtons = new Map<Tool, HTMLButtonElement>();
   private readonly buttons: Record<string, HTMLButtonElement> = {};
   private drawing: Drawing = { home: emptyHome(), draft: null };
@@ -135,6 +144,9 @@ export class HomeSection {
       this.button("home-download", WORDS.download, () => this.download()),
       el("label", { class: "home-file" }, WORDS.openYaml, " ", this.fileInput),
       this.button("home-send", WORDS.send, () => void this.send()),
+      el("label", { class: "home-file" }, WORDS.background, " ", this.imageInput),
+      el("label", {}, WORDS.knownLength, " ", this.knownLength),
+      this.button("home-set-scale", WORDS.setScale, () => this.setScale()),
       this.button("home-close", WORDS.close, () => this.show(false)),
     );
     this.canvas.append(this.plan);
@@ -146,6 +158,10 @@ export class HomeSection {
     this.fileInput.addEventListener("change", () => {
       const file = this.fileInput.files?.[0];
       if (file) void this.openFile(file);
+    });
+    this.imageInput.addEventListener("change", () => {
+      const file = this.imageInput.files?.[0];
+      if (file) void this.openImage(file);
     });
     document.addEventListener("keydown", (e) => this.key(e));
     return el(
@@ -225,6 +241,14 @@ export class HomeSection {
   }
 
   private restore(): void {
+    const image = localStorage.getItem(`${STORAGE_KEY}.image`);
+    if (image) {
+      try {
+        this.background = JSON.parse(image) as typeof this.background;
+      } catch {
+        localStorage.removeItem(`${STORAGE_KEY}.image`);
+      }
+    }
     const kept = localStorage.getItem(STORAGE_KEY);
     if (!kept) return;
     try {
@@ -273,6 +297,13 @@ export class HomeSection {
         d.home.objects.push({ name: WORDS.objectName(d.home.objects.length + 1), at: p, size: 0.08 });
         return d;
       });
+    } else if (this.tool === "scale") {
+      this.marks = this.marks.length >= 2 ? [raw] : [...this.marks, raw];
+      if (this.marks.length === 2) {
+        const [a, b] = this.marks;
+        this.say(WORDS.measured(Math.hypot(b[0] - a[0], b[1] - a[1])), "ready");
+      }
+      this.drawPlan();
     } else if (this.tool === "spawn") {
       this.change((d) => ({ ...d, home: { ...d.home, spawn: p } }));
     } else {
@@ -349,6 +380,67 @@ export class HomeSection {
     return round(value);
   }
 
+  // --- the floor-plan image -------------------------------------------------------------
+
+  private async openImage(file: File): Promise<void> {
+    try {
+      if (!/^image\/(png|jpeg)$/.test(file.type)) {
+        this.say(WORDS.notImage(file.name), "error");
+        return;
+      }
+      const url = await new Promise<string>((resolve, reject) => {
+        const reader = new FileReader();
+        reader.onload = () => resolve(String(reader.result));
+        reader.onerror = () => reject(reader.error);
+        reader.readAsDataURL(file);
+      });
+      const size = await new Promise<XY>((resolve, reject) => {
+        const img = new Image();
+        img.onload = () => resolve([img.naturalWidth, img.naturalHeight]);
+        img.onerror = () => reject(new Error(WORDS.notImage(file.name)));
+        img.src = url;
+      });
+      // Until a length is marked, 1 pixel is 1 cm.
+      this.background = { url, width: size[0], height: size[1], mpp: 0.01 };
+      this.keepImage();
+      this.setTool("scale");
+      this.drawPlan();
+    } catch {
+      this.say(WORDS.notImage(file.name), "error");
+    } finally {
+      this.imageInput.value = "";
+    }
+  }
+
+  private keepImage(): void {
+    try {
+      localStorage.setItem(`${STORAGE_KEY}.image`, JSON.stringify(this.background));
+    } catch {
+      this.say(WORDS.imageNotKept, "error");
+    }
+  }
+
+  /** Scale the image so the two marks are the typed length apart. */
+  private setScale(): void {
+    if (!this.background || this.marks.length !== 2) {
+      this.say(WORDS.markFirst, "error");
+      return;
+    }
+    const length = this.readNumber(this.knownLength, WORDS.knownLength, 1);
+    if (length === null) return;
+    const [a, b] = this.marks;
+    const now = Math.hypot(b[0] - a[0], b[1] - a[1]);
+    if (now === 0) {
+      this.say(WORDS.markFirst, "error");
+      return;
+    }
+    this.background.mpp *= length / now;
+    this.marks = [];
+    this.keepImage();
+    this.say(WORDS.scaled(this.background.mpp), "ready");
+    this.drawPlan();
+  }
+
   // --- files and the server --------------------------------------------------------------
 
   /** The YAML, or null with the problems shown when the home is not complete. */
@@ -422,9 +514,22 @@ export class HomeSection {
     const points = [...home.rooms.flatMap((r) => r.corners), ...(draft ?? [])];
     const xs = [-1, 13, ...points.map((p) => p[0] - 1), ...points.map((p) => p[0] + 1)];
     const ys = [-1, 10, ...points.map((p) => p[1] - 1), ...points.map((p) => p[1] + 1)];
+    if (this.background) {
+      xs.push(this.background.width * this.background.mpp);
+      ys.push(this.background.height * this.background.mpp);
+    }
     const [x0, x1, y0, y1] = [Math.min(...xs), Math.max(...xs), Math.min(...ys), Math.max(...ys)];
     this.canvas.setAttribute("viewBox", `${x0} ${-y1} ${x1 - x0} ${y1 - y0}`);
     const parts: SVGElement[] = [];
+    const bg = this.background;
+    if (bg) {
+      // The plan's y points up: the image goes in a flipped group to stand upright.
+      const flip = svg("g", { transform: "scale(1,-1)" });
+      const w = bg.width * bg.mpp;
+      const h = bg.height * bg.mpp;
+      flip.append(svg("image", { id: "home-background", href: bg.url, x: 0, y: -h, width: w, height: h, opacity: 0.5 }));
+      parts.push(flip);
+    }
     for (let x = Math.ceil(x0); x <= x1; x++) {
       parts.push(svg("line", { x1: x, y1: y0, x2: x, y2: y1, class: "grid" }));
     }
@@ -490,6 +595,13 @@ export class HomeSection {
       draft.forEach((c, i) => {
         parts.push(svg("circle", { cx: c[0], cy: c[1], r: i === 0 ? 0.12 : 0.06, class: "corner" }));
       });
+    }
+    for (const m of this.marks) {
+      parts.push(svg("circle", { cx: m[0], cy: m[1], r: 0.08, class: "mark" }));
+    }
+    if (this.marks.length === 2) {
+      const [a, b] = this.marks;
+      parts.push(svg("line", { x1: a[0], y1: a[1], x2: b[0], y2: b[1], class: "mark" }));
     }
     this.plan.replaceChildren(...parts);
   }

@@ -16,6 +16,7 @@ export const WORDS = {
     furniture: "Furniture",
     object: "Object",
     spawn: "Robot start",
+    scale: "Measure",
   },
   toolHints: {
     select: "Click an item to find it in the list.",
@@ -24,7 +25,19 @@ export const WORDS = {
     furniture: "Pick a kind of furniture, then click where it stands.",
     object: "Click where an object to fetch lies (on the floor or on furniture).",
     spawn: "Click where the robot starts.",
+    scale:
+      "Click both ends of a length you know on the floor-plan image, type it in metres, " +
+      "then Set scale.",
   },
+  background: "Floor-plan image",
+  knownLength: "Known length (m)",
+  setScale: "Set scale",
+  measured: (d: number) => `Marked ${d.toFixed(2)} m at the image's present scale.`,
+  markFirst: "Mark both ends of a known length on the image first (Measure tool).",
+  scaled: (mpp: number) => `Image scale set: 1 pixel is ${(mpp * 100).toFixed(2)} cm.`,
+  notImage: (file: string) => `${file} is not a PNG or JPG image; the drawing is unchanged.`,
+  imageNotKept:
+    "The image is too large to keep in this browser: it stays until the page is reloaded.",
   closeRoom: "Close room",
   cancelRoom: "Cancel room",
   undo: "Undo",

@@ -122,6 +122,18 @@ def test_draw_save_reload_and_send_a_home(
         world = download(page, tmp_path / "wider.yaml")
         assert gaps_on_line_x(world, 4.0) == [0.9]
 
+        # New home, then the downloaded YAML opened again; a YAML not drawn here is refused.
+        page.click("#home-clear")
+        assert page.locator("#home-plan polygon.room").count() == 0
+        page.set_input_files("#home-open", str(tmp_path / "wider.yaml"))
+        page.wait_for_selector("#home-plan polygon.room >> nth=1")
+        assert page.locator("#door-0-width").input_value() == "0.9"
+        other = tmp_path / "room.yaml"
+        other.write_text("walls: []\n")
+        page.set_input_files("#home-open", str(other))
+        page.wait_for_selector("#home-message:has-text('room.yaml has no home section')")
+        assert page.locator("#home-plan polygon.room").count() == 2
+
         page.click("#home-send")
         page.wait_for_selector("#home-message[data-status='ready']", timeout=60_000)
         page.click("#home-close")

@@ -11,6 +11,7 @@ import {
   type Config,
   type SpawnPose,
   type UploadAnswer,
+  type WorldEntry,
 } from "./api";
 import { ArView, installEmulatorIfAsked } from "./ar/ar";
 import { LiveView } from "./live/live";
@@ -22,6 +23,7 @@ import { TaskPanel } from "./task/panel";
 import { TaskSession } from "./task/session";
 import { el, humanize } from "./ui/dom";
 import { Panel } from "./ui/panel";
+import { HomeSection } from "./home/editor";
 import { UploadSection } from "./upload/upload";
 import { loadWorld, placeAt } from "./world";
 
@@ -92,6 +94,7 @@ export class RobotrialApp {
     this.ar = new ArView(this.viewer, () => this.robot?.object.parent ?? null);
     this.panel.mount(this.ar.section);
     this.panel.mount(new UploadSection((answer) => this.addUploadedRobot(answer)).section);
+    this.panel.mount(new HomeSection((entry) => this.addWorld(entry)).section);
   }
 
   /** The PlanTask service for `robot`: the server's default robot answers on
@@ -118,6 +121,20 @@ export class RobotrialApp {
     this.catalog = await getCatalog();
     this.panel.setCatalog(this.catalog.robots, this.catalog.worlds);
     await this.load(answer.robot.name, answer.robot.world);
+    if (this.error) throw new Error(this.error);
+  }
+
+  /** A world the server accepted (a home drawn in the page): list it and show a robot
+   * of its kind in it (the one on screen if it suits). */
+  async addWorld(entry: WorldEntry): Promise<void> {
+    this.catalog = await getCatalog();
+    this.panel.setCatalog(this.catalog.robots, this.catalog.worlds);
+    const current = this.catalog.robots.find((r) => r.name === this.robotName);
+    const robot =
+      current?.kind === entry.kind
+        ? current
+        : this.catalog.robots.find((r) => r.kind === entry.kind) ?? current;
+    await this.load(robot?.name ?? this.robotName, entry.name);
     if (this.error) throw new Error(this.error);
   }
 

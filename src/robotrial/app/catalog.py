@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import base64
 import hashlib
+import itertools
 import json
+import re
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -69,6 +71,7 @@ class Catalog:
         self._building: dict[str, threading.Lock] = {}
         self._assets: dict[str, Asset] = {}
         self._uploaded: dict[str, RobotModel] = {}
+        self._added_worlds: dict[str, World] = {}
         self.default_robot = self.check_robot(robot)
         self.default_world = self.check_world(world)
 
@@ -94,9 +97,25 @@ class Catalog:
         with self._lock:
             return name in self._uploaded
 
-    @staticmethod
-    def world_names() -> list[str]:
-        return library.world_names()
+    def world_names(self) -> list[str]:
+        """The built-in worlds, then the ones sent to the server."""
+        with self._lock:
+            added = list(self._added_worlds)
+        return library.world_names() + added
+
+    def add_world(self, world: World) -> str:
+        """Offer a world sent to the server; returns its catalog name (the world's name,
+        with a number added when that name is taken)."""
+        base = re.sub(r"[^a-z0-9_]+", "_", world.name.lower()).strip("_") or "home"
+        with self._lock:
+            taken = set(library.world_names()) | set(self._added_worlds)
+            name = base
+            for i in itertools.count(2):
+                if name not in taken:
+                    break
+                name = f"{base}_{i}"
+            self._added_worlds[name] = world
+        return name
 
     def check_robot(self, name: str) -> str:
         """`name` if it is a built-in robot, else UnknownName listing the ones there are."""
@@ -119,7 +138,9 @@ class Catalog:
         return uploaded or library.load_builtin_robot(self.check_robot(name))
 
     def world(self, name: str) -> World:
-        return library.load_builtin_world(self.check_world(name))
+        with self._lock:
+            added = self._added_worlds.get(name)
+        return added or library.load_builtin_world(self.check_world(name))
 
     def default_pair(self) -> dict[str, str]:
         return {"robot": self.default_robot, "world": self.default_world}

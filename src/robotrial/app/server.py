@@ -38,6 +38,7 @@ from robotrial.app.models import (
     RobotList,
     SpawnPose,
     UploadAnswer,
+    WorldEntry,
     WorldList,
 )
 from robotrial.app.uploads import (
@@ -50,7 +51,11 @@ from robotrial.app.uploads import (
 from robotrial.geometry import Pose
 from robotrial.model import library
 from robotrial.model.robot import ModelError
+from robotrial.model.world import load_world_text
 from robotrial.ros.rosbridge.access import Access
+
+MAX_WORLD_BYTES = 1024 * 1024
+"""The largest world YAML POST /api/worlds takes."""
 
 if TYPE_CHECKING:
     from robotrial.model.robot import RobotModel
@@ -295,6 +300,44 @@ def create_app(
         entry = next(r for r in catalog.robots() if r["name"] == robot.name)
         answer = UploadAnswer(robot=RobotEntry(**entry), repairs=list(robot.model.repairs))
         return JSONResponse(answer.model_dump(), status_code=201)
+
+    @app.post(
+        "/api/worlds",
+        response_model=WorldEntry,
+        status_code=201,
+        tags=["worlds"],
+        responses={
+            401: {"description": "the server needs a token (Authorization: Bearer TOKEN)"},
+            403: {"description": "sent from a web page of another site"},
+            413: {"description": "larger than the server takes"},
+            422: {"description": "the world YAML is broken; detail names the entry"},
+        },
+    )
+    async def add_world(request: Request) -> Response:
+        """Add a world from its YAML (the request body, docs/worlds.md), such as a home
+        drawn in the page. Files are not taken (no meshes). It joins the world list."""
+        if not access.origin_allowed(request.headers):
+            return JSONResponse({"detail": access.refusal(request.headers)}, status_code=403)
+        if not access.token_ok(access.request_token(request.headers, request.query_params)):
+            return JSONResponse(
+                {"detail": "this server needs a token: send Authorization: Bearer TOKEN"},
+                status_code=401,
+            )
+        body = bytearray()
+        async for chunk in request.stream():
+            body += chunk
+            if len(body) > MAX_WORLD_BYTES:
+                return JSONResponse(
+                    {"detail": f"a world YAML is at most {MAX_WORLD_BYTES // 1024} kB"},
+                    status_code=413,
+                )
+        try:
+            world = load_world_text(body.decode("utf-8", errors="replace"), "world.yaml")
+        except ModelError as exc:
+            return JSONResponse({"detail": str(exc)}, status_code=422)
+        name = catalog.add_world(world)
+        entry = next(w for w in catalog.worlds() if w["name"] == name)
+        return JSONResponse(WorldEntry(**entry).model_dump(), status_code=201)
 
     @app.get(
         "/api/robots/{name}.glb",

@@ -1,6 +1,7 @@
 """World: what a room IS (floor, walls, obstacles, movable objects, lights, spawn poses).
 
-Layer 1: imports only `robotrial.geometry` and `robotrial.model.robot`. A world is read
+Layer 1: imports only `robotrial.geometry`, `robotrial.model.robot` and
+`robotrial.model.home` (checks on a drawn floor plan). A world is read
 from YAML; the format is documented in docs/worlds.md. Compiling it to MJCF, glTF or an
 occupancy grid lives in other modules.
 """
@@ -16,6 +17,7 @@ import numpy as np
 import yaml
 
 from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
+from robotrial.model.home import check_home
 from robotrial.model.robot import ModelError
 
 DEFAULT_RGBA = (0.75, 0.72, 0.68, 1.0)
@@ -261,6 +263,8 @@ def world_from_dict(d: Any, source: str = "", base: Path | None = None) -> World
             hi = _floats(d["interior"][1], 2, "interior[1]")
             interior = (lo, hi)
         rooms = tuple(_room(r, f"rooms[{i}]") for i, r in enumerate(d.get("rooms", []) or []))
+        if d.get("home") is not None:
+            check_home(d["home"])
     except ModelError as exc:
         raise ModelError(_where(source, str(exc))) from None
     names = [b.name for b in walls + obstacles + objects]
@@ -317,3 +321,23 @@ def load_world_file(path: str | Path) -> World:
         line = f" line {mark.line + 1}" if mark is not None else ""
         raise ModelError(f"{p}:{line} is not valid YAML: {exc}") from None
     return world_from_dict(data, source=str(p), base=p.parent)
+
+
+def load_world_text(text: str, source: str = "world.yaml") -> World:
+    """A world from YAML text sent by someone else (the page's home editor): confined,
+    so a mesh that refers to a file is refused, and every mistake names its entry."""
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f" line {mark.line + 1}" if mark is not None else ""
+        raise ModelError(f"{source}:{line} is not valid YAML: {exc}") from None
+    if isinstance(data, dict):
+        for group in ("obstacles", "objects"):
+            for i, body in enumerate(data.get(group) or []):
+                if isinstance(body, dict) and ("file" in body or body.get("shape") == "mesh"):
+                    raise ModelError(
+                        f"{source}: {group}[{i}]: a world sent to the server cannot refer to "
+                        "files; use box, cylinder or sphere"
+                    )
+    return world_from_dict(data, source=source, base=None)

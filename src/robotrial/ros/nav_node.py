@@ -31,6 +31,8 @@ unknown.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from robotrial.msgs import nav2_msgs
@@ -123,6 +125,8 @@ class NavNode(Node):
         self.create_subscription("/odom", Odometry, self._on_odom)
         self.create_subscription("/scan", LaserScan, self._on_scan)
         self._goal: GoalHandle | None = None
+        # action goals and cancels arrive on other threads than /odom's control step
+        self._control = threading.RLock()
         self._goal_start = 0.0
         self._goal_recoveries = 0
         self.nav_action = ActionServer(
@@ -170,8 +174,9 @@ class NavNode(Node):
             self.map_to_odom = compose(mean, inverse(self.odom))
 
     def _on_goal(self, msg: PoseStamped) -> None:
-        self._preempt()
-        self._set_goal(msg)
+        with self._control:
+            self._preempt()
+            self._set_goal(msg)
 
     def _set_goal(self, msg: PoseStamped) -> None:
         p = msg.pose
@@ -183,6 +188,10 @@ class NavNode(Node):
         self._next_control = -np.inf
 
     def _on_odom(self, msg: Odometry) -> None:
+        with self._control:
+            self._control_step(msg)
+
+    def _control_step(self, msg: Odometry) -> None:
         p = msg.pose.pose
         self.odom = np.array([p.position.x, p.position.y, _yaw(p.orientation)])
         self.velocity = (msg.twist.twist.linear.x, msg.twist.twist.angular.z)
@@ -230,6 +239,10 @@ class NavNode(Node):
     # --- the navigate_to_pose action ----------------------------------------------------
 
     def _on_action_goal(self, handle: GoalHandle) -> None:
+        with self._control:
+            self._start_action_goal(handle)
+
+    def _start_action_goal(self, handle: GoalHandle) -> None:
         self._preempt()
         self._goal = handle
         self._goal_start = -1.0  # taken from the next /odom stamp
@@ -237,6 +250,10 @@ class NavNode(Node):
         self._set_goal(handle.goal.pose)
 
     def _on_action_cancel(self, handle: GoalHandle) -> None:
+        with self._control:
+            self._cancel_action_goal(handle)
+
+    def _cancel_action_goal(self, handle: GoalHandle) -> None:
         if self.navigator is not None and self.navigator.status is Status.ACTIVE:
             self.navigator.cancel("canceled by the action client")
         self._pending_goal = None

@@ -222,3 +222,12 @@ def test_malformed_send_action_goal_gets_a_status_and_the_connection_lives(stack
         ws.send(json.dumps({"op": "call_service", "id": "c", "service": "/rosapi/get_time"}))
         reply = json.loads(ws.recv(timeout=5))
         assert reply["op"] == "service_response" and reply["result"] is True
+
+
+def test_rosapi_lists_the_actions_and_describes_their_goals(stack) -> None:
+    srv = roslibpy.Service(stack.ros, "/rosapi/action_servers", "rosapi_msgs/srv/GetActionServers")
+    names = srv.call(roslibpy.ServiceRequest(), timeout=5)["action_servers"]
+    assert {NAV[0], ARM[0]} <= set(names)
+    details = stack.ros.get_message_details("nav2_msgs/action/NavigateToPose_Goal")
+    goal = {d["type"]: d for d in details["typedefs"]}["nav2_msgs/action/NavigateToPose_Goal"]
+    assert goal["fieldnames"] == ["pose", "behavior_tree"]

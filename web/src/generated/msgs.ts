@@ -285,6 +285,15 @@ export interface DeleteParamResponse {
   reason: string;
 }
 
+/** rosapi_msgs/srv/GetActionServers_Request */
+export interface GetActionServersRequest {
+}
+
+/** rosapi_msgs/srv/GetActionServers_Response */
+export interface GetActionServersResponse {
+  action_servers: string[];
+}
+
 /** rosapi_msgs/srv/GetParamNames_Request */
 export interface GetParamNamesRequest {
 }
@@ -819,6 +828,8 @@ export interface MessageTypes {
   "rosapi_msgs/msg/TypeDef": TypeDef;
   "rosapi_msgs/srv/DeleteParam_Request": DeleteParamRequest;
   "rosapi_msgs/srv/DeleteParam_Response": DeleteParamResponse;
+  "rosapi_msgs/srv/GetActionServers_Request": GetActionServersRequest;
+  "rosapi_msgs/srv/GetActionServers_Response": GetActionServersResponse;
   "rosapi_msgs/srv/GetParamNames_Request": GetParamNamesRequest;
   "rosapi_msgs/srv/GetParamNames_Response": GetParamNamesResponse;
   "rosapi_msgs/srv/GetParam_Request": GetParamRequest;
@@ -906,6 +917,7 @@ export type MessageTypeName = keyof MessageTypes;
 export interface ServiceTypes {
   "robotrial_msgs/srv/PlanTask": { request: PlanTaskRequest; response: PlanTaskResponse };
   "rosapi_msgs/srv/DeleteParam": { request: DeleteParamRequest; response: DeleteParamResponse };
+  "rosapi_msgs/srv/GetActionServers": { request: GetActionServersRequest; response: GetActionServersResponse };
   "rosapi_msgs/srv/GetParam": { request: GetParamRequest; response: GetParamResponse };
   "rosapi_msgs/srv/GetParamNames": { request: GetParamNamesRequest; response: GetParamNamesResponse };
   "rosapi_msgs/srv/GetROSVersion": { request: GetROSVersionRequest; response: GetROSVersionResponse };

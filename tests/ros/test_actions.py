@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import shutil
+import subprocess
 import threading
 import time
 from pathlib import Path
@@ -231,3 +233,26 @@ def test_rosapi_lists_the_actions_and_describes_their_goals(stack) -> None:
     details = stack.ros.get_message_details("nav2_msgs/action/NavigateToPose_Goal")
     goal = {d["type"]: d for d in details["typedefs"]}["nav2_msgs/action/NavigateToPose_Goal"]
     assert goal["fieldnames"] == ["pose", "behavior_tree"]
+
+
+def test_roslib_node_action_client(stack) -> None:
+    node_dir = Path(__file__).parent / "node"
+    node = shutil.which("node")
+    if node is None or not (node_dir / "node_modules" / "roslib").is_dir():
+        pytest.fail("node and tests/ros/node/node_modules are needed: run `make setup`")
+    proc = subprocess.run(
+        [node, "actions.mjs", f"ws://127.0.0.1:{stack.server.config.port}/"],
+        cwd=node_dir,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
+    r = json.loads(proc.stdout)
+    assert r["nav"]["result"]["error_code"] == 0
+    assert len(r["nav"]["feedback"]) > 5
+    # roslibjs hands a finished goal that did not succeed to the failed callback
+    assert "aborted" in r["unknown"]["error"] and "wrist" in r["unknown"]["error"]
+    assert '"error_code":-2' in r["unknown"]["error"]
+    assert "canceled" in r["canceled"]["error"]
+    assert len(r["canceled"]["feedback"]) >= 20

@@ -221,6 +221,10 @@ def test_malformed_send_action_goal_gets_a_status_and_the_connection_lives(stack
         ops = {r["op"]: r for r in replies}
         assert ops["action_result"]["result"] is False
         assert "trajectory" in ops["status"]["msg"]
+        ws.send(json.dumps({"op": "send_action_goal", "id": "g3", "action": "/nowhere"}))
+        replies = {r["op"]: r for r in (json.loads(ws.recv(timeout=5)) for _ in range(2))}
+        assert replies["action_result"]["result"] is False
+        assert "/nowhere is not offered" in replies["status"]["msg"]
         ws.send(json.dumps({"op": "call_service", "id": "c", "service": "/rosapi/get_time"}))
         reply = json.loads(ws.recv(timeout=5))
         assert reply["op"] == "service_response" and reply["result"] is True

@@ -598,9 +598,6 @@ class Session:
         if key in self.goals and self.goals[key].active:
             raise ProtocolError(f"a goal with id {oid!r} is still running")
         dialect = type_dialect(type_name) or self.server.dialect
-        server = actions.action_server(self.bus, action)
-        if type_name and lookup_action(type_name) is not server.type:
-            raise ProtocolError(f"{action} has type {server.type_name}, not {type_name}")
         head = {"action": wire_name, "id": _plain_id(oid)}
 
         def on_feedback(msg: Message) -> None:
@@ -616,8 +613,11 @@ class Session:
             self._send_any_thread(out, compression, fragment_size)
 
         try:
+            server = actions.action_server(self.bus, action)
+            if type_name and lookup_action(type_name) is not server.type:
+                raise ProtocolError(f"{action} has type {server.type_name}, not {type_name}")
             handle = server.send_goal(args, on_feedback if want_feedback else None, on_result)
-        except (BusError, MessageError) as exc:
+        except (BusError, MessageError, ProtocolError) as exc:
             out = {"op": "action_result", **head, "values": str(exc)}
             out.update(status=actions.ABORTED, result=False)
             self.send_op(out)

@@ -8,7 +8,9 @@ both find `sensor_msgs.LaserScan`. Internal spelling is ROS 2 (see `core`).
 
 from robotrial.msgs import (
     builtin_interfaces,
+    control_msgs,
     geometry_msgs,
+    nav2_msgs,
     nav_msgs,
     robotrial_msgs,
     rosapi,
@@ -20,14 +22,17 @@ from robotrial.msgs import (
     visualization_msgs,
 )
 from robotrial.msgs.core import (
+    ACTIONS,
     DIALECTS,
     MESSAGES,
     SERVICES,
+    ActionType,
     Dialect,
     Message,
     MessageError,
     ServiceType,
     full_definition,
+    lookup_action,
     lookup_message,
     lookup_service,
     ros1_name,
@@ -36,18 +41,23 @@ from robotrial.msgs.core import (
 )
 
 __all__ = [
+    "ACTIONS",
     "DIALECTS",
     "MESSAGES",
     "SERVICES",
+    "ActionType",
     "Dialect",
     "Message",
     "MessageError",
     "ServiceType",
     "builtin_interfaces",
+    "control_msgs",
     "full_definition",
     "geometry_msgs",
+    "lookup_action",
     "lookup_message",
     "lookup_service",
+    "nav2_msgs",
     "nav_msgs",
     "robotrial_msgs",
     "ros1_name",

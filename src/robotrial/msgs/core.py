@@ -185,6 +185,7 @@ class Message:
 # type name (canonical ROS 2 spelling) -> class; service name -> ServiceType
 MESSAGES: dict[str, type[Message]] = {}
 SERVICES: dict[str, ServiceType] = {}
+ACTIONS: dict[str, ActionType] = {}
 
 
 @dataclass(frozen=True)
@@ -198,6 +199,16 @@ class ServiceType:
     @property
     def ros1_name(self) -> str:
         return ros1_name(self.name)
+
+
+@dataclass(frozen=True)
+class ActionType:
+    """An action: its type name and goal/result/feedback message classes."""
+
+    name: str
+    Goal: type[Message]
+    Result: type[Message]
+    Feedback: type[Message]
 
 
 def ros1_name(name: str) -> str:
@@ -233,6 +244,7 @@ def _key(name: str) -> tuple[str, str]:
 
 _MSG_INDEX: dict[tuple[str, str], type[Message]] = {}
 _SRV_INDEX: dict[tuple[str, str], ServiceType] = {}
+_ACTION_INDEX: dict[tuple[str, str], ActionType] = {}
 
 
 def lookup_message(name: str) -> type[Message] | None:
@@ -248,6 +260,11 @@ def lookup_message(name: str) -> type[Message] | None:
 def lookup_service(name: str) -> ServiceType | None:
     """The service type for a name in any spelling (`pkg/Name`, `pkg/srv/Name`)."""
     return _SRV_INDEX.get(_key(name))
+
+
+def lookup_action(name: str) -> ActionType | None:
+    """The action type for a name in any spelling (`pkg/Name`, `pkg/action/Name`)."""
+    return _ACTION_INDEX.get(_key(name))
 
 
 def type_dialect(name: str | None) -> Dialect | None:
@@ -327,6 +344,16 @@ def service(type_name: str, request: type[Message], response: type[Message]) -> 
     SERVICES[type_name] = srv
     _SRV_INDEX[_key(type_name)] = srv
     return srv
+
+
+def action(
+    type_name: str, goal: type[Message], result: type[Message], feedback: type[Message]
+) -> ActionType:
+    """Register an action type (ROS 2 spelling `pkg/action/Name`) from its three messages."""
+    act = ActionType(type_name, goal, result, feedback)
+    ACTIONS[type_name] = act
+    _ACTION_INDEX[_key(type_name)] = act
+    return act
 
 
 # ---------------------------------------------------------------- encoding

@@ -204,6 +204,7 @@ class Bus:
         self._latched_names = frozenset(latched_topics)
         self._anonymous: dict[str, Publisher] = {}
         self.params: dict[str, Any] = {}
+        self.actions: dict[str, Any] = {}  # name -> robotrial.ros.actions.ActionServer
 
     # ------------------------------------------------------------ topics
 

@@ -11,6 +11,7 @@ produce.
 | in | `/odom` | nav_msgs/Odometry (drives the control loop at `control_rate`) |
 | in | `/scan` | sensor_msgs/LaserScan (AMCL update, obstacle layers) |
 | in | `/move_base_simple/goal` | geometry_msgs/PoseStamped |
+| action | `/navigate_to_pose` | nav2_msgs/action/NavigateToPose |
 | out | `/cmd_vel` | geometry_msgs/Twist |
 | out | `/plan` | nav_msgs/Path |
 | out | `/move_base/global_costmap/costmap` | nav_msgs/OccupancyGrid (on each new plan) |
@@ -19,15 +20,23 @@ produce.
 | out | `/particlecloud` | geometry_msgs/PoseArray |
 | out | `/move_base/status` | std_msgs/String (idle, active, succeeded or aborted: why) |
 
+A `/navigate_to_pose` goal reports the current pose, the distance left along the plan and
+the recoveries run so far as feedback, and ends SUCCEEDED at the goal, ABORTED with the
+navigator's reason (error_msg) when it gives up, or CANCELED (after a zero /cmd_vel) when
+the client cancels. A new goal from either input preempts (aborts) the running one.
+
 Costmap cells go out as 0..100 (costmap_2d's cost * 100 / 253, lethal 100) and -1 for
 unknown.
 """
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
-from robotrial.msgs.builtin_interfaces import Time
+from robotrial.msgs import nav2_msgs
+from robotrial.msgs.builtin_interfaces import Duration, Time
 from robotrial.msgs.geometry_msgs import (
     Pose,
     PoseArray,
@@ -44,6 +53,7 @@ from robotrial.msgs.std_msgs import Header, String
 from robotrial.nav.amcl import AMCL, AMCLConfig, compose, inverse
 from robotrial.nav.costmap import LETHAL, UNKNOWN, Costmap, Footprint
 from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
+from robotrial.ros.actions import ActionServer, GoalHandle
 from robotrial.ros.bus import Bus, Node
 
 GLOBAL_COSTMAP = "/move_base/global_costmap/costmap"
@@ -114,6 +124,20 @@ class NavNode(Node):
         self.create_subscription("/move_base_simple/goal", PoseStamped, self._on_goal)
         self.create_subscription("/odom", Odometry, self._on_odom)
         self.create_subscription("/scan", LaserScan, self._on_scan)
+        self._goal: GoalHandle | None = None
+        # action goals and cancels arrive on other threads than /odom's control step
+        self._control = threading.RLock()
+        self._goal_start = 0.0
+        self._goal_recoveries = 0
+        self.nav_action = ActionServer(
+            bus,
+            "/navigate_to_pose",
+            nav2_msgs.NavigateToPose,
+            self._on_action_goal,
+            self._on_action_cancel,
+            node=self.name,
+        )
+        self._handles.append(self.nav_action)
 
     # --- inputs ------------------------------------------------------------------------
 
@@ -150,6 +174,11 @@ class NavNode(Node):
             self.map_to_odom = compose(mean, inverse(self.odom))
 
     def _on_goal(self, msg: PoseStamped) -> None:
+        with self._control:
+            self._preempt()
+            self._set_goal(msg)
+
+    def _set_goal(self, msg: PoseStamped) -> None:
         p = msg.pose
         goal = np.array([p.position.x, p.position.y, _yaw(p.orientation)])
         if self.navigator is None:
@@ -159,6 +188,10 @@ class NavNode(Node):
         self._next_control = -np.inf
 
     def _on_odom(self, msg: Odometry) -> None:
+        with self._control:
+            self._control_step(msg)
+
+    def _control_step(self, msg: Odometry) -> None:
         p = msg.pose.pose
         self.odom = np.array([p.position.x, p.position.y, _yaw(p.orientation)])
         self.velocity = (msg.twist.twist.linear.x, msg.twist.twist.angular.z)
@@ -174,6 +207,8 @@ class NavNode(Node):
             self.cmd_pub.publish(
                 Twist(linear=Vector3(x=v, y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=w))
             )
+        if self._goal is not None and self._goal.active:
+            self._report_goal(now)
         if len(nav.plan_times) != plans and nav.path is not None:
             self._publish_plan(nav.path, now)
         status = nav.status.value + (f": {nav.message}" if nav.message else "")
@@ -200,6 +235,80 @@ class NavNode(Node):
         self.navigator.observe((float(sensor[0]), float(sensor[1])), pts)
         if self.navigator.local_costmap is not None:
             self.local_pub.publish(costmap_message(self.navigator.local_costmap, stamp))
+
+    # --- the navigate_to_pose action ----------------------------------------------------
+
+    def _on_action_goal(self, handle: GoalHandle) -> None:
+        with self._control:
+            self._start_action_goal(handle)
+
+    def _start_action_goal(self, handle: GoalHandle) -> None:
+        self._preempt()
+        self._goal = handle
+        self._goal_start = -1.0  # taken from the next /odom stamp
+        self._goal_recoveries = len(self.navigator.recoveries) if self.navigator else 0
+        self._set_goal(handle.goal.pose)
+
+    def _on_action_cancel(self, handle: GoalHandle) -> None:
+        with self._control:
+            self._cancel_action_goal(handle)
+
+    def _cancel_action_goal(self, handle: GoalHandle) -> None:
+        if self.navigator is not None and self.navigator.status is Status.ACTIVE:
+            self.navigator.cancel("canceled by the action client")
+        self._pending_goal = None
+        self.cmd_pub.publish(Twist())
+        handle.canceled(nav2_msgs.NavigateToPoseResult(error_msg="canceled"))
+
+    def _preempt(self) -> None:
+        """End the running action goal because a new goal replaces it."""
+        if self._goal is not None and self._goal.active:
+            reason = "preempted by a new goal"
+            self._goal.abort(
+                nav2_msgs.NavigateToPoseResult(error_code=nav2_msgs.UNKNOWN, error_msg=reason),
+                reason,
+            )
+        self._goal = None
+
+    def _report_goal(self, now: float) -> None:
+        """Feedback for the running action goal, or its result once the navigator ends."""
+        nav, handle = self.navigator, self._goal
+        if self._goal_start < 0.0:
+            self._goal_start = now
+        if nav.status is Status.SUCCEEDED:
+            handle.succeed(nav2_msgs.NavigateToPoseResult(), nav.message)
+            return
+        if nav.status is not Status.ACTIVE:
+            reason = nav.message or nav.status.value
+            result = nav2_msgs.NavigateToPoseResult(error_code=nav2_msgs.UNKNOWN, error_msg=reason)
+            handle.abort(result, reason)
+            return
+        pose = self.pose()
+        left = self._distance_remaining(pose)
+        speed = max(abs(self.velocity[0]), 0.05)
+        handle.feedback(
+            nav2_msgs.NavigateToPoseFeedback(
+                current_pose=PoseStamped(
+                    header=Header(stamp=Time.from_sec(now), frame_id="map"),
+                    pose=Pose.planar(*pose),
+                ),
+                navigation_time=Duration.from_sec(max(now - self._goal_start, 0.0)),
+                estimated_time_remaining=Duration.from_sec(left / speed),
+                number_of_recoveries=len(nav.recoveries) - self._goal_recoveries,
+                distance_remaining=left,
+            )
+        )
+
+    def _distance_remaining(self, pose: np.ndarray) -> float:
+        """Metres left along the plan from its point nearest the robot (straight to the
+        goal while there is no plan)."""
+        nav = self.navigator
+        if nav.path is None or len(nav.path) < 2:
+            return float(np.hypot(*(nav.goal[:2] - pose[:2])))
+        path = np.asarray(nav.path, dtype=float)
+        i = int(np.argmin(np.hypot(*(path - pose[:2]).T)))
+        rest = np.vstack([pose[:2], path[i + 1 :] if i + 1 < len(path) else path[-1:]])
+        return float(np.hypot(*np.diff(rest, axis=0).T).sum())
 
     # --- outputs -----------------------------------------------------------------------
 

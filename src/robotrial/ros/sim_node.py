@@ -19,7 +19,9 @@ sensor topics a Gazebo robot has):
 | `/NAME/points` | sensor_msgs/PointCloud2 (x, y, z) | depth camera, from the image |
 
 It listens to `/cmd_vel` (geometry_msgs/Twist) and `/robotrial/joint_reference`
-(trajectory_msgs/JointTrajectory). Other lidars publish on `/NAME/points`.
+(trajectory_msgs/JointTrajectory), and offers the arm's
+`/arm_controller/follow_joint_trajectory` action (`trajectory_action`). Other lidars
+publish on `/NAME/points`.
 """
 
 from __future__ import annotations
@@ -57,6 +59,7 @@ from robotrial.msgs.std_msgs import Header, String
 from robotrial.msgs.tf2_msgs import TFMessage
 from robotrial.msgs.trajectory_msgs import JointTrajectory
 from robotrial.ros.bus import Bus, Node
+from robotrial.ros.trajectory_action import JointTrajectoryAction
 from robotrial.sim.controllers import JointReference
 from robotrial.sim.lidar import Scan
 from robotrial.sim.odometry import wrap_angle
@@ -314,6 +317,7 @@ class SimNode(Node):
         self.create_subscription("/robotrial/joint_reference", JointTrajectory, self._on_reference)
         self._started = False
         self.rejected: list[str] = []
+        self.trajectory_action = JointTrajectoryAction(self) if sim.joints is not None else None
 
     # --- inputs ---------------------------------------------------------------------
 

@@ -14,6 +14,37 @@ export interface Time {
   nanosec: number;
 }
 
+/** control_msgs/action/FollowJointTrajectory_Feedback */
+export interface FollowJointTrajectoryFeedback {
+  header: Header;
+  joint_names: string[];
+  desired: JointTrajectoryPoint;
+  actual: JointTrajectoryPoint;
+  error: JointTrajectoryPoint;
+}
+
+/** control_msgs/action/FollowJointTrajectory_Goal */
+export interface FollowJointTrajectoryGoal {
+  trajectory: JointTrajectory;
+  path_tolerance: JointTolerance[];
+  goal_tolerance: JointTolerance[];
+  goal_time_tolerance: Duration;
+}
+
+/** control_msgs/action/FollowJointTrajectory_Result */
+export interface FollowJointTrajectoryResult {
+  error_code: number;
+  error_string: string;
+}
+
+/** control_msgs/msg/JointTolerance: Bounds on one joint's error; 0 means the controller's default, -1 no bound. */
+export interface JointTolerance {
+  name: string;
+  position: number;
+  velocity: number;
+  acceleration: number;
+}
+
 /** geometry_msgs/msg/Accel */
 export interface Accel {
   linear: Vector3;
@@ -152,6 +183,27 @@ export interface Wrench {
   torque: Vector3;
 }
 
+/** nav2_msgs/action/NavigateToPose_Feedback */
+export interface NavigateToPoseFeedback {
+  current_pose: PoseStamped;
+  navigation_time: Duration;
+  estimated_time_remaining: Duration;
+  number_of_recoveries: number;
+  distance_remaining: number;
+}
+
+/** nav2_msgs/action/NavigateToPose_Goal */
+export interface NavigateToPoseGoal {
+  pose: PoseStamped;
+  behavior_tree: string;
+}
+
+/** nav2_msgs/action/NavigateToPose_Result */
+export interface NavigateToPoseResult {
+  error_code: number;
+  error_msg: string;
+}
+
 /** nav_msgs/msg/MapMetaData */
 export interface MapMetaData {
   map_load_time: Time;
@@ -231,6 +283,15 @@ export interface DeleteParamRequest {
 export interface DeleteParamResponse {
   successful: boolean;
   reason: string;
+}
+
+/** rosapi_msgs/srv/GetActionServers_Request */
+export interface GetActionServersRequest {
+}
+
+/** rosapi_msgs/srv/GetActionServers_Response */
+export interface GetActionServersResponse {
+  action_servers: string[];
 }
 
 /** rosapi_msgs/srv/GetParamNames_Request */
@@ -728,6 +789,10 @@ export interface UVCoordinate {
 export interface MessageTypes {
   "builtin_interfaces/msg/Duration": Duration;
   "builtin_interfaces/msg/Time": Time;
+  "control_msgs/action/FollowJointTrajectory_Feedback": FollowJointTrajectoryFeedback;
+  "control_msgs/action/FollowJointTrajectory_Goal": FollowJointTrajectoryGoal;
+  "control_msgs/action/FollowJointTrajectory_Result": FollowJointTrajectoryResult;
+  "control_msgs/msg/JointTolerance": JointTolerance;
   "geometry_msgs/msg/Accel": Accel;
   "geometry_msgs/msg/Point": Point;
   "geometry_msgs/msg/Point32": Point32;
@@ -750,6 +815,9 @@ export interface MessageTypes {
   "geometry_msgs/msg/Vector3": Vector3;
   "geometry_msgs/msg/Vector3Stamped": Vector3Stamped;
   "geometry_msgs/msg/Wrench": Wrench;
+  "nav2_msgs/action/NavigateToPose_Feedback": NavigateToPoseFeedback;
+  "nav2_msgs/action/NavigateToPose_Goal": NavigateToPoseGoal;
+  "nav2_msgs/action/NavigateToPose_Result": NavigateToPoseResult;
   "nav_msgs/msg/MapMetaData": MapMetaData;
   "nav_msgs/msg/OccupancyGrid": OccupancyGrid;
   "nav_msgs/msg/Odometry": Odometry;
@@ -760,6 +828,8 @@ export interface MessageTypes {
   "rosapi_msgs/msg/TypeDef": TypeDef;
   "rosapi_msgs/srv/DeleteParam_Request": DeleteParamRequest;
   "rosapi_msgs/srv/DeleteParam_Response": DeleteParamResponse;
+  "rosapi_msgs/srv/GetActionServers_Request": GetActionServersRequest;
+  "rosapi_msgs/srv/GetActionServers_Response": GetActionServersResponse;
   "rosapi_msgs/srv/GetParamNames_Request": GetParamNamesRequest;
   "rosapi_msgs/srv/GetParamNames_Response": GetParamNamesResponse;
   "rosapi_msgs/srv/GetParam_Request": GetParamRequest;
@@ -847,6 +917,7 @@ export type MessageTypeName = keyof MessageTypes;
 export interface ServiceTypes {
   "robotrial_msgs/srv/PlanTask": { request: PlanTaskRequest; response: PlanTaskResponse };
   "rosapi_msgs/srv/DeleteParam": { request: DeleteParamRequest; response: DeleteParamResponse };
+  "rosapi_msgs/srv/GetActionServers": { request: GetActionServersRequest; response: GetActionServersResponse };
   "rosapi_msgs/srv/GetParam": { request: GetParamRequest; response: GetParamResponse };
   "rosapi_msgs/srv/GetParamNames": { request: GetParamNamesRequest; response: GetParamNamesResponse };
   "rosapi_msgs/srv/GetROSVersion": { request: GetROSVersionRequest; response: GetROSVersionResponse };

@@ -26,7 +26,8 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from robotrial.msgs import DIALECTS, Dialect, Message, MessageError, type_dialect
+from robotrial.msgs import DIALECTS, Dialect, Message, MessageError, lookup_action, type_dialect
+from robotrial.ros import actions
 from robotrial.ros.bus import Bus, BusError, Node, Publisher, ServiceServer, Subscription
 from robotrial.ros.rosbridge import encoding
 from robotrial.ros.rosbridge.access import Access
@@ -232,6 +233,7 @@ class Session:
         self.services: dict[str, ServiceServer] = {}
         self.pending: dict[str, tuple[str, asyncio.Future]] = {}  # calls this client answers
         self.calls: set[asyncio.Task] = set()  # this client's call_service in flight
+        self.goals: dict[Any, actions.GoalHandle] = {}  # this client's action goals by id
         self.level = LEVELS["error"]
         self.fragments = Reassembly(self.limits.max_message_bytes)
         self.closed = False
@@ -252,6 +254,8 @@ class Session:
             "advertise_service": self._advertise_service,
             "unadvertise_service": self._unadvertise_service,
             "service_response": self._service_response,
+            "send_action_goal": self._send_action_goal,
+            "cancel_action_goal": self._cancel_action_goal,
             "fragment": self._fragment,
             "png": self._png,
             "set_level": self._set_level,
@@ -574,6 +578,75 @@ class Session:
         else:
             fut.set_result(values or {})
 
+    def _send_action_goal(self, op: dict) -> None:
+        """Start a goal on a bus action; feedback and the result come back tagged with
+        the operation's `id`."""
+        action = _name(op, "action")
+        wire_name = op["action"]
+        type_name = _opt(op, "action_type", str, "")
+        args = _opt(op, "args", dict, {})
+        want_feedback = _opt(op, "feedback", bool, False)
+        compression = _opt(op, "compression", str, "none")
+        if compression not in COMPRESSIONS:
+            raise ProtocolError(f"compression must be one of {', '.join(COMPRESSIONS)}")
+        compression = "cbor" if compression == "cbor-raw" else compression
+        fragment_size = int(_nonneg(op, "fragment_size", 0))
+        oid = op.get("id")
+        if oid is None:
+            oid = f"send_action_goal:{action}:{self.server.next_id()}"
+        key = _id_key(oid)
+        if key in self.goals and self.goals[key].active:
+            raise ProtocolError(f"a goal with id {oid!r} is still running")
+        dialect = type_dialect(type_name) or self.server.dialect
+        head = {"action": wire_name, "id": _plain_id(oid)}
+
+        def on_feedback(msg: Message) -> None:
+            out = {"op": "action_feedback", **head, "values": msg.to_dict(dialect)}
+            self._send_any_thread(out, compression, fragment_size)
+
+        def on_result(handle: actions.GoalHandle) -> None:
+            values = handle.result.to_dict(dialect) if handle.result is not None else {}
+            out = {"op": "action_result", **head, "values": values}
+            out.update(status=handle.status, result=True)
+            if self.goals.get(key) is handle:
+                del self.goals[key]
+            self._send_any_thread(out, compression, fragment_size)
+
+        try:
+            server = actions.action_server(self.bus, action)
+            if type_name and lookup_action(type_name) is not server.type:
+                raise ProtocolError(f"{action} has type {server.type_name}, not {type_name}")
+            handle = server.send_goal(args, on_feedback if want_feedback else None, on_result)
+        except (BusError, MessageError, ProtocolError) as exc:
+            out = {"op": "action_result", **head, "values": str(exc)}
+            out.update(status=actions.ABORTED, result=False)
+            self.send_op(out)
+            raise
+        if handle.active:
+            self.goals[key] = handle
+
+    def _cancel_action_goal(self, op: dict) -> None:
+        """Ask the action server to cancel this client's goal `id`."""
+        action = _name(op, "action")
+        oid = _req(op, "id", (str, int))
+        handle = self.goals.get(_id_key(oid))
+        if handle is None or handle.server.name != action or not handle.active:
+            self.status("warning", f"cancel_action_goal: no running goal {oid!r} on {action}", oid)
+            return
+        handle.server.cancel_goal(handle.id)
+
+    def _send_any_thread(self, op: dict, compression: str, fragment_size: int) -> None:
+        """send_op from the bus's threads (an action server may report from any)."""
+        if self.closed:
+            return
+        if threading.get_ident() == self._thread:
+            self.send_op(op, compression, fragment_size)
+        else:
+            try:
+                self.loop.call_soon_threadsafe(self.send_op, op, compression, fragment_size)
+            except RuntimeError:
+                pass  # the loop has closed: the session is going away
+
     def _fail_pending(self, service: str | None, reason: str) -> None:
         for _, (name, fut) in list(self.pending.items()):
             if (service is None or name == service) and not fut.done():
@@ -708,6 +781,10 @@ class Session:
             srv.close()
         self.services.clear()
         self._fail_pending(None, f"the client {self.name} disconnected")
+        for handle in self.goals.values():
+            if handle.active:
+                handle.server.cancel_goal(handle.id)
+        self.goals.clear()
         for task in list(self.calls):
             task.cancel()
         if self._timer is not None:

@@ -103,6 +103,7 @@ class Rosapi(Node):
             "delete_param": (api.DeleteParam, self.delete_param),
             "get_param_names": (api.GetParamNames, self.get_param_names),
             "get_time": (api.GetTime, self.get_time),
+            "action_servers": (api.GetActionServers, self.action_servers),
             "get_ros_version": (api.GetROSVersion, self.get_ros_version),
         }
         for short, (srv, handler) in services.items():
@@ -222,6 +223,11 @@ class Rosapi(Node):
 
     def get_param_names(self, req: Any) -> Any:
         return api.GetParamNames.Response(names=sorted(self.bus.params))
+
+    def action_servers(self, req: Any) -> Any:
+        """The actions offered on the bus (`robotrial.ros.actions`), as ROS 2 rosapi lists
+        them; their types go through message_details as `pkg/action/Name_Goal` etc."""
+        return api.GetActionServers.Response(action_servers=sorted(self.bus.actions))
 
     def get_time(self, req: Any) -> Any:
         return api.GetTime.Response(time=Time.now())

@@ -271,13 +271,9 @@ def create_app(
         """Add a robot from a multipart upload (field `file`): a .zip holding a URDF or
         xacro with its meshes, a .urdf, a .xacro, or an RDTF .glb. It joins the robot
         list under the name returned; its RDTF route works at once."""
-        if not access.origin_allowed(request.headers):
-            return JSONResponse({"detail": access.refusal(request.headers)}, status_code=403)
-        if not access.token_ok(access.request_token(request.headers, request.query_params)):
-            return JSONResponse(
-                {"detail": "this server needs a token: send Authorization: Bearer TOKEN"},
-                status_code=401,
-            )
+        refused = _refusal(access, request)
+        if refused is not None:
+            return refused
         try:
             form = await _bounded_form(request, uploads.max_bytes)
             sent = form.get("file")
@@ -316,13 +312,9 @@ def create_app(
     async def add_world(request: Request) -> Response:
         """Add a world from its YAML (the request body, docs/worlds.md), such as a home
         drawn in the page. Files are not taken (no meshes). It joins the world list."""
-        if not access.origin_allowed(request.headers):
-            return JSONResponse({"detail": access.refusal(request.headers)}, status_code=403)
-        if not access.token_ok(access.request_token(request.headers, request.query_params)):
-            return JSONResponse(
-                {"detail": "this server needs a token: send Authorization: Bearer TOKEN"},
-                status_code=401,
-            )
+        refused = _refusal(access, request)
+        if refused is not None:
+            return refused
         body = bytearray()
         async for chunk in request.stream():
             body += chunk
@@ -437,6 +429,19 @@ def _arm(catalog: Catalog, name: str) -> tuple[RobotModel, World]:
     """A robot of the list and the world it opens in, for its planner."""
     robot = catalog.robot(name)
     return robot, catalog.world(catalog.world_for(robot_kind(robot)))
+
+
+def _refusal(access: Access, request: Request) -> JSONResponse | None:
+    """The answer to a write from another site (403) or without the server's token (401);
+    None when the request may go on."""
+    if not access.origin_allowed(request.headers):
+        return JSONResponse({"detail": access.refusal(request.headers)}, status_code=403)
+    if not access.token_ok(access.request_token(request.headers, request.query_params)):
+        return JSONResponse(
+            {"detail": "this server needs a token: send Authorization: Bearer TOKEN"},
+            status_code=401,
+        )
+    return None
 
 
 def _warm(catalog: Catalog, task: TaskPlanner | None, planner: dict[str, str | None]) -> None:

@@ -237,7 +237,7 @@ def run_scene(probs: list[Any], time_limit: float, ompl: bool, on_problem=None) 
         }
         if res.success:
             ours_t.append(res.planning_time)
-        if ompl:
+        if ompl and start_ok and goal_ok:  # else OMPL would wait out its time limit
             o = _ompl(prob, exact, "rrt_connect", 1, time_limit, time_limit)
             row.update(
                 ompl_solved=o["success"] > 0,
@@ -263,8 +263,16 @@ def run_scene(probs: list[Any], time_limit: float, ompl: bool, on_problem=None) 
         out["ompl_solved_ours_not"] = sum(
             1 for r in rows if r.get("ompl_solved") and not r["ours_solved"]
         )
-        o, m = out["ompl"]["median_ms"], out["ours"]["median_ms"]
-        out["speedup"] = o / m if o and m else None
+        # the speed-up over the problems both solved: each median over its own set would
+        # compare easy problems of one with hard ones of the other
+        both = [r for r in rows if r["ours_solved"] and r.get("ompl_solved")]
+        out["both_solved"] = len(both)
+        if both:
+            out["speedup"] = float(
+                np.median([r["ompl_ms"] for r in both]) / np.median([r["ours_ms"] for r in both])
+            )
+        else:
+            out["speedup"] = None
     return out
 
 
@@ -333,7 +341,7 @@ def _table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
         "p95 ms ours",
         "median ms OMPL",
         "p95 ms OMPL",
-        "speed-up",
+        "speed-up (both solved)",
         "colliding ours / OMPL",
     ]
     rows = []

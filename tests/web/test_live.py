@@ -99,3 +99,35 @@ def test_live_view_scan_driving_goal_and_map(
         assert red.sum() > 20, "the scan's points are drawn"
         assert not errors, errors
         browser.close()
+
+
+def test_navigate_to_pose_through_the_web_apps_rosbridge(server: str) -> None:
+    """A ROS 2 client drives the live platform with Nav2's action, on the page's rosbridge."""
+    import threading
+
+    import roslibpy
+
+    ros = roslibpy.Ros(host=server.replace("http://", "ws://") + "rosbridge")
+    ros.run(timeout=20)
+    try:
+        servers = roslibpy.Service(
+            ros, "/rosapi/action_servers", "rosapi_msgs/srv/GetActionServers"
+        )
+        deadline = time.monotonic() + 30  # the live platform starts beside the server
+        while "/navigate_to_pose" not in servers.call(roslibpy.ServiceRequest())["action_servers"]:
+            assert time.monotonic() < deadline, "the live platform never offered the action"
+            time.sleep(0.5)
+        client = roslibpy.ActionClient(ros, "/navigate_to_pose", "nav2_msgs/action/NavigateToPose")
+        done, feedback, answer = threading.Event(), [], {}
+        goal = {"pose": {"header": {"frame_id": "map"}, "pose": {"position": {"x": 0.6}}}}
+        client.send_goal(
+            roslibpy.Goal(goal),
+            lambda r: (answer.update(r), done.set()),
+            feedback.append,
+            lambda e: (answer.update(error=e), done.set()),
+        )
+        assert done.wait(60), "no action_result in time"
+    finally:
+        ros.terminate()
+    assert answer.get("status") == roslibpy.core.GoalStatus.SUCCEEDED, answer
+    assert feedback and feedback[-1]["distance_remaining"] < feedback[0]["distance_remaining"]

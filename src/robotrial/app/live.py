@@ -67,6 +67,7 @@ class LivePlatform:
         self.error: str | None = None
         self._nodes: list = []
         self._relays: list = []
+        self._actions: list[str] = []  # actions of the private bus offered on `bus`
         self._lock = threading.Lock()
         self._stopped = False
         self._thread: threading.Thread | None = None
@@ -160,6 +161,11 @@ class LivePlatform:
             pub = target.advertise(topic, cls, node="/navigation_relay")
             self._relays.append(pub)
             self._relays.append(source.subscribe(topic, pub.publish, cls, node="/navigation_relay"))
+        # its actions (/navigate_to_pose) answer on the server's bus as they are
+        with self.bus._lock:
+            for name, server in private.actions.items():
+                self.bus.actions.setdefault(name, server)
+                self._actions.append(name)
 
     def stop(self) -> None:
         with self._lock:
@@ -167,6 +173,9 @@ class LivePlatform:
             nodes, self._nodes = self._nodes, []
         for relay in self._relays:
             relay.close()
+        with self.bus._lock:
+            for name in self._actions:
+                self.bus.actions.pop(name, None)
         for node in reversed(nodes):
             node.destroy()
         if self._thread is not None:

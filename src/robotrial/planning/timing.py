@@ -20,7 +20,6 @@ from scipy.interpolate import CubicHermiteSpline, CubicSpline
 from robotrial.planning.smoothing import densify
 
 ACCEL_MARGIN = 0.97  # the limits hold at grid points; the rest is scaled out below
-BISECTIONS = 40
 
 
 @dataclass
@@ -78,6 +77,54 @@ def _reaches(x, target, dq, ddq, amax, two_ds) -> bool:
 
 
 @nb.njit(cache=True)
+def _largest_x(xmax, target, dq, ddq, amax, two_ds) -> float:
+    """The largest speed squared x <= xmax at grid point i from which an allowed u leads
+    to some y in [0, target] at i + 1 (0 when none). Every limit is linear in (x, u):
+    a u + b x <= c; eliminating u (Fourier-Motzkin) leaves bounds on x alone."""
+    d = dq.shape[1]
+    m = 4 * d + 2
+    a = np.empty(m)
+    b = np.empty(m)
+    c = np.empty(m)
+    r = 0
+    for end in range(2):
+        for j in range(d):
+            k = dq[end, j] + (two_ds * ddq[end, j] if end else 0.0)
+            # -amax <= k u + ddq x <= amax
+            a[r], b[r], c[r] = k, ddq[end, j], amax[j]
+            a[r + 1], b[r + 1], c[r + 1] = -k, -ddq[end, j], amax[j]
+            r += 2
+    # 0 <= x + two_ds u <= target
+    a[r], b[r], c[r] = two_ds, 1.0, target
+    a[r + 1], b[r + 1], c[r + 1] = -two_ds, -1.0, 0.0
+    hi, lo = xmax, 0.0
+    for p in range(m):
+        if abs(a[p]) <= 1e-12:
+            if b[p] > 1e-12:
+                hi = min(hi, c[p] / b[p])
+            elif b[p] < -1e-12:
+                lo = max(lo, c[p] / b[p])
+            elif c[p] < 0.0:
+                return 0.0
+            continue
+        if a[p] > 0.0:
+            continue
+        # p bounds u from below: u >= (c_p - b_p x) / a_p; pair it with each upper bound
+        for q in range(m):
+            if a[q] <= 1e-12:
+                continue
+            coef = b[q] / a[q] - b[p] / a[p]
+            rhs = c[q] / a[q] - c[p] / a[p]
+            if coef > 1e-15:
+                hi = min(hi, rhs / coef)
+            elif coef < -1e-15:
+                lo = max(lo, rhs / coef)
+            elif rhs < 0.0:
+                return 0.0
+    return hi if hi >= lo else 0.0
+
+
+@nb.njit(cache=True)
 def _profile(dq, ddq, vmax, amax, ds) -> np.ndarray:
     """Speed squared x (n,) along the grid: the time-optimal profile from rest to rest."""
     n, d = dq.shape
@@ -96,27 +143,10 @@ def _profile(dq, ddq, vmax, amax, ds) -> np.ndarray:
     for i in range(n - 2, -1, -1):
         two_ds = 2.0 * (ds[i + 1] - ds[i])
         rows, rows2 = dq[i : i + 2], ddq[i : i + 2]
-        lo, hi = 0.0, xmax[i]
-        if _reaches(hi, k[i + 1], rows, rows2, amax, two_ds):
-            k[i] = hi
-            continue
-        # bracket the answer near the next point's value (the bound may be 1e12 where
-        # the path barely moves), then bisect: precision relative to the answer
-        x = min(max(k[i + 1], 1e-9), hi)
-        if _reaches(x, k[i + 1], rows, rows2, amax, two_ds):
-            lo = x
-            while 2.0 * lo < hi and _reaches(2.0 * lo, k[i + 1], rows, rows2, amax, two_ds):
-                lo *= 2.0
-            hi = min(2.0 * lo, hi)
+        if _reaches(xmax[i], k[i + 1], rows, rows2, amax, two_ds):
+            k[i] = xmax[i]  # the speed limit binds, not the accelerations ahead
         else:
-            hi = x
-        for _ in range(BISECTIONS):
-            mid = 0.5 * (lo + hi)
-            if _reaches(mid, k[i + 1], rows, rows2, amax, two_ds):
-                lo = mid
-            else:
-                hi = mid
-        k[i] = lo
+            k[i] = _largest_x(xmax[i], k[i + 1], rows, rows2, amax, two_ds)
     # forward: accelerate as hard as allowed while staying within the controllable set
     x = np.empty(n)
     x[0] = 0.0

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline, CubicSpline
+from scipy.interpolate import CubicSpline
 
 from robotrial.planning.smoothing import densify
 
@@ -43,7 +43,16 @@ class Trajectory:
         if len(self.t) < 2:
             return self.q.copy()
         t = np.linspace(0.0, self.duration, max(int(np.ceil(self.duration / step)), 1) + 1)
-        return CubicHermiteSpline(self.t, self.q, self.qd)(t)
+        i = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 2)
+        h = (self.t[i + 1] - self.t[i])[:, None]
+        s = (t[:, None] - self.t[i][:, None]) / h
+        s2, s3 = s * s, s * s * s
+        return (
+            (2 * s3 - 3 * s2 + 1) * self.q[i]
+            + (s3 - 2 * s2 + s) * h * self.qd[i]
+            + (3 * s2 - 2 * s3) * self.q[i + 1]
+            + (s3 - s2) * h * self.qd[i + 1]
+        )
 
 
 @nb.njit(cache=True)

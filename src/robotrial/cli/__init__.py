@@ -26,6 +26,7 @@ COMMANDS: dict[str, str] = {
     "rosbridge": "rosbridge",
     "slam": "slam",
     "nav": "nav",
+    "verdict": "verdict",
     "bag": "bag",
     "trials": "trials",
     "bench": "bench",

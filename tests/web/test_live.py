@@ -128,6 +128,6 @@ def test_navigate_to_pose_through_the_web_apps_rosbridge(server: str) -> None:
         )
         assert done.wait(60), "no action_result in time"
     finally:
-        ros.terminate()
+        ros.close()
     assert answer.get("status") == roslibpy.core.GoalStatus.SUCCEEDED, answer
     assert feedback and feedback[-1]["distance_remaining"] < feedback[0]["distance_remaining"]

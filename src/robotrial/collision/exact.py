@@ -9,7 +9,6 @@ anything static. `path_valid` checks a path densely.
 
 from __future__ import annotations
 
-import itertools
 import weakref
 from collections.abc import Sequence
 
@@ -155,11 +154,11 @@ class ExactChecker:
         if not len(path):
             return True, -1
         res = self.checker.resolution / 2 if step is None else np.full(path.shape[1], step)
-        pieces = []
-        for a, b in itertools.pairwise(path):
-            n = max(int(np.ceil(np.max(np.abs(b - a) / res))), 1)
-            pieces.append(a + (np.arange(n) / n)[:, None] * (b - a))
-        qs = np.vstack([*pieces, path[-1:]])
+        delta = np.diff(path, axis=0)
+        n = np.maximum(np.ceil(np.max(np.abs(delta) / res, axis=1, initial=0.0)), 1).astype(int)
+        seg = np.repeat(np.arange(len(delta)), n)
+        frac = (np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n)) / n[seg]
+        qs = np.vstack([path[seg] + frac[:, None] * delta[seg], path[-1:]])
         qpos = np.tile(self._qpos0, (len(qs), 1))
         qpos[:, self._adr] = self._mult * qs[:, self._src] + self._off
         model, data = self.model, self.data

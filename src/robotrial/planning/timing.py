@@ -86,44 +86,38 @@ def _reaches(x, target, dq, ddq, amax, two_ds) -> bool:
 
 
 @nb.njit(cache=True)
-def _largest_x(xmax, target, dq, ddq, amax, two_ds) -> float:
+def _largest_x(xmax, target, dq, ddq, amax, two_ds, scratch) -> float:
     """The largest speed squared x <= xmax at grid point i from which an allowed u leads
-    to some y in [0, target] at i + 1 (0 when none). Every limit is linear in (x, u):
-    a u + b x <= c; eliminating u (Fourier-Motzkin) leaves bounds on x alone."""
-    d = dq.shape[1]
-    m = 4 * d + 2
-    a = np.empty(m)
-    b = np.empty(m)
-    c = np.empty(m)
-    r = 0
-    for end in range(2):
-        for j in range(d):
-            k = dq[end, j] + (two_ds * ddq[end, j] if end else 0.0)
-            # -amax <= k u + ddq x <= amax
-            a[r], b[r], c[r] = k, ddq[end, j], amax[j]
-            a[r + 1], b[r + 1], c[r + 1] = -k, -ddq[end, j], amax[j]
-            r += 2
-    # 0 <= x + two_ds u <= target
-    a[r], b[r], c[r] = two_ds, 1.0, target
-    a[r + 1], b[r + 1], c[r + 1] = -two_ds, -1.0, 0.0
+    to some y in [0, target] at i + 1 (0 when none). Every limit bounds u by a line in
+    x, from below (lo_a + lo_b x <= u) or from above (u <= up_a + up_b x); eliminating u
+    (Fourier-Motzkin) pairs each lower bound with each upper one and leaves bounds on x.
+    `scratch` is (4, 2 d + 1) of room for the lines."""
+    lo_a, lo_b, up_a, up_b = scratch[0], scratch[1], scratch[2], scratch[3]
     hi, lo = xmax, 0.0
-    for p in range(m):
-        if abs(a[p]) <= 1e-12:
-            if b[p] > 1e-12:
-                hi = min(hi, c[p] / b[p])
-            elif b[p] < -1e-12:
-                lo = max(lo, c[p] / b[p])
-            elif c[p] < 0.0:
-                return 0.0
-            continue
-        if a[p] > 0.0:
-            continue
-        # p bounds u from below: u >= (c_p - b_p x) / a_p; pair it with each upper bound
-        for q in range(m):
-            if a[q] <= 1e-12:
+    n = 0
+    for end in range(2):
+        for j in range(dq.shape[1]):
+            k = dq[end, j] + (two_ds * ddq[end, j] if end else 0.0)
+            g = ddq[end, j]
+            # -amax <= k u + g x <= amax
+            if abs(k) <= 1e-12:
+                if abs(g) > 1e-12:
+                    hi = min(hi, amax[j] / abs(g))
                 continue
-            coef = b[q] / a[q] - b[p] / a[p]
-            rhs = c[q] / a[q] - c[p] / a[p]
+            low, up = -amax[j] / k, amax[j] / k
+            if k < 0.0:
+                low, up = up, low
+            lo_a[n], up_a[n] = low, up
+            lo_b[n] = up_b[n] = -g / k
+            n += 1
+    # 0 <= x + two_ds u <= target
+    lo_a[n], lo_b[n] = 0.0, -1.0 / two_ds
+    up_a[n], up_b[n] = target / two_ds, -1.0 / two_ds
+    n += 1
+    for p in range(n):
+        for q in range(n):
+            coef = lo_b[p] - up_b[q]
+            rhs = up_a[q] - lo_a[p]
             if coef > 1e-15:
                 hi = min(hi, rhs / coef)
             elif coef < -1e-15:
@@ -149,13 +143,14 @@ def _profile(dq, ddq, vmax, amax, ds) -> np.ndarray:
     # backward: the largest x at i from which some allowed u reaches [0, k[i + 1]]
     k = np.empty(n)
     k[n - 1] = 0.0
+    scratch = np.empty((4, 2 * d + 1))
     for i in range(n - 2, -1, -1):
         two_ds = 2.0 * (ds[i + 1] - ds[i])
         rows, rows2 = dq[i : i + 2], ddq[i : i + 2]
         if _reaches(xmax[i], k[i + 1], rows, rows2, amax, two_ds):
             k[i] = xmax[i]  # the speed limit binds, not the accelerations ahead
         else:
-            k[i] = _largest_x(xmax[i], k[i + 1], rows, rows2, amax, two_ds)
+            k[i] = _largest_x(xmax[i], k[i + 1], rows, rows2, amax, two_ds, scratch)
     # forward: accelerate as hard as allowed while staying within the controllable set
     x = np.empty(n)
     x[0] = 0.0
@@ -164,6 +159,32 @@ def _profile(dq, ddq, vmax, amax, ds) -> np.ndarray:
         uhi = _u_range(x[i], dq[i : i + 2], ddq[i : i + 2], amax, two_ds)[1]
         x[i + 1] = max(min(k[i + 1], x[i] + two_ds * uhi), 0.0)
     return x
+
+
+@nb.njit(cache=True)
+def _excess(coef, knots, grid, x, u, vmax, amax) -> float:
+    """How much faster than its limits the profile (x, u) drives some joint, at nine
+    points inside every grid interval (1 when never): the largest of |qd| / vmax and
+    sqrt(|qdd| / amax), with qd and qdd from the cubic pieces `coef` (4, m, d) between
+    `knots` (the spline's own; every knot is a grid point, so one piece per interval)."""
+    worst = 1.0
+    piece = 0
+    for i in range(len(grid) - 1):
+        while piece < len(knots) - 2 and knots[piece + 1] <= grid[i]:
+            piece += 1
+        step = grid[i + 1] - grid[i]
+        for f in range(9):
+            t = f / 8.0
+            xs = x[i] + t * (x[i + 1] - x[i])  # x is linear in s on an interval
+            v = np.sqrt(max(xs, 0.0))
+            h = grid[i] + t * step - knots[piece]
+            for j in range(coef.shape[2]):
+                d1 = (3.0 * coef[0, piece, j] * h + 2.0 * coef[1, piece, j]) * h + coef[2, piece, j]
+                d2 = 6.0 * coef[0, piece, j] * h + 2.0 * coef[1, piece, j]
+                worst = max(
+                    worst, abs(d1) * v / vmax[j], np.sqrt(abs(d2 * xs + d1 * u[i]) / amax[j])
+                )
+    return worst
 
 
 def time_parameterize(
@@ -199,17 +220,7 @@ def time_parameterize(
     # the limits hold at the grid points; between them the path's curvature may push a
     # joint past them: slow the whole trajectory down uniformly by the largest excess
     # (speeds scale with 1/c, accelerations with 1/c^2), measured inside every interval
-    f = np.linspace(0.0, 1.0, 9)[:, None]
-    x_in = x[:-1] + f * (x[1:] - x[:-1])  # x is linear in s on an interval
-    s_in = grid[:-1] + f * step
-    d1, d2 = spline(s_in.ravel(), 1), spline(s_in.ravel(), 2)
-    v_in = np.sqrt(np.maximum(x_in, 0.0)).ravel()[:, None]
-    a_in = d2 * x_in.ravel()[:, None] + d1 * np.tile(u, len(f))[:, None]
-    c = max(
-        1.0,
-        float(np.max(np.abs(d1) * v_in / vmax)),
-        float(np.sqrt(np.max(np.abs(a_in) / amax))),
-    )
+    c = _excess(spline.c, spline.x, grid, x, u, vmax, amax)
     dt *= c
     times = np.concatenate([[0.0], np.cumsum(dt)])
     duration = float(times[-1])

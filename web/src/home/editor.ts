@@ -26,6 +26,7 @@ import {
   walls,
 } from "./model";
 import { type Gray, detectRooms, parseMapYaml, parsePgm } from "./floorplan";
+import { VerdictView } from "./verdict";
 import { WORDS } from "./words";
 
 export const STORAGE_KEY = "robotrial.home";
@@ -121,6 +122,12 @@ export class HomeSection {
   private redoStack: string[] = [];
   private tool: Tool = "room";
   private pointer: XY | null = null;
+  /** "Check my home": the robot pickers, the progress and the verdict. */
+  private readonly verdict = new VerdictView({
+    yaml: () => this.yaml(),
+    home: () => this.drawing.home,
+    changed: () => this.drawPlan(),
+  });
 
   /** `sent(entry)`: the app adds the world to its picker and shows the robot in it. */
   constructor(private readonly sent: (entry: WorldEntry) => Promise<void>) {
@@ -172,6 +179,7 @@ export class HomeSection {
       this.button("home-download", WORDS.download, () => this.download()),
       el("label", { class: "home-file" }, WORDS.openYaml, " ", this.fileInput),
       this.button("home-send", WORDS.send, () => void this.send()),
+      this.verdict.controls,
       el("label", { class: "home-file" }, WORDS.background, " ", this.imageInput),
       el("label", {}, WORDS.knownLength, " ", this.knownLength),
       this.button("home-set-scale", WORDS.setScale, () => this.setScale()),
@@ -205,14 +213,17 @@ export class HomeSection {
         "div",
         { class: "home-body" },
         el("div", { class: "home-drawing" }, this.canvas),
-        el("div", { class: "home-side" }, this.problemList, this.lists),
+        el("div", { class: "home-side" }, this.verdict.section, this.problemList, this.lists),
       ),
     );
   }
 
   private show(open: boolean): void {
     this.overlay.hidden = !open;
-    if (open) this.render();
+    if (open) {
+      this.render();
+      void this.verdict.loadRobots();
+    }
   }
 
   private setTool(tool: Tool): void {
@@ -603,6 +614,7 @@ export class HomeSection {
 
   private drawPlan(): void {
     const { home, draft } = this.drawing;
+    const checked = this.verdict.planColours(home);
     const points = [...home.rooms.flatMap((r) => r.corners), ...(draft ?? [])];
     const xs = [-1, 13, ...points.map((p) => p[0] - 1), ...points.map((p) => p[0] + 1)];
     const ys = [-1, 10, ...points.map((p) => p[1] - 1), ...points.map((p) => p[1] + 1)];
@@ -633,9 +645,10 @@ export class HomeSection {
       parts.push(svg("line", { x1: x0, y1: y, x2: x1, y2: y, class: "grid" }));
     }
     home.rooms.forEach((room, i) => {
+      const colour = checked?.rooms.get(room.name);
       const poly = svg("polygon", {
         points: room.corners.map((c) => c.join(",")).join(" "),
-        class: "room",
+        class: colour ? `room verdict-${colour}` : "room",
         "data-item": `room-${i}`,
       });
       parts.push(poly);
@@ -652,8 +665,31 @@ export class HomeSection {
         }),
       );
     }
+    for (const route of checked?.routes ?? []) {
+      const points = route.points.map((c) => c.join(",")).join(" ");
+      parts.push(svg("polyline", { points, class: `route verdict-${route.colour}` }));
+    }
     home.doorways.forEach((d, i) => {
-      parts.push(svg("circle", { cx: d.at[0], cy: d.at[1], r: 0.08, class: "door", "data-item": `door-${i}` }));
+      const colour = checked?.doors[i];
+      const near = colour ? nearestEdge(home, d.at) : null;
+      if (colour && near) {
+        // The doorway's opening along its wall, in the colour its width earns.
+        const { a, b } = near.edge;
+        const len = Math.hypot(b[0] - a[0], b[1] - a[1]) || 1;
+        const [ux, uy] = [((b[0] - a[0]) / len) * (d.width / 2), ((b[1] - a[1]) / len) * (d.width / 2)];
+        parts.push(
+          svg("line", {
+            x1: d.at[0] - ux,
+            y1: d.at[1] - uy,
+            x2: d.at[0] + ux,
+            y2: d.at[1] + uy,
+            class: `door-span verdict-${colour}`,
+            "stroke-width": home.thickness * 1.5,
+          }),
+        );
+      }
+      const cls = colour ? `door verdict-${colour}` : "door";
+      parts.push(svg("circle", { cx: d.at[0], cy: d.at[1], r: 0.08, class: cls, "data-item": `door-${i}` }));
     });
     home.furniture.forEach((f, i) => {
       const attrs = { class: "furniture", "data-item": `furniture-${i}` };

@@ -3,19 +3,37 @@ them and checks the home with the mobile manipulator (0.67 m wide): the second r
 red and unreachable, in the verdict's table and on the editor's own plan, where the
 doorway is red too; widened to 0.9 m and checked again, the second room is reachable.
 Then the same home for two robots side by side: one column each, with their summaries and
-floor plans. The drawing is the same after every check, and survives a reload."""
+floor plans. A narrower robot uploaded to the server passes the 0.6 m doorway where the
+mobile manipulator does not: the room that differs is marked in both columns. The
+drawing is the same after every check, and survives a reload."""
 
 from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
 
+import httpx
 import pytest
 from playwright.sync_api import Page, sync_playwright
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.browser]
 
 CHECK_TIMEOUT_MS = 90_000
+LITTLE_BASE = """<?xml version="1.0"?>
+<robot name="little_base">
+  <link name="base_link">
+    <inertial>
+      <mass value="10"/><inertia ixx="0.2" iyy="0.3" izz="0.4" ixy="0" ixz="0" iyz="0"/>
+    </inertial>
+    <collision><origin xyz="0 0 0.1"/><geometry><box size="0.5 0.4 0.2"/></geometry></collision>
+  </link>
+  <robotrial>
+    <drive type="skid_steer" max_speed="0.5" max_accel="1.0" max_yaw_rate="2.0"
+           wheel_separation="0.3" wheel_radius="0.05"/>
+  </robotrial>
+</robot>
+"""
+"""A 0.5 x 0.4 m box on wheels: narrower than the 0.6 m doorway."""
 
 
 @pytest.fixture(scope="module")
@@ -147,3 +165,29 @@ def test_two_robots_side_by_side_and_the_drawing_kept(page: Page, artifacts: Pat
     page.click("#home-open-editor")
     assert page.locator("#home-plan polygon.room").count() == 2
     assert page.locator("#door-0-width").input_value() == "0.9"
+
+
+def test_a_room_one_robot_reaches_and_the_other_not_is_marked(
+    server: str, page: Page, artifacts: Path
+) -> None:
+    answer = httpx.post(
+        server + "api/robots/upload",
+        files={"file": ("little_base.urdf", LITTLE_BASE.encode())},
+        timeout=60,
+    )
+    assert answer.status_code == 201, answer.text
+    page.click("#home-close")
+    page.click("#home-open-editor")  # the pickers list the robots the server has now
+    page.wait_for_selector("#verdict-compare option[value='little_base']", state="attached")
+    page.fill("#door-0-width", "0.6")
+    page.press("#door-0-width", "Enter")
+    page.select_option("#verdict-robot", "mobile_manipulator")
+    page.select_option("#verdict-compare", "little_base")
+    check(page)
+    assert page.locator("#verdict-differences").inner_text() == "Only Little base reaches Room 2."
+    for robot, colour in (("mobile_manipulator", "red"), ("little_base", "amber")):
+        row = room_row(page, robot, "Room 2")
+        assert row.get_attribute("data-colour") == colour
+        assert "differs" in row.get_attribute("class")
+        assert "differs" not in (room_row(page, robot, "Room 1").get_attribute("class") or "")
+    page.screenshot(path=artifacts / "web_verdict_differences.png")

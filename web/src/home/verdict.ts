@@ -90,12 +90,13 @@ function differences(a: RobotVerdict, b: RobotVerdict): { lines: string[]; rooms
     if (x.reachable && !y.reachable) onlyA.push(name);
     else if (!x.reachable && y.reachable) onlyB.push(name);
     else if (x.colour !== y.colour) {
-      lines.push(W.colourDiffers(name, a.robot, cellText(x.colour), b.robot, cellText(y.colour)));
+      const [na, nb] = [humanize(a.robot), humanize(b.robot)];
+      lines.push(W.colourDiffers(name, na, cellText(x.colour), nb, cellText(y.colour)));
     } else continue;
     rooms.add(name);
   }
-  if (onlyA.length) lines.unshift(W.onlyReaches(a.robot, onlyA));
-  if (onlyB.length) lines.unshift(W.onlyReaches(b.robot, onlyB));
+  if (onlyA.length) lines.unshift(W.onlyReaches(humanize(a.robot), onlyA));
+  if (onlyB.length) lines.unshift(W.onlyReaches(humanize(b.robot), onlyB));
   return { lines: lines.length ? lines : [W.same], rooms };
 }
 
@@ -265,7 +266,9 @@ export class VerdictView {
       const tr = el("tr", { "data-room": room, "data-colour": colour ?? "" });
       if (differ.has(room)) tr.classList.add("differs");
       for (const k of keys) {
-        const td = el("td", {}, cellText(row[k]));
+        const text = cellText(row[k]);
+        const td = el("td", {}, text);
+        if (text.length > 24) td.classList.add("long");
         if (k === "colour" && colour) td.classList.add(`verdict-${colour}`);
         tr.append(td);
       }

@@ -28,9 +28,9 @@ export const VERDICT_WORDS = {
     "amber: narrower than the turning circle), each room in its verdict, the way there as a line.",
   more: "More figures",
   same: "Both robots reach the same rooms, with the same colours.",
-  onlyReaches: (robot: string, rooms: string[]) => `Only the ${robot} reaches ${rooms.join(", ")}.`,
+  onlyReaches: (robot: string, rooms: string[]) => `Only ${robot} reaches ${rooms.join(", ")}.`,
   colourDiffers: (room: string, a: string, ca: string, b: string, cb: string) =>
-    `${room}: ${ca} for the ${a}, ${cb} for the ${b}.`,
+    `${room}: ${ca} for ${a}, ${cb} for ${b}.`,
   yes: "yes",
   no: "no",
   none: "–",

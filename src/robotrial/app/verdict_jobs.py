@@ -15,6 +15,7 @@ whatever else the engine reports. A richer engine slots in by changing that func
 from __future__ import annotations
 
 import base64
+import logging
 import math
 import threading
 import time
@@ -43,6 +44,8 @@ KEPT = 32
 """Finished jobs whose answers are kept for GET."""
 ROUTE_POINTS = 80
 """At most this many points of each room's route go to the page."""
+
+log = logging.getLogger(__name__)
 
 _PLOT_LOCK = threading.Lock()  # matplotlib's pyplot keeps global state: one figure at a time
 
@@ -274,6 +277,7 @@ class VerdictJobs:
         except (ModelError, ValueError, KeyError) as exc:
             self._fail(job, f"could not check {job.world.name!r}: {exc}")
         except Exception as exc:  # the job reports it; the server keeps running
+            log.exception("verdict job %s failed", job.id)
             self._fail(job, f"the check failed: {type(exc).__name__}: {exc}")
 
     def _fail(self, job: _Job, message: str) -> None:

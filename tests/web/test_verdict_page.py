@@ -4,8 +4,9 @@ red and unreachable, in the verdict's table and on the editor's own plan, where 
 doorway is red too; widened to 0.9 m and checked again, the second room is reachable.
 Then the same home for two robots side by side: one column each, with their summaries and
 floor plans. A narrower robot uploaded to the server passes the 0.6 m doorway where the
-mobile manipulator does not: the room that differs is marked in both columns. The
-drawing is the same after every check, and survives a reload."""
+mobile manipulator does not: the room that differs is marked in both columns. A doorway
+in an outer wall: the check says the home is not closed, in Room 2. The drawing is the
+same after every check, and survives a reload."""
 
 from __future__ import annotations
 
@@ -191,3 +192,18 @@ def test_a_room_one_robot_reaches_and_the_other_not_is_marked(
         assert "differs" in row.get_attribute("class")
         assert "differs" not in (room_row(page, robot, "Room 1").get_attribute("class") or "")
     page.screenshot(path=artifacts / "web_verdict_differences.png")
+
+
+def test_a_doorway_to_the_outside_is_named_and_the_drawing_kept(page: Page) -> None:
+    page.click("#home-tool-door")
+    page.fill("#home-door-width", "0.9")
+    click_at(page, 7.02, 1.5)  # in Room 2's east wall, the outer one
+    page.click("#home-tool-select")
+    page.click("#home-check")
+    page.wait_for_selector("#verdict[data-state='failed']", timeout=CHECK_TIMEOUT_MS)
+    message = page.inner_text("#verdict-what")
+    assert "the home is not closed" in message and "Room 2" in message, message
+    assert page.get_attribute("#verdict-what", "role") == "alert"
+    assert page.locator("#home-plan circle.door").count() == 2  # nothing lost
+    page.click("#home-undo")
+    assert page.locator("#home-plan circle.door").count() == 1

@@ -2,10 +2,12 @@
 with a home drawn in My home (one 4 x 4 m room, the robot's start at (1, 1.5)), the user
 places the robot, measures 0.80 m across a doorway on the synthetic floor (the length
 shows live while the second end is aimed) and marks it a doorway, then measures the
-synthetic counter's front edge 0.9 m up and marks it a counter. After leaving AR the
-editor holds a 0.80 m doorway in the room's west wall and a counter box 0.9 m high,
-after a reload too, and the downloaded World YAML has both. A second tap aimed at no
-surface says so and keeps the first end; two taps on one spot are refused."""
+synthetic counter's front edge 0.9 m up and marks it a counter; a doorway measured in
+the middle of the room, far from any wall, is listed with a message. After leaving AR
+the editor holds a 0.80 m doorway in the room's west wall and a counter box 0.9 m high
+(and names the listed doorway as off the walls until it is removed), after a reload
+too, and the downloaded World YAML has both. A second tap aimed at no surface says so
+and keeps the first end; two taps on one spot are refused."""
 
 from __future__ import annotations
 
@@ -184,15 +186,31 @@ def test_measure_a_doorway_and_a_counter_into_the_home(
     assert "counter added" in hint and "0.90 m high" in hint, hint
     page.screenshot(path=artifacts / "web_ar_measure_done.png")
 
+    # A doorway measured in the middle of the room: no wall there, so it is listed.
+    aim(page, [0.1, 0.0, -0.6], offset)
+    tap(page)
+    page.wait_for_function("window.robotrial.state().ar.measure.mode === 'second'")
+    aim(page, [0.9, 0.0, -0.6], offset)
+    tap(page)
+    page.wait_for_function("window.robotrial.state().ar.measure.mode === 'choose'")
+    page.click("#ar-measure-door")
+    assert "no wall is drawn there" in page.locator("#ar-hint").inner_text()
+
     page.click("#ar-exit")
     page.wait_for_function("window.robotrial.state().ar.session === 'available'", timeout=10_000)
 
-    # The home editor holds both, after a reload too (localStorage).
+    # The home editor holds them, after a reload too (localStorage); the doorway off the
+    # walls is named as a problem until it is removed.
+    page.click("#home-open-editor")
+    problem = page.locator("#home-problems").inner_text()
+    assert "Doorway 2 does not sit on a wall" in problem, problem
+    page.click("#door-1-remove")
     for reload in (False, True):
         if reload:
             page.reload()
             page.wait_for_function("window.robotrial && window.robotrial.state().ready")
-        page.click("#home-open-editor")
+            page.click("#home-open-editor")
+        assert page.locator("[id^=row-door-]").count() == 1
         assert float(page.locator("#door-0-width").input_value()) == pytest.approx(0.8, abs=0.01)
         assert float(page.locator("#door-0-x").input_value()) == 0.0
         assert float(page.locator("#furniture-0-height").input_value()) == pytest.approx(

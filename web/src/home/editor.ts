@@ -147,6 +147,12 @@ export class HomeSection {
     this.render();
   }
 
+  /** Change the home from outside the editor (AR measurements): one undoable change,
+   * kept in localStorage and shown when the editor opens. */
+  edit(next: (home: Home) => Home): void {
+    this.change((d) => ({ ...d, home: next(d.home) }));
+  }
+
   // --- building the editor -----------------------------------------------------------
 
   private button(id: string, label: string, action: () => void): HTMLButtonElement {

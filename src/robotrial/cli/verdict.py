@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
                     check_home(world, name, chores=chores, seeds=args.seeds, progress=tell)
                 )
     except (ModelError, KeyError, FileNotFoundError, ValueError) as exc:
-        return _fail(str(exc).strip("'\""))
+        return _fail(exc.args[0] if isinstance(exc, KeyError) and exc.args else exc)
     report = verdicts[0].to_dict() if len(verdicts) == 1 else compare(verdicts)
     if args.output:
         args.output.parent.mkdir(parents=True, exist_ok=True)

@@ -110,7 +110,7 @@ def run_chores(
             try:
                 r = run_carry(setup, seed)
             except (ValueError, KeyError, OSError) as exc:
-                v.refused = str(exc).strip("'\"")
+                v.refused = str(exc.args[0]) if isinstance(exc, KeyError) else str(exc)
                 break
             v.runs += 1
             v.outcomes.append(

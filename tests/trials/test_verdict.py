@@ -16,7 +16,14 @@ from robotrial.cli import main
 from robotrial.model import load_world
 from robotrial.nav.costmap import Footprint
 from robotrial.trials.reach import NO_ARM
-from robotrial.trials.verdict import VerdictError, check_base, check_home, compare, write_page
+from robotrial.trials.verdict import (
+    VerdictError,
+    check_base,
+    check_home,
+    compare,
+    drive_to_rooms,
+    write_page,
+)
 
 MOBILE_MANIPULATOR = Footprint(0.99, 0.67)
 
@@ -72,6 +79,18 @@ def test_a_doorway_narrower_than_the_base_leaves_the_second_room_unreachable(tmp
     assert second.reachable and second.colour == "amber"  # passes, cannot turn in the door
     assert 0.67 < second.passage < 1.0
     assert "2 of 2 rooms" in wide.summary
+
+
+@pytest.mark.parametrize("doorway", [0.6, 0.9])
+def test_driving_agrees_with_the_verdict_in_the_two_room_home(tmp_path, doorway) -> None:
+    """The navigation trial (AMCL in MuJoCo, Hybrid-A*, pure pursuit) from the dock to
+    each room's goal gets where the verdict says the base gets, and not elsewhere.
+    `robotrial bench verdict` does the same in the apartment."""
+    world = load_world(home(tmp_path, doorway))
+    verdict = check_base(world, MOBILE_MANIPULATOR)
+    rows = drive_to_rooms(verdict, world, "mobile_manipulator")
+    assert [r["driven"] for r in rows] == [True, doorway > 0.67], rows
+    assert all(r["agrees"] for r in rows)
 
 
 def test_every_apartment_room_is_reachable_for_the_footprint() -> None:

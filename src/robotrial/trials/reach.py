@@ -2,7 +2,8 @@
 
 Every piece of furniture (a world body of kind `furniture`, an upright box or cylinder)
 offers its top as a surface. Around it, the base parks: poses facing each side, and
-side-on to it, `STANDOFFS` m from its edge, every `PARK_SPACING` m along the side (round a
+side-on to it, its edge `STANDOFFS[0]` m from the furniture's (or the next of `STANDOFFS`
+where the base cannot park so near), every `PARK_SPACING` m along the side (round a
 cylinder, every `PARK_SPACING` m of its rim); a pose counts when the footprint is clear
 there and the base can get there from the dock (`nav/reachable.py`: the free component
 of the dock's (x, y, yaw) space). From each such pose the hand is asked to reach points
@@ -115,9 +116,19 @@ def surfaces(world: World) -> list[Surface]:
 
 
 def parking_poses(surface: Surface, footprint: Footprint) -> np.ndarray:
-    """(N, 3) base poses (x, y, yaw) around the surface: facing it and side-on (either
-    side), the base's edge each of `STANDOFFS` m from the furniture's."""
-    return np.vstack([_parking(surface, footprint, gap) for gap in STANDOFFS])
+    """(len(STANDOFFS), N, 3) base poses (x, y, yaw) around the surface: N places facing
+    it and side-on (either side), the base's edge at each of `STANDOFFS` m from the
+    furniture's (a place is used at its first standoff where the base can park)."""
+    return np.stack([_parking(surface, footprint, gap) for gap in STANDOFFS])
+
+
+def first_usable(poses: np.ndarray, reachable: ReachablePoses) -> np.ndarray:
+    """(M, 3): each place's pose at the first standoff the base can get to (places where
+    it can get to none are left out)."""
+    ok = reachable.contains(poses.reshape(-1, 3)).reshape(poses.shape[:2])
+    first = np.argmax(ok, axis=0)
+    keep = ok.any(axis=0)
+    return poses[first[keep], np.flatnonzero(keep)]
 
 
 def _parking(surface: Surface, footprint: Footprint, gap: float) -> np.ndarray:
@@ -305,7 +316,7 @@ class ArmReach:
         local = s.local_points()
         world_pts = s.to_world(local, HOVER)
         poses = parking_poses(s, self.footprint)
-        usable = poses[reachable.contains(poses)]
+        usable = first_usable(poses, reachable)
         heat = np.zeros(len(local), dtype=int)
         for base in usable:
             inv = np.linalg.inv(Pose.from_xy_yaw(*base).matrix())
@@ -319,7 +330,7 @@ class ArmReach:
         verdict = "yes" if share >= YES else "partly" if share > PARTLY else "no"
         reason = ""
         if share == 0.0:
-            if len(usable) == 0 and not reachable.clear(poses).any():
+            if len(usable) == 0 and not reachable.clear(poses.reshape(-1, 3)).any():
                 reason = "the base cannot park next to it (no clear pose)"
             elif len(usable) == 0:
                 reason = "the base cannot get next to it from the dock"

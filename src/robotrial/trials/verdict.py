@@ -60,6 +60,7 @@ class RoomVerdict:
     plan_ms: float
     reason: str = ""
     route: np.ndarray | None = field(default=None, repr=False)  # (N, 2) points
+    goal: tuple[float, float] | None = None  # the room's most open spot, planned to
 
 
 @dataclass
@@ -132,7 +133,7 @@ def check_base(
             route = planner.plan(costmap, dock, goal)  # points about a cell apart
         except (NoPath, StartBlocked) as exc:
             ms = 1e3 * (time.perf_counter() - t)
-            rooms.append(RoomVerdict(room.name, False, "red", None, None, ms, str(exc)))
+            rooms.append(RoomVerdict(room.name, False, "red", None, None, ms, str(exc), goal=goal))
             continue
         ms = 1e3 * (time.perf_counter() - t)
         cells = np.floor((route - origin) / res).astype(int)
@@ -142,7 +143,9 @@ def check_base(
         passage = float(2 * clearance[cells[:, 1], cells[:, 0]].min())
         length = float(np.sum(np.linalg.norm(np.diff(route, axis=0), axis=1)))
         colour = "green" if passage >= turning else "amber"
-        rooms.append(RoomVerdict(room.name, True, colour, passage, length, ms, route=route))
+        rooms.append(
+            RoomVerdict(room.name, True, colour, passage, length, ms, route=route, goal=goal)
+        )
     return BaseVerdict(
         world.name,
         robot,
@@ -171,6 +174,7 @@ class HomeVerdict:
     seconds: float
     timings: dict[str, float] = field(default_factory=dict)
     home: World | None = field(default=None, repr=False)
+    cpu_seconds: float = 0.0  # this process's CPU time: the wall time on an idle core
 
     @property
     def summary(self) -> str:
@@ -194,6 +198,7 @@ class HomeVerdict:
             "reach": self.reach.to_dict(),
             "chores": None if self.chores is None else [c.to_dict() for c in self.chores],
             "seconds": round(self.seconds, 3),
+            "cpu_seconds": round(self.cpu_seconds, 3),
             "timings": {k: round(v, 3) for k, v in self.timings.items()},
         }
 
@@ -222,7 +227,7 @@ def check_home(
     from robotrial.trials.nav import footprint_of_robot
     from robotrial.trials.reach import check_reach
 
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     tell = progress or (lambda fraction, what: None)
     wanted = [parse_chore(c) if isinstance(c, str) else (str(c[0]), str(c[1])) for c in chores]
     home = world if isinstance(world, World) else load_world(world)
@@ -276,7 +281,15 @@ def check_home(
         timings["chores"] = time.perf_counter() - t
     tell(1.0, "done")
     return HomeVerdict(
-        home.name, robot_name, base, reach, done, time.perf_counter() - t0, timings, home
+        home.name,
+        robot_name,
+        base,
+        reach,
+        done,
+        time.perf_counter() - t0,
+        timings,
+        home,
+        time.process_time() - cpu0,
     )
 
 
@@ -346,6 +359,46 @@ def compare(verdicts: Sequence[HomeVerdict]) -> dict[str, Any]:
     }
 
 
+def drive_to_rooms(
+    verdict: BaseVerdict, world: World, robot: str, seed: int = 0, speed: float = 0.5
+) -> list[dict[str, Any]]:
+    """The verdict checked by driving: the navigation trial (AMCL in MuJoCo, Hybrid-A*
+    and pure pursuit) from the dock to each room's goal, one run per room with `seed`.
+    Each row: the room, what the verdict said, whether the robot got there, and how."""
+    from robotrial.trials.nav import NavTrialSetup, run_once
+
+    rows = []
+    for room in verdict.rooms:
+        if room.goal is None:
+            raise VerdictError(f"room {room.room!r}: the verdict kept no goal to drive to")
+        route = room.route
+        yaw = 0.0
+        if route is not None and len(route) > 1:
+            yaw = float(np.arctan2(*(route[-1] - route[-2])[::-1]))
+        setup = NavTrialSetup(
+            world=world.name,
+            goal=(room.goal[0], room.goal[1], yaw),
+            start=verdict.dock,
+            robot=robot,
+            speed=speed,
+            planner="hybrid",
+            controller="pursuit",
+        )
+        run = run_once(setup, seed, world=world)
+        rows.append(
+            {
+                "room": room.room,
+                "verdict": room.colour,
+                "reachable": room.reachable,
+                "driven": run.success,
+                "agrees": run.success == room.reachable,
+                "time": round(run.time, 2),
+                "message": run.message,
+            }
+        )
+    return rows
+
+
 # the page and the pictures live beside the engine; their names are part of this API
 from robotrial.trials.verdict_page import pictures, to_html, write_page  # noqa: E402
 
@@ -357,6 +410,7 @@ __all__ = [
     "check_base",
     "check_home",
     "compare",
+    "drive_to_rooms",
     "pictures",
     "to_html",
     "write_page",

@@ -207,3 +207,23 @@ def test_two_robots_side_by_side_mark_where_they_differ(furnished, tmp_path) -> 
     assert pdf.read_bytes()[:4] == b"%PDF" and png.read_bytes()[:4] == b"\x89PNG"
     with pytest.raises(ValueError, match=r"\.pdf or \.png"):
         write_page(verdict, tmp_path / "v.svg")
+
+
+def test_cli_judges_two_robots_in_one_view(tmp_path, capsys) -> None:
+    out, page = tmp_path / "both.json", tmp_path / "both.html"
+    world = str(home(tmp_path, 0.9, furniture=True))
+    args = ["verdict", "--world", world, "--robot", "mobile_manipulator", "--robot", "husky"]
+    assert (
+        main([*args, "-o", str(out), "--html", str(page), "--page", str(tmp_path / "p.pdf")]) == 0
+    )
+    report = json.loads(out.read_text())
+    assert report["robots"] == ["mobile_manipulator", "husky"]
+    assert [v["robot"] for v in report["verdicts"]] == report["robots"]
+    differ = {r["item"] for r in report["rows"] if r["differ"]}
+    assert {"table", "cupboard"} <= differ and "second" not in differ
+    text = page.read_text()
+    assert text.count("<div class=col>") == 2 and "<tr class=differ><th>table</th>" in text
+    assert (tmp_path / "p.pdf").read_bytes()[:4] == b"%PDF"
+    printed = "".join(capsys.readouterr()).replace("\n", " ")
+    assert "mobile_manipulator: fits: 2 of 2 rooms" in printed and "husky: fits" in printed
+    assert main([*args, "--robot", "desk_arm"]) == 2

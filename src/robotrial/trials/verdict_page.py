@@ -3,9 +3,10 @@
 `pictures(verdict)` draws the floor plan (rooms in their colours, the routes from the
 dock, each furniture top as a heat map of how many parked poses reach each point), the
 reach maps surface by surface, and the height sweep. `to_html(verdicts)` writes one page:
-the summary line on top, then a column per robot with its tables and pictures; with two
-robots the rows that differ are highlighted. `write_page(verdicts, path)` puts the
-summary and the floor plans on one A4 sheet, as PDF or PNG (matplotlib writes both).
+the summary line on top, then a column per robot with its pictures and, below them, its
+tables; with two robots a table of both comes first, the rows that differ highlighted.
+`write_page(verdicts, path)` puts the summary and the floor plans on one A4 sheet, as PDF
+or PNG (matplotlib writes both).
 """
 
 from __future__ import annotations
@@ -288,10 +289,10 @@ def to_html(
     columns = "".join(
         f"<div class=col><h2>{html.escape(v.robot)}</h2>"
         + (f"<p><b>{html.escape(v.summary)}</b></p>" if len(vs) > 1 else "")
-        + _tables(v)
         + "".join(
-            _img(p[k], k.replace("_", " ")) for k in ("floor_plan", "reach", "heights") if k in p
+            _img(p[k], k.replace("_", " ")) for k in ("floor_plan", "heights", "reach") if k in p
         )
+        + _tables(v)
         + "</div>"
         for v, p in zip(vs, pics, strict=True)
     )

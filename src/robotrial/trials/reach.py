@@ -384,14 +384,16 @@ def check_reach(
     world: World,
     robot: RobotModel,
     footprint: Footprint,
-    reachable: ReachablePoses,
+    reachable: ReachablePoses | None,
     progress: Callable[[float, str], None] | None = None,
 ) -> ReachVerdict:
-    """The arm part of the verdict (see the module doc); a robot without an arm gets
-    `NO_ARM`, not an error."""
+    """The arm part of the verdict (see the module doc) from the base poses `reachable`
+    from the dock; a robot without an arm gets `NO_ARM`, not an error."""
     t0 = time.perf_counter()
     if not arm_joints(robot):
         return ReachVerdict(False, NO_ARM)
+    if reachable is None:
+        raise ValueError(f"robot {robot.name!r} has an arm: the reach needs its parking poses")
     arm = ArmReach(robot, footprint)
     tops = surfaces(world)
     out = []

@@ -225,7 +225,7 @@ def check_home(
     from robotrial.nav.reachable import reachable_poses
     from robotrial.trials.chores import parse_chore, run_chores
     from robotrial.trials.nav import footprint_of_robot
-    from robotrial.trials.reach import check_reach
+    from robotrial.trials.reach import arm_joints, check_reach
 
     t0, cpu0 = time.perf_counter(), time.process_time()
     tell = progress or (lambda fraction, what: None)
@@ -251,14 +251,16 @@ def check_home(
     grid = world_map(home)
     base = check_base(home, footprint, robot_name, grid)
     timings["base"] = time.perf_counter() - t
-    tell(share[1], "parking poses")
-    t = time.perf_counter()
-    costmap = Costmap(grid.occupied, tuple(grid.origin), grid.resolution, footprint)
-    try:
-        reachable = reachable_poses(costmap, base.dock)
-    except ValueError as exc:
-        raise VerdictError(f"{robot_name!r} in {home.name!r}: at the dock, {exc}") from None
-    timings["parking"] = time.perf_counter() - t
+    reachable = None
+    if arm_joints(robot):  # where the base can park matters only to an arm
+        tell(share[1], "parking poses")
+        t = time.perf_counter()
+        costmap = Costmap(grid.occupied, tuple(grid.origin), grid.resolution, footprint)
+        try:
+            reachable = reachable_poses(costmap, base.dock)
+        except ValueError as exc:
+            raise VerdictError(f"{robot_name!r} in {home.name!r}: at the dock, {exc}") from None
+        timings["parking"] = time.perf_counter() - t
     t = time.perf_counter()
     reach = check_reach(
         home,

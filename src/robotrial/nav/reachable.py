@@ -65,10 +65,13 @@ def reachable_poses(
     rows, cols = costmap.shape
     ys, xs = np.mgrid[0:rows, 0:cols]
     centres = costmap.cell_to_world(np.stack([ys, xs], axis=-1))
-    poses = np.empty((YAW_BINS, rows, cols, 3))
+    poses = np.empty((rows, cols, 3))
     poses[..., :2] = centres
-    poses[..., 2] = (2 * np.pi / YAW_BINS * np.arange(YAW_BINS))[:, None, None]
-    free = ~footprint_hits(costmap, poses, planner.config.margin, planner.blocked(costmap))
+    blocked = planner.blocked(costmap)
+    free = np.empty((YAW_BINS, rows, cols), dtype=bool)
+    for k in range(YAW_BINS):  # a bin at a time: not three floats for every pose at once
+        poses[..., 2] = 2 * np.pi / YAW_BINS * k
+        free[k] = ~footprint_hits(costmap, poses, planner.config.margin, blocked)
     labels, n = ndimage.label(free)
     # the yaw wraps: a component through the last bin continues in the first
     both = (labels[0] > 0) & (labels[-1] > 0)

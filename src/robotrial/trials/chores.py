@@ -93,7 +93,7 @@ def run_chores(
     progress: Callable[[float, str], None] | None = None,
 ) -> list[ChoreVerdict]:
     """Each chore as `seeds` carry trials (seeds 0 .. seeds - 1)."""
-    from robotrial.trials.carry import CarrySetup, run_carry
+    from robotrial.trials.carry import PHASES, CarrySetup, run_carry
 
     if seeds < 1:
         raise ValueError(f"chores: seeds must be at least 1, got {seeds}")
@@ -104,11 +104,18 @@ def run_chores(
         t0 = time.perf_counter()
         times = []
         for seed in range(seeds):
-            if progress is not None:
-                progress((i * seeds + seed) / total, f"chore {obj}:{room}, seed {seed}")
             setup = CarrySetup(world=_world_ref(world), object=obj, to=room, robot=robot)
+            done, label = i * seeds + seed, f"chore {obj}:{room}, seed {seed}"
+
+            def phase(name: str, _sim_time: float, done: int = done, label: str = label) -> None:
+                if progress is not None:
+                    k = PHASES.index(name) if name in PHASES else 0
+                    progress((done + (k + 0.5) / len(PHASES)) / total, f"{label}: {name}")
+
+            if progress is not None:
+                progress(done / total, label)
             try:
-                r = run_carry(setup, seed)
+                r = run_carry(setup, seed, None, phase)
             except (ValueError, KeyError, OSError) as exc:
                 v.refused = str(exc.args[0]) if isinstance(exc, KeyError) else str(exc)
                 break

@@ -311,8 +311,13 @@ tr.differ{{background:#fff3c4}} @media print{{.col{{break-inside:avoid}}}}</styl
 
 
 def write_page(verdicts: HomeVerdict | Sequence[HomeVerdict], path: Path) -> Path:
-    """The summary and each robot's floor plan with its reach maps on one A4 sheet, as
-    PDF or PNG by the file's suffix."""
+    """One sheet (A4 tall; wider for two robots), as PDF or PNG by the file's suffix: the
+    summary on top, each robot's floor plan with its reach heat maps and its height sweep,
+    and the figures row by row (rows where two robots differ highlighted)."""
+    import textwrap
+
+    from robotrial.trials.verdict import compare
+
     path = Path(path)
     fmt = path.suffix.lower().lstrip(".")
     if fmt not in ("pdf", "png"):
@@ -320,22 +325,41 @@ def write_page(verdicts: HomeVerdict | Sequence[HomeVerdict], path: Path) -> Pat
     vs = [verdicts] if not isinstance(verdicts, Sequence) else list(verdicts)
     plt = _plt()
     n = len(vs)
-    fig = plt.figure(figsize=(8.27 * (1 if n == 1 else 1.5), 11.69))
-    grid = fig.add_gridspec(3, n, height_ratios=[0.5, 2.2, 1.0])
-    lines = [f"{v.robot}: {v.summary}" for v in vs]
-    text = fig.add_subplot(grid[0, :])
-    text.set_axis_off()
-    import textwrap
-
-    wrapped = "\n".join(textwrap.fill(line, 110 if n == 1 else 160) for line in lines)
-    text.text(0.0, 1.0, wrapped, va="top", ha="left", fontsize=9, family="sans-serif")
+    fig = plt.figure(figsize=(8.27 * (1 if n == 1 else 1.6), 11.69))
+    width = 100 if n == 1 else 165
+    lines = [textwrap.fill(f"{v.robot}: {v.summary}", width) for v in vs]
+    fig.text(0.04, 0.985, "\n".join(lines), va="top", ha="left", fontsize=9, weight="bold")
+    grid = fig.add_gridspec(
+        3, n, height_ratios=[2.1, 0.9, 1.9], top=0.9, bottom=0.02, hspace=0.3, wspace=0.25
+    )
     for i, v in enumerate(vs):
-        ax = fig.add_subplot(grid[1, i])
+        ax = fig.add_subplot(grid[0, i])
         draw_floor(ax, v)
         ax.set_title(f"{v.robot} in {v.world}", fontsize=9)
-        draw_heights(fig.add_subplot(grid[2, i]), v)
-    fig.tight_layout()
+        draw_heights(fig.add_subplot(grid[1, i]), v)
+    rows = [r for r in compare(vs)["rows"] if r["part"] != "summary"]
+    table_ax = fig.add_subplot(grid[2, :])
+    table_ax.set_axis_off()
+    if rows:
+        cells = [[r["part"], r["item"], *(_short(x) for x in r["values"])] for r in rows]
+        table = table_ax.table(
+            cellText=cells,
+            colLabels=["part", "item", *(v.robot for v in vs)],
+            loc="upper center",
+            cellLoc="left",
+        )
+        table.auto_set_font_size(False)
+        table.set_fontsize(7)
+        table.auto_set_column_width(list(range(len(vs) + 2)))
+        for i, r in enumerate(rows, start=1):
+            if r["differ"] and n > 1:
+                for j in range(len(vs) + 2):
+                    table[i, j].set_facecolor("#fff3c4")
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, format=fmt, dpi=120)
     plt.close(fig)
     return path
+
+
+def _short(text: str, limit: int = 60) -> str:
+    return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -38,6 +38,10 @@ def test_chores_the_trial_cannot_do_are_reported_not_raised() -> None:
     for c in done:
         assert c.runs == 0 and not c.done and c.to_dict()["success_rate"] == 0
     assert told[0] == "chore teapot:bedroom, seed 0"
+    (husky,) = run_chores(apartment, "husky", [("cup", "bedroom")])
+    assert husky.runs == 0 and husky.refused == (
+        "robot 'husky' has no LiDAR to map the home, no arm and no gripper: it cannot do chores"
+    )
     with pytest.raises(ValueError, match="at least 1"):
         run_chores(apartment, "mobile_manipulator", [("cup", "bedroom")], seeds=0)
 
@@ -62,12 +66,7 @@ def test_a_home_without_a_mapping_route_refuses_chores_in_the_verdict(tmp_path, 
     world = tmp_path / "one_room.yaml"
     world.write_text(ONE_ROOM)
     world = str(world)
-    assert (
-        main(
-            ["verdict", "--world", world, "--robot", "husky", "--chore", "x:first", "-o", str(out)]
-        )
-        == 0
-    )
+    assert main(["verdict", "--world", world, "--chore", "x:first", "-o", str(out)]) == 0
     report = json.loads(out.read_text())
     (chore,) = report["chores"]
     assert chore["chore"] == "x:first" and "no exploration route" in chore["refused"]

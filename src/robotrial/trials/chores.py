@@ -85,6 +85,28 @@ def _world_ref(world: World) -> str:
     return world.source or world.name
 
 
+def _unable(robot: str) -> str:
+    """Why this robot cannot do any chore (the carry trial maps the home with a LiDAR and
+    carries with an arm and a gripper), or ""."""
+    from robotrial.model import load_robot
+    from robotrial.trials.reach import arm_joints
+
+    model = load_robot(robot)
+    missing = [
+        what
+        for what, has in (
+            ("LiDAR to map the home", any(s.type == "lidar" for s in model.sensors)),
+            ("arm", bool(arm_joints(model))),
+            ("gripper", bool((model.metadata or {}).get("gripper"))),
+        )
+        if not has
+    ]
+    if not missing:
+        return ""
+    listed = ", no ".join(missing[:-1]) + (" and no " if len(missing) > 1 else "") + missing[-1]
+    return f"robot {robot!r} has no {listed}: it cannot do chores"
+
+
 def run_chores(
     world: World,
     robot: str,
@@ -97,13 +119,14 @@ def run_chores(
 
     if seeds < 1:
         raise ValueError(f"chores: seeds must be at least 1, got {seeds}")
+    unable = _unable(robot)
     out = []
     total = max(1, len(chores) * seeds)
     for i, (obj, room) in enumerate(chores):
         v = ChoreVerdict(obj, room)
         t0 = time.perf_counter()
         times = []
-        for seed in range(seeds):
+        for seed in range(seeds if not unable else 0):
             setup = CarrySetup(world=_world_ref(world), object=obj, to=room, robot=robot)
             done, label = i * seeds + seed, f"chore {obj}:{room}, seed {seed}"
 
@@ -134,6 +157,7 @@ def run_chores(
                 times.append(r.sim_time)
             else:
                 v.failed_phases[r.failed_phase] = v.failed_phases.get(r.failed_phase, 0) + 1
+        v.refused = v.refused or unable
         v.mean_time = float(np.mean(times)) if times else None
         v.wall_time = time.perf_counter() - t0
         out.append(v)

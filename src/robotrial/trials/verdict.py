@@ -230,6 +230,8 @@ def check_home(
     t0, cpu0 = time.perf_counter(), time.process_time()
     tell = progress or (lambda fraction, what: None)
     wanted = [parse_chore(c) if isinstance(c, str) else (str(c[0]), str(c[1])) for c in chores]
+    if wanted and seeds < 1:
+        raise VerdictError(f"chores: seeds must be at least 1, got {seeds}")
     home = world if isinstance(world, World) else load_world(world)
     if not home.rooms:
         raise VerdictError(f"world {home.name!r} names no rooms: give `rooms` in its YAML")

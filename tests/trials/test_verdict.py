@@ -22,6 +22,7 @@ from robotrial.trials.verdict import (
     check_home,
     compare,
     drive_to_rooms,
+    pictures,
     write_page,
 )
 
@@ -200,6 +201,9 @@ def test_two_robots_side_by_side_mark_where_they_differ(furnished, tmp_path) -> 
     assert rows[("reach", "table")]["differ"]
     assert rows[("reach", "table")]["values"][1] == NO_ARM
     assert len(table["verdicts"]) == 2
+    drawn, plain = pictures(verdict), pictures(husky)
+    assert set(drawn) == {"floor_plan", "reach", "heights"} and set(plain) == {"floor_plan"}
+    assert all(png[:4] == b"\x89PNG" for png in [*drawn.values(), *plain.values()])
     pdf, png = (
         write_page([verdict, husky], tmp_path / "v.pdf"),
         write_page(verdict, tmp_path / "v.png"),

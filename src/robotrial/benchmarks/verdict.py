@@ -6,8 +6,9 @@ poses, reach), and the process's CPU time (what the wall time would be on an idl
 the verdict runs on one), against the 10 s target. Then the verdict is checked by driving: the
 navigation trial (AMCL in MuJoCo, Hybrid-A*, pure pursuit) from the dock to each room's
 goal, `--runs` seeds each; every room the verdict calls reachable must be reached and
-every other must not. With `--chore OBJECT:ROOM`, the chores run too (`--seeds` each),
-timed apart.
+every other must not. In the apartment, the same is done with the study's doorway
+narrowed to 0.6 m (the study must then be red, and not reached). With `--chore
+OBJECT:ROOM`, the chores run too (`--seeds` each), timed apart.
 """
 
 from __future__ import annotations
@@ -36,6 +37,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seeds", type=int, default=3, help="runs per chore")
     parser.add_argument("-o", "--output", metavar="JSON", help="also write the results here")
     add_json_flag(parser)
+
+
+def narrowed_apartment(apartment):
+    """The apartment with doorway D2 (corridor to study) narrowed from 1.0 m to 0.6 m."""
+    from robotrial.model.world import load_world_text
+
+    text = Path(apartment.source).read_text()
+    wall = "{name: corridor_north_c, from: [7.0, 5.4]"
+    if wall not in text:
+        raise ValueError(f"{apartment.source}: no wall {wall!r} to move")
+    text = text.replace(wall, "{name: corridor_north_c, from: [6.6, 5.4]")
+    text = text.replace("name: apartment\n", "name: apartment_narrow_study\n")
+    return load_world_text(text, source="apartment_narrow_study.yaml")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -71,8 +85,18 @@ def run(args: argparse.Namespace) -> int:
                 except ValueError as exc:  # e.g. no LiDAR: the navigation trial needs one
                     not_driven = str(exc)
                     break
-                drives.extend({**row, "seed": seed} for row in rows)
+                drives.extend({**row, "seed": seed, "world": world.name} for row in rows)
                 advance()
+        if world.name == "apartment" and not not_driven:
+            # the same home with the study's doorway narrowed to 0.6 m: the study turns red,
+            # and driving there must fail
+            narrow = narrowed_apartment(world)
+            closed = check_home(narrow, robot).base
+            for seed in range(args.runs):
+                drives.extend(
+                    {**row, "seed": seed, "world": narrow.name}
+                    for row in drive_to_rooms(closed, narrow, robot, seed=seed)
+                )
         agree &= all(d["agrees"] for d in drives)
         parts = {k: float(np.median([t[k] for t in timings])) for k in timings[0]}
         entry = {
@@ -127,9 +151,18 @@ def run(args: argparse.Namespace) -> int:
     )
     print_table(
         "rooms: the verdict against driving (navigation trial, Hybrid-A* + pure pursuit)",
-        ["robot", "room", "verdict", "driven", "agrees", "time (s)", "message"],
+        ["robot", "world", "room", "verdict", "driven", "agrees", "time (s)", "message"],
         [
-            [r, d["room"], d["verdict"], d["driven"], d["agrees"], d["time"], d["message"]]
+            [
+                r,
+                d["world"],
+                d["room"],
+                d["verdict"],
+                d["driven"],
+                d["agrees"],
+                d["time"],
+                d["message"][:40],
+            ]
             for r, e in results["robots"].items()
             for d in e["drives"]
         ],

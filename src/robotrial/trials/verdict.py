@@ -353,7 +353,13 @@ def compare(verdicts: Sequence[HomeVerdict]) -> dict[str, Any]:
             elif c.refused:
                 values.append(f"refused: {c.refused}")
             else:
-                values.append(f"{c.successes} of {c.runs}")
+                text = f"{c.successes} of {c.runs}"
+                if c.mean_time is not None:
+                    text += f", {c.mean_time:.0f} s"
+                if c.failed_phases:
+                    failed = ", ".join(f"{p} {n}" for p, n in c.failed_phases.items())
+                    text += f"; failed in {failed}"
+                values.append(text)
         row("chores", name, values)
     return {
         "robots": [v.robot for v in verdicts],

@@ -91,10 +91,11 @@ export class RobotrialApp {
     this.connection.onChange((state) => taskPanel.showConnection(state));
     this.live = new LiveView(this.viewer, this.connection, (v) => this.setJoints(v));
     this.panel.mount(this.live.section);
-    this.ar = new ArView(this.viewer, () => this.robot?.object.parent ?? null);
+    const home = new HomeSection((entry) => this.addWorld(entry));
+    this.ar = new ArView(this.viewer, () => this.robot?.object.parent ?? null, (next) => home.edit(next));
     this.panel.mount(this.ar.section);
     this.panel.mount(new UploadSection((answer) => this.addUploadedRobot(answer)).section);
-    this.panel.mount(new HomeSection((entry) => this.addWorld(entry)).section);
+    this.panel.mount(home.section);
   }
 
   /** The PlanTask service for `robot`: the server's default robot answers on

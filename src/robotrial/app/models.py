@@ -9,7 +9,9 @@ says so (`json_schema_serialization_defaults_required`).
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
 
 from robotrial.app.catalog import Kind
 
@@ -127,11 +129,62 @@ class MjcfBundle(ApiModel):
     """What the MJCF writer had to change."""
 
 
+class VerdictRequest(ApiModel):
+    """A home to check (POST /api/verdict): the world and one or two robots."""
+
+    world: str
+    """A world's name on this server, or a World YAML (docs/worlds.md), such as the home
+    drawn in the page."""
+    robots: list[str] = Field(min_length=1, max_length=2)
+    """One robot, or two to compare side by side."""
+
+
+class RobotVerdict(ApiModel):
+    """One robot's verdict on a home (docs/verdict.md)."""
+
+    robot: str
+    summary: str
+    """One line: how many rooms it reaches, which not, which are tight."""
+    pictures: dict[str, str]
+    """Title -> a PNG as a data: URL (the floor plan with the routes in their colours)."""
+    rooms: list[dict[str, Any]]
+    """One row per room: `room`, `reachable`, `colour` (green, amber, red) and the
+    engine's figures for it; `route`, when given, is the way there as [x, y] points (m)."""
+    footprint: tuple[float, float] | None = None
+    """The base's length and width (m), when the engine reports them."""
+    turning_diameter: float | None = None
+    """The circle the base needs to turn on the spot (m), when the engine reports it."""
+    details: dict[str, Any] = {}
+    """Whatever else the engine reports, by name."""
+
+
+class VerdictJob(ApiModel):
+    """A check of a home running on the server (GET /api/verdict/{id})."""
+
+    id: str
+    state: Literal["queued", "running", "done", "failed"]
+    fraction: float
+    """How much is done, from 0 to 1."""
+    what: str
+    """What the server is doing now, in words."""
+    world: str
+    """The name of the world checked."""
+    robots: list[str]
+    results: list[RobotVerdict]
+    """One per robot, in the order asked for, as each is finished."""
+    error: str | None = None
+    """Why the check failed (state "failed"), naming what and where; else null."""
+    seconds: float
+    """Time since the job was taken (s), until it finished."""
+
+
 API_MODELS: tuple[type[ApiModel], ...] = (
     Config,
     RobotList,
     WorldList,
     UploadAnswer,
     MjcfBundle,
+    VerdictRequest,
+    VerdictJob,
 )
 """What the routes answer with; the models they hold come with them."""

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
+from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
 from starlette.datastructures import FormData
 from starlette.datastructures import UploadFile as StarletteUpload
@@ -38,6 +39,8 @@ from robotrial.app.models import (
     RobotList,
     SpawnPose,
     UploadAnswer,
+    VerdictJob,
+    VerdictRequest,
     WorldEntry,
     WorldList,
 )
@@ -48,6 +51,7 @@ from robotrial.app.uploads import (
     stored_name,
     too_large_message,
 )
+from robotrial.app.verdict_jobs import VerdictJobs, VerdictRefused
 from robotrial.geometry import Pose
 from robotrial.model import library
 from robotrial.model.robot import ModelError
@@ -55,7 +59,9 @@ from robotrial.model.world import load_world_text
 from robotrial.ros.rosbridge.access import Access
 
 MAX_WORLD_BYTES = 1024 * 1024
-"""The largest world YAML POST /api/worlds takes."""
+"""The largest world YAML POST /api/worlds (and /api/verdict) takes."""
+JSON_SLACK = 256 * 1024
+"""Room for the JSON around a world YAML and its escapes in POST /api/verdict."""
 
 if TYPE_CHECKING:
     from robotrial.model.robot import RobotModel
@@ -173,6 +179,7 @@ def create_app(
                 if entry["kind"] == "arm":
                     planning.add_robot(entry["name"])
     planner_state = {"status": None if planning is None else "compiling"}
+    verdicts = VerdictJobs(catalog)
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
@@ -188,6 +195,7 @@ def create_app(
         try:
             yield
         finally:
+            verdicts.close()
             if app.state.foxglove is not None:
                 app.state.foxglove.destroy()
             if platform is not None:
@@ -315,14 +323,9 @@ def create_app(
         refused = _refusal(access, request)
         if refused is not None:
             return refused
-        body = bytearray()
-        async for chunk in request.stream():
-            body += chunk
-            if len(body) > MAX_WORLD_BYTES:
-                return JSONResponse(
-                    {"detail": f"a world YAML is at most {MAX_WORLD_BYTES // 1024} kB"},
-                    status_code=413,
-                )
+        body = await _bounded_body(request, MAX_WORLD_BYTES)
+        if body is None:
+            return _world_too_large()
         try:
             world = load_world_text(body.decode("utf-8", errors="replace"), "world.yaml")
         except ModelError as exc:
@@ -330,6 +333,63 @@ def create_app(
         name = catalog.add_world(world)
         entry = next(w for w in catalog.worlds() if w["name"] == name)
         return JSONResponse(WorldEntry(**entry).model_dump(), status_code=201)
+
+    @app.post(
+        "/api/verdict",
+        response_model=VerdictJob,
+        status_code=202,
+        tags=["verdict"],
+        openapi_extra={
+            "requestBody": {
+                "required": True,
+                "content": {"application/json": {"schema": VerdictRequest.model_json_schema()}},
+            }
+        },
+        responses={
+            401: {"description": "the server needs a token (Authorization: Bearer TOKEN)"},
+            403: {"description": "sent from a web page of another site"},
+            413: {"description": "larger than the server takes"},
+            422: {"description": "unknown robot, a robot without a base, broken world YAML"},
+            429: {"description": "too many checks already waiting"},
+        },
+    )
+    async def start_verdict(request: Request) -> Response:
+        """Check a home for one or two robots (docs/verdict.md). The check runs in the
+        background: poll GET /api/verdict/{id} with the id answered here."""
+        refused = _refusal(access, request)
+        if refused is not None:
+            return refused
+        body = await _bounded_body(request, MAX_WORLD_BYTES + JSON_SLACK)
+        if body is None:
+            return _world_too_large()
+        try:
+            asked = VerdictRequest.model_validate_json(bytes(body))
+        except ValidationError as exc:
+            return JSONResponse({"detail": _invalid(exc)}, status_code=422)
+        if len(asked.world.encode("utf-8")) > MAX_WORLD_BYTES:
+            return _world_too_large()
+        try:
+            job = await run_in_threadpool(verdicts.start, asked.world, asked.robots)
+        except VerdictRefused as exc:
+            return JSONResponse({"detail": str(exc)}, status_code=exc.status)
+        return JSONResponse(job.model_dump(), status_code=202)
+
+    @app.get(
+        "/api/verdict/{job_id}",
+        response_model=VerdictJob,
+        tags=["verdict"],
+        responses={404: {"description": "no such job (finished ones are kept a while)"}},
+    )
+    def verdict_job(job_id: str) -> Response:
+        """A check's progress (fraction, what) and, once done, each robot's verdict; or
+        the error that stopped it."""
+        job = verdicts.get(job_id)
+        if job is None:
+            return JSONResponse(
+                {"detail": f"no verdict job {job_id!r} on this server (it may have restarted)"},
+                status_code=404,
+            )
+        return JSONResponse(job.model_dump())
 
     @app.get(
         "/api/robots/{name}.glb",
@@ -386,6 +446,29 @@ def _start_foxglove(bus: Bus, access: Access, port: int, catalog: Catalog) -> An
     except OSError as exc:
         log.error("Foxglove: %s", exc)
         return None
+
+
+async def _bounded_body(request: Request, limit: int) -> bytearray | None:
+    """The request's body, or None as soon as it passes `limit` bytes."""
+    body = bytearray()
+    async for chunk in request.stream():
+        body += chunk
+        if len(body) > limit:
+            return None
+    return body
+
+
+def _world_too_large() -> JSONResponse:
+    return JSONResponse(
+        {"detail": f"a world YAML is at most {MAX_WORLD_BYTES // 1024} kB"}, status_code=413
+    )
+
+
+def _invalid(exc: ValidationError) -> str:
+    """A request body's mistakes in one line, each with the field it is in."""
+    return "; ".join(
+        f"{'.'.join(str(p) for p in e['loc']) or 'body'}: {e['msg']}" for e in exc.errors()
+    )
 
 
 async def _bounded_form(request: Request, limit: int) -> FormData:

@@ -36,9 +36,12 @@ def schema() -> dict[str, dict[str, Any]]:
     return top["$defs"]
 
 
-def ts_type(node: dict[str, Any]) -> str:
-    """The TypeScript type of one JSON schema node. Raises ValueError for a construct
-    this generator does not know, rather than writing a type that says less."""
+def ts_type(node: dict[str, Any] | bool) -> str:
+    """The TypeScript type of one JSON schema node (`true` or `{}`: any value). Raises
+    ValueError for a construct this generator does not know, rather than writing a type
+    that says less."""
+    if node is True or not node:
+        return "unknown"
     if "$ref" in node:
         ref = node["$ref"]
         if not ref.startswith(REF_PREFIX):
@@ -66,8 +69,6 @@ def ts_type(node: dict[str, Any]) -> str:
         return f"({item})[]" if " | " in item else f"{item}[]"
     if kind == "object" and "properties" not in node:
         return f"Record<string, {ts_type(node.get('additionalProperties', {}))}>"
-    if not node:
-        return "unknown"
     raise ValueError(f"no TypeScript type for the schema {json.dumps(node)}")
 
 

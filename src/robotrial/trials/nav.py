@@ -28,6 +28,7 @@ import numpy as np
 from robotrial.geometry import Pose
 from robotrial.model import load_robot, load_world
 from robotrial.model.gridmap import NavMap, file_map, world_map
+from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
 from robotrial.nav.amcl import AMCL, AMCLConfig, compose
 from robotrial.nav.costmap import Footprint
@@ -134,8 +135,9 @@ def footprint_of(sim: Simulation) -> Footprint:
     return Footprint(*base_extent(sim))
 
 
-def footprint_of_robot(robot: str, world: World | str = "room_a") -> Footprint:
-    """The footprint of a robot (built-in name or file), taken in a simulation of it."""
+def footprint_of_robot(robot: RobotModel | str, world: World | str = "room_a") -> Footprint:
+    """The footprint of a robot (a model, a built-in name or a file), taken in a
+    simulation of it."""
     sim = Simulation.create(world, robot, options=SimOptions(cameras=False))
     try:
         return footprint_of(sim)

@@ -3,8 +3,9 @@
 // reticle marks the spot under the centre of the view, the robot stands there at true
 // scale as a preview, and a tap (the session's `select`) fixes it. Everything the 3D
 // view holds in robot coordinates (obstacles, the object, the goal, the path) comes
-// along, so the task runs in AR with the same buttons. Without AR the page says so and
-// keeps the 3D view.
+// along, so the task runs in AR with the same buttons. Once placed, Measure (./measure.ts)
+// takes lengths in the room for the home drawn in My home. Without AR the page says so
+// and keeps the 3D view.
 
 import {
   Matrix4,
@@ -20,6 +21,7 @@ import type { Viewer } from "../scene";
 import type { Quat, Vec3 } from "../types";
 import "./ar.css";
 import { el } from "../ui/dom";
+import { type HomeEdit, Measure, type MeasureState } from "./measure";
 
 export type ArSessionState = "unsupported" | "available" | "active" | "placed";
 
@@ -40,6 +42,8 @@ export interface ArState {
   placement: ArPlacement | null;
   /** Why AR is unavailable or failed, or null. */
   error: string | null;
+  /** The Measure mode (./measure.ts): its ends, aim, length and last message. */
+  measure: MeasureState;
 }
 
 /** Robot coordinates (z up) to WebXR coordinates (y up): -90 degrees about x. */
@@ -64,11 +68,14 @@ export class ArView {
   private readonly note = el("p", { class: "hint", id: "ar-status" }, "Checking for AR…");
   private readonly overlay = el("div", { class: "ar-overlay", id: "ar-overlay", hidden: "" });
   private readonly overlayText = el("p", { id: "ar-hint" });
+  private readonly measure: Measure;
 
-  /** `robotHolder()`: the group that places the robot in the 3D view (its spawn pose). */
+  /** `robotHolder()`: the group that places the robot in the 3D view (its spawn pose);
+   * `editHome`: changes the home drawn in My home (measurements join it). */
   constructor(
     private readonly viewer: Viewer,
     private readonly robotHolder: () => Object3D | null,
+    editHome: HomeEdit | null = null,
   ) {
     this.reticle = new Mesh(
       new RingGeometry(0.07, 0.09, 40).rotateX(-Math.PI / 2),
@@ -78,6 +85,12 @@ export class ArView {
     this.reticle.matrixAutoUpdate = false;
     this.reticle.visible = false;
     this.overlayScene.add(this.reticle);
+    this.measure = new Measure(
+      () => this.placement,
+      editHome,
+      (text) => (this.overlayText.textContent = text),
+    );
+    this.overlayScene.add(this.measure.group);
 
     const exit = el("button", { type: "button", id: "ar-exit" }, "Leave AR");
     exit.addEventListener("click", () => void this.session?.end());
@@ -91,7 +104,9 @@ export class ArView {
       button.addEventListener("click", () => document.querySelector<HTMLElement>(target)?.click());
       return button;
     });
-    this.overlay.append(this.overlayText, ...taskButtons, exit);
+    this.overlay.append(this.overlayText, ...taskButtons, this.measure.bar, exit);
+    // A tap on the bar's buttons is not a tap on the room (no `select` from it).
+    this.overlay.addEventListener("beforexrselect", (e) => e.preventDefault());
     document.body.append(this.overlay);
     this.section = el(
       "section",
@@ -133,6 +148,7 @@ export class ArView {
       planes: this.planes,
       placement: this.placement,
       error: this.error,
+      measure: this.measure.state(),
     };
   }
 
@@ -153,7 +169,7 @@ export class ArView {
       const viewerSpace = await session.requestReferenceSpace("viewer");
       this.hitSource = (await session.requestHitTestSource?.({ space: viewerSpace })) ?? null;
       if (!this.hitSource) throw new Error("the AR session offers no hit-test");
-      session.addEventListener("select", () => this.place());
+      session.addEventListener("select", () => (this.measure.active ? this.measure.tap() : this.place()));
       session.addEventListener("end", () => this.ended());
     } catch (err) {
       this.error = `could not start AR: ${err instanceof Error ? err.message : err}`;
@@ -164,6 +180,7 @@ export class ArView {
     }
     this.error = null;
     this.placement = null;
+    this.measure.offer(false);
     this.viewer.showSurroundings(false);
     this.viewer.scene.visible = false;
     this.overlay.hidden = false;
@@ -182,13 +199,17 @@ export class ArView {
       const hit = frame.getHitTestResults(this.hitSource)[0];
       const pose = hit?.getPose(space);
       this.reticleSeen = !!pose;
-      this.reticle.visible = !!pose && this.status === "active";
+      this.reticle.visible = !!pose && (this.status === "active" || this.measure.aiming);
       if (pose) {
         this.reticle.matrix.fromArray(pose.transform.matrix);
         if (this.status === "active") {
           this.placeScene(this.reticle.matrix);
           this.overlayText.textContent = "Tap to place the robot here.";
         }
+      }
+      if (this.status === "placed") {
+        const eye = new Vector3().setFromMatrixPosition(renderer.xr.getCamera().matrixWorld);
+        this.measure.frame(pose ? this.reticle.matrix : null, eye);
       }
       const planes = (frame as XRFrame & { detectedPlanes?: Set<unknown> }).detectedPlanes;
       this.planes = planes ? planes.size : 0;
@@ -225,10 +246,11 @@ export class ArView {
     if (this.status !== "active" || !this.reticleSeen || !this.pending) return;
     this.placement = this.pending;
     this.reticle.visible = false;
-    this.overlayText.textContent = "Placed. Set Robot, then Move Robot!";
+    this.overlayText.textContent = "Placed. Set Robot, then Move Robot! Or Measure your room.";
     for (const button of this.overlay.querySelectorAll<HTMLButtonElement>("[data-ar-task]")) {
       button.hidden = !document.querySelector(button.dataset.arTask ?? "");
     }
+    this.measure.offer(true);
     this.set("placed");
   }
 
@@ -241,6 +263,7 @@ export class ArView {
     this.session = null;
     this.reticleSeen = false;
     this.reticle.visible = false;
+    this.measure.offer(false);
     const scene = this.viewer.scene;
     scene.position.set(0, 0, 0);
     scene.quaternion.identity();

@@ -64,6 +64,25 @@ export interface RobotList {
   robots: RobotEntry[];
 }
 
+/** One robot's verdict on a home (docs/verdict.md). */
+export interface RobotVerdict {
+  robot: string;
+  /** One line: how many rooms it reaches, which not, which are tight. */
+  summary: string;
+  /** Title -> a PNG as a data: URL (the floor plan with the routes in their colours). */
+  pictures: Record<string, string>;
+  /** One row per room: `room`, `reachable`, `colour` (green, amber, red) and the
+   * engine's figures for it; `route`, when given, is the way there as [x, y] points
+   * (m). */
+  rooms: Record<string, unknown>[];
+  /** The base's length and width (m), when the engine reports them. */
+  footprint: [number, number] | null;
+  /** The circle the base needs to turn on the spot (m), when the engine reports it. */
+  turning_diameter: number | null;
+  /** Whatever else the engine reports, by name. */
+  details: Record<string, unknown>;
+}
+
 /** Where a robot's base stands in a world. */
 export interface SpawnPose {
   /** Position (m). */
@@ -77,6 +96,34 @@ export interface UploadAnswer {
   robot: RobotEntry;
   /** What the loader repaired (missing inertials and the like). */
   repairs: string[];
+}
+
+/** A check of a home running on the server (GET /api/verdict/{id}). */
+export interface VerdictJob {
+  id: string;
+  state: "queued" | "running" | "done" | "failed";
+  /** How much is done, from 0 to 1. */
+  fraction: number;
+  /** What the server is doing now, in words. */
+  what: string;
+  /** The name of the world checked. */
+  world: string;
+  robots: string[];
+  /** One per robot, in the order asked for, as each is finished. */
+  results: RobotVerdict[];
+  /** Why the check failed (state "failed"), naming what and where; else null. */
+  error: string | null;
+  /** Time since the job was taken (s), until it finished. */
+  seconds: number;
+}
+
+/** A home to check (POST /api/verdict): the world and one or two robots. */
+export interface VerdictRequest {
+  /** A world's name on this server, or a World YAML (docs/worlds.md), such as the home
+   * drawn in the page. */
+  world: string;
+  /** One robot, or two to compare side by side. */
+  robots: string[];
 }
 
 /** A world the server offers. */

@@ -25,6 +25,8 @@ import {
   toYaml,
   walls,
 } from "./model";
+import { type Gray, detectRooms, parseMapYaml, parsePgm } from "./floorplan";
+import { VerdictView } from "./verdict";
 import { WORDS } from "./words";
 
 export const STORAGE_KEY = "robotrial.home";
@@ -59,6 +61,30 @@ export async function sendWorld(yaml: string): Promise<WorldEntry> {
   return (await response.json()) as WorldEntry;
 }
 
+/** A decoded image and its size in pixels. */
+function loadImage(url: string, name: string): Promise<{ image: HTMLImageElement; size: XY }> {
+  return new Promise((resolve, reject) => {
+    const image = new Image();
+    image.onload = () => resolve({ image, size: [image.naturalWidth, image.naturalHeight] });
+    image.onerror = () => reject(new Error(WORDS.notImage(name)));
+    image.src = url;
+  });
+}
+
+/** A grey image as a PNG data URL (inverted when `negate`). */
+function grayUrl(gray: Gray, negate: boolean): string {
+  const canvas = el("canvas", { width: `${gray.width}`, height: `${gray.height}` });
+  const context = canvas.getContext("2d");
+  if (!context) throw new Error("no 2D canvas");
+  const data = context.createImageData(gray.width, gray.height);
+  gray.pixels.forEach((v, k) => {
+    const g = negate ? 255 - v : v;
+    data.data.set([g, g, g, 255], 4 * k);
+  });
+  context.putImageData(data, 0, 0);
+  return canvas.toDataURL("image/png");
+}
+
 export class HomeSection {
   /** The panel section: the app mounts it (Panel.mount). */
   readonly section: HTMLElement;
@@ -80,11 +106,14 @@ export class HomeSection {
   private readonly imageInput = el("input", {
     type: "file",
     id: "home-image",
-    accept: "image/png,image/jpeg",
+    accept: "image/png,image/jpeg,.pgm,.yaml,.yml",
+    multiple: "",
   });
   private readonly knownLength = el("input", { id: "home-known-length", type: "text", inputmode: "decimal" });
-  /** The floor-plan image under the plan: its data URL, size in pixels, metres per pixel. */
-  private background: { url: string; width: number; height: number; mpp: number } | null = null;
+  /** The floor-plan image under the plan: its data URL, size in pixels, metres per pixel
+   * and where its bottom-left corner lies (m). */
+  private background: { url: string; width: number; height: number; mpp: number; origin?: XY } | null =
+    null;
   private marks: XY[] = [];
   private readonly toolButtons = new Map<Tool, HTMLButtonElement>();
   private readonly buttons: Record<string, HTMLButtonElement> = {};
@@ -93,6 +122,12 @@ export class HomeSection {
   private redoStack: string[] = [];
   private tool: Tool = "room";
   private pointer: XY | null = null;
+  /** "Check my home": the robot pickers, the progress and the verdict. */
+  private readonly verdict = new VerdictView({
+    yaml: () => this.yaml(),
+    home: () => this.drawing.home,
+    changed: () => this.drawPlan(),
+  });
 
   /** `sent(entry)`: the app adds the world to its picker and shows the robot in it. */
   constructor(private readonly sent: (entry: WorldEntry) => Promise<void>) {
@@ -110,6 +145,12 @@ export class HomeSection {
     this.restore();
     this.setTool("room");
     this.render();
+  }
+
+  /** Change the home from outside the editor (AR measurements): one undoable change,
+   * kept in localStorage and shown when the editor opens. */
+  edit(next: (home: Home) => Home): void {
+    this.change((d) => ({ ...d, home: next(d.home) }));
   }
 
   // --- building the editor -----------------------------------------------------------
@@ -144,9 +185,11 @@ export class HomeSection {
       this.button("home-download", WORDS.download, () => this.download()),
       el("label", { class: "home-file" }, WORDS.openYaml, " ", this.fileInput),
       this.button("home-send", WORDS.send, () => void this.send()),
+      this.verdict.controls,
       el("label", { class: "home-file" }, WORDS.background, " ", this.imageInput),
       el("label", {}, WORDS.knownLength, " ", this.knownLength),
       this.button("home-set-scale", WORDS.setScale, () => this.setScale()),
+      this.button("home-find-rooms", WORDS.findRooms, () => void this.findRooms()),
       this.button("home-close", WORDS.close, () => this.show(false)),
     );
     this.canvas.append(this.plan);
@@ -160,8 +203,8 @@ export class HomeSection {
       if (file) void this.openFile(file);
     });
     this.imageInput.addEventListener("change", () => {
-      const file = this.imageInput.files?.[0];
-      if (file) void this.openImage(file);
+      const files = [...(this.imageInput.files ?? [])];
+      if (files.length) void this.openImage(files);
     });
     document.addEventListener("keydown", (e) => this.key(e));
     return el(
@@ -176,14 +219,17 @@ export class HomeSection {
         "div",
         { class: "home-body" },
         el("div", { class: "home-drawing" }, this.canvas),
-        el("div", { class: "home-side" }, this.problemList, this.lists),
+        el("div", { class: "home-side" }, this.verdict.section, this.problemList, this.lists),
       ),
     );
   }
 
   private show(open: boolean): void {
     this.overlay.hidden = !open;
-    if (open) this.render();
+    if (open) {
+      this.render();
+      void this.verdict.loadRobots();
+    }
   }
 
   private setTool(tool: Tool): void {
@@ -382,34 +428,97 @@ export class HomeSection {
 
   // --- the floor-plan image -------------------------------------------------------------
 
-  private async openImage(file: File): Promise<void> {
+  /** A PNG or JPG (1 cm a pixel until scaled), or a map_server map: its YAML and the
+   * PGM (or PNG) it names, placed at the map's own scale and origin. */
+  private async openImage(files: File[]): Promise<void> {
+    const yamlFile = files.find((f) => /\.ya?ml$/i.test(f.name));
+    const name = (yamlFile ?? files[0]).name;
     try {
-      if (!/^image\/(png|jpeg)$/.test(file.type)) {
-        this.say(WORDS.notImage(file.name), "error");
-        return;
+      let image = files[0];
+      let place: { mpp: number; origin: XY } | null = null;
+      let negate = false; // map_server's flag: dark is free
+      if (yamlFile) {
+        const info = parseMapYaml(await yamlFile.text());
+        if (typeof info === "string") {
+          this.say(WORDS.badMap(yamlFile.name, info), "error");
+          return;
+        }
+        const wanted = info.image.split("/").pop() ?? info.image;
+        const found = files.find((f) => f.name === wanted);
+        if (!found) {
+          this.say(WORDS.mapImageMissing(yamlFile.name, wanted), "error");
+          return;
+        }
+        image = found;
+        place = { mpp: info.resolution, origin: info.origin };
+        negate = info.negate;
       }
-      const url = await new Promise<string>((resolve, reject) => {
-        const reader = new FileReader();
-        reader.onload = () => resolve(String(reader.result));
-        reader.onerror = () => reject(reader.error);
-        reader.readAsDataURL(file);
-      });
-      const size = await new Promise<XY>((resolve, reject) => {
-        const img = new Image();
-        img.onload = () => resolve([img.naturalWidth, img.naturalHeight]);
-        img.onerror = () => reject(new Error(WORDS.notImage(file.name)));
-        img.src = url;
-      });
+      let url: string;
+      let size: XY;
+      if (/\.pgm$/i.test(image.name)) {
+        const gray = parsePgm(new Uint8Array(await image.arrayBuffer()));
+        if (typeof gray === "string") {
+          this.say(WORDS.badMap(image.name, gray), "error");
+          return;
+        }
+        url = grayUrl(gray, negate);
+        size = [gray.width, gray.height];
+      } else {
+        if (!/^image\/(png|jpeg)$/.test(image.type)) {
+          this.say(WORDS.notImage(image.name), "error");
+          return;
+        }
+        url = await new Promise<string>((resolve, reject) => {
+          const reader = new FileReader();
+          reader.onload = () => resolve(String(reader.result));
+          reader.onerror = () => reject(reader.error);
+          reader.readAsDataURL(image);
+        });
+        size = (await loadImage(url, image.name)).size;
+      }
       // Until a length is marked, 1 pixel is 1 cm.
-      this.background = { url, width: size[0], height: size[1], mpp: 0.01 };
+      this.background = { url, width: size[0], height: size[1], mpp: place?.mpp ?? 0.01, origin: place?.origin };
       this.keepImage();
-      this.setTool("scale");
+      if (place) this.say(WORDS.mapPlaced(place.mpp), "ready");
+      else this.setTool("scale");
       this.drawPlan();
     } catch {
-      this.say(WORDS.notImage(file.name), "error");
+      this.say(WORDS.notImage(name), "error");
     } finally {
       this.imageInput.value = "";
     }
+  }
+
+  /** Rooms and doorways found in the floor-plan image, added as one change. */
+  private async findRooms(): Promise<void> {
+    const bg = this.background;
+    if (!bg) {
+      this.say(WORDS.noImage, "error");
+      return;
+    }
+    const { image } = await loadImage(bg.url, "the floor-plan image");
+    const canvas = el("canvas", { width: `${bg.width}`, height: `${bg.height}` });
+    const context = canvas.getContext("2d", { willReadFrequently: true });
+    if (!context) return;
+    context.drawImage(image, 0, 0);
+    const rgba = context.getImageData(0, 0, bg.width, bg.height).data;
+    const gray: Gray = { width: bg.width, height: bg.height, pixels: new Uint8Array(bg.width * bg.height) };
+    for (let k = 0; k < gray.pixels.length; k++) {
+      gray.pixels[k] = Math.round((rgba[4 * k] + rgba[4 * k + 1] + rgba[4 * k + 2]) / 3);
+    }
+    const found = detectRooms(gray, bg.mpp, bg.origin ?? [0, 0], { wall: this.drawing.home.thickness });
+    if (!found.rooms.length) {
+      this.say(WORDS.noneFound, "error");
+      return;
+    }
+    this.change((d) => {
+      for (const corners of found.rooms) d.home.rooms.push({ name: WORDS.roomName(d.home.rooms.length + 1), corners });
+      for (const door of found.doorways) {
+        d.home.doorways.push({ name: WORDS.doorName(d.home.doorways.length + 1), ...door });
+      }
+      return d;
+    });
+    this.say(WORDS.found(found.rooms.length, found.doorways.length), "ready");
   }
 
   private keepImage(): void {
@@ -511,12 +620,14 @@ export class HomeSection {
 
   private drawPlan(): void {
     const { home, draft } = this.drawing;
+    const checked = this.verdict.planColours(home);
     const points = [...home.rooms.flatMap((r) => r.corners), ...(draft ?? [])];
     const xs = [-1, 13, ...points.map((p) => p[0] - 1), ...points.map((p) => p[0] + 1)];
     const ys = [-1, 10, ...points.map((p) => p[1] - 1), ...points.map((p) => p[1] + 1)];
     if (this.background) {
-      xs.push(this.background.width * this.background.mpp);
-      ys.push(this.background.height * this.background.mpp);
+      const [ox, oy] = this.background.origin ?? [0, 0];
+      xs.push(ox, ox + this.background.width * this.background.mpp);
+      ys.push(oy, oy + this.background.height * this.background.mpp);
     }
     const [x0, x1, y0, y1] = [Math.min(...xs), Math.max(...xs), Math.min(...ys), Math.max(...ys)];
     this.canvas.setAttribute("viewBox", `${x0} ${-y1} ${x1 - x0} ${y1 - y0}`);
@@ -527,7 +638,10 @@ export class HomeSection {
       const flip = svg("g", { transform: "scale(1,-1)" });
       const w = bg.width * bg.mpp;
       const h = bg.height * bg.mpp;
-      flip.append(svg("image", { id: "home-background", href: bg.url, x: 0, y: -h, width: w, height: h, opacity: 0.5 }));
+      const [ox, oy] = bg.origin ?? [0, 0];
+      flip.append(
+        svg("image", { id: "home-background", href: bg.url, x: ox, y: -(oy + h), width: w, height: h, opacity: 0.5 }),
+      );
       parts.push(flip);
     }
     for (let x = Math.ceil(x0); x <= x1; x++) {
@@ -537,9 +651,10 @@ export class HomeSection {
       parts.push(svg("line", { x1: x0, y1: y, x2: x1, y2: y, class: "grid" }));
     }
     home.rooms.forEach((room, i) => {
+      const colour = checked?.rooms.get(room.name);
       const poly = svg("polygon", {
         points: room.corners.map((c) => c.join(",")).join(" "),
-        class: "room",
+        class: colour ? `room verdict-${colour}` : "room",
         "data-item": `room-${i}`,
       });
       parts.push(poly);
@@ -556,8 +671,31 @@ export class HomeSection {
         }),
       );
     }
+    for (const route of checked?.routes ?? []) {
+      const points = route.points.map((c) => c.join(",")).join(" ");
+      parts.push(svg("polyline", { points, class: `route verdict-${route.colour}` }));
+    }
     home.doorways.forEach((d, i) => {
-      parts.push(svg("circle", { cx: d.at[0], cy: d.at[1], r: 0.08, class: "door", "data-item": `door-${i}` }));
+      const colour = checked?.doors[i];
+      const near = colour ? nearestEdge(home, d.at) : null;
+      if (colour && near) {
+        // The doorway's opening along its wall, in the colour its width earns.
+        const { a, b } = near.edge;
+        const len = Math.hypot(b[0] - a[0], b[1] - a[1]) || 1;
+        const [ux, uy] = [((b[0] - a[0]) / len) * (d.width / 2), ((b[1] - a[1]) / len) * (d.width / 2)];
+        parts.push(
+          svg("line", {
+            x1: d.at[0] - ux,
+            y1: d.at[1] - uy,
+            x2: d.at[0] + ux,
+            y2: d.at[1] + uy,
+            class: `door-span verdict-${colour}`,
+            "stroke-width": home.thickness * 1.5,
+          }),
+        );
+      }
+      const cls = colour ? `door verdict-${colour}` : "door";
+      parts.push(svg("circle", { cx: d.at[0], cy: d.at[1], r: 0.08, class: cls, "data-item": `door-${i}` }));
     });
     home.furniture.forEach((f, i) => {
       const attrs = { class: "furniture", "data-item": `furniture-${i}` };

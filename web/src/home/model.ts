@@ -424,3 +424,32 @@ export function checkShape(data: unknown): Home | string {
   if (h.spawn !== null && h.spawn !== undefined && !isXY(h.spawn)) return "home.spawn must be [x, y]";
   return { ...(h as unknown as Home), version: 1, spawn: (h.spawn as XY | undefined) ?? null };
 }
+
+/** A doorway or a piece of furniture measured in the room itself (AR, ar/measure.ts),
+ * added to a copy of `home`. A doorway whose centre lies within `pick` m of a wall moves
+ * onto that wall; further away it is added as measured, for the user to place. Furniture
+ * takes the first free name from its own ("counter", "counter 2", …). Returns the new
+ * home, the name given and the room whose wall holds the doorway (null if none). */
+export function addMeasured(
+  home: Home,
+  item: { doorway: Doorway } | { furniture: Furniture },
+  pick = 0.4,
+): { home: Home; name: string; room: string | null } {
+  const next = structuredClone(home);
+  if ("furniture" in item) {
+    const taken = new Set(next.furniture.map((f) => f.name));
+    let name = item.furniture.name;
+    for (let i = 2; taken.has(name); i++) name = `${item.furniture.name} ${i}`;
+    next.furniture.push({ ...structuredClone(item.furniture), name });
+    return { home: next, name, room: null };
+  }
+  const door = structuredClone(item.doorway);
+  const near = nearestEdge(next, door.at);
+  const onWall = near !== null && near.distance <= pick;
+  if (onWall) {
+    const { a, b } = near.edge;
+    door.at = [round(a[0] === b[0] ? a[0] : near.point[0]), round(a[1] === b[1] ? a[1] : near.point[1])];
+  }
+  next.doorways.push(door);
+  return { home: next, name: door.name, room: onWall ? next.rooms[near.edge.room].name : null };
+}

@@ -35,7 +35,21 @@ export const WORDS = {
   measured: (d: number) => `Marked ${d.toFixed(2)} m at the image's present scale.`,
   markFirst: "Mark both ends of a known length on the image first (Measure tool).",
   scaled: (mpp: number) => `Image scale set: 1 pixel is ${(mpp * 100).toFixed(2)} cm.`,
-  notImage: (file: string) => `${file} is not a PNG or JPG image; the drawing is unchanged.`,
+  notImage: (file: string) =>
+    `${file} is not a PNG, JPG or PGM image (or a map's YAML with its image); the drawing is unchanged.`,
+  badMap: (file: string, why: string) => `${file} is not a usable map: ${why}. The drawing is unchanged.`,
+  mapImageMissing: (file: string, image: string) =>
+    `${file} names the image ${image}: choose both files together. The drawing is unchanged.`,
+  mapPlaced: (mpp: number) =>
+    `Map placed at its own origin and scale: 1 pixel is ${(mpp * 100).toFixed(2)} cm.`,
+  findRooms: "Find rooms",
+  noImage: "Load a floor-plan image first.",
+  found: (rooms: number, doors: number) =>
+    `Found ${rooms} room${rooms === 1 ? "" : "s"} and ${doors} doorway${doors === 1 ? "" : "s"} ` +
+    "in the image (Undo takes them away).",
+  noneFound:
+    "No closed room found in the image: walls must be darker than the floor and enclose it; " +
+    "set the scale first. Trace the rooms with the Room tool instead.",
   imageNotKept:
     "The image is too large to keep in this browser: it stays until the page is reloaded.",
   closeRoom: "Close room",

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
 
 
@@ -85,12 +86,17 @@ def _world_ref(world: World) -> str:
     return world.source or world.name
 
 
-def _unable(robot: str) -> str:
+def _unable(robot: str | RobotModel) -> str:
     """Why this robot cannot do any chore (the carry trial maps the home with a LiDAR and
-    carries with an arm and a gripper), or ""."""
+    carries with an arm and a gripper; it loads the robot by name or file), or ""."""
     from robotrial.model import load_robot
     from robotrial.trials.reach import arm_joints
 
+    if isinstance(robot, RobotModel):
+        return (
+            f"robot {robot.name!r} is not a built-in robot or a file: the carry trial loads "
+            "the robot it runs by name"
+        )
     model = load_robot(robot)
     missing = [
         what
@@ -109,7 +115,7 @@ def _unable(robot: str) -> str:
 
 def run_chores(
     world: World,
-    robot: str,
+    robot: str | RobotModel,
     chores: Sequence[tuple[str, str]],
     seeds: int = 3,
     progress: Callable[[float, str], None] | None = None,
@@ -127,7 +133,8 @@ def run_chores(
         t0 = time.perf_counter()
         times = []
         for seed in range(seeds if not unable else 0):
-            setup = CarrySetup(world=_world_ref(world), object=obj, to=room, robot=robot)
+            name = robot if isinstance(robot, str) else robot.name
+            setup = CarrySetup(world=_world_ref(world), object=obj, to=room, robot=name)
             done, label = i * seeds + seed, f"chore {obj}:{room}, seed {seed}"
 
             def phase(name: str, _sim_time: float, done: int = done, label: str = label) -> None:

@@ -3,7 +3,8 @@
 The API the web server and the CLI call:
 
 - `check_home(world, robot_name, *, chores=(), seeds=3, progress=None) -> HomeVerdict`:
-  the whole verdict for one robot; `progress(fraction, what)` is told how far it got.
+  the whole verdict for one robot (a name, a robot file or a RobotModel);
+  `progress(fraction, what)` is told how far it got.
 - `HomeVerdict.to_dict()`: JSON-safe figures: `summary` (one line), `base` (the rooms,
   as `BaseVerdict.to_dict`), `reach` (furniture surfaces with heat maps, heights),
   `chores` (None when none were asked).
@@ -11,7 +12,8 @@ The API the web server and the CLI call:
   rows whose values differ marked.
 - `to_html(verdicts) -> str`: one printable page (one column per robot);
   `pictures(verdict) -> dict[str, bytes]`: the PNG pictures (floor plan, reach maps,
-  heights); `write_page(verdicts, path)`: the page as PDF or PNG (trials/verdict_page.py).
+  heights); `write_page(verdicts, path)`: the page as PDF or PNG; `plot(base, world)`: the
+  rooms' floor plan alone (trials/verdict_page.py).
 
 The parts:
 
@@ -32,6 +34,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -210,18 +213,20 @@ def has_base(robot: RobotModel) -> bool:
 
 def check_home(
     world: World | str,
-    robot_name: str,
+    robot_name: str | RobotModel,
     *,
     chores: Sequence[tuple[str, str] | str] = (),
     seeds: int = 3,
     progress: Callable[[float, str], None] | None = None,
 ) -> HomeVerdict:
-    """The buyer's verdict for one robot (a built-in name or a robot file) in a home (a
-    World, a built-in name or a World YAML): rooms, reach, and the `chores` ("cup:bedroom"
-    or ("cup", "bedroom")) as carry trials over `seeds` seeds. Raises VerdictError for a
-    robot without a mobile base or a home it cannot judge; ModelError, KeyError or
-    FileNotFoundError for a robot or world that does not load."""
+    """The buyer's verdict for one robot (a built-in name, a robot file or a RobotModel,
+    e.g. one uploaded to the server) in a home (a World, a built-in name or a World
+    YAML): rooms, reach, and the `chores` ("cup:bedroom" or ("cup", "bedroom")) as carry
+    trials over `seeds` seeds. Raises VerdictError for a robot without a mobile base or a
+    home it cannot judge; ModelError, KeyError or FileNotFoundError for a robot or world
+    that does not load."""
     from robotrial.model import load_robot, load_world
+    from robotrial.model.library import robot_names
     from robotrial.nav.reachable import reachable_poses
     from robotrial.trials.chores import parse_chore, run_chores
     from robotrial.trials.nav import footprint_of_robot
@@ -235,7 +240,8 @@ def check_home(
     home = world if isinstance(world, World) else load_world(world)
     if not home.rooms:
         raise VerdictError(f"world {home.name!r} names no rooms: give `rooms` in its YAML")
-    robot = load_robot(robot_name)
+    robot = robot_name if isinstance(robot_name, RobotModel) else load_robot(robot_name)
+    robot_name = robot_name if isinstance(robot_name, str) else robot.name
     if not has_base(robot):
         raise VerdictError(
             f"robot {robot_name!r} has no mobile base (no `drive` in its description): it "
@@ -246,7 +252,7 @@ def check_home(
     timings: dict[str, float] = {}
     tell(0.0, "footprint")
     t = time.perf_counter()
-    footprint = footprint_of_robot(robot_name, home)
+    footprint = footprint_of_robot(robot, home)
     timings["footprint"] = time.perf_counter() - t
     tell(share[0], "rooms")
     t = time.perf_counter()
@@ -277,7 +283,7 @@ def check_home(
         t = time.perf_counter()
         done = run_chores(
             home,
-            robot_name,
+            robot_name if robot_name in robot_names() or Path(robot_name).exists() else robot,
             wanted,
             seeds,
             lambda f, what: tell(share[3] + f * (1.0 - share[3]), what),
@@ -410,7 +416,7 @@ def drive_to_rooms(
 
 
 # the page and the pictures live beside the engine; their names are part of this API
-from robotrial.trials.verdict_page import pictures, to_html, write_page  # noqa: E402
+from robotrial.trials.verdict_page import pictures, plot, to_html, write_page  # noqa: E402
 
 __all__ = [
     "BaseVerdict",
@@ -422,6 +428,7 @@ __all__ = [
     "compare",
     "drive_to_rooms",
     "pictures",
+    "plot",
     "to_html",
     "write_page",
 ]

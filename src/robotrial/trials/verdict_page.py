@@ -25,7 +25,9 @@ from robotrial.model.gridmap import world_map
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-    from robotrial.trials.verdict import HomeVerdict
+    from robotrial.model.world import World
+    from robotrial.trials.reach import ReachVerdict
+    from robotrial.trials.verdict import BaseVerdict, HomeVerdict
 
 COLOURS = {"green": "#2e9d3a", "amber": "#e69b00", "red": "#d62728"}
 REACH_COLOURS = {"yes": COLOURS["green"], "partly": COLOURS["amber"], "no": COLOURS["red"]}
@@ -51,17 +53,21 @@ def _png(fig) -> bytes:
 def draw_floor(ax: Axes, verdict: HomeVerdict) -> None:
     """The floor plan: rooms tinted by their colour, routes, the dock, furniture tops
     with their reach heat maps (grey: not reached)."""
+    if verdict.home is None:
+        raise ValueError("the verdict carries no world to draw")
+    draw_rooms(ax, verdict.base, verdict.home, verdict.reach)
+
+
+def draw_rooms(ax: Axes, base: BaseVerdict, home: World, reach: ReachVerdict | None) -> None:
+    """The floor plan of the base part, with `reach`'s heat maps when given."""
     from matplotlib.patches import Rectangle
 
-    home = verdict.home
-    if home is None:
-        raise ValueError("the verdict carries no world to draw")
     grid = world_map(home)
     rows, cols = grid.occupied.shape
     ox, oy = grid.origin[0], grid.origin[1]
     extent = (ox, ox + cols * grid.resolution, oy, oy + rows * grid.resolution)
     ax.imshow(grid.occupied, origin="lower", extent=extent, cmap="Greys", vmin=0, vmax=1.5)
-    by_name = {r.room: r for r in verdict.base.rooms}
+    by_name = {r.room: r for r in base.rooms}
     for room in home.rooms:
         (x0, y0), (x1, y1) = room.bounds
         v = by_name[room.name]
@@ -73,12 +79,12 @@ def draw_floor(ax: Axes, verdict: HomeVerdict) -> None:
         ax.text((x0 + x1) / 2, y1 - 0.25, room.name, ha="center", va="top", fontsize=8)
         if v.route is not None:
             ax.plot(v.route[:, 0], v.route[:, 1], color=COLOURS[v.colour], lw=2)
-    heat = _draw_heat(ax, verdict.reach.surfaces)
+    heat = _draw_heat(ax, reach.surfaces) if reach is not None else None
     if heat is not None:
         bar = ax.figure.colorbar(heat, ax=ax, shrink=0.6, pad=0.02)
         bar.set_label("parked poses that reach the point (grey: none)", fontsize=7)
         bar.ax.tick_params(labelsize=7)
-    ax.plot(*verdict.base.dock[:2], marker="s", color="k", ms=7, label="dock")
+    ax.plot(*base.dock[:2], marker="s", color="k", ms=7, label="dock")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_aspect("equal")
@@ -104,6 +110,20 @@ def _draw_heat(ax: Axes, surfaces) -> object | None:
         )
         ax.add_collection(mapped)
     return mapped
+
+
+def plot(verdict: BaseVerdict, world: World, png: Path | None = None) -> bytes:
+    """The base part's floor plan alone (rooms, routes, the dock) as PNG bytes, also
+    written to `png` when given."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8, 6.5))
+    draw_rooms(ax, verdict, world, None)
+    ax.set_title(f"{verdict.robot or 'robot'} in {verdict.world}: {verdict.summary}", fontsize=9)
+    data = _png(fig)
+    if png is not None:
+        png.parent.mkdir(parents=True, exist_ok=True)
+        png.write_bytes(data)
+    return data
 
 
 def draw_heights(ax: Axes, verdict: HomeVerdict) -> None:

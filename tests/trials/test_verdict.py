@@ -184,6 +184,17 @@ def test_a_robot_without_an_arm_gets_rooms_but_no_reach(tmp_path) -> None:
     assert json.loads(json.dumps(verdict.to_dict()))["reach"]["surfaces"] == []
 
 
+def test_a_dock_the_base_does_not_fit_leaves_every_room_red_and_reach_unchecked(tmp_path) -> None:
+    path = tmp_path / "tight_dock.yaml"
+    path.write_text(
+        two_rooms(0.9, furniture=True).replace("default: [1.0, 1.5", "default: [0.2, 1.5")
+    )
+    verdict = check_home(load_world(path), "mobile_manipulator")
+    assert [r.colour for r in verdict.base.rooms] == ["red", "red"]
+    assert not verdict.reach.checked and "at the dock" in verdict.reach.reason
+    assert verdict.summary.startswith("fits: 0 of 2 rooms (not first, second); reach not checked")
+
+
 def test_a_robot_without_a_base_is_refused_by_name(tmp_path, capsys) -> None:
     with pytest.raises(VerdictError, match="'manipulator_h' has no mobile base"):
         check_home(load_world(home(tmp_path, 0.9)), "manipulator_h")

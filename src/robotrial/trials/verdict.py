@@ -259,24 +259,27 @@ def check_home(
     grid = world_map(home)
     base = check_base(home, footprint, robot_name, grid)
     timings["base"] = time.perf_counter() - t
-    reachable = None
+    reachable, stuck = None, ""
     if arm_joints(robot):  # where the base can park matters only to an arm
         tell(share[1], "parking poses")
         t = time.perf_counter()
         costmap = Costmap(grid.occupied, tuple(grid.origin), grid.resolution, footprint)
         try:
             reachable = reachable_poses(costmap, base.dock)
-        except ValueError as exc:
-            raise VerdictError(f"{robot_name!r} in {home.name!r}: at the dock, {exc}") from None
+        except ValueError as exc:  # the base does not fit at the dock: it parks nowhere
+            stuck = f"reach not checked: at the dock, {exc}"
         timings["parking"] = time.perf_counter() - t
     t = time.perf_counter()
-    reach = check_reach(
-        home,
-        robot,
-        footprint,
-        reachable,
-        lambda f, what: tell(share[2] + f * (share[3] - share[2]), what),
-    )
+    if stuck:
+        reach = ReachVerdict(False, stuck)
+    else:
+        reach = check_reach(
+            home,
+            robot,
+            footprint,
+            reachable,
+            lambda f, what: tell(share[2] + f * (share[3] - share[2]), what),
+        )
     timings["reach"] = time.perf_counter() - t
     done: list[ChoreVerdict] | None = None
     if wanted:

@@ -27,6 +27,9 @@ The parts:
 2. Arm (trials/reach.py): how much of each furniture top the hand reaches with the base
    parked where it can get to, as heat maps; the lowest and highest heights it reaches.
 3. Chores (trials/chores.py): (object, room) pairs run as carry trials over seeds.
+
+`drive_to_rooms(base, world, robot)` checks the rooms part by driving (the navigation
+trial); `robotrial bench verdict` runs it on the apartment.
 """
 
 from __future__ import annotations

@@ -96,9 +96,8 @@ def reachable_poses(
         kk, rr, cc = (k + dk) % YAW_BINS, r + dr, c + dc
         if 0 <= rr < rows and 0 <= cc < cols and labels[kk, rr, cc] > 0:
             target = root(int(labels[kk, rr, cc]))
-            roots = np.array([root(i) for i in range(n + 1)])
-            found.mask = roots[labels] == target
-            found.mask &= labels > 0
+            ours = np.array([i > 0 and root(i) == target for i in range(n + 1)])
+            found.mask = ours[labels]  # a bool per pose: no second array of labels
             return found
     raise ValueError(
         f"the footprint at the start ({start[0]:.2f}, {start[1]:.2f}) touches an obstacle "

@@ -21,6 +21,7 @@ from robotrial.kinematics.chain import Kinematics
 from robotrial.kinematics.ik import solve_positions
 
 SEED_GAP = 0.12  # m: a target with no bank configuration this near is out of reach
+CHUNK = 10_000  # configurations whose forward kinematics are computed at once
 
 
 class ReachBank:
@@ -40,7 +41,14 @@ class ReachBank:
             )
         self.kin = kin
         self.qs = qs
-        self.points = kin.fk(qs)[:, kin.tip, :3, 3]
+        # a chunk at a time (each tool point copied out, so that the chunk's poses of every
+        # link go): all of them at once would be 160 MB
+        self.points = np.concatenate(
+            [
+                kin.fk(chunk)[:, kin.tip, :3, 3].copy()
+                for chunk in np.array_split(qs, -(-len(qs) // CHUNK))
+            ]
+        )
         self.tree = cKDTree(self.points)
 
     def seeds(self, targets: np.ndarray, k: int, gap: float) -> tuple[np.ndarray, int]:

@@ -1,5 +1,6 @@
 """POST /api/verdict and GET /api/verdict/{id} on the real `robotrial serve`: a home
-checked for two robots in the background while the server keeps answering; an unknown
+checked for two robots in the background while the server keeps answering; the arm's
+reach over a table in the answer; an unknown
 robot, an arm without a base, broken YAML, a world without rooms, too many robots and a
 body over the limit are refused at once with the reason; a home whose outer wall has a
 gap fails its job naming the room and the point; an unknown job id is a 404."""
@@ -68,6 +69,31 @@ def test_a_home_is_checked_for_two_robots_in_the_background(server: str) -> None
             assert [(r["room"], r["reachable"]) for r in result["rooms"]] == [("hall", True)]
             assert result["pictures"]["floor plan"].startswith("data:image/png;base64,")
             assert result["footprint"][1] == pytest.approx(0.67, abs=0.01)
+
+
+def test_the_arm_reach_comes_with_the_verdict(server: str) -> None:
+    """A table in the room: the mobile manipulator's answer carries what its hand reaches
+    on it (the share, no heat-map points) and the reach pictures; the husky's says it has
+    no arm."""
+    table = (
+        "obstacles:\n  - {name: table, kind: furniture, shape: box, size: [0.8, 0.6, 0.7],"
+        " pose: {xyz: [1.5, 2.5, 0.35]}}\n"
+    )
+    with httpx.Client(base_url=server, timeout=30) as client:
+        started = client.post(
+            "api/verdict",
+            json={"world": home() + table, "robots": ["mobile_manipulator", "husky"]},
+        )
+        assert started.status_code == 202, started.text
+        job = finish(client, started.json())
+        assert job["state"] == "done", job["error"]
+        arm, base = job["results"]
+        (top,) = arm["details"]["reach"]["surfaces"]
+        assert top["surface"] == "table" and top["share"] > 0 and "heat_map" not in top
+        assert "reaches: table" in arm["summary"]
+        assert {"floor plan", "reach maps", "heights"} <= set(arm["pictures"])
+        assert base["summary"] == "fits: 1 of 1 rooms; no arm: reach not checked"
+        assert set(base["pictures"]) == {"floor plan"}
 
 
 @pytest.mark.parametrize(

@@ -7,9 +7,10 @@ names rooms) and refuse with `VerdictRefused`; the rest runs in a small thread p
 home must be closed (no way out to the edge of the map from the dock), then each robot
 goes through `robot_verdict`. GET /api/verdict/{id} reads `VerdictJobs.get`.
 
-`robot_verdict` is the one place that calls the verdict engine (robotrial.trials.verdict)
-and turns its answer into JSON: a summary, rows per room, pictures as data URLs, and
-whatever else the engine reports. A richer engine slots in by changing that function.
+`robot_verdict` is the one place that calls the verdict engine (robotrial.trials.verdict,
+`check_home` without chores) and turns its answer into JSON: a summary, rows per room,
+pictures as data URLs, the reach over the furniture, and whatever else the engine
+reports.
 """
 
 from __future__ import annotations
@@ -63,22 +64,28 @@ def robot_verdict(
 ) -> dict[str, Any]:
     """The verdict for `robot` (its `model`) in `world` as a JSON-safe dict: `summary`,
     `rooms` (one dict per room: room, reachable, colour, ...; `route` as [x, y] points
-    when known), `pictures` (title -> PNG data URL) and the engine's other figures."""
-    from robotrial.trials.nav import footprint_of_robot
-    from robotrial.trials.verdict import check_base, plot
+    when known), `pictures` (title -> PNG data URL: the floor plan with the reach heat
+    maps, and for an arm the reach maps and the heights), `reach` (each furniture top's
+    share reached, without the heat maps' points) and the engine's other figures."""
+    from robotrial.trials.verdict import check_home, pictures
 
-    progress(0.0, f"measuring the {robot}'s footprint")
-    footprint = footprint_of_robot(model, world)
-    progress(0.15, f"driving the {robot} to every room")
-    verdict = check_base(world, footprint, robot)
-    progress(0.85, f"drawing the {robot}'s floor plan")
+    verdict = check_home(
+        world, model, progress=lambda fraction, what: progress(0.9 * fraction, what)
+    )
+    progress(0.9, f"drawing the {robot}'s floor plan")
     with _PLOT_LOCK:
-        picture = plot(verdict, world)
-    out = verdict.to_dict()
-    for row, room in zip(out["rooms"], verdict.rooms, strict=True):
+        drawn = pictures(verdict)
+    out = verdict.base.to_dict()
+    for row, room in zip(out["rooms"], verdict.base.rooms, strict=True):
         if room.route is not None:
             row["route"] = _thin(room.route, ROUTE_POINTS)
-    out["pictures"] = {"floor plan": data_url(picture)}
+    out["summary"] = verdict.summary
+    reach = verdict.reach.to_dict()
+    for surface in reach["surfaces"]:
+        surface.pop("heat_map")
+    out["reach"] = reach
+    titles = {"floor_plan": "floor plan", "reach": "reach maps", "heights": "heights"}
+    out["pictures"] = {titles[k]: data_url(png) for k, png in drawn.items()}
     progress(1.0, f"{robot} done")
     return json_safe(out)
 

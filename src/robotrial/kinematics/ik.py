@@ -235,3 +235,58 @@ def solve_ik(
     if orientation:
         rerr = float(np.linalg.norm(_rotation_error(t[:3, :3], pose[:3, :3].copy())))
     return IKResult(True, q, perr, rerr, sols, tried)
+
+
+@nb.njit(cache=True)
+def _dls_many(
+    seeds, targets, lower, upper, kin_arrays, ancestors, tip, max_iter, tol_pos, max_step
+):
+    """Position-only damped least squares for many targets, each from its own seeds:
+    seeds (M, k, d), targets (M, 3). Returns (q (M, k, d), converged (M, k))."""
+    m, k, d = seeds.shape
+    qs = np.empty((m, k, d))
+    ok = np.zeros((m, k), dtype=np.bool_)
+    t = np.eye(4)
+    for i in range(m):
+        t[0, 3], t[1, 3], t[2, 3] = targets[i, 0], targets[i, 1], targets[i, 2]
+        q, _p, _r, good = _dls(
+            seeds[i],
+            t,
+            False,
+            lower,
+            upper,
+            kin_arrays,
+            ancestors,
+            tip,
+            max_iter,
+            tol_pos,
+            1.0,
+            max_step,
+        )
+        qs[i] = q
+        ok[i] = good
+    return qs, ok
+
+
+def solve_positions(
+    kin: Kinematics,
+    targets: np.ndarray,
+    seeds: np.ndarray,
+    tol_pos: float = 0.01,
+    max_iter: int = 60,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Joint values that put the end effector at each of many points, position only:
+    `targets` (M, 3) in the robot's root frame, `seeds` (M, k, d) tried for each (seeds
+    near a solution converge in a few steps: see `planning/reach.py`). Returns the
+    configurations (M, k, d) and which converged within `tol_pos` m (M, k). One compiled
+    call for all targets: reach maps ask thousands of points at a time."""
+    t = np.ascontiguousarray(np.asarray(targets, dtype=float).reshape(-1, 3))
+    s = np.ascontiguousarray(np.asarray(seeds, dtype=float))
+    if s.ndim != 3 or s.shape[0] != len(t) or s.shape[2] != kin.d:
+        raise ValueError(
+            f"seeds must be (targets, k, {kin.d}) for {len(t)} targets, got shape {s.shape}"
+        )
+    s = np.clip(s, kin.lower, kin.upper)
+    return _dls_many(
+        s, t, kin.lower, kin.upper, kin._args(), kin.ancestors, kin.tip, max_iter, tol_pos, 0.4
+    )

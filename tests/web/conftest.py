@@ -47,3 +47,14 @@ def serve(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Callable[..., st
     for proc in procs:
         proc.terminate()
         proc.wait(10)
+
+
+@pytest.fixture(scope="module")
+def browser(chromium: str, chromium_args: list[str]) -> Iterator:
+    """Headless Chromium for a module's tests (new pages or contexts per test)."""
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=chromium, args=chromium_args)
+        yield b
+        b.close()

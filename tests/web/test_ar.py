@@ -5,13 +5,12 @@ the page says there is no AR and keeps its 3D view."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 from PIL import Image
-from playwright.sync_api import Page, sync_playwright
+from playwright.sync_api import Page
 
 pytestmark = [pytest.mark.browser, pytest.mark.timeout(90)]
 
@@ -20,14 +19,6 @@ pytestmark = [pytest.mark.browser, pytest.mark.timeout(90)]
 def server(serve) -> str:
     """`robotrial serve` (the desk arm)."""
     return serve()
-
-
-@pytest.fixture(scope="module")
-def browser(chromium: str, chromium_args: list[str]) -> Iterator:
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=chromium, args=chromium_args)
-        yield b
-        b.close()
 
 
 def ar_state(page: Page) -> dict:

@@ -11,17 +11,16 @@ and keeps the first end; two taps on one spot are refused."""
 
 from __future__ import annotations
 
-import itertools
 import json
 import re
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
-from playwright.sync_api import Page, sync_playwright
+from playwright.sync_api import Page
 
 from robotrial.model import load_world
+from tests.web.home_plan import gaps_on_line_x
 
 pytestmark = [pytest.mark.browser, pytest.mark.timeout(90)]
 
@@ -46,14 +45,6 @@ LOOK_UP = [np.sin(np.pi / 8), 0.0, 0.0, np.cos(np.pi / 8)]
 def server(serve) -> str:
     """`robotrial serve` (the desk arm)."""
     return serve()
-
-
-@pytest.fixture(scope="module")
-def browser(chromium: str, chromium_args: list[str]) -> Iterator:
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=chromium, args=chromium_args)
-        yield b
-        b.close()
 
 
 def measure_state(page: Page) -> dict:
@@ -96,19 +87,6 @@ def shown_length(page: Page) -> float:
     match = re.fullmatch(r"(\d+\.\d\d) m", text)
     assert match, text
     return float(match.group(1))
-
-
-def gaps_on_line_x(world, x: float) -> list[float]:
-    """The gaps between the walls that run along x = `x` (north-south)."""
-    spans = []
-    for wall in world.walls:
-        centre = np.asarray(wall.pose.xyz)
-        length = wall.geometry.size[0]
-        along_y = abs(abs(wall.pose.yaw) - np.pi / 2) < 1e-6
-        if along_y and abs(centre[0] - x) < 1e-6:
-            spans.append((centre[1] - length / 2, centre[1] + length / 2))
-    spans.sort()
-    return [round(b[0] - a[1], 3) for a, b in itertools.pairwise(spans)]
 
 
 def test_measure_a_doorway_and_a_counter_into_the_home(

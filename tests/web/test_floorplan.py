@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
-from tests.web.test_home import click_at, download, gaps_on_line_x
+from tests.web.home_plan import click_at, download, gaps_on_line_x
 
 pytestmark = [pytest.mark.timeout(120)]
 

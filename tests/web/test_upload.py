@@ -186,8 +186,9 @@ def test_uploads_cannot_read_the_servers_environment_or_files(client: TestClient
     passwd = URDF.replace("package://tower/meshes/base.stl", "file:///etc/passwd")
     r = client.post("/api/robots/upload", files={"file": ("tower.urdf", passwd.encode())})
     assert r.status_code == 422
-    assert "tower.urdf:4: <mesh>: link 'base' visual 0: mesh 'file:///etc/passwd' refused" in (
-        r.json()["detail"]
+    assert (
+        "tower.urdf:4: <mesh>: link 'base' visual 0: mesh 'file:///etc/passwd' refused"
+        in (r.json()["detail"])
     )
     names = [robot["name"] for robot in client.get("/api/robots").json()["robots"]]
     assert "spy" not in names and "tower_arm" not in names

@@ -17,6 +17,8 @@ import httpx
 import pytest
 from playwright.sync_api import Page, sync_playwright
 
+from tests.web.home_plan import click_at, draw_room
+
 pytestmark = [pytest.mark.timeout(120), pytest.mark.browser]
 
 CHECK_TIMEOUT_MS = 90_000
@@ -66,24 +68,6 @@ def page(server: str, chromium: str, chromium_args: list[str]) -> Iterator[Page]
         yield page
         assert not errors, errors
         browser.close()
-
-
-def click_at(page: Page, x: float, y: float) -> None:
-    """Click the plan at (x, y) metres."""
-    point = page.evaluate(
-        """([x, y]) => {
-            const ctm = document.getElementById('home-plan').getScreenCTM();
-            const p = new DOMPoint(x, y).matrixTransform(ctm);
-            return [p.x, p.y];
-        }""",
-        [x, y],
-    )
-    page.mouse.click(point[0], point[1])
-
-
-def draw_room(page: Page, corners: list[tuple[float, float]]) -> None:
-    for x, y in [*corners, corners[0]]:
-        click_at(page, x, y)
 
 
 def check(page: Page) -> None:

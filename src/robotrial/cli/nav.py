@@ -20,7 +20,7 @@ HELP = "navigate to a goal with AMCL, a global planner and a local controller in
 
 # the navigator's global planners and local controllers (robotrial.nav.navigator)
 PLANNERS = ("dijkstra", "astar", "hybrid", "auto")
-CONTROLLERS = ("dwa", "pursuit")
+CONTROLLERS = ("dwa", "pursuit", "profile")
 
 
 def add_planner_argument(parser: argparse.ArgumentParser) -> None:

@@ -34,6 +34,7 @@ from robotrial.nav.costmap import Footprint
 from robotrial.nav.dwa import DWAConfig
 from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
 from robotrial.nav.planners import path_length, shortest_path
+from robotrial.nav.profile import ProfileConfig
 from robotrial.sim import SimOptions, Simulation, StreamSettings
 from robotrial.sim.controllers import DriveLimits
 from robotrial.sim.footprint import base_extent
@@ -204,8 +205,9 @@ def navigator_config(
     controller: str = "dwa",
 ) -> NavigatorConfig:
     """The navigation stack's settings for a top speed (m/s); the final turn in place
-    uses the base's own yaw rate and acceleration limits. With a footprint-aware planner
-    ('hybrid', 'auto') the DWA also caps its speed by the footprint's clearance."""
+    uses the base's own yaw rate and acceleration limits, as does the 'profile' controller
+    throughout. With a footprint-aware planner ('hybrid', 'auto') the DWA also caps its
+    speed by the footprint's clearance."""
     yaw_rate = min(max_yaw_rate, max(0.8, 1.6 * speed))
     dwa = DWAConfig(
         max_speed=speed,
@@ -220,9 +222,16 @@ def navigator_config(
         exact_footprint=planner in ("hybrid", "auto"),
         narrow_speed=0.3,
     )
+    profile = ProfileConfig(
+        max_speed=speed,
+        max_yaw_rate=max_yaw_rate,
+        max_accel=max_accel,
+        max_yaw_accel=max_yaw_accel,
+    )
     return NavigatorConfig(
         planner=planner,
         dwa=dwa,
+        profile=profile,
         controller=controller,
         turn_yaw_rate=max_yaw_rate,
         turn_acc=max_yaw_accel,

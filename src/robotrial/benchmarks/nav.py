@@ -7,10 +7,15 @@ m/s (the paper's speed) and at the base's top speed 1.0 m/s, plus the apartment
 `--apartment`, from the living room to every other room: kitchen, corridor, bedroom,
 study). `--methods` runs each row with several global planner / local controller pairs
 (e.g. `dijkstra/dwa hybrid/pursuit`). Each row: successes, collisions, mean/min/max time
-of the successes, the shortest possible time (shortest collision-free path for the
-footprint's inscribed radius over the top speed) and their ratio, beside the paper's
-figures. Then each global planner's time per call (Dijkstra, A*, Hybrid-A*) on each map
-and the DWA's step time, measured on the maps apart from the trials.
+of the successes and two yardsticks with the ratio of the mean to each, beside the
+paper's figures: "shortest", the shortest collision-free path of the centre (keeping
+the footprint's inscribed radius) over the top speed; and "footprint", the least time
+in which the base, within its own speed, yaw rate and acceleration limits, follows a
+Hybrid-A* plan for its rectangle from rest to rest (turns on the spot included, or
+curves where the rectangle, 3 cm clear, takes one instead) and then turns on the spot
+to the goal's heading (`footprint_time`). Then each global planner's time per call
+(Dijkstra, A*, Hybrid-A*) on each map and the DWA's step time, measured on the maps
+apart from the trials.
 """
 
 from __future__ import annotations
@@ -73,6 +78,41 @@ def _goal(world, goal) -> tuple[float, float, float]:
     return goal
 
 
+def footprint_time(
+    nav_map,
+    footprint,
+    start: tuple[float, float, float],
+    goal: tuple[float, float, float],
+    speed: float,
+    limits,
+) -> tuple[float, float]:
+    """The footprint-aware yardstick (s): the least time in which a base with `limits`
+    (a `DriveLimits`, top speed capped at `speed`) follows a Hybrid-A* plan from `start`
+    to `goal` from rest to rest (the cheaper of the cheapest plan and the navigator's
+    own, each with curves where the rectangle takes them), and turns to the goal's
+    heading; and the same for the plans exactly as planned (every turn on the spot
+    kept)."""
+    from robotrial.nav.costmap import Costmap, coarsen
+    from robotrial.nav.hybrid import HybridAStar, HybridConfig
+    from robotrial.nav.profile import ProfileConfig, minimum_time
+
+    occupied, unknown, res = coarsen(nav_map.occupied, nav_map.unknown, nav_map.resolution, 0.05)
+    cm = Costmap(occupied, nav_map.origin, res, footprint, unknown=unknown)
+    base = ProfileConfig(
+        max_speed=min(speed, limits.max_speed),
+        max_yaw_rate=limits.max_yaw_rate,
+        max_accel=limits.max_accel,
+        max_yaw_accel=limits.max_yaw_accel,
+    )
+    curves, planned = np.inf, np.inf
+    # the cheapest plan, and the navigator's own (heuristic weight 1.1)
+    for config in (HybridConfig(heuristic_weight=1.0), HybridConfig()):
+        poses = HybridAStar(config).plan_poses(cm, start, goal[:2])
+        curves = min(curves, minimum_time(poses, base, goal[2], cm, config.margin))
+        planned = min(planned, minimum_time(poses, base, goal[2]))
+    return min(curves, planned), planned
+
+
 def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
     """Median wall time (ms) of one global plan (Dijkstra, A*) and one DWA step."""
     from robotrial.nav.costmap import Costmap
@@ -105,8 +145,9 @@ def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from robotrial.model import load_world
+    from robotrial.model import load_robot, load_world
     from robotrial.model.gridmap import world_map
+    from robotrial.sim.controllers import DriveLimits
     from robotrial.trials.nav import (
         PAPER_TABLE1,
         NavTrialSetup,
@@ -122,6 +163,8 @@ def run(args: argparse.Namespace) -> int:
         print("robotrial bench nav: --runs must be at least 1")
         return 2
     footprint = footprint_of_robot("mobile_manipulator")
+    drive = load_robot("mobile_manipulator").metadata.get("drive", {}) or {}
+    limits = DriveLimits.from_metadata(drive)
     methods = [m.split("/") if "/" in m else [m, "dwa"] for m in args.methods or [args.planner]]
     for planner, controller in methods:
         if planner not in PLANNERS or controller not in CONTROLLERS:
@@ -156,12 +199,16 @@ def run(args: argparse.Namespace) -> int:
                 )
                 method = f"{planner}/{controller}"
                 length, best = shortest_time(setup, nav_map, footprint, world)
+                fp_best, fp_planned = footprint_time(nav_map, footprint, start, goal, speed, limits)
                 results = []
                 for i in range(args.runs):
                     results.append(run_once(setup, i, nav_map, world))
                     advance()
                 s = summarize(results, best)
                 s.update(world=label, speed=speed, method=method, shortest_length=length)
+                s["footprint_time"] = fp_best
+                s["footprint_planned_time"] = fp_planned
+                s["footprint_ratio"] = s["mean_time"] / fp_best if s["mean_time"] else None
                 s["failures"] = [r.summary() for r in results if not r.success]
                 s["wall_time"] = float(sum(r.wall_time for r in results))
                 rows.append(s)
@@ -205,6 +252,8 @@ def run(args: argparse.Namespace) -> int:
                 fmt(s["max_time"]),
                 fmt(s["shortest_time"]),
                 fmt(s["ratio"]),
+                fmt(s["footprint_time"]),
+                fmt(s["footprint_ratio"]),
                 f"{paper['successes']}/{paper['runs']}, {paper['mean_time']}" if paper else "-",
             )
         )
@@ -221,6 +270,8 @@ def run(args: argparse.Namespace) -> int:
             "max",
             "shortest",
             "ratio",
+            "footprint",
+            "fp ratio",
             "paper (success, mean)",
         ],
         table,

@@ -18,7 +18,9 @@ arcs) give the fastest rate at every pose, and the time of each piece follows ex
 `minimum_time` is that time for the base's own limits with no clearance cap: the
 footprint-aware yardstick of `robotrial bench nav`.
 
-`smooth_poses` lets the base turn while it drives: it replaces stretches of a plan
+`center_poses` shifts the plan's poses sideways to where the rectangle has the most room
+(a plan may hug one wall of a corridor), and `smooth_poses` lets the base turn while it
+drives: it replaces stretches of a plan
 (a turn on the spot between two drives, or a run of small arcs) by one cubic Hermite
 curve from pose to pose where the rectangle, grown by a margin, clears every obstacle
 along it and the curve bends no tighter than `max_curvature`.
@@ -62,8 +64,10 @@ class ProfileConfig:
     speed is at most `narrow_speed`, rising linearly to the top speed at
     `ample_clearance`. Smoothing: the rectangle keeps `smooth_margin` (m) along a curve
     that replaces part of the plan, which bends at most `max_curvature` (1/m), and spans
-    at most `smooth_span` (m). Tracking gains: `k_lateral` (1/m^2) and `k_heading`
-    (1/m) per metre driven, `k_along` (1/s) and `k_spin` (1/s) on a turn on the spot.
+    at most `smooth_span` (m). Centring: poses move sideways by at most `center_shift`
+    (m), the shifts averaged over `center_length` (m). Tracking gains: `k_lateral`
+    (1/m^2) and `k_heading` (1/m) per metre driven, `k_along` (1/s) and `k_spin` (1/s)
+    on a turn on the spot.
     `period` (s): the control period. The base counts as off the plan beyond
     `off_track` (m) or `off_heading` (rad); scan marks within `wall_tolerance` (m) of
     the map's walls are those walls seen from a pose a little off."""
@@ -79,6 +83,8 @@ class ProfileConfig:
     ample_clearance: float = 0.10
     clearance_cap: float = 0.2
     smooth_margin: float = 0.05
+    center_shift: float = 0.12
+    center_length: float = 0.5
     max_curvature: float = 3.0
     smooth_span: float = 2.5
     k_lateral: float = 9.0
@@ -469,6 +475,50 @@ def smooth_poses(
     return np.vstack(out)
 
 
+def center_poses(
+    costmap: Costmap,
+    poses: np.ndarray,
+    config: ProfileConfig = ProfileConfig(),
+    blocked: np.ndarray | None = None,
+) -> np.ndarray:
+    """The plan's poses (N, 3) shifted sideways, by at most `center_shift` m, to where the
+    rectangle has the most room (a plan that hugs one wall of a corridor is slower than
+    one down its middle); the shifts are averaged over `center_length` m and vanish at
+    both ends and at turns on the spot. `smooth_poses` then draws its curves through
+    them, and checks them."""
+    c = config
+    p = np.asarray(poses, dtype=float).reshape(-1, 3).copy()
+    n = len(p)
+    if n < 5 or c.center_shift <= 0:
+        return p
+    blk = costmap.lethal if blocked is None else blocked
+    ds, _, spin = pieces(p)
+    moving = np.zeros(n, dtype=bool)
+    moving[1:-1] = ~spin[:-1] & ~spin[1:]
+    offsets = np.linspace(-c.center_shift, c.center_shift, 9)
+    normal = np.column_stack([-np.sin(p[:, 2]), np.cos(p[:, 2])])
+    clear = np.stack(
+        [
+            rectangle_clearance(
+                costmap, np.column_stack([p[:, :2] + o * normal, p[:, 2]]), blk, c.clearance_cap
+            )
+            for o in offsets
+        ]
+    )
+    base = clear[len(offsets) // 2]
+    best = offsets[np.argmax(clear, axis=0)]
+    best = np.where(clear.max(axis=0) > base + 0.01, best, 0.0)
+    best[~moving] = 0.0
+    step = max(float(np.median(np.abs(ds[~spin]))) if (~spin).any() else 0.0, 1e-3)
+    k = max(1, round(0.5 * c.center_length / step))
+    shift = np.convolve(np.pad(best, k, mode="edge"), np.ones(2 * k + 1) / (2 * k + 1), "valid")
+    fixed = np.flatnonzero(~moving)
+    gap = np.abs(np.arange(n)[:, None] - fixed[None, :]).min(axis=1)
+    shift *= np.clip(gap / (k + 1), 0.0, 1.0)
+    p[:, :2] += shift[:, None] * normal
+    return p
+
+
 # --- the controller --------------------------------------------------------------------
 
 
@@ -502,6 +552,7 @@ class ProfileController:
         blocked = costmap.lethal & ~wall_marks(costmap, self.config.wall_tolerance)
         if self.poses is not None and self._still_good(plan, costmap, blocked, pose):
             return False
+        plan = center_poses(costmap, plan, self.config, blocked)
         chain = smooth_poses(costmap, plan, self.config, blocked)
         self.poses = chain
         self.clearance = rectangle_clearance(costmap, chain, blocked, self.config.clearance_cap)

@@ -32,9 +32,9 @@ takes the rate one control period ahead as the feed-forward (v, w), and corrects
 lateral and heading error (the tracking law of Kanayama et al., 1990). Before a command
 is given, a short arc of it is checked with the exact rectangle; when the base is
 blocked, `ok` is False (the navigator stops and recovers). A new plan replaces the one
-being followed only when that one is blocked, the base has left it, or the plan ends
-elsewhere: replanning every second from a moving base would otherwise start each new
-plan with a turn on the spot.
+being followed only when that one is blocked, the base has left it, the plan ends
+elsewhere, or the new one is clearly sooner: replanning every second from a moving base
+would otherwise start many a new plan with a turn on the spot.
 """
 
 from __future__ import annotations
@@ -65,12 +65,15 @@ class ProfileConfig:
     `ample_clearance`. Smoothing: the rectangle keeps `smooth_margin` (m) along a curve
     that replaces part of the plan, which bends at most `max_curvature` (1/m), and spans
     at most `smooth_span` (m). Centring: poses move sideways by at most `center_shift`
-    (m), the shifts averaged over `center_length` (m). Tracking gains: `k_lateral`
+    (m), the shifts averaged over `center_length` (m) and faded out over `center_taper`
+    (m) before and after the ends and the turns on the spot. Tracking gains: `k_lateral`
     (1/m^2) and `k_heading` (1/m) per metre driven, `k_along` (1/s) and `k_spin` (1/s)
     on a turn on the spot.
     `period` (s): the control period. The base counts as off the plan beyond
-    `off_track` (m) or `off_heading` (rad); scan marks within `wall_tolerance` (m) of
-    the map's walls are those walls seen from a pose a little off."""
+    `off_track` (m) or `off_heading` (rad); a new plan replaces one still good to
+    follow when it is sooner by more than `switch_gain` (s); scan marks within
+    `wall_tolerance` (m) of the map's walls are those walls seen from a pose a little
+    off."""
 
     max_speed: float = 1.0
     max_yaw_rate: float = 2.0
@@ -83,8 +86,11 @@ class ProfileConfig:
     ample_clearance: float = 0.10
     clearance_cap: float = 0.2
     smooth_margin: float = 0.05
+    switch_gain: float = 0.5
+    creep_speed: float = 0.05
     center_shift: float = 0.12
     center_length: float = 0.5
+    center_taper: float = 1.0
     max_curvature: float = 3.0
     smooth_span: float = 2.5
     k_lateral: float = 9.0
@@ -512,9 +518,12 @@ def center_poses(
     step = max(float(np.median(np.abs(ds[~spin]))) if (~spin).any() else 0.0, 1e-3)
     k = max(1, round(0.5 * c.center_length / step))
     shift = np.convolve(np.pad(best, k, mode="edge"), np.ones(2 * k + 1) / (2 * k + 1), "valid")
+    # the base must come to the plan's own turning points and ends on the plan: the
+    # shifts fade out over `center_taper` m of travel before and after them
     fixed = np.flatnonzero(~moving)
-    gap = np.abs(np.arange(n)[:, None] - fixed[None, :]).min(axis=1)
-    shift *= np.clip(gap / (k + 1), 0.0, 1.0)
+    along = np.concatenate([[0.0], np.cumsum(np.abs(ds))])
+    gap = np.abs(along[:, None] - along[fixed][None, :]).min(axis=1)
+    shift *= np.clip(gap / c.center_taper, 0.0, 1.0)
     p[:, :2] += shift[:, None] * normal
     return p
 
@@ -534,6 +543,7 @@ class ProfileController:
         self.profile: SpeedProfile | None = None
         self.progress = 0  # index of the piece the base is on
         self.adopted = 0
+        self._blocked = False  # the plan's command was blocked: take up the next plan
 
     # --- the plan ----------------------------------------------------------------------
 
@@ -543,21 +553,44 @@ class ProfileController:
         self.clearance = None
         self.profile = None
         self.progress = 0
+        self._blocked = False
 
-    def set_path(self, poses: np.ndarray, costmap: Costmap, pose: tuple[float, ...]) -> bool:
+    def set_path(
+        self,
+        poses: np.ndarray,
+        costmap: Costmap,
+        pose: tuple[float, ...],
+        velocity: tuple[float, float] = (0.0, 0.0),
+    ) -> bool:
         """A new plan (N, 3 poses, or N, 2 points: the heading along them) from the
-        navigator on its global costmap; kept only if the one being followed is blocked,
-        left behind, or ends elsewhere. Returns whether it was adopted."""
+        navigator on its global costmap, the base at `pose` moving at `velocity` (v, w).
+        It replaces the plan being followed if that one is blocked, left behind or ends
+        elsewhere, or if it is sooner by more than `switch_gain` s. Returns whether it
+        was taken up."""
+        c = self.config
         plan = _as_poses(poses, pose)
-        blocked = costmap.lethal & ~wall_marks(costmap, self.config.wall_tolerance)
-        if self.poses is not None and self._still_good(plan, costmap, blocked, pose):
-            return False
-        plan = center_poses(costmap, plan, self.config, blocked)
-        chain = smooth_poses(costmap, plan, self.config, blocked)
+        blocked = costmap.lethal & ~wall_marks(costmap, c.wall_tolerance)
+        keep = (
+            self.poses is not None
+            and not self._blocked
+            and self._still_good(plan, costmap, blocked, pose)
+        )
+        plan = center_poses(costmap, plan, c, blocked)
+        chain = smooth_poses(costmap, plan, c, blocked)
+        clearance = rectangle_clearance(costmap, chain, blocked, c.clearance_cap)
+        if keep:
+            assert self.poses is not None and self.clearance is not None
+            v0 = abs(float(velocity[0]))
+            i = self._locate(np.asarray(pose, dtype=float))[0]
+            left = plan_profile(self.poses[i:], c, self.clearance[i:], start_rate=v0).duration
+            new = _time_from(chain, clearance, c, v0)
+            if new > left - c.switch_gain:
+                return False
         self.poses = chain
-        self.clearance = rectangle_clearance(costmap, chain, blocked, self.config.clearance_cap)
+        self.clearance = clearance
         self.progress = 0
         self.adopted += 1
+        self._blocked = False
         return True
 
     def _still_good(
@@ -692,19 +725,38 @@ class ProfileController:
         # the command's next moments must leave the rectangle clear
         candidates = [(v, w), (max(0.0, v0 - dv) if v0 > 0 else min(0.0, v0 + dv), w)]
         candidates.append((candidates[-1][0], float(np.clip(0.0, w0 - dw, w0 + dw))))
+        if abs(v) < 0.1 and stop_at is None:
+            # where a turn on the spot is blocked (the base stopped a little off the
+            # plan's turning point), turning while creeping forwards or backwards may not be
+            turn = w if abs(w) > 0.05 else 0.3 * float(np.sign(w_ff + eth) or 1.0)
+            turn = float(np.clip(turn, w0 - dw, w0 + dw))
+            candidates += [(c.creep_speed, turn), (-c.creep_speed, turn)]
         here_clear = not footprint_hits(costmap, pose_a[None], 0.0, blocked).any()
-        for cv, cw in candidates:
+        for k, (cv, cw) in enumerate(candidates):
             if cv == 0.0 and cw == 0.0:
                 continue
             steps = max(2, int(np.ceil((abs(cv) / c.max_accel + 0.2) / 0.05)))
             traj = rollout(tuple(pose_a), np.array([cv]), np.array([cw]), steps, 0.05)[0]
             hits = footprint_hits(costmap, traj, 0.0, blocked)
             if not hits.any() or (not here_clear and not hits[-1]):
+                if k > 0 and stop_at is None:
+                    # the plan's own command would touch (the base is off the plan):
+                    # the navigator's next plan, from where the base is, replaces it
+                    self._blocked = True
                 return DWAResult(cv, cw, True, traj, len(candidates))
-        if stop_at is not None and stop_at <= 1:
-            return DWAResult(0.0, 0.0, False, np.zeros((0, 3)), len(candidates))
+        self._blocked = True
         # nothing moving is clear: stop (the navigator recovers if this lasts)
         return DWAResult(0.0, 0.0, False, np.zeros((0, 3)), len(candidates))
+
+
+def _time_from(chain: np.ndarray, clearance: np.ndarray, config: ProfileConfig, v0: float) -> float:
+    """The profile's time along `chain` for a base now driving at `v0` m/s: if the chain
+    starts with a turn on the spot, the base first stops."""
+    spin = pieces(chain[:2])[2]
+    if len(spin) and spin[0]:
+        stop = v0 / (config.accel_use * config.max_accel)
+        return stop + plan_profile(chain, config, clearance).duration
+    return plan_profile(chain, config, clearance, start_rate=v0).duration
 
 
 def _wrap(a):

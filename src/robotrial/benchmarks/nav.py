@@ -57,8 +57,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--methods",
         nargs="+",
         metavar="PLANNER/CONTROLLER",
-        help="run every row with each of these (e.g. dijkstra/dwa hybrid/pursuit); "
-        "default: --planner with DWA",
+        help="run every row with each of these (e.g. dijkstra/dwa hybrid/profile); "
+        "default: --planner with its default controller (profile for hybrid, else dwa)",
     )
     parser.add_argument(
         "--apartment",
@@ -147,6 +147,7 @@ def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import load_robot, load_world
     from robotrial.model.gridmap import world_map
+    from robotrial.nav.navigator import default_controller
     from robotrial.sim.controllers import DriveLimits
     from robotrial.trials.nav import (
         PAPER_TABLE1,
@@ -165,7 +166,10 @@ def run(args: argparse.Namespace) -> int:
     footprint = footprint_of_robot("mobile_manipulator")
     drive = load_robot("mobile_manipulator").metadata.get("drive", {}) or {}
     limits = DriveLimits.from_metadata(drive)
-    methods = [m.split("/") if "/" in m else [m, "dwa"] for m in args.methods or [args.planner]]
+    methods = [
+        m.split("/") if "/" in m else [m, default_controller(m)]
+        for m in args.methods or [args.planner]
+    ]
     for planner, controller in methods:
         if planner not in PLANNERS or controller not in CONTROLLERS:
             print(

@@ -36,6 +36,12 @@ GLOBAL_PLANNERS = (*PLANNERS, "hybrid", "auto")
 CONTROLLERS = ("dwa", "pursuit", "profile")
 
 
+def default_controller(planner: str) -> str:
+    """The local controller a global planner gets unless one is named: the speed profile
+    for Hybrid-A*'s footprint plans, the DWA for the others."""
+    return "profile" if planner == "hybrid" else "dwa"
+
+
 class Status(Enum):
     IDLE = "idle"
     ACTIVE = "active"
@@ -64,7 +70,7 @@ class NavigatorConfig:
 
     planner: str = "dijkstra"
     hybrid: HybridConfig = field(default_factory=HybridConfig)
-    controller: str = "dwa"
+    controller: str | None = None
     pursuit: PursuitConfig = field(default_factory=PursuitConfig)
     profile: ProfileConfig = field(default_factory=ProfileConfig)
     xy_tolerance: float = 0.15
@@ -129,14 +135,14 @@ class Navigator:
         self.planner = make_planner(grid)
         self.hybrid = HybridAStar(config.hybrid)
         self.plans_by: list[str] = []
-        if config.controller not in CONTROLLERS:
-            raise ValueError(
-                f"unknown controller {config.controller!r}; choose from {list(CONTROLLERS)}"
-            )
+        kind = config.controller or default_controller(config.planner)
+        if kind not in CONTROLLERS:
+            raise ValueError(f"unknown controller {kind!r}; choose from {list(CONTROLLERS)}")
+        self.controller_kind = kind
         self.controller: DWAPlanner | PursuitController | ProfileController
-        if config.controller == "dwa":
+        if kind == "dwa":
             self.controller = DWAPlanner(footprint, config.dwa)
-        elif config.controller == "pursuit":
+        elif kind == "pursuit":
             self.controller = PursuitController(footprint, config.dwa, config.pursuit)
         else:
             self.controller = ProfileController(footprint, config.profile)
@@ -311,7 +317,7 @@ class Navigator:
         self._last_plan = now
         if isinstance(self.controller, ProfileController):
             plan = self._poses if self._poses is not None else path
-            self.controller.set_path(plan, self.global_costmap, tuple(pose))
+            self.controller.set_path(plan, self.global_costmap, tuple(pose), self._command)
         return True
 
     def _global_path(self, pose: np.ndarray) -> np.ndarray:

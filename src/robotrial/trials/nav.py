@@ -68,7 +68,7 @@ PAPER_TABLE1 = {
 class NavTrialSetup:
     """What a trial is: world, robot, start (spawn name or pose), goal (x, y, yaw), the
     map (None: the world's ground truth), the top speed (m/s), the global planner and
-    the local controller."""
+    the local controller (None: the planner's default, `default_controller`)."""
 
     world: str = "room_b"
     goal: tuple[float, float, float] = (6.8, 6.6, 0.0)
@@ -77,7 +77,7 @@ class NavTrialSetup:
     map_path: str | None = None
     speed: float = 0.3
     planner: str = "dijkstra"
-    controller: str = "dwa"
+    controller: str | None = None
     time_limit: float | None = None
     initial_error: tuple[float, float] = (0.1, 0.05)
     success_radius: float = 0.3
@@ -202,7 +202,7 @@ def navigator_config(
     max_accel: float,
     planner: str,
     max_yaw_accel: float = 2.0,
-    controller: str = "dwa",
+    controller: str | None = None,
 ) -> NavigatorConfig:
     """The navigation stack's settings for a top speed (m/s); the final turn in place
     uses the base's own yaw rate and acceleration limits, as does the 'profile' controller

@@ -739,9 +739,10 @@ class ProfileController:
             traj = rollout(tuple(pose_a), np.array([cv]), np.array([cw]), steps, 0.05)[0]
             hits = footprint_hits(costmap, traj, 0.0, blocked)
             if not hits.any() or (not here_clear and not hits[-1]):
-                if k > 0 and stop_at is None:
-                    # the plan's own command would touch (the base is off the plan):
-                    # the navigator's next plan, from where the base is, replaces it
+                if k >= 3:
+                    # a turn on the spot of the plan would touch (the base stopped off
+                    # the plan's turning point): the navigator's next plan, from where
+                    # the base is, replaces it
                     self._blocked = True
                 return DWAResult(cv, cw, True, traj, len(candidates))
         self._blocked = True

@@ -213,3 +213,22 @@ def test_mobile_manipulator_reaches_the_kitchen_sooner_than_with_pure_pursuit():
     for r in runs.values():
         assert r.success and not r.collision, r.message
     assert runs["profile"].time < runs["pursuit"].time - 1.5
+
+
+def test_the_navigator_drives_hybrid_plans_with_the_profile_within_its_top_speed():
+    from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
+
+    occ = _room()
+    nav = Navigator(occ, (0.0, 0.0), 0.05, FP, NavigatorConfig(planner="hybrid"))
+    assert isinstance(nav.controller, ProfileController)  # the default for Hybrid-A*
+    pose, t, top = np.array([1.5, 2.5, 0.0]), 0.0, 0.0
+    nav.set_goal(6.0, 2.5, 0.0)
+    while nav.status is Status.ACTIVE and t < 40.0:
+        nav.observe((float(pose[0]), float(pose[1])), np.zeros((0, 2)))  # an empty scan
+        v, w = nav.step(t, tuple(pose), (0.0, 0.0))
+        top = max(top, v)
+        pose = compose(pose, _arc(v, w, 0.05))
+        t += 0.05
+    assert nav.status is Status.SUCCEEDED, nav.message
+    # the navigator's top speed is the DWA's (0.3 m/s by default): the profile keeps it
+    assert 0.25 < top <= 0.3 + 1e-9

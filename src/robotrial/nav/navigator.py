@@ -20,7 +20,7 @@ after every recovery, time limit).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
@@ -145,7 +145,14 @@ class Navigator:
         elif kind == "pursuit":
             self.controller = PursuitController(footprint, config.dwa, config.pursuit)
         else:
-            self.controller = ProfileController(footprint, config.profile)
+            # no faster than the top speed the navigator is given (the DWA's)
+            top = min(config.profile.max_speed, config.dwa.max_speed)
+            profile = replace(
+                config.profile,
+                max_speed=top,
+                narrow_speed=min(config.profile.narrow_speed, top),
+            )
+            self.controller = ProfileController(footprint, profile)
         self._poses: np.ndarray | None = None
         self.local_costmap: Costmap | None = None
         self.status = Status.IDLE

@@ -2,28 +2,29 @@
 (layer 3).
 
 A Hybrid-A* plan is a chain of poses: short drives (straight or arcs) and turns on the
-spot. `SpeedProfile` times such a chain as fast as the base's limits allow: every piece
-between two poses is a drive (`ds` m along the heading, `dtheta` rad) or a turn on the
-spot; a path parameter `sigma` advances by `|ds|` on a drive and `rho |dtheta|` on a
-turn (`rho` = top speed / top yaw rate, so both reach their top rate at the same
-`sigma` rate). The rate is capped per piece by the top speed, the top yaw rate over the
-curvature (`w = kappa v`), the speed the rectangle's clearance allows (`clearance_speed`),
-and the yaw acceleration a change of curvature asks for (`v^2 |dkappa/ds| <= alpha`,
-the curvature averaged over `curve_length`); it is zero where a drive meets a turn on the
-spot or reverses. A forward pass (accelerate from the current speed) and a backward pass
-(brake to a stop at the end) with the acceleration limits (and `|kappa| a <= alpha` on
-arcs) give the fastest rate at every pose, and the time of each piece follows exactly
-(accelerate, cruise, brake within the piece).
+spot. `plan_profile` times such a chain (a `SpeedProfile`) as fast as the base's limits
+allow: every piece between two poses is a drive (`ds` m along the heading, `dtheta`
+rad) or a turn on the spot; a path parameter `sigma` advances by `|ds|` on a drive and
+`rho |dtheta|` on a turn (`rho` = top speed / top yaw rate, so both reach their top rate
+at the same `sigma` rate). The rate is capped per piece by the top speed, the top yaw
+rate over the curvature (`w = kappa v`), the speed the exact rectangle's clearance
+allows (`rectangle_clearance`: `narrow_speed` at `tight_clearance`, the top speed from
+`ample_clearance` up), and the yaw acceleration a change of curvature asks for
+(`v^2 |dkappa/ds| <= alpha`, the curvature averaged over `curve_length`); it is zero
+where a drive meets a turn on the spot or reverses. A forward pass (accelerate from the
+current speed) and a backward pass (brake to a stop at the end) with the acceleration
+limits (and `|kappa| a <= alpha` on arcs) give the fastest rate at every pose, and the
+time of each piece follows exactly (accelerate, cruise, brake within the piece).
 
 `minimum_time` is that time for the base's own limits with no clearance cap: the
 footprint-aware yardstick of `robotrial bench nav`.
 
 `center_poses` shifts the plan's poses sideways to where the rectangle has the most room
 (a plan may hug one wall of a corridor), and `smooth_poses` lets the base turn while it
-drives: it replaces stretches of a plan
-(a turn on the spot between two drives, or a run of small arcs) by one cubic Hermite
-curve from pose to pose where the rectangle, grown by a margin, clears every obstacle
-along it and the curve bends no tighter than `max_curvature`.
+drives: it replaces stretches of a plan (a turn on the spot between two drives, or a run
+of small arcs) by one cubic Hermite curve from pose to pose where the rectangle, grown
+by a margin, clears every obstacle along it and the curve bends no tighter than
+`max_curvature`.
 
 `ProfileController.compute` follows the (smoothed) plan: it finds how far along the plan
 the base is (position and heading), recomputes the profile from there with the
@@ -672,7 +673,16 @@ class ProfileController:
         reach = v0 * v0 / (2 * c.accel_use * c.max_accel) + 0.6
         along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(rest[:, :2], axis=0).T))])
         near = np.flatnonzero(along <= reach)
-        window = costmap.inside(costmap.world_to_cell(rest[near, :2]))
+        # only where the whole rectangle lies inside the (local) costmap
+        border = int(np.ceil(self.footprint.circumscribed_radius / costmap.resolution)) + 1
+        rc = costmap.world_to_cell(rest[near, :2])
+        rows, cols = costmap.shape
+        window = (
+            (rc[:, 0] >= border)
+            & (rc[:, 0] < rows - border)
+            & (rc[:, 1] >= border)
+            & (rc[:, 1] < cols - border)
+        )
         check = near[window]
         if len(check):
             hit = footprint_hits(costmap, rest[check], 0.0, blocked)

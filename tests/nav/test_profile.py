@@ -232,3 +232,19 @@ def test_the_navigator_drives_hybrid_plans_with_the_profile_within_its_top_speed
     assert nav.status is Status.SUCCEEDED, nav.message
     # the navigator's top speed is the DWA's (0.3 m/s by default): the profile keeps it
     assert 0.25 < top <= 0.3 + 1e-9
+
+
+def test_the_footprint_yardstick_counts_the_turns_the_rectangle_needs():
+    from robotrial.benchmarks.nav import footprint_time
+    from robotrial.model.gridmap import NavMap
+    from robotrial.sim.controllers import DriveLimits
+
+    occ = _room()
+    nav_map = NavMap(occ, np.zeros_like(occ), (0.0, 0.0), 0.05, "test")
+    limits = DriveLimits(max_speed=1.0, max_yaw_rate=2.0, max_accel=1.0, max_yaw_accel=3.0)
+    # 4 m straight ahead, facing the goal: 5 s, as for a point
+    best, planned = footprint_time(nav_map, FP, (2.0, 2.5, 0.0), (6.0, 2.5, 0.0), 1.0, limits)
+    assert best == pytest.approx(5.0, abs=0.05) and planned == pytest.approx(5.0, abs=0.05)
+    # the same drive to a goal that faces back: the half turn at the end is counted
+    back, _ = footprint_time(nav_map, FP, (2.0, 2.5, 0.0), (6.0, 2.5, np.pi), 1.0, limits)
+    assert back == pytest.approx(5.0 + np.pi / 2 + 2 / 3, abs=0.05)

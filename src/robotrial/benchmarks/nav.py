@@ -26,11 +26,17 @@ import os
 import platform
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robotrial.cli.nav import CONTROLLERS, PLANNERS, add_planner_argument
 from robotrial.console import add_json_flag, print_json, print_table, progress
+
+if TYPE_CHECKING:
+    from robotrial.model.gridmap import NavMap
+    from robotrial.nav.costmap import Footprint
+    from robotrial.sim.controllers import DriveLimits
 
 HELP = "Table 1 of the platform paper (rooms A, B, C; apartment) at 0.3 and 1.0 m/s; planner times"
 
@@ -79,21 +85,22 @@ def _goal(world, goal) -> tuple[float, float, float]:
 
 
 def footprint_time(
-    nav_map,
-    footprint,
+    nav_map: NavMap,
+    footprint: Footprint,
     start: tuple[float, float, float],
     goal: tuple[float, float, float],
     speed: float,
-    limits,
-) -> tuple[float, float]:
+    limits: DriveLimits,
+) -> tuple[float | None, float | None]:
     """The footprint-aware yardstick (s): the least time in which a base with `limits`
-    (a `DriveLimits`, top speed capped at `speed`) follows a Hybrid-A* plan from `start`
-    to `goal` from rest to rest (the cheaper of the cheapest plan and the navigator's
-    own, each with curves where the rectangle takes them), and turns to the goal's
-    heading; and the same for the plans exactly as planned (every turn on the spot
-    kept)."""
+    (top speed capped at `speed`) follows a Hybrid-A* plan from `start` to `goal` from
+    rest to rest (the cheaper of the cheapest plan and the navigator's own, each with
+    curves where the rectangle takes them), and turns to the goal's heading; and the same
+    for the plans exactly as planned (every turn on the spot kept). None where
+    Hybrid-A* finds no way for the rectangle."""
     from robotrial.nav.costmap import Costmap, coarsen
     from robotrial.nav.hybrid import HybridAStar, HybridConfig
+    from robotrial.nav.planners import NoPath
     from robotrial.nav.profile import ProfileConfig, minimum_time
 
     occupied, unknown, res = coarsen(nav_map.occupied, nav_map.unknown, nav_map.resolution, 0.05)
@@ -107,9 +114,14 @@ def footprint_time(
     curves, planned = np.inf, np.inf
     # the cheapest plan, and the navigator's own (heuristic weight 1.1)
     for config in (HybridConfig(heuristic_weight=1.0), HybridConfig()):
-        poses = HybridAStar(config).plan_poses(cm, start, goal[:2])
+        try:
+            poses = HybridAStar(config).plan_poses(cm, start, goal[:2])
+        except NoPath:
+            continue
         curves = min(curves, minimum_time(poses, base, goal[2], cm, config.margin))
         planned = min(planned, minimum_time(poses, base, goal[2]))
+    if not np.isfinite(planned):
+        return None, None
     return min(curves, planned), planned
 
 
@@ -212,7 +224,9 @@ def run(args: argparse.Namespace) -> int:
                 s.update(world=label, speed=speed, method=method, shortest_length=length)
                 s["footprint_time"] = fp_best
                 s["footprint_planned_time"] = fp_planned
-                s["footprint_ratio"] = s["mean_time"] / fp_best if s["mean_time"] else None
+                s["footprint_ratio"] = (
+                    s["mean_time"] / fp_best if s["mean_time"] and fp_best else None
+                )
                 s["failures"] = [r.summary() for r in results if not r.success]
                 s["wall_time"] = float(sum(r.wall_time for r in results))
                 rows.append(s)

@@ -197,8 +197,12 @@ def test_a_fine_slam_map_is_navigated_on_5_cm_costmaps_that_keep_thin_walls():
 
 @pytest.mark.parametrize(
     "config",
-    [NavigatorConfig(), NavigatorConfig(planner="hybrid", controller="pursuit")],
-    ids=["dijkstra-dwa", "hybrid-pursuit"],
+    [
+        NavigatorConfig(),
+        NavigatorConfig(planner="hybrid", controller="pursuit"),
+        NavigatorConfig(planner="hybrid"),
+    ],
+    ids=["dijkstra-dwa", "hybrid-pursuit", "hybrid-profile"],
 )
 def test_nav_node_plans_and_commands_on_the_bus(config):
     from robotrial.msgs.builtin_interfaces import Time

@@ -7,10 +7,15 @@ m/s (the paper's speed) and at the base's top speed 1.0 m/s, plus the apartment
 `--apartment`, from the living room to every other room: kitchen, corridor, bedroom,
 study). `--methods` runs each row with several global planner / local controller pairs
 (e.g. `dijkstra/dwa hybrid/pursuit`). Each row: successes, collisions, mean/min/max time
-of the successes, the shortest possible time (shortest collision-free path for the
-footprint's inscribed radius over the top speed) and their ratio, beside the paper's
-figures. Then each global planner's time per call (Dijkstra, A*, Hybrid-A*) on each map
-and the DWA's step time, measured on the maps apart from the trials.
+of the successes and two yardsticks with the ratio of the mean to each, beside the
+paper's figures: "shortest", the shortest collision-free path of the centre (keeping
+the footprint's inscribed radius) over the top speed; and "footprint", the least time
+in which the base, within its own speed, yaw rate and acceleration limits, follows a
+Hybrid-A* plan for its rectangle from rest to rest (turns on the spot included, or
+curves where the rectangle, 3 cm clear, takes one instead) and then turns on the spot
+to the goal's heading (`footprint_time`). Then each global planner's time per call
+(Dijkstra, A*, Hybrid-A*) on each map and the DWA's step time, measured on the maps
+apart from the trials.
 """
 
 from __future__ import annotations
@@ -21,11 +26,17 @@ import os
 import platform
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robotrial.cli.nav import CONTROLLERS, PLANNERS, add_planner_argument
 from robotrial.console import add_json_flag, print_json, print_table, progress
+
+if TYPE_CHECKING:
+    from robotrial.model.gridmap import NavMap
+    from robotrial.nav.costmap import Footprint
+    from robotrial.sim.controllers import DriveLimits
 
 HELP = "Table 1 of the platform paper (rooms A, B, C; apartment) at 0.3 and 1.0 m/s; planner times"
 
@@ -52,8 +63,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--methods",
         nargs="+",
         metavar="PLANNER/CONTROLLER",
-        help="run every row with each of these (e.g. dijkstra/dwa hybrid/pursuit); "
-        "default: --planner with DWA",
+        help="run every row with each of these (e.g. dijkstra/dwa hybrid/profile); "
+        "default: --planner with its default controller (profile for hybrid, else dwa)",
     )
     parser.add_argument(
         "--apartment",
@@ -71,6 +82,47 @@ def _goal(world, goal) -> tuple[float, float, float]:
         p = world.spawn(goal)
         return float(p.xyz[0]), float(p.xyz[1]), float(p.yaw)
     return goal
+
+
+def footprint_time(
+    nav_map: NavMap,
+    footprint: Footprint,
+    start: tuple[float, float, float],
+    goal: tuple[float, float, float],
+    speed: float,
+    limits: DriveLimits,
+) -> tuple[float | None, float | None]:
+    """The footprint-aware yardstick (s): the least time in which a base with `limits`
+    (top speed capped at `speed`) follows a Hybrid-A* plan from `start` to `goal` from
+    rest to rest (the cheaper of the cheapest plan and the navigator's own, each with
+    curves where the rectangle takes them), and turns to the goal's heading; and the same
+    for the plans exactly as planned (every turn on the spot kept). None where
+    Hybrid-A* finds no way for the rectangle."""
+    from robotrial.nav.costmap import Costmap, coarsen
+    from robotrial.nav.hybrid import HybridAStar, HybridConfig
+    from robotrial.nav.planners import NoPath
+    from robotrial.nav.profile import ProfileConfig, minimum_time
+
+    occupied, unknown, res = coarsen(nav_map.occupied, nav_map.unknown, nav_map.resolution, 0.05)
+    cm = Costmap(occupied, nav_map.origin, res, footprint, unknown=unknown)
+    base = ProfileConfig(
+        max_speed=min(speed, limits.max_speed),
+        max_yaw_rate=limits.max_yaw_rate,
+        max_accel=limits.max_accel,
+        max_yaw_accel=limits.max_yaw_accel,
+    )
+    curves, planned = np.inf, np.inf
+    # the cheapest plan, and the navigator's own (heuristic weight 1.1)
+    for config in (HybridConfig(heuristic_weight=1.0), HybridConfig()):
+        try:
+            poses = HybridAStar(config).plan_poses(cm, start, goal[:2])
+        except NoPath:
+            continue
+        curves = min(curves, minimum_time(poses, base, goal[2], cm, config.margin))
+        planned = min(planned, minimum_time(poses, base, goal[2]))
+    if not np.isfinite(planned):
+        return None, None
+    return min(curves, planned), planned
 
 
 def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
@@ -105,8 +157,10 @@ def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from robotrial.model import load_world
+    from robotrial.model import load_robot, load_world
     from robotrial.model.gridmap import world_map
+    from robotrial.nav.navigator import default_controller
+    from robotrial.sim.controllers import DriveLimits
     from robotrial.trials.nav import (
         PAPER_TABLE1,
         NavTrialSetup,
@@ -122,7 +176,12 @@ def run(args: argparse.Namespace) -> int:
         print("robotrial bench nav: --runs must be at least 1")
         return 2
     footprint = footprint_of_robot("mobile_manipulator")
-    methods = [m.split("/") if "/" in m else [m, "dwa"] for m in args.methods or [args.planner]]
+    drive = load_robot("mobile_manipulator").metadata.get("drive", {}) or {}
+    limits = DriveLimits.from_metadata(drive)
+    methods = [
+        m.split("/") if "/" in m else [m, default_controller(m)]
+        for m in args.methods or [args.planner]
+    ]
     for planner, controller in methods:
         if planner not in PLANNERS or controller not in CONTROLLERS:
             print(
@@ -156,12 +215,18 @@ def run(args: argparse.Namespace) -> int:
                 )
                 method = f"{planner}/{controller}"
                 length, best = shortest_time(setup, nav_map, footprint, world)
+                fp_best, fp_planned = footprint_time(nav_map, footprint, start, goal, speed, limits)
                 results = []
                 for i in range(args.runs):
                     results.append(run_once(setup, i, nav_map, world))
                     advance()
                 s = summarize(results, best)
                 s.update(world=label, speed=speed, method=method, shortest_length=length)
+                s["footprint_time"] = fp_best
+                s["footprint_planned_time"] = fp_planned
+                s["footprint_ratio"] = (
+                    s["mean_time"] / fp_best if s["mean_time"] and fp_best else None
+                )
                 s["failures"] = [r.summary() for r in results if not r.success]
                 s["wall_time"] = float(sum(r.wall_time for r in results))
                 rows.append(s)
@@ -205,6 +270,8 @@ def run(args: argparse.Namespace) -> int:
                 fmt(s["max_time"]),
                 fmt(s["shortest_time"]),
                 fmt(s["ratio"]),
+                fmt(s["footprint_time"]),
+                fmt(s["footprint_ratio"]),
                 f"{paper['successes']}/{paper['runs']}, {paper['mean_time']}" if paper else "-",
             )
         )
@@ -221,6 +288,8 @@ def run(args: argparse.Namespace) -> int:
             "max",
             "shortest",
             "ratio",
+            "footprint",
+            "fp ratio",
             "paper (success, mean)",
         ],
         table,

@@ -20,7 +20,7 @@ HELP = "navigate to a goal with AMCL, a global planner and a local controller in
 
 # the navigator's global planners and local controllers (robotrial.nav.navigator)
 PLANNERS = ("dijkstra", "astar", "hybrid", "auto")
-CONTROLLERS = ("dwa", "pursuit")
+CONTROLLERS = ("dwa", "pursuit", "profile")
 
 
 def add_planner_argument(parser: argparse.ArgumentParser) -> None:
@@ -50,8 +50,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--controller",
         choices=CONTROLLERS,
-        default="dwa",
-        help="local controller (pursuit: regulated pure pursuit, for --planner hybrid)",
+        default=None,
+        help="local controller (profile: the fastest speed profile along a footprint plan, "
+        "pursuit: regulated pure pursuit; default: profile with --planner hybrid, else dwa)",
     )
     parser.add_argument("--robot", default="mobile_manipulator", help="built-in robot or URDF")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first run")
@@ -63,6 +64,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import load_world
     from robotrial.model.gridmap import file_map, world_map
+    from robotrial.nav.navigator import default_controller
     from robotrial.trials.nav import (
         NavTrialSetup,
         footprint_of_robot,
@@ -84,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
             map_path=args.map,
             speed=args.speed,
             planner=args.planner,
-            controller=args.controller,
+            controller=args.controller or default_controller(args.planner),
             time_limit=args.time_limit,
         )
         nav_map = file_map(args.map) if args.map else world_map(world)
@@ -120,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
                 "speed": args.speed,
                 "map": nav_map.source,
                 "planner": args.planner,
-                "controller": args.controller,
+                "controller": setup.controller,
                 "runs": [r.summary() for r in results],
                 "summary": summary,
                 "plot": plot,

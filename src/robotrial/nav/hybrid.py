@@ -442,7 +442,7 @@ class HybridAStar:
         """(N, 2) world points from the start to the goal for the footprint; raises NoPath.
         `start` is (x, y) or (x, y, yaw); without a yaw the base starts facing the goal."""
         poses = self.plan_poses(costmap, start, goal)
-        return _resample(poses[:, :2], costmap.resolution)
+        return resample(poses[:, :2], costmap.resolution)
 
     def plan_poses(
         self, costmap: Costmap, start: tuple[float, ...], goal: tuple[float, ...]
@@ -585,7 +585,7 @@ def _fmt(p: np.ndarray) -> str:
     return "(" + ", ".join(f"{float(v):.2f}" for v in p) + ")"
 
 
-def _resample(points: np.ndarray, spacing: float) -> np.ndarray:
+def resample(points: np.ndarray, spacing: float) -> np.ndarray:
     """The polyline through `points` (repeated points dropped) at about `spacing` m."""
     p = np.asarray(points, dtype=float)
     keep = np.concatenate([[True], np.hypot(*np.diff(p, axis=0).T) > 1e-9])

@@ -20,19 +20,26 @@ after every recovery, time limit).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
 
 from robotrial.nav.costmap import Costmap, Footprint, Inflation, coarsen
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
-from robotrial.nav.hybrid import HybridAStar, HybridConfig, footprint_hits
+from robotrial.nav.hybrid import HybridAStar, HybridConfig, footprint_hits, resample
 from robotrial.nav.planners import PLANNERS, NoPath, StartBlocked, make_planner, smooth
+from robotrial.nav.profile import ProfileConfig, ProfileController
 from robotrial.nav.pursuit import PursuitConfig, PursuitController
 
 GLOBAL_PLANNERS = (*PLANNERS, "hybrid", "auto")
-CONTROLLERS = ("dwa", "pursuit")
+CONTROLLERS = ("dwa", "pursuit", "profile")
+
+
+def default_controller(planner: str) -> str:
+    """The local controller a global planner gets unless one is named: the speed profile
+    for Hybrid-A*'s footprint plans, the DWA for the others."""
+    return "profile" if planner == "hybrid" else "dwa"
 
 
 class Status(Enum):
@@ -54,16 +61,18 @@ class NavigatorConfig:
     `planner`: 'dijkstra' or 'astar' (the grid, the centre keeping the inscribed radius),
     'hybrid' (Hybrid-A* over poses with the footprint), or 'auto' (A*, and Hybrid-A*
     where the footprint facing along A*'s path would touch something). `controller`:
-    'dwa' or 'pursuit' (regulated pure pursuit, for footprint plans), both within the
-    limits of `dwa`.
+    'dwa', 'pursuit' (regulated pure pursuit, for footprint plans), both within the
+    limits of `dwa`, or 'profile' (the fastest speed profile along the footprint plan
+    that its clearance allows, tracked; within the limits of `profile`).
     `turn_yaw_rate` (rad/s) and `turn_acc` (rad/s^2) bound the final turn in place to
     the goal's heading (None: the DWA's limits). `costmap_resolution` (m): the costmaps'
     cell size; a map at least twice as fine is coarsened to it (None: the map's)."""
 
     planner: str = "dijkstra"
     hybrid: HybridConfig = field(default_factory=HybridConfig)
-    controller: str = "dwa"
+    controller: str | None = None
     pursuit: PursuitConfig = field(default_factory=PursuitConfig)
+    profile: ProfileConfig = field(default_factory=ProfileConfig)
     xy_tolerance: float = 0.15
     yaw_tolerance: float = 0.15
     replan_period: float = 1.0
@@ -126,15 +135,25 @@ class Navigator:
         self.planner = make_planner(grid)
         self.hybrid = HybridAStar(config.hybrid)
         self.plans_by: list[str] = []
-        if config.controller not in CONTROLLERS:
-            raise ValueError(
-                f"unknown controller {config.controller!r}; choose from {list(CONTROLLERS)}"
+        kind = config.controller or default_controller(config.planner)
+        if kind not in CONTROLLERS:
+            raise ValueError(f"unknown controller {kind!r}; choose from {list(CONTROLLERS)}")
+        self.controller_kind = kind
+        self.controller: DWAPlanner | PursuitController | ProfileController
+        if kind == "dwa":
+            self.controller = DWAPlanner(footprint, config.dwa)
+        elif kind == "pursuit":
+            self.controller = PursuitController(footprint, config.dwa, config.pursuit)
+        else:
+            # no faster than the top speed the navigator is given (the DWA's)
+            top = min(config.profile.max_speed, config.dwa.max_speed)
+            profile = replace(
+                config.profile,
+                max_speed=top,
+                narrow_speed=min(config.profile.narrow_speed, top),
             )
-        self.controller: DWAPlanner | PursuitController = (
-            DWAPlanner(footprint, config.dwa)
-            if config.controller == "dwa"
-            else PursuitController(footprint, config.dwa, config.pursuit)
-        )
+            self.controller = ProfileController(footprint, profile)
+        self._poses: np.ndarray | None = None
         self.local_costmap: Costmap | None = None
         self.status = Status.IDLE
         self.message = ""
@@ -173,6 +192,8 @@ class Navigator:
         self._planned = False
         self._rotating = False
         self._blocked_since = None
+        if isinstance(self.controller, ProfileController):
+            self.controller.reset()
 
     def cancel(self, reason: str = "cancelled") -> None:
         self._finish(Status.ABORTED, reason)
@@ -301,12 +322,16 @@ class Navigator:
         self._planned = True
         self.path = path
         self._last_plan = now
+        if isinstance(self.controller, ProfileController):
+            plan = self._poses if self._poses is not None else path
+            self.controller.set_path(plan, self.global_costmap, tuple(pose), self._command)
         return True
 
     def _global_path(self, pose: np.ndarray) -> np.ndarray:
         """The configured planner's path from `pose` to the goal; raises NoPath."""
         cm, goal = self.global_costmap, tuple(self.goal[:2])
         kind = self.config.planner
+        self._poses = None
         if kind in ("hybrid", "auto"):
             if kind == "auto":
                 path = smooth(self.planner.plan(cm, tuple(pose[:2]), goal), cm)
@@ -316,9 +341,9 @@ class Navigator:
                     self.plans_by.append("grid")
                     return path
             try:
-                path = self.hybrid.plan(cm, tuple(pose), goal)
+                self._poses = self.hybrid.plan_poses(cm, tuple(pose), goal)
                 self.plans_by.append("hybrid")
-                return path
+                return resample(self._poses[:, :2], cm.resolution)
             except StartBlocked:
                 # a base whose footprint already touches something (as mapped) plans
                 # its way out on the grid, where cells near the start stay open

@@ -35,6 +35,7 @@ from robotrial.nav.costmap import Footprint
 from robotrial.nav.dwa import DWAConfig
 from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
 from robotrial.nav.planners import path_length, shortest_path
+from robotrial.nav.profile import ProfileConfig
 from robotrial.sim import SimOptions, Simulation, StreamSettings
 from robotrial.sim.controllers import DriveLimits
 from robotrial.sim.footprint import base_extent
@@ -68,7 +69,7 @@ PAPER_TABLE1 = {
 class NavTrialSetup:
     """What a trial is: world, robot, start (spawn name or pose), goal (x, y, yaw), the
     map (None: the world's ground truth), the top speed (m/s), the global planner and
-    the local controller."""
+    the local controller (None: the planner's default, `default_controller`)."""
 
     world: str = "room_b"
     goal: tuple[float, float, float] = (6.8, 6.6, 0.0)
@@ -77,7 +78,7 @@ class NavTrialSetup:
     map_path: str | None = None
     speed: float = 0.3
     planner: str = "dijkstra"
-    controller: str = "dwa"
+    controller: str | None = None
     time_limit: float | None = None
     initial_error: tuple[float, float] = (0.1, 0.05)
     success_radius: float = 0.3
@@ -203,11 +204,12 @@ def navigator_config(
     max_accel: float,
     planner: str,
     max_yaw_accel: float = 2.0,
-    controller: str = "dwa",
+    controller: str | None = None,
 ) -> NavigatorConfig:
     """The navigation stack's settings for a top speed (m/s); the final turn in place
-    uses the base's own yaw rate and acceleration limits. With a footprint-aware planner
-    ('hybrid', 'auto') the DWA also caps its speed by the footprint's clearance."""
+    uses the base's own yaw rate and acceleration limits, as does the 'profile' controller
+    throughout. With a footprint-aware planner ('hybrid', 'auto') the DWA also caps its
+    speed by the footprint's clearance."""
     yaw_rate = min(max_yaw_rate, max(0.8, 1.6 * speed))
     dwa = DWAConfig(
         max_speed=speed,
@@ -222,9 +224,16 @@ def navigator_config(
         exact_footprint=planner in ("hybrid", "auto"),
         narrow_speed=0.3,
     )
+    profile = ProfileConfig(
+        max_speed=speed,
+        max_yaw_rate=max_yaw_rate,
+        max_accel=max_accel,
+        max_yaw_accel=max_yaw_accel,
+    )
     return NavigatorConfig(
         planner=planner,
         dwa=dwa,
+        profile=profile,
         controller=controller,
         turn_yaw_rate=max_yaw_rate,
         turn_acc=max_yaw_accel,

@@ -84,7 +84,7 @@ def test_a_doorway_narrower_than_the_base_leaves_the_second_room_unreachable(tmp
 
 @pytest.mark.parametrize("doorway", [0.6, 0.9])
 def test_driving_agrees_with_the_verdict_in_the_two_room_home(tmp_path, doorway) -> None:
-    """The navigation trial (AMCL in MuJoCo, Hybrid-A*, pure pursuit) from the dock to
+    """The navigation trial (AMCL in MuJoCo, Hybrid-A*, the speed profile) from the dock to
     each room's goal gets where the verdict says the base gets, and not elsewhere.
     `robotrial bench verdict` does the same in the apartment."""
     world = load_world(home(tmp_path, doorway))

@@ -4,7 +4,7 @@ For each robot, `check_home` on the world (default: the apartment; no chores) `-
 times: the wall time of the whole verdict and of each part (footprint, rooms, parking
 poses, reach), and the process's CPU time (what the wall time would be on an idle core:
 the verdict runs on one), against the 10 s target. Then the verdict is checked by driving: the
-navigation trial (AMCL in MuJoCo, Hybrid-A*, pure pursuit) from the dock to each room's
+navigation trial (AMCL in MuJoCo, Hybrid-A*, the speed profile) from the dock to each room's
 goal, `--runs` seeds each; every room the verdict calls reachable must be reached and
 every other must not. In the apartment, the same is done with the study's doorway
 narrowed to 0.6 m (the study must then be red, and not reached). With `--chore
@@ -150,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
         ],
     )
     print_table(
-        "rooms: the verdict against driving (navigation trial, Hybrid-A* + pure pursuit)",
+        "rooms: the verdict against driving (navigation trial, Hybrid-A* + speed profile)",
         ["robot", "world", "room", "verdict", "driven", "agrees", "time (s)", "message"],
         [
             [

@@ -347,6 +347,7 @@ class PoseGraphSlam:
         with self._lock:
             self.nodes.append(self.pose.copy())
             self.scans.append(scan)
+            self._written.append(self.pose.copy())
             if k > 0:
                 prev = self.nodes[k - 1]
                 self.edges.append(
@@ -359,7 +360,6 @@ class PoseGraphSlam:
                 )
                 self._queue.append(k)
         self._write(self._grid, self.pose, scan)
-        self._written.append(self.pose.copy())
         self._pyramid = self._grid.pyramid(self.params.match_levels)
         self.map_updates += 1
         if k > 0:

@@ -244,6 +244,20 @@ class SlamNode(Node):
         if self._last_map is None or t - self._last_map >= self.map_update_interval:
             self.publish_map(t)
 
+    def settle(self) -> None:
+        """Let the method finish its pending work (the pose graph's back end: loop
+        searches and the optimisation), so that its map and pose are final."""
+        with self._lock:
+            if isinstance(self.slam, PoseGraphSlam):
+                self.slam.settle()
+                self.pose = self.slam.pose.copy()
+
+    def destroy(self) -> None:
+        """Leave the bus and stop the method's worker thread, if it has one."""
+        super().destroy()
+        if isinstance(self.slam, PoseGraphSlam):
+            self.slam.close()
+
     def publish_map(self, t: float) -> None:
         """Publish the current map on /map (latched)."""
         with self._lock:

@@ -97,7 +97,7 @@ def _solve3(
     return x0, x1, x2
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _gauss_newton(
     grid: np.ndarray,
     ox: float,

@@ -21,6 +21,12 @@ def _from_dict(cls: type[T], values: dict[str, Any] | None) -> T:
         if k not in known:
             raise ValueError(f"{cls.__name__}: unknown parameter {k!r}; known: {sorted(known)}")
         kind = type(getattr(out, k))
+        if kind is bool and not isinstance(v, bool):
+            # bool("false") is True: accept only what reads as a truth value.
+            words = {"true": True, "1": True, "false": False, "0": False}
+            if str(v).lower() not in words:
+                raise ValueError(f"{cls.__name__}: parameter {k!r}={v!r}: expected true or false")
+            v = words[str(v).lower()]
         try:
             out = replace(out, **{k: kind(v)})  # type: ignore[type-var]
         except (TypeError, ValueError) as exc:
@@ -123,7 +129,9 @@ class PoseGraphParams:
     the mean likelihood field value of the scan reaches `loop_match_minimum_response`;
     after a closure, the next `loop_cooldown` nodes look for none.
     The graph is optimised after every `optimize_every` accepted closures; the map is
-    rebuilt when that moved a scan by more than `map_rebuild_shift`."""
+    rebuilt when that moved a scan by more than `map_rebuild_shift`. With `background`
+    the loop searches, the optimisation and the rebuild run in a worker thread, off the
+    scan path (False: inline, one result for one recording, for comparisons)."""
 
     resolution: float = 0.025
     match_levels: int = 3
@@ -144,6 +152,7 @@ class PoseGraphParams:
     optimize_every: int = 2
     map_rebuild_shift: float = 0.01
     map_pub_period: float = 2.0
+    background: bool = True
 
     def __post_init__(self) -> None:
         if not self.resolution > 0:

@@ -16,7 +16,9 @@ relative to the node before them, so the whole trajectory follows the optimisati
 
 from __future__ import annotations
 
+import threading
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numba
@@ -155,7 +157,7 @@ def likelihood_field(grid: LogOddsGrid, sigma: float) -> np.ndarray:
     return np.minimum(1.0, blurred * np.sqrt(2 * np.pi) * s)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _correlate(
     field: np.ndarray,
     ox: float,
@@ -227,8 +229,28 @@ def correlative_search(
     return pose, float(response)
 
 
+@dataclass(frozen=True)
+class _Solution:
+    """What a back-end pass hands to the scan path: the optimised poses `after` of the
+    first len(after) nodes, the poses `before` they had when the pass began, and the map
+    rebuilt from `after` (None when no scan moved enough to matter)."""
+
+    before: np.ndarray
+    after: np.ndarray
+    grid: LogOddsGrid | None
+
+
 class PoseGraphSlam:
-    """Feed scans with `process`; read `pose`, `grid`, `trajectory` and `closures`."""
+    """Feed scans with `process`; read `pose`, `grid`, `trajectory` and `closures`.
+
+    The scan path (`process`) matches every scan against the current map and adds the
+    nodes. The back end (loop-closure searches, the optimisation and the map rebuild)
+    runs in one worker thread when `params.background` (its heavy parts, the compiled
+    correlative search and the sparse solve, release the GIL), otherwise inline. Its
+    result is swapped in at the start of the next `process`: the optimised poses, the
+    nodes added meanwhile carried along with the last optimised one, and the rebuilt map
+    with their scans written in. `settle` waits for the back end and optimises what is
+    still pending; `close` stops the worker."""
 
     uses_odometry = False
 
@@ -248,6 +270,7 @@ class PoseGraphSlam:
         self.rebuilds = 0
         self._written: list[np.ndarray] = []
         self.optimize_time = 0.0
+        self.backend_time = 0.0
         self.map_updates = 0
         self._pending = 0
         self._last_closure = -1 << 30
@@ -256,6 +279,15 @@ class PoseGraphSlam:
         # Every scan's pose as (node index, pose relative to that node).
         self._anchors: list[int] = []
         self._offsets: list[np.ndarray] = []
+        # Shared with the back end: nodes, scans and edges grow under the lock; `_queue`
+        # holds the nodes still to be searched for a loop; `_solution` waits to be
+        # swapped in. A pass is only started when none runs and no solution waits, so
+        # the first len(solution.after) nodes do not move while a pass runs.
+        self._lock = threading.Lock()
+        self._queue: list[int] = []
+        self._solution: _Solution | None = None
+        self._job: Future[None] | None = None
+        self._executor: ThreadPoolExecutor | None = None
 
     @property
     def usable_range(self) -> float:
@@ -267,13 +299,19 @@ class PoseGraphSlam:
 
     @property
     def grid(self) -> LogOddsGrid:
-        """The map from the optimised poses (closures still pending are optimised first)."""
-        self.settle()
+        """The current map: from the optimised poses of the last back-end pass swapped
+        in, plus the scans added since (call `settle` first for the final map)."""
         return self._grid
+
+    @property
+    def busy(self) -> bool:
+        """Whether a back-end pass is running in the worker now."""
+        return self._job is not None and not self._job.done()
 
     def process(self, scan: Beams, stamp: float, odom: np.ndarray | None = None) -> np.ndarray:
         """Match one scan (odometry, if given, is ignored), add a node when the robot has
-        moved enough, look for a loop closure there; return the pose (x, y, yaw)."""
+        moved enough and hand it to the back end; return the pose (x, y, yaw)."""
+        self._adopt()
         if self.nodes and scan.hit.any():
             res = self.matcher.match(self._grid, scan.hits, self.pose, self._pyramid)
             self.pose, self._last_hessian = res.pose, res.hessian
@@ -306,42 +344,78 @@ class PoseGraphSlam:
 
     def _add_node(self, scan: Beams) -> None:
         k = len(self.nodes)
-        self.nodes.append(self.pose.copy())
-        self.scans.append(scan)
-        if k > 0:
-            prev = self.nodes[k - 1]
-            self.edges.append(
-                Edge(
-                    k - 1,
-                    k,
-                    relative(prev, self.pose),
-                    self._edge_info(self._last_hessian, prev[2]),
+        with self._lock:
+            self.nodes.append(self.pose.copy())
+            self.scans.append(scan)
+            self._written.append(self.pose.copy())
+            if k > 0:
+                prev = self.nodes[k - 1]
+                self.edges.append(
+                    Edge(
+                        k - 1,
+                        k,
+                        relative(prev, self.pose),
+                        self._edge_info(self._last_hessian, prev[2]),
+                    )
                 )
-            )
+                self._queue.append(k)
         self._write(self._grid, self.pose, scan)
-        self._written.append(self.pose.copy())
         self._pyramid = self._grid.pyramid(self.params.match_levels)
         self.map_updates += 1
-        if k > 0 and self._close_loop(k):
-            self._pending += 1
-            if self._pending >= self.params.optimize_every:
-                self.settle()
+        if k > 0:
+            self._start_pass()
+
+    def _start_pass(self, flush: bool = False) -> None:
+        """Run a back-end pass (in the worker, or here) if there is work and none runs."""
+        if self._job is not None and self._job.done():
+            job, self._job = self._job, None
+            job.result()  # a failure in the back end surfaces here, on the scan path
+        if self.busy or self._solution is not None:
+            return
+        if not self._queue and not (flush and self._pending):
+            return
+        if not self.params.background:
+            self._backend_pass(flush)
+            self._adopt()
+            return
+        if self._executor is None:
+            self._executor = ThreadPoolExecutor(1, thread_name_prefix="posegraph-backend")
+        self._job = self._executor.submit(self._backend_pass, flush)
 
     @staticmethod
     def _write(grid: LogOddsGrid, pose: np.ndarray, scan: Beams) -> None:
         origin = transform_points(pose, np.array([scan.origin]))[0]
         grid.integrate(origin, transform_points(pose, scan.ends), scan.hit)
 
-    def _close_loop(self, k: int) -> bool:
+    def _backend_pass(self, flush: bool) -> None:
+        """Search the queued nodes for loop closures; after `optimize_every` accepted
+        closures (or any, when `flush`), optimise the graph and rebuild the map, and
+        leave the result in `_solution`. Runs in the worker: reads a snapshot of the
+        nodes, touches no state of the scan path but the shared lists (under the lock)."""
+        t0 = time.perf_counter()
+        with self._lock:
+            todo, self._queue = self._queue, []
+            nodes = np.array(self.nodes)
+            scans = self.scans[: len(nodes)]
+        found = [e for e in (self._close_loop(k, nodes, scans) for k in todo) if e is not None]
+        with self._lock:
+            self.edges.extend(found)
+        self._pending += len(found)
+        if self._pending and (self._pending >= self.params.optimize_every or flush):
+            self._solution = self._optimise(nodes, scans)
+        self.backend_time += time.perf_counter() - t0
+
+    def _close_loop(self, k: int, nodes: np.ndarray, scans: list[Beams]) -> Edge | None:
+        """A loop-closure edge from node k to an earlier node near it, or None."""
         p = self.params
         if k <= p.loop_min_chain or k - self._last_closure <= p.loop_cooldown:
-            return False
-        here = self.nodes[k]
-        old = np.array(self.nodes[: k - p.loop_min_chain + 1])
+            return None
+        here = nodes[k]
+        old = nodes[: k - p.loop_min_chain + 1]
         d = np.hypot(old[:, 0] - here[0], old[:, 1] - here[1])
         cand = int(np.argmin(d))
         if d[cand] > p.loop_search_maximum_distance:
-            return False
+            return None
         self.loop_attempts += 1
         local = LogOddsGrid(p.resolution, model=self._model)
         lo, hi = (
@@ -349,10 +423,10 @@ class PoseGraphSlam:
             min(k - p.loop_min_chain, cand + p.loop_neighbours),
         )
         for n in range(lo, hi + 1):
-            self._write(local, self.nodes[n], self.scans[n])
-        hits = self.scans[k].hits
+            self._write(local, nodes[n], scans[n])
+        hits = scans[k].hits
         if hits.shape[0] < 20:
-            return False
+            return None
         sub = hits[:: max(1, hits.shape[0] // p.loop_points)]
         field = likelihood_field(local, 2 * p.resolution)
         found, response = correlative_search(
@@ -366,50 +440,87 @@ class PoseGraphSlam:
             p.loop_search_angle_step,
         )
         if response < p.loop_match_minimum_response:
-            return False
+            return None
         fine = self.matcher.match(local, hits, found)
         # Consistency: the Gauss-Newton refinement stays by the search's peak.
         shift = relative(found, fine.pose)
         if np.hypot(shift[0], shift[1]) > 2 * p.resolution or abs(shift[2]) > 0.02:
-            return False
-        anchor = self.nodes[cand]
-        self.edges.append(
-            Edge(
-                cand, k, relative(anchor, fine.pose), self._edge_info(fine.hessian, anchor[2]), True
-            )
-        )
+            return None
+        anchor = nodes[cand]
         self.closures += 1
         self._last_closure = k
-        return True
+        return Edge(
+            cand, k, relative(anchor, fine.pose), self._edge_info(fine.hessian, anchor[2]), True
+        )
 
-    def settle(self) -> None:
-        """Optimise the graph if closures are pending, rebuild the map from the optimised
-        poses (when they moved enough to matter) and carry the current pose along with
-        the last node."""
-        if self._pending == 0:
-            return
+    def _optimise(self, nodes: np.ndarray, scans: list[Beams]) -> _Solution:
+        """Optimise the graph over `nodes` (a snapshot) and rebuild the map from them
+        when some scan would land elsewhere by more than `map_rebuild_shift` (a turn
+        counts at 5 m, the length of a typical beam)."""
         t0 = time.perf_counter()
-        before = np.array(self.nodes)
-        after, _, _ = optimize_graph(before, self.edges)
-        last = relative(before[-1], self.pose)
-        self.nodes = [q.copy() for q in after]
-        self.pose = compose(after[-1], last)
-        # Rebuild only when some scan would land elsewhere in the map by more than
-        # `map_rebuild_shift` (a turn counts at 5 m, the length of a typical beam).
-        written = np.array(self._written)
+        n = len(nodes)
+        with self._lock:
+            edges = [e for e in self.edges if e.i < n and e.j < n]
+            written = np.array(self._written[:n])
+        after, _, _ = optimize_graph(nodes, edges)
         turn = np.abs((after[:, 2] - written[:, 2] + np.pi) % (2 * np.pi) - np.pi)
         shift = np.hypot(*(after[:, :2] - written[:, :2]).T) + 5.0 * turn
+        grid = None
         if shift.max() > self.params.map_rebuild_shift:
             grid = LogOddsGrid(self.params.resolution, model=self._model)
-            for q, s in zip(self.nodes, self.scans, strict=True):
+            for q, s in zip(after, scans, strict=True):
                 self._write(grid, q, s)
-            self._grid = grid
-            self._pyramid = grid.pyramid(self.params.match_levels)
-            self._written = [q.copy() for q in after]
-            self.rebuilds += 1
         self._pending = 0
         self.optimizations += 1
         self.optimize_time += time.perf_counter() - t0
+        return _Solution(nodes, after, grid)
+
+    def _adopt(self) -> None:
+        """Swap in a finished back-end pass: the optimised nodes, the nodes added since
+        moved with the last optimised one, the current pose likewise, and the rebuilt
+        map with the newer nodes' scans written in."""
+        sol = self._solution
+        if sol is None:
+            return
+        n = len(sol.after)
+
+        def carried(q: np.ndarray) -> np.ndarray:
+            return compose(sol.after[-1], relative(sol.before[-1], q))
+
+        with self._lock:
+            newer = [carried(q) for q in self.nodes[n:]]
+            self.nodes = [q.copy() for q in sol.after] + newer
+        self.pose = carried(self.pose)
+        if sol.grid is not None:
+            for q, s in zip(newer, self.scans[n:], strict=True):
+                self._write(sol.grid, q, s)
+            self._grid = sol.grid
+            self._pyramid = sol.grid.pyramid(self.params.match_levels)
+            with self._lock:
+                self._written = [q.copy() for q in self.nodes]
+            self.rebuilds += 1
+        self._solution = None
+        # Nodes queued while the pass ran wait for the next one.
+        self._start_pass()
+
+    def settle(self) -> None:
+        """Wait for the back end, search what is queued, optimise the closures still
+        pending and swap the result in: afterwards `grid` and `trajectory` are final."""
+        while True:
+            if self._job is not None:
+                self._job.result()
+                self._job = None
+            self._adopt()
+            self._start_pass(flush=True)
+            if self._job is None and self._solution is None:
+                return
+
+    def close(self) -> None:
+        """Stop the worker thread (after the pass it runs, if any)."""
+        if self._executor is not None:
+            self._executor.shutdown(wait=True)
+            self._executor = None
+            self._job = None
 
     def map_to_odom(self, odom: np.ndarray) -> np.ndarray:
         """The map -> odom transform that puts `odom` (the odometry pose now) at the

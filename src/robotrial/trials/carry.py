@@ -509,6 +509,7 @@ class CarryTrial(Node):
     def _start_navigation(self) -> Iterator[None]:
         """Stop SLAM, start AMCL + the navigator, then hand them SLAM's map and last pose."""
         assert self.slam_node is not None
+        self.slam_node.settle()
         pose = self.pose()
         grid = self.slam_node.slam.grid
         self.slam_grid = grid.copy()

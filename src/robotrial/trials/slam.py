@@ -248,14 +248,15 @@ def _updates(slam: Slam) -> int:
 
 
 def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration: float) -> SlamRun:
-    """A SlamRun from a SLAM object that has seen its scans. A pose graph's pending
-    closures are optimised first, and that time is added to the last scan's."""
+    """A SlamRun from a SLAM object that has seen its scans. A pose graph's back end is
+    waited for and its pending closures optimised first; that wait (`settle_ms`) is not
+    a scan's time: the scans were not held up by it."""
+    settle_ms = 0.0
     if isinstance(slam, PoseGraphSlam):
         t0 = time.perf_counter()
         slam.settle()
-        if len(times):
-            times = times.copy()
-            times[-1] += time.perf_counter() - t0
+        settle_ms = (time.perf_counter() - t0) * 1e3
+        slam.close()
     stamps, poses = slam.trajectory()
     if isinstance(slam, GMappingSlam):
         nbytes = sum(m.logodds.nbytes for m in slam.maps)
@@ -270,6 +271,9 @@ def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration
             "optimizations": slam.optimizations,
             "map_rebuilds": slam.rebuilds,
             "optimize_ms_total": slam.optimize_time * 1e3,
+            "backend_ms_total": slam.backend_time * 1e3,
+            "background": slam.params.background,
+            "settle_ms": settle_ms,
         }
     else:
         nbytes = slam.grid.logodds.nbytes

@@ -1,0 +1,82 @@
+"""The pose graph's back end in its worker thread: the scan path keeps going while an
+optimisation runs, and the result is swapped in when it is done."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from robotrial.slam.metrics import ate
+from robotrial.slam.params import PoseGraphParams
+from robotrial.slam.posegraph import PoseGraphSlam
+from robotrial.trials.slam import Recording, make_slam, scan_beams, true_poses
+
+
+class HeldPoseGraph(PoseGraphSlam):
+    """The pose graph whose optimisation, once started in the worker, waits for `go`."""
+
+    def __init__(self, params: PoseGraphParams) -> None:
+        super().__init__(params)
+        self.started = threading.Event()
+        self.go = threading.Event()
+        self.held_too_long = False
+
+    def _optimise(self, nodes, scans):
+        self.started.set()
+        self.held_too_long = not self.go.wait(30.0)
+        return super()._optimise(nodes, scans)
+
+
+def test_scans_are_matched_while_the_optimisation_runs(room_b: Recording):
+    slam = HeldPoseGraph(PoseGraphParams(optimize_every=1))
+    for s in room_b.scans:
+        slam.process(scan_beams(slam, s, room_b.laser_pose), s.stamp)
+    # The square drive closes its loop: the worker reaches the optimisation and holds.
+    assert slam.started.wait(30.0)
+    # The robot stands at its last pose; its scans keep coming and are matched while the
+    # optimisation is held (inline, the first of them would have waited the 30 s out).
+    last = room_b.scans[-1]
+    poses = []
+    for i in range(20):
+        beams = scan_beams(slam, last, room_b.laser_pose)
+        poses.append(slam.process(beams, last.stamp + 0.1 * (i + 1)))
+        assert slam.optimizations == 0 and slam.busy
+    assert np.ptp(np.array(poses)[:, :2], axis=0).max() < 0.01
+    slam.go.set()
+    slam.settle()
+    slam.close()
+    assert not slam.held_too_long
+    assert slam.optimizations >= 1 and slam.closures >= 1
+    # Every scan keeps a pose, and the swapped-in trajectory is still right.
+    stamps, traj = slam.trajectory()
+    assert len(stamps) == len(room_b.scans) + 20
+    ref, ok = true_poses(room_b, stamps)
+    assert ok.sum() >= len(room_b.scans) - 1
+    assert ate(traj[ok], ref)["rmse"] < 0.02
+
+
+def test_background_and_inline_back_ends_agree_on_a_short_run(room_b: Recording):
+    runs = {}
+    for background in (True, False):
+        slam = make_slam("graph", {"background": background, "optimize_every": 1})
+        for s in room_b.scans:
+            slam.process(scan_beams(slam, s, room_b.laser_pose), s.stamp)
+        slam.settle()
+        slam.close()
+        runs[background] = slam
+    a, b = runs[True], runs[False]
+    assert a.closures >= 1 and b.closures >= 1
+    # Nodes may fall at other scans (the pose is corrected at another moment), but every
+    # scan's pose agrees, and both are right.
+    (stamps, pa), (_, pb) = a.trajectory(), b.trajectory()
+    assert np.hypot(*(pa[:, :2] - pb[:, :2]).T).max() < 0.02
+    ref, ok = true_poses(room_b, stamps)
+    assert ate(pa[ok], ref)["rmse"] < 0.01 and ate(pb[ok], ref)["rmse"] < 0.01
+
+
+def test_a_truth_value_that_is_not_one_is_refused():
+    with pytest.raises(ValueError, match="'background'='sometimes'"):
+        make_slam("graph", {"background": "sometimes"})
+    assert make_slam("graph", {"background": "false"}).params.background is False

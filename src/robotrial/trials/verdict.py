@@ -386,7 +386,8 @@ def drive_to_rooms(
 ) -> list[dict[str, Any]]:
     """The verdict checked by driving: the navigation trial (AMCL in MuJoCo, Hybrid-A*
     and its default controller, the speed profile) from the dock to each room's goal,
-    one run per room with `seed`. Each row: the room, what the verdict said, whether the robot got there, and how."""
+    one run per room with `seed`. Each row: the room, what the verdict said, whether the
+    robot got there, and how."""
     from robotrial.trials.nav import NavTrialSetup, run_once
 
     rows = []

@@ -47,7 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     carry.add_argument("--world", default="apartment", help="a world with rooms and a route")
     carry.add_argument("--object", default="cup", help="the object to carry")
     carry.add_argument("--to", default="bedroom", help="the room to set it down in")
-    carry.add_argument("--slam", default="hector", choices=["hector", "gmapping"])
+    carry.add_argument("--slam", default="graph", choices=["graph", "hector", "gmapping"])
     carry.add_argument("--speed", type=float, default=0.5, help="top speed (m/s)")
     carry.add_argument("--seed", type=int, default=0)
     carry.add_argument("-o", "--output", default="carry", help="folder for the MCAP, JSON and plot")

@@ -2,7 +2,7 @@
 object, carries it to a named room and sets it down there (layer 5).
 
 Everything runs on one bus, as a ROS robot would: the simulator node (MuJoCo: LiDAR,
-odometry, joints, ground truth), a SLAM node (GMapping or Hector, live), then the
+odometry, joints, ground truth), a SLAM node (the pose graph, Hector or GMapping, live), then the
 navigation node (AMCL on the map SLAM built, costmaps, global planner, DWA), and the arm
 planner (the PlanTask machinery) for the arm. The task itself is a sequence of phases:
 
@@ -160,7 +160,7 @@ class CarrySetup:
     world: str = "apartment"
     object: str = "cup"
     to: str = "bedroom"
-    slam: str = "hector"
+    slam: str = "graph"
     speed: float = 0.5
     robot: str = "mobile_manipulator"
     planner: str = "rrt_connect"

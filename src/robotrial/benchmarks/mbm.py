@@ -156,15 +156,16 @@ def read_request(path: Path, joints: list[str]) -> tuple[np.ndarray, np.ndarray]
 
 def problems(folder: Path, scene: str, count: int, robot, spheres=None) -> list[Any]:
     """The first `count` problems of `scene` as PlanningProblems for `robot` (the Panda)."""
-    from robotrial.collision.sphere_model import CollisionChecker, RobotSpheres
+    from robotrial.collision.sphere_model import CollisionChecker
     from robotrial.kinematics.chain import Kinematics
     from robotrial.model.world import Floor, World
     from robotrial.planning.problems import PlanningProblem
+    from robotrial.planning.task import robot_spheres
 
     # the fingers open (the requests' own 0.065 m is past the Panda's 0.04 m limit), as
     # MBM's grasp goals around the objects need them
     kin = spheres.kin if spheres is not None else Kinematics(robot, fixed=FINGERS)
-    spheres = spheres or RobotSpheres(kin)
+    spheres = spheres or robot_spheres(kin)  # kept on disk: the fine covers take seconds
     # MBM's tables stand below the robot's base: no floor at z = 0
     world = World(name="mbm", floor=Floor(height=-5.0))
     where = folder / f"{scene}_panda"

@@ -175,10 +175,12 @@ def problems(folder: Path, scene: str, count: int, robot, spheres=None) -> list[
         start, goal = read_request(where / f"request{k:04d}.yaml", kin.joint_names)
         env = _environment(obstacles)
         # a pick goal closes the hand around its object: as MoveIt's allowed collisions
-        # let the fingers touch it there, the object the fingers alone touch at the goal
-        # leaves the scene (counted in the report)
-        touched = CollisionChecker(spheres, env).contacts(goal)
-        grasped = {ob for link, ob in touched if link in GRIPPER_LINKS}
+        # let the fingers touch it there, the object the gripper's spheres reach at the
+        # goal leaves the scene (counted in the report) when no other link touches anything
+        checker = CollisionChecker(spheres, env)
+        near = checker.contacts(goal, fine=False)
+        grasped = {ob for link, ob in near if link in GRIPPER_LINKS}
+        touched = checker.contacts(goal)
         if grasped and all(link in GRIPPER_LINKS for link, _ in touched):
             obstacles = [o for o in obstacles if o[0] not in grasped]
             env = _environment(obstacles)

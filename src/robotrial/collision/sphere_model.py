@@ -555,12 +555,17 @@ class CollisionChecker:
         return bool(self.motions_valid(a, b)[0])
 
     def contacts(
-        self, q: np.ndarray, pairs: Iterable[tuple[str, str]] | None = None
+        self,
+        q: np.ndarray,
+        pairs: Iterable[tuple[str, str]] | None = None,
+        fine: bool = True,
     ) -> set[tuple[str, str]]:
         """Which bodies touch which (robot link, other link or obstacle name) at `q`.
 
         With `pairs`, only those robot pairs are tested (and no obstacles); otherwise
-        every enabled self pair and every obstacle. Used to explain a failure.
+        every enabled self pair and every obstacle. Used to explain a failure. Without
+        `fine`, obstacles count as touched where the first cover reaches them (within its
+        bulge of the link), as the checks would not decide.
         """
         poses = self.kin.fk(np.asarray(q, dtype=float))
         world = {}
@@ -584,14 +589,15 @@ class CollisionChecker:
         for i in self.env_bodies:
             body = self.bodies[i]
             c, r, _ = world[body.name]
-            fine = None
-            if body.fine_centres is not None:
+            refined = None
+            if fine and body.fine_centres is not None:
                 m = poses[self.kin.link_index[body.link]]
-                fine = (body.fine_centres @ m[:3, :3].T + m[:3, 3], body.fine_radii)
+                refined = (body.fine_centres @ m[:3, :3].T + m[:3, 3], body.fine_radii)
             for k, kind in enumerate(self.env.kinds):
                 pose, dims = self.env.poses[k], self.env.dims[k]
                 if _touches(c, r + self.padding, kind, pose, dims) and (
-                    fine is None or _touches(fine[0], fine[1] + self.padding, kind, pose, dims)
+                    refined is None
+                    or _touches(refined[0], refined[1] + self.padding, kind, pose, dims)
                 ):
                     out.add((body.name, self.env.names[k]))
         return out

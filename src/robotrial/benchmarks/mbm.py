@@ -391,7 +391,8 @@ def markdown(report: dict[str, Any]) -> str:
         lines.append(
             "Pick goals close the hand around an object; as MoveIt's allowed collisions "
             "let the fingers touch it there, that object is left out of the scene (for "
-            "both planners) where only the gripper touches it at the goal: "
+            "both planners) where the gripper's spheres reach it at the goal and no other "
+            "link touches anything: "
             + ", ".join(f"{s} {n}" for s, n in grasped.items() if n)
             + " problems."
         )

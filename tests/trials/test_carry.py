@@ -72,7 +72,7 @@ def test_requests_the_trial_cannot_do_are_refused_by_name(tmp_path: Path) -> Non
         run_carry(CarrySetup(to="study"), 0, tmp_path)
     with pytest.raises(ValueError, match="'bed' is furniture"):
         run_carry(CarrySetup(object="bed"), 0, tmp_path)
-    with pytest.raises(ValueError, match="world 'room_a' has no exploration route"):
+    with pytest.raises(KeyError, match="world 'room_a' has no body 'cup'"):
         run_carry(CarrySetup(world="room_a"), 0, tmp_path)
 
 

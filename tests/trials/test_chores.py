@@ -61,7 +61,7 @@ spawns:
 """
 
 
-def test_a_home_without_a_mapping_route_refuses_chores_in_the_verdict(tmp_path, capsys) -> None:
+def test_a_chore_naming_no_object_of_the_home_is_refused_in_the_verdict(tmp_path, capsys) -> None:
     out = tmp_path / "v.json"
     world = tmp_path / "one_room.yaml"
     world.write_text(ONE_ROOM)
@@ -69,7 +69,7 @@ def test_a_home_without_a_mapping_route_refuses_chores_in_the_verdict(tmp_path, 
     assert main(["verdict", "--world", world, "--chore", "x:first", "-o", str(out)]) == 0
     report = json.loads(out.read_text())
     (chore,) = report["chores"]
-    assert chore["chore"] == "x:first" and "no exploration route" in chore["refused"]
+    assert chore["chore"] == "x:first" and "no body 'x'" in chore["refused"]
     assert report["summary"].endswith("chores: 0 of 1")
     assert main(["verdict", "--world", world, "--chore", "cup"]) == 2
     assert "OBJECT:ROOM" in capsys.readouterr().err

@@ -7,7 +7,8 @@ navigation node (AMCL on the map SLAM built, costmaps, global planner, DWA), and
 planner (the PlanTask machinery) for the arm. The task itself is a sequence of phases:
 
 1. `mapping`: from the spawn, with no map, the robot drives the world's exploration
-   route (`ROUTES`, waypoints given in advance, as a teleoperated mapping run would),
+   route (`ROUTES`, waypoints given in advance, as a teleoperated mapping run would; for
+   a world without one, a tour of its rooms made from its plan, `exploration_route`),
    localized by SLAM as it builds the map.
 2. `navigation`: on the finished map, AMCL starts from SLAM's last pose. The base pose
    for the pick is chosen from the arm's reach (poses around the object that are free on
@@ -70,7 +71,7 @@ from robotrial.msgs.std_msgs import Header
 from robotrial.msgs.tf2_msgs import TFMessage
 from robotrial.msgs.trajectory_msgs import JointTrajectory
 from robotrial.nav.amcl import compose, inverse
-from robotrial.nav.costmap import Footprint
+from robotrial.nav.costmap import Costmap, Footprint
 from robotrial.nav.navigator import NavigatorConfig, Status
 from robotrial.planning.task import Obstacles, TaskPlanner, TaskRequest, TaskResult
 from robotrial.ros.bus import Bus, Node
@@ -143,6 +144,37 @@ ROUTES: dict[str, list[tuple[float, float]]] = {
 SIDE_GRASP = Rotation.from_matrix([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])
 
 
+def exploration_route(world: World, footprint: Footprint) -> list[tuple[float, float]]:
+    """A mapping route for a world without one in ROUTES: from the default spawn through
+    each room's most open spot and back, as straight legs the footprint drives clear of
+    everything (`robotrial.nav.tour`). Raises ValueError when it reaches no room."""
+    from robotrial.model.gridmap import world_map
+    from robotrial.nav.planners import StartBlocked
+    from robotrial.nav.tour import open_spot, room_tour
+
+    if not world.rooms:
+        raise ValueError(
+            f"carry trial: world {world.name!r} names no rooms, so no mapping route can be "
+            "made for it: give `rooms` in its YAML"
+        )
+    grid = world_map(world)
+    origin, res = np.asarray(grid.origin, dtype=float), grid.resolution
+    costmap = Costmap(grid.occupied, tuple(origin), res, footprint)
+    goals = [open_spot(costmap.distance, origin, res, room.bounds) for room in world.rooms]
+    spawn = world.spawn("default")
+    dock = (float(spawn.xyz[0]), float(spawn.xyz[1]), float(spawn.yaw))
+    try:
+        route, visited = room_tour(costmap, dock, goals)
+    except StartBlocked as exc:
+        raise ValueError(f"carry trial: no mapping route in {world.name!r}: {exc}") from None
+    if not visited:
+        raise ValueError(
+            f"carry trial: no mapping route in {world.name!r}: the base reaches no room "
+            "from its spawn"
+        )
+    return route
+
+
 class PhaseFailed(RuntimeError):
     """A phase could not be completed; the message says why."""
 
@@ -157,7 +189,7 @@ class CarrySetup:
     """One carry task: which object goes to which room, in which world, mapped by which
     SLAM method, at what top speed (m/s)."""
 
-    world: str = "apartment"
+    world: str | World = "apartment"  # a built-in name, a World YAML file or a World
     object: str = "cup"
     to: str = "bedroom"
     slam: str = "graph"
@@ -244,13 +276,8 @@ class CarryTrial(Node):
     yields once per period."""
 
     def __init__(self, setup: CarrySetup, seed: int, out: Path | None) -> None:
-        world = load_world(setup.world)
+        world = setup.world if isinstance(setup.world, World) else load_world(setup.world)
         robot = load_robot(setup.robot)
-        if setup.world not in ROUTES:
-            raise ValueError(
-                f"carry trial: world {setup.world!r} has no exploration route; "
-                f"worlds with one: {', '.join(ROUTES)}"
-            )
         self.target = world.body(setup.object)
         if self.target.kind != "object":
             raise ValueError(f"carry trial: {setup.object!r} is furniture, not an object")
@@ -299,6 +326,10 @@ class CarryTrial(Node):
         self.limits = DriveLimits.from_metadata(robot.metadata.get("drive", {}) or {})
         self.speed = min(setup.speed, self.limits.max_speed)
         self.footprint: Footprint = footprint_of(self.sim)
+        if isinstance(setup.world, str) and setup.world in ROUTES:
+            self.route = list(ROUTES[setup.world])
+        else:
+            self.route = exploration_route(world, self.footprint)
         base_inv = np.linalg.inv(self.sim.world.body_pose(self.sim.world.base_body))
         lidar = next(s for s in robot.sensors if s.type == "lidar")
         laser_m = base_inv @ self.sim.frame_pose(lidar.link)
@@ -477,7 +508,7 @@ class CarryTrial(Node):
     def _explore(self) -> Iterator[None]:
         """Drive the given route, localized by SLAM as it builds the map: turn towards
         each route point, then drive to it (a teleoperated mapping run)."""
-        route = [tuple(self.to_map((x, y, 0.0))[:2]) for x, y in ROUTES[self.setup.world]]
+        route = [tuple(self.to_map((x, y, 0.0))[:2]) for x, y in self.route]
         follow = RouteDrive(route, min(self.speed, MAPPING_SPEED))
         while not follow.done:
             v, w = follow.command(*self.pose())

@@ -5,8 +5,9 @@ A chore is an (object, destination room) pair, written `cup:bedroom`. Each runs 
 carry trial (`trials/carry.py`: map, navigate, pick, carry, place) over a few seeds; the
 verdict keeps the success rate, the simulated time of the successful runs, and the phase
 each failure stopped in with its reason. What the carry trial needs from the world (a
-movable object of that name, a room with a `place`, an exploration route) is checked by
-the trial itself; a chore it refuses is reported with the trial's reason, not raised.
+movable object of that name, a room with a `place`; a mapping route, which it makes for
+a home without one) is checked by the trial itself; a chore it refuses is reported with
+the trial's reason, not raised.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -76,14 +78,17 @@ class ChoreVerdict:
         }
 
 
-def _world_ref(world: World) -> str:
-    """What the carry trial loads the world by: the built-in name when the trial knows
-    its route, else the file it came from, else its name (the trial then says why not)."""
+def _world_ref(world: World) -> str | World:
+    """What the carry trial is given: the built-in name when the trial knows its route,
+    else the file the world came from, else the World itself (a home sent as YAML); the
+    trial makes a mapping route for a world without one."""
     from robotrial.trials.carry import ROUTES
 
     if world.name in ROUTES:
         return world.name
-    return world.source or world.name
+    if world.source and Path(world.source).exists():
+        return world.source
+    return world
 
 
 def _unable(robot: str | RobotModel) -> str:

@@ -49,6 +49,7 @@ from robotrial.model.world import World
 from robotrial.nav.costmap import Costmap, Footprint
 from robotrial.nav.hybrid import HybridAStar
 from robotrial.nav.planners import NoPath, StartBlocked
+from robotrial.nav.tour import open_spot
 from robotrial.trials.chores import ChoreVerdict
 from robotrial.trials.reach import ReachVerdict
 
@@ -98,23 +99,6 @@ class BaseVerdict:
         return out
 
 
-def _open_spot(
-    clearance: np.ndarray, origin: np.ndarray, res: float, bounds
-) -> tuple[float, float]:
-    """The point of a room rectangle farthest from every obstacle."""
-    (x0, y0), (x1, y1) = bounds
-    c0, r0 = int(np.floor((x0 - origin[0]) / res)), int(np.floor((y0 - origin[1]) / res))
-    c1, r1 = int(np.ceil((x1 - origin[0]) / res)), int(np.ceil((y1 - origin[1]) / res))
-    rows, cols = clearance.shape
-    c0, c1 = max(c0, 0), min(c1, cols)
-    r0, r1 = max(r0, 0), min(r1, rows)
-    window = clearance[r0:r1, c0:c1]
-    if window.size == 0:
-        raise ValueError(f"room {bounds} lies outside the map")
-    r, c = np.unravel_index(int(np.argmax(window)), window.shape)
-    return origin[0] + (c0 + c + 0.5) * res, origin[1] + (r0 + r + 0.5) * res
-
-
 def check_base(
     world: World, footprint: Footprint, robot: str = "", grid: NavMap | None = None
 ) -> BaseVerdict:
@@ -133,7 +117,7 @@ def check_base(
     planner = HybridAStar()
     rooms = []
     for room in world.rooms:
-        goal = _open_spot(clearance, origin, res, room.bounds)
+        goal = open_spot(clearance, origin, res, room.bounds)
         t = time.perf_counter()
         try:
             route = planner.plan(costmap, dock, goal)  # points about a cell apart

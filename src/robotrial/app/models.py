@@ -129,14 +129,26 @@ class MjcfBundle(ApiModel):
     """What the MJCF writer had to change."""
 
 
+class ChoreRequest(ApiModel):
+    """A chore to try in a home: carry the movable `object` to the room `to`."""
+
+    object: str
+    to: str
+
+
 class VerdictRequest(ApiModel):
-    """A home to check (POST /api/verdict): the world and one or two robots."""
+    """A home to check (POST /api/verdict): the world, one or two robots, and the chores
+    to run as carry trials (docs/verdict.md, Chores)."""
 
     world: str
     """A world's name on this server, or a World YAML (docs/worlds.md), such as the home
     drawn in the page."""
     robots: list[str] = Field(min_length=1, max_length=2)
     """One robot, or two to compare side by side."""
+    chores: list[ChoreRequest] = Field(default=[], max_length=5)
+    """Chores, each run `seeds` times for each robot (about a minute of server time a run)."""
+    seeds: int = Field(default=1, ge=1, le=5)
+    """Runs (seeds 0 .. seeds - 1) of each chore."""
 
 
 class RobotVerdict(ApiModel):
@@ -154,6 +166,11 @@ class RobotVerdict(ApiModel):
     """The base's length and width (m), when the engine reports them."""
     turning_diameter: float | None = None
     """The circle the base needs to turn on the spot (m), when the engine reports it."""
+    chores: list[dict[str, Any]] = []
+    """One per chore asked for: `chore`, `object`, `room`, `runs`, `successes`, `done`,
+    `mean_time` (s, simulated, of the successful runs), `failed_phases`, `outcomes`
+    (per run: `seed`, `success`, `failed_phase`, `reason`, `sim_time`), `refused` (why the
+    trial would not run it, or "") and `wall_time` (s)."""
     details: dict[str, Any] = {}
     """Whatever else the engine reports, by name."""
 

@@ -369,7 +369,10 @@ def create_app(
         if len(asked.world.encode("utf-8")) > MAX_WORLD_BYTES:
             return _world_too_large()
         try:
-            job = await run_in_threadpool(verdicts.start, asked.world, asked.robots)
+            chores = [(c.object, c.to) for c in asked.chores]
+            job = await run_in_threadpool(
+                verdicts.start, asked.world, asked.robots, chores, asked.seeds
+            )
         except VerdictRefused as exc:
             return JSONResponse({"detail": str(exc)}, status_code=exc.status)
         return JSONResponse(job.model_dump(), status_code=202)

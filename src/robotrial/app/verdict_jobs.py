@@ -60,17 +60,28 @@ class VerdictRefused(Exception):
 
 
 def robot_verdict(
-    world: World, robot: str, model: RobotModel, progress: Progress
+    world: World,
+    robot: str,
+    model: RobotModel,
+    progress: Progress,
+    chores: list[tuple[str, str]] | None = None,
+    seeds: int = 1,
 ) -> dict[str, Any]:
     """The verdict for `robot` (its `model`) in `world` as a JSON-safe dict: `summary`,
     `rooms` (one dict per room: room, reachable, colour, ...; `route` as [x, y] points
     when known), `pictures` (title -> PNG data URL: the floor plan with the reach heat
     maps, and for an arm the reach maps and the heights), `reach` (each furniture top's
-    share reached, without the heat maps' points) and the engine's other figures."""
+    share reached, without the heat maps' points), `chores` (each chore's figures, when
+    `chores` (object, room) were asked for, over `seeds` runs) and the engine's other
+    figures."""
     from robotrial.trials.verdict import check_home, pictures
 
     verdict = check_home(
-        world, model, progress=lambda fraction, what: progress(0.9 * fraction, what)
+        world,
+        model,
+        chores=chores or (),
+        seeds=seeds,
+        progress=lambda fraction, what: progress(0.9 * fraction, what),
     )
     progress(0.9, f"drawing the {robot}'s floor plan")
     with _PLOT_LOCK:
@@ -84,6 +95,8 @@ def robot_verdict(
     for surface in reach["surfaces"]:
         surface.pop("heat_map")
     out["reach"] = reach
+    if verdict.chores is not None:
+        out["chores"] = [c.to_dict() for c in verdict.chores]
     titles = {"floor_plan": "floor plan", "reach": "reach maps", "heights": "heights"}
     out["pictures"] = {titles[k]: data_url(png) for k, png in drawn.items()}
     progress(1.0, f"{robot} done")
@@ -148,6 +161,23 @@ def check_closed(world: World) -> None:
     )
 
 
+def check_chores(world: World, chores: list[tuple[str, str]]) -> None:
+    """Raise VerdictRefused unless every chore names a movable object and a room of
+    `world`; the message names the one that does not and lists what the home has."""
+    objects = [b.name for b in world.objects]
+    rooms = [r.name for r in world.rooms]
+    for obj, room in chores:
+        if obj not in objects:
+            raise VerdictRefused(
+                f"chore {obj}:{room}: the home has no movable object {obj!r}; its objects: "
+                f"{', '.join(objects) or 'none (add one in the editor)'}"
+            )
+        if room not in rooms:
+            raise VerdictRefused(
+                f"chore {obj}:{room}: the home has no room {room!r}; its rooms: {', '.join(rooms)}"
+            )
+
+
 def _mobile(catalog: Catalog, name: str) -> RobotModel:
     """The robot `name`, refused unless it exists and has a wheeled base."""
     try:
@@ -190,6 +220,8 @@ class _Job:
     id: str
     world: World
     robots: list[tuple[str, RobotModel]]
+    chores: list[tuple[str, str]] = field(default_factory=list)
+    seeds: int = 1
     state: str = "queued"
     fraction: float = 0.0
     what: str = "waiting for a free worker"
@@ -223,13 +255,24 @@ class VerdictJobs:
         self._lock = threading.Lock()
         self._jobs: OrderedDict[str, _Job] = OrderedDict()
 
-    def start(self, world: str, robots: list[str]) -> VerdictJob:
+    def start(
+        self,
+        world: str,
+        robots: list[str],
+        chores: list[tuple[str, str]] | None = None,
+        seeds: int = 1,
+    ) -> VerdictJob:
         """Check the request and queue the job; raises VerdictRefused (422 for a bad
-        request, 429 when too many jobs wait)."""
+        request, 429 when too many jobs wait). `chores` (object, room) run `seeds` times
+        for each robot."""
         if len(set(robots)) != len(robots):
             raise VerdictRefused(f"the same robot twice ({', '.join(robots)}): pick two robots")
+        if not 1 <= seeds <= 5:
+            raise VerdictRefused(f"seeds: give 1 to 5 runs of each chore, not {seeds}")
         models = [(name, _mobile(self.catalog, name)) for name in robots]
-        job = _Job(uuid.uuid4().hex, _world(self.catalog, world), models)
+        home = _world(self.catalog, world)
+        check_chores(home, list(chores or []))
+        job = _Job(uuid.uuid4().hex, home, models, list(chores or []), seeds)
         with self._lock:
             waiting = sum(j.finished is None for j in self._jobs.values())
             if waiting >= WAITING:
@@ -273,7 +316,7 @@ class VerdictJobs:
                 job.state, job.what = "running", "checking that the home is closed"
             check_closed(job.world)
             for i, (name, model) in enumerate(job.robots):
-                found = robot_verdict(job.world, name, model, report(i))
+                found = robot_verdict(job.world, name, model, report(i), job.chores, job.seeds)
                 with self._lock:
                     job.results.append(_as_answer(name, found))
             with self._lock:
@@ -303,6 +346,7 @@ def _as_answer(robot: str, found: dict[str, Any]) -> RobotVerdict:
         pictures=rest.pop("pictures", {}),
         rooms=rest.pop("rooms", []),
         footprint=rest.pop("footprint", None),
+        chores=rest.pop("chores", []),
         turning_diameter=rest.pop("turning_diameter", None),
         details={k: v for k, v in rest.items() if k != "robot"},
     )

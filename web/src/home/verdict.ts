@@ -2,15 +2,17 @@
 // or two; a progress bar follows the check (GET /api/verdict/{id}) and then the verdict
 // shows beside the plan: the summary, the server's pictures, a table of the rooms in
 // their colours, two robots in two columns with their differences marked. The drawing
-// itself is not touched (the editor keeps it in localStorage). The view renders what the
+// itself is not touched (the editor keeps it in localStorage). Chores picked beside the
+// button ("carry this object to that room") go with the home and run on the server as
+// carry trials; each chore's result shows under the robot's rooms. The view renders what the
 // server sends generically (any pictures, any figures per room), so a richer verdict
 // needs no change here.
 
 import { errorText, getCatalog, type RobotEntry } from "../api";
-import type { RobotVerdict, VerdictJob } from "../generated/api";
+import type { ChoreRequest, RobotVerdict, VerdictJob } from "../generated/api";
 import { pageToken } from "../ros/connection";
 import { el, humanize } from "../ui/dom";
-import type { Home, XY } from "./model";
+import { bodyName, type Home, type XY } from "./model";
 import "./verdict.css";
 import { VERDICT_WORDS as W } from "./verdict_words";
 
@@ -18,6 +20,9 @@ export const VERDICT_URL = "/api/verdict";
 /** How often (ms) the page asks how a check is going. */
 const POLL_MS = 300;
 const PREFERRED_ROBOT = "mobile_manipulator";
+/** The most chores, and runs of each, one check takes (the server's limits). */
+const MAX_CHORES = 5;
+const MAX_SEEDS = 5;
 
 export type Colour = "green" | "amber" | "red";
 
@@ -32,14 +37,20 @@ function colourOf(value: unknown): Colour | null {
   return value === "green" || value === "amber" || value === "red" ? value : null;
 }
 
-/** Start checking `world` (a name or its YAML) for `robots`; resolves with the new job. */
-export async function startVerdict(world: string, robots: string[]): Promise<VerdictJob> {
+/** Start checking `world` (a name or its YAML) for `robots`, with `chores` run `seeds`
+ * times each; resolves with the new job. */
+export async function startVerdict(
+  world: string,
+  robots: string[],
+  chores: ChoreRequest[] = [],
+  seeds = 1,
+): Promise<VerdictJob> {
   const token = pageToken();
   const headers: Record<string, string> = { "Content-Type": "application/json" };
   if (token) headers.Authorization = `Bearer ${token}`;
   const response = await fetch(VERDICT_URL, {
     method: "POST",
-    body: JSON.stringify({ world, robots }),
+    body: JSON.stringify({ world, robots, chores, seeds }),
     headers,
   });
   if (!response.ok) {
@@ -100,6 +111,20 @@ function differences(a: RobotVerdict, b: RobotVerdict): { lines: string[]; rooms
   return { lines: lines.length ? lines : [W.same], rooms };
 }
 
+/** One chore's result as a sentence: done x of n, the time, or where and why it failed. */
+export function choreText(c: Record<string, unknown>): string {
+  const name = W.chore(String(c.object ?? ""), String(c.room ?? ""));
+  if (c.refused) return W.choreRefused(name, String(c.refused));
+  const runs = Number(c.runs ?? 0);
+  const ok = Number(c.successes ?? 0);
+  const time = typeof c.mean_time === "number" ? c.mean_time : null;
+  const failures = (Array.isArray(c.outcomes) ? c.outcomes : [])
+    .map((o) => o as Record<string, unknown>)
+    .filter((o) => !o.success)
+    .map((o) => W.choreFailure(Number(o.seed), String(o.failed_phase ?? ""), String(o.reason ?? "")));
+  return [W.choreDone(name, ok, runs, time), ...failures].join(" ");
+}
+
 /** The parts the editor lends the view. */
 export interface VerdictHost {
   /** The home's YAML, or null (the editor then says what to fix). */
@@ -122,6 +147,19 @@ export class VerdictView {
   private readonly what = el("p", { id: "verdict-what", role: "status" });
   private readonly stale = el("p", { id: "verdict-stale", class: "hint", hidden: "" }, W.stale);
   private readonly body = el("div", { id: "verdict-body" });
+  private readonly choreObject = el("select", { id: "chore-object" });
+  private readonly choreRoom = el("select", { id: "chore-room" });
+  private readonly choreAdd = el("button", { type: "button", id: "chore-add" }, W.choreAdd);
+  private readonly choreList = el("ul", { id: "chore-list" });
+  private readonly seeds = el("input", {
+    id: "chore-seeds",
+    type: "number",
+    min: "1",
+    max: String(MAX_SEEDS),
+    value: "1",
+  });
+  /** The chores picked, as the server names them (objects as body names). */
+  private chores: ChoreRequest[] = [];
   private robots: RobotEntry[] = [];
   /** The home as checked (JSON) and the answer, for the plan's colours. */
   private checked: { home: string; job: VerdictJob } | null = null;
@@ -134,9 +172,27 @@ export class VerdictView {
       { class: "verdict-controls" },
       el("label", {}, W.robot, " ", this.robot),
       el("label", {}, W.compare, " ", this.compare),
+      el(
+        "details",
+        { id: "chores", class: "verdict-chores" },
+        el("summary", {}, W.chores),
+        el("p", { class: "hint" }, W.choresHint),
+        el("label", {}, W.choreObject, " ", this.choreObject),
+        el("label", {}, W.choreRoom, " ", this.choreRoom),
+        this.choreAdd,
+        this.choreList,
+        el("label", {}, W.seeds, " ", this.seeds),
+      ),
       this.button,
     );
     this.button.addEventListener("click", () => void this.check());
+    this.choreAdd.addEventListener("click", () => {
+      const chore = { object: this.choreObject.value, to: this.choreRoom.value };
+      if (!chore.object || !chore.to || this.chores.length >= MAX_CHORES) return;
+      if (this.chores.some((c) => c.object === chore.object && c.to === chore.to)) return;
+      this.chores.push(chore);
+      this.syncChores(this.host.home());
+    });
     const back = el("button", { type: "button", id: "verdict-hide" }, W.back);
     back.addEventListener("click", () => {
       this.section.hidden = true;
@@ -175,6 +231,7 @@ export class VerdictView {
   /** The plan's colours from the first robot's verdict; null when there is none or the
    * home has changed since it was checked. */
   planColours(home: Home): PlanColours | null {
+    this.syncChores(home);
     const current = this.checked && JSON.stringify(home) === this.checked.home;
     this.stale.hidden = !this.checked || Boolean(current);
     const first = this.checked?.job.results[0];
@@ -188,6 +245,36 @@ export class VerdictView {
       if (Array.isArray(row.route)) routes.push({ colour, points: row.route as XY[] });
     }
     return { rooms, doors: home.doorways.map((d) => doorColour(d.width, first)), routes };
+  }
+
+  /** The chore pickers offer the home's objects and rooms as drawn now; chores naming
+   * one no longer there are dropped. */
+  private syncChores(home: Home): void {
+    const objects = home.objects.map((o) => bodyName(o.name));
+    const label = new Map(home.objects.map((o) => [bodyName(o.name), o.name]));
+    const rooms = home.rooms.map((r) => r.name);
+    const fill = (select: HTMLSelectElement, names: string[], labels: string[]) => {
+      const keep = select.value;
+      const same =
+        select.options.length === names.length && names.every((n, i) => select.options[i].value === n);
+      if (!same) select.replaceChildren(...names.map((n, i) => el("option", { value: n }, labels[i])));
+      if (names.includes(keep)) select.value = keep;
+    };
+    fill(this.choreObject, objects, home.objects.map((o) => o.name));
+    fill(this.choreRoom, rooms, rooms);
+    this.chores = this.chores.filter((c) => objects.includes(c.object) && rooms.includes(c.to));
+    this.choreAdd.disabled = !objects.length || !rooms.length || this.chores.length >= MAX_CHORES;
+    this.choreList.replaceChildren(
+      ...this.chores.map((c, i) => {
+        const remove = el("button", { type: "button", class: "chore-remove", title: W.choreRemove }, "×");
+        remove.addEventListener("click", () => {
+          this.chores.splice(i, 1);
+          this.syncChores(this.host.home());
+        });
+        const name = W.chore(label.get(c.object) ?? c.object, c.to);
+        return el("li", { "data-chore": `${c.object}:${c.to}` }, name, " ", remove);
+      }),
+    );
   }
 
   private say(text: string, state: "running" | "failed" | "done"): void {
@@ -211,7 +298,8 @@ export class VerdictView {
     this.say(W.starting, "running");
     this.button.disabled = true;
     try {
-      let job: VerdictJob | null = await startVerdict(yaml, robots);
+      const seeds = Math.min(MAX_SEEDS, Math.max(1, Math.round(Number(this.seeds.value) || 1)));
+      let job: VerdictJob | null = await startVerdict(yaml, robots, [...this.chores], seeds);
       while (job && job.state !== "done" && job.state !== "failed") {
         if (run !== this.runs) return;
         this.bar.value = job.fraction;
@@ -286,6 +374,22 @@ export class VerdictView {
         ? [el("p", { class: "hint" }, W.base(v.footprint[0], v.footprint[1], v.turning_diameter))]
         : []),
       el("table", { class: "verdict-rooms" }, el("thead", {}, head), el("tbody", {}, ...rows)),
+      ...(v.chores.length
+        ? [
+            el("h5", {}, W.chores),
+            el(
+              "ul",
+              { class: "verdict-chore-results" },
+              ...v.chores.map((c) =>
+                el(
+                  "li",
+                  { "data-chore": String(c.chore ?? ""), "data-done": c.done ? "yes" : "no" },
+                  choreText(c),
+                ),
+              ),
+            ),
+          ]
+        : []),
       ...Object.entries(v.pictures).map(([title, url]) =>
         el(
           "figure",

@@ -45,4 +45,20 @@ export const VERDICT_WORDS = {
   /** Figures of the rooms table that a buyer does not need to see. */
   hidden: ["route", "plan_ms"] as readonly string[],
   colours: { green: "green", amber: "amber", red: "red" } as Record<string, string>,
+  chores: "Chores",
+  choresHint:
+    "Carry an object to a room: each chore runs the whole task in simulation (map the home, " +
+    "drive, pick, carry, place), about a minute of the server's time per run.",
+  choreObject: "Object",
+  choreRoom: "to",
+  choreAdd: "Add",
+  choreRemove: "Remove this chore",
+  seeds: "Runs of each",
+  chore: (object: string, room: string) => `${object} to ${room}`,
+  choreDone: (name: string, ok: number, runs: number, time: number | null) =>
+    `${name}: ${ok === runs && runs > 0 ? "done" : "not done"}, ${ok} of ${runs} runs` +
+    (time === null ? "." : `, ${time.toFixed(0)} s on average.`),
+  choreFailure: (seed: number, phase: string, reason: string) =>
+    `Run ${seed + 1} stopped in ${phase || "an unknown phase"}: ${reason}.`,
+  choreRefused: (name: string, why: string) => `${name}: not tried: ${why}.`,
 } as const;

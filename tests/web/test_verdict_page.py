@@ -191,3 +191,38 @@ def test_a_doorway_to_the_outside_is_named_and_the_drawing_kept(page: Page) -> N
     assert page.locator("#home-plan circle.door").count() == 2  # nothing lost
     page.click("#home-undo")
     assert page.locator("#home-plan circle.door").count() == 1
+
+
+def test_a_chore_picked_in_the_page_comes_back_with_its_result(page: Page, artifacts: Path) -> None:
+    """An object on the floor of Room 1, the chore "take it to Room 2" added in the Chores
+    picker: the verdict lists the chore with the carry trial's answer. Room 2 has no
+    furniture, so nowhere to set things down: the trial refuses at once and the page says
+    why (a chore the trial runs takes about a minute of server time; see
+    tests/trials/test_carry_route.py)."""
+    page.click("#home-tool-object")
+    click_at(page, 1.0, 1.0)
+    page.click("#home-tool-select")
+    page.click("#chores summary")
+    page.wait_for_selector("#chore-object option[value='object_1']", state="attached")
+    page.select_option("#chore-object", "object_1")
+    page.select_option("#chore-room", "Room 2")
+    page.click("#chore-add")
+    page.click("#chore-add")  # the same chore twice is kept once
+    assert page.locator("#chore-list li").all_inner_texts() == ["object 1 to Room 2 ×"]
+    page.select_option("#chore-room", "Room 1")
+    page.click("#chore-add")
+    assert page.locator("#chore-list li").count() == 2
+    page.locator("#chore-list li[data-chore='object_1:Room 1'] .chore-remove").click()
+    assert page.locator("#chore-list li").count() == 1
+    page.select_option("#verdict-robot", "mobile_manipulator")
+    page.select_option("#verdict-compare", "")
+    check(page)
+    result = page.locator(
+        ".verdict-column[data-robot='mobile_manipulator'] .verdict-chore-results li"
+    )
+    assert result.count() == 1 and result.get_attribute("data-done") == "no"
+    text = result.inner_text()
+    assert text.startswith("object_1 to Room 2: not tried:"), text
+    assert "room 'Room 2' has no place to set things down" in text, text
+    assert page.inner_text("#verdict-what").endswith("chores: 0 of 1")
+    page.screenshot(path=artifacts / "web_verdict_chore.png")

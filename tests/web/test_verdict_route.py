@@ -1,9 +1,10 @@
 """POST /api/verdict and GET /api/verdict/{id} on the real `robotrial serve`: a home
 checked for two robots in the background while the server keeps answering; the arm's
-reach over a table in the answer; an unknown
-robot, an arm without a base, broken YAML, a world without rooms, too many robots and a
-body over the limit are refused at once with the reason; a home whose outer wall has a
-gap fails its job naming the room and the point; an unknown job id is a 404."""
+reach over a table in the answer; chores and the carry trial's answer to each; an unknown
+robot, an arm without a base, broken YAML, a world without rooms, too many robots, a
+chore naming an object or a room the home lacks, too many seeds and a body over the limit
+are refused at once with the reason; a home whose outer wall has a gap fails its job
+naming the room and the point; an unknown job id is a 404."""
 
 from __future__ import annotations
 
@@ -32,6 +33,12 @@ rooms:
 spawns:
   default: [1.5, 1.5, 0.0]
 """
+
+
+CUP = (
+    "objects:\n  - {name: cup, shape: cylinder, radius: 0.03, length: 0.1, mass: 0.15,"
+    " pose: {xyz: [1.0, 1.0, 0.05]}}\n"
+)
 
 
 @pytest.fixture(scope="module")
@@ -96,6 +103,29 @@ def test_the_arm_reach_comes_with_the_verdict(server: str) -> None:
         assert set(base["pictures"]) == {"floor plan"}
 
 
+def test_chores_come_back_with_each_robots_verdict(server: str) -> None:
+    """A chore the carry trial refuses (the hall has nowhere to set things down) comes
+    back in the answer with the trial's reason, and counts in the summary."""
+    with httpx.Client(base_url=server, timeout=30) as client:
+        started = client.post(
+            "api/verdict",
+            json={
+                "world": home() + CUP,
+                "robots": ["mobile_manipulator"],
+                "chores": [{"object": "cup", "to": "hall"}],
+                "seeds": 2,
+            },
+        )
+        assert started.status_code == 202, started.text
+        job = finish(client, started.json())
+        assert job["state"] == "done", job["error"]
+        (result,) = job["results"]
+        (chore,) = result["chores"]
+        assert chore["chore"] == "cup:hall" and chore["runs"] == 0 and not chore["done"]
+        assert "room 'hall' has no place to set things down" in chore["refused"]
+        assert result["summary"].endswith("chores: 0 of 1")
+
+
 @pytest.mark.parametrize(
     ("body", "status", "words"),
     [
@@ -107,6 +137,21 @@ def test_the_arm_reach_comes_with_the_verdict(server: str) -> None:
         ({"world": home(), "robots": ["husky"] * 3}, 422, ["robots:", "at most 2"]),
         ({"world": home()}, 422, ["robots: Field required"]),
         ({"world": "x" * (1024 * 1024 + 1), "robots": ["husky"]}, 413, ["at most 1024 kB"]),
+        (
+            {"world": home(), "robots": ["husky"], "chores": [{"object": "teapot", "to": "hall"}]},
+            422,
+            ["chore teapot:hall", "no movable object 'teapot'", "none (add one"],
+        ),
+        (
+            {
+                "world": home() + CUP,
+                "robots": ["husky"],
+                "chores": [{"object": "cup", "to": "attic"}],
+            },
+            422,
+            ["chore cup:attic", "no room 'attic'", "its rooms: hall"],
+        ),
+        ({"world": home(), "robots": ["husky"], "seeds": 9}, 422, ["seeds"]),
     ],
 )
 def test_bad_requests_are_refused_with_the_reason(

@@ -17,7 +17,7 @@ import httpx
 import pytest
 from playwright.sync_api import Page, sync_playwright
 
-from tests.web.home_plan import click_at, draw_room
+from tests.web.home_plan import click_at, download, draw_room
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.browser]
 
@@ -193,15 +193,25 @@ def test_a_doorway_to_the_outside_is_named_and_the_drawing_kept(page: Page) -> N
     assert page.locator("#home-plan circle.door").count() == 1
 
 
-def test_a_chore_picked_in_the_page_comes_back_with_its_result(page: Page, artifacts: Path) -> None:
+def test_a_chore_picked_in_the_page_comes_back_with_its_result(
+    page: Page, artifacts: Path, tmp_path: Path
+) -> None:
     """An object on the floor of Room 1, the chore "take it to Room 2" added in the Chores
-    picker: the verdict lists the chore with the carry trial's answer. Room 2 has no
-    furniture, so nowhere to set things down: the trial refuses at once and the page says
-    why (a chore the trial runs takes about a minute of server time; see
-    tests/trials/test_carry_route.py)."""
+    picker: the verdict lists the chore with the carry trial's answer. A table in Room 1
+    becomes its place to set things down, 0.12 m in from the edge facing the room's
+    middle; Room 2 has no furniture, so nowhere to set things down: the trial refuses at
+    once and the page says why (a chore the trial runs takes about a minute of server
+    time; see tests/trials/test_carry_route.py)."""
     page.click("#home-tool-object")
     click_at(page, 1.0, 1.0)
+    page.click("#home-tool-furniture")
+    page.select_option("#home-preset", "table")  # 1.2 x 0.8 m, 0.75 m high
+    click_at(page, 2.0, 2.4)
     page.click("#home-tool-select")
+    world = download(page, tmp_path / "chores.yaml")
+    first, second = world.room("Room 1"), world.room("Room 2")
+    assert first.place_on == "table" and second.place is None
+    assert first.place == pytest.approx((2.0, 2.4 - 0.4 + 0.12), abs=0.06)
     page.click("#chores summary")
     page.wait_for_selector("#chore-object option[value='object_1']", state="attached")
     page.select_option("#chore-object", "object_1")

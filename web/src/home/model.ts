@@ -65,6 +65,9 @@ export const SNAP = 0.05;
 export const DOOR_TOLERANCE = 0.01;
 export const OBJECT_MASS = 0.2;
 
+/** How far in from a table's edge (m) a chore sets things down (docs/web.md, My home). */
+export const PLACE_INSET = 0.12;
+
 export const PRESETS: Record<string, Omit<Furniture, "at">> = {
   table: { name: "table", shape: "box", size: [1.2, 0.8], height: 0.75 },
   round_table: { name: "round table", shape: "cylinder", size: [1.0, 1.0], height: 0.75 },
@@ -314,6 +317,34 @@ function under(home: Home, p: XY): Furniture | undefined {
   );
 }
 
+/** Where a chore sets things down in a room: on the piece of furniture at table height
+ * (0.4-1.0 m) with the largest top among those standing in the room, PLACE_INSET in from
+ * its edge nearest the room's middle; null when the room has none. */
+export function placeIn(home: Home, room: HomeRoom): { surface: string; at: XY } | null {
+  const [lo, hi] = bounds(room.corners);
+  const inside = (p: XY) => p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1];
+  const top = (f: Furniture) => f.size[0] * f.size[1];
+  const tables = home.furniture
+    .filter((f) => inside(f.at) && f.height >= 0.4 && f.height <= 1.0)
+    .sort((a, b) => top(b) - top(a));
+  const f = tables[0];
+  if (!f) return null;
+  const middle: XY = [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2];
+  let at: XY;
+  if (f.shape === "cylinder") {
+    const d = Math.hypot(middle[0] - f.at[0], middle[1] - f.at[1]);
+    const r = Math.min(d, Math.max(0, f.size[0] / 2 - PLACE_INSET));
+    at = d > 0 ? [f.at[0] + ((middle[0] - f.at[0]) * r) / d, f.at[1] + ((middle[1] - f.at[1]) * r) / d] : f.at;
+  } else {
+    const clamp = (v: number, c: number, half: number) => {
+      const room = Math.max(0, half - PLACE_INSET);
+      return Math.min(c + room, Math.max(c - room, v));
+    };
+    at = [clamp(middle[0], f.at[0], f.size[0] / 2), clamp(middle[1], f.at[1], f.size[1] / 2)];
+  }
+  return { surface: bodyName(f.name), at };
+}
+
 const num = (v: number): string => String(round(v));
 const xy = (p: XY): string => `[${num(p[0])}, ${num(p[1])}]`;
 const text = (s: string): string => JSON.stringify(s);
@@ -358,7 +389,9 @@ export function toYaml(home: Home, name = "my_home"): string {
   lines.push("spawns:", `  default: [${num(spawn[0])}, ${num(spawn[1])}, 0.0]`, "rooms:");
   for (const room of home.rooms) {
     const [rlo, rhi] = bounds(room.corners);
-    lines.push(`  - {name: ${text(room.name)}, min: ${xy(rlo)}, max: ${xy(rhi)}}`);
+    const place = placeIn(home, room);
+    const where = place ? `, place: {surface: ${text(place.surface)}, xy: ${xy(place.at)}}` : "";
+    lines.push(`  - {name: ${text(room.name)}, min: ${xy(rlo)}, max: ${xy(rhi)}${where}}`);
   }
   lines.push(`home: ${JSON.stringify(home)}`, "");
   return lines.join("\n");

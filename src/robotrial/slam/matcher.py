@@ -311,7 +311,7 @@ def _match_particles(
             # The map is in the cache now, from the match.
             written[i] = trace_at(
                 grid, ox, oy, res, pose, sensor, ends, hit, starts,
-                model[0], model[1], model[2], model[3], False,
+                model[0], model[1], model[2], model[3], model[4] * res, False,
             )  # fmt: skip
     return poses, logliks, written
 
@@ -400,7 +400,7 @@ def match_particles(
         ends,
         hit,
         starts,
-        np.array([m.free, m.occupied, m.clamp_min, m.clamp_max]),
+        np.array([m.free, m.occupied, m.clamp_min, m.clamp_max, m.hit_margin]),
     )
     if scan is not None:
         # A scan reaching past a map's edge: grow the map, then write.

@@ -73,42 +73,49 @@ def _add(grid: np.ndarray, r: int, c: int, w: float, lo: float, hi: float) -> No
         grid[r, c] = hi if v > hi else (lo if v < lo else v)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _stop(
-    sx: float, sy: float, x: float, y: float, hit: bool, margin: float
-) -> tuple[float, float]:
-    """Where the free trace of the beam from (sx, sy) to (x, y) ends: `margin` metres
-    short of a hit (the surface lies anywhere near it, see `LogOddsModel.hit_margin`), at
-    the end of a beam that ran out."""
-    if not hit or margin <= 0:
-        return x, y
-    length = np.hypot(x - sx, y - sy)
-    f = min(margin, length) / length if length > 0 else 0.0
-    return x - f * (x - sx), y - f * (y - sy)
+def stop_points(
+    sensor_xy: tuple[float, float] | np.ndarray, end_xy: np.ndarray, hit: np.ndarray, margin: float
+) -> np.ndarray:
+    """Where each beam's free trace ends ((N, 2), the frame of the inputs): `margin`
+    metres short of a hit (the surface lies anywhere within the range noise of it, see
+    `LogOddsModel.hit_margin`), at the end of a beam that ran out. Computed once a scan:
+    it does not depend on the pose the scan is written at."""
+    s = np.asarray(sensor_xy, dtype=np.float64).reshape(1, 2)
+    d = end_xy - s
+    length = np.hypot(d[:, 0], d[:, 1])
+    cut = np.where(np.asarray(hit, dtype=bool), np.minimum(margin, length), 0.0)
+    f = np.divide(cut, length, out=np.zeros_like(length), where=length > 0)
+    return np.ascontiguousarray(end_xy - f[:, None] * d)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _update_end(
+def _mark_hit(
     grid: np.ndarray,
     r1: int,
     c1: int,
-    rh: int,
-    ch: int,
-    hit: bool,
-    l_free: float,
+    x: float,
+    y: float,
+    ox: float,
+    oy: float,
+    res: float,
+    marked: int,
     l_occ: float,
     lo: float,
     hi: float,
-) -> None:
-    """The beam's end: where it hit, occupied evidence for the cell where the free trace
-    stopped (r1, c1) and, if another, the hit's cell (rh, ch); where it ran out, free
-    evidence for its end cell (r1, c1)."""
-    if not hit:
-        _add(grid, r1, c1, l_free, lo, hi)
-        return
-    _add(grid, r1, c1, l_occ, lo, hi)
-    if rh != r1 or ch != c1:
-        _add(grid, rh, ch, l_occ, lo, hi)
+) -> int:
+    """Occupied evidence for the cell of a hit (x, y) whose free trace stopped in another
+    cell (r1, c1), unless a beam before it that stopped in (r1, c1) marked it already:
+    `marked` holds those cells (a bit each of the 3 x 3 around (r1, c1), the most a
+    margin of at most half a cell can reach). Returns the updated set."""
+    dr = int(np.floor((y - oy) / res)) - r1
+    dc = int(np.floor((x - ox) / res)) - c1
+    if dr == 0 and dc == 0:
+        return marked
+    bit = 1 << ((dr + 1) * 3 + dc + 1)
+    if marked & bit:
+        return marked
+    _add(grid, r1 + dr, c1 + dc, l_occ, lo, hi)
+    return marked | bit
 
 
 @numba.njit(cache=True, nogil=True)
@@ -121,29 +128,30 @@ def _trace(
     sy: float,
     ex: np.ndarray,
     ey: np.ndarray,
+    fx: np.ndarray,
+    fy: np.ndarray,
     hit: np.ndarray,
     l_free: float,
     l_occ: float,
     lo: float,
     hi: float,
-    margin: float,
 ) -> None:
+    # Beam i hit (ex[i], ey[i]) if hit[i]; its free trace ends at (fx[i], fy[i]).
     rows, cols = grid.shape
     c0 = int(np.floor((sx - ox) / res))
     r0 = int(np.floor((sy - oy) / res))
-    pc, pr, ph, pb = -1 << 30, -1 << 30, False, -1
+    pc, pr, ph, marked = -1 << 30, -1 << 30, False, 0
     for i in range(ex.shape[0]):
-        fx, fy = _stop(sx, sy, ex[i], ey[i], hit[i], margin)
-        c1 = int(np.floor((fx - ox) / res))
-        r1 = int(np.floor((fy - oy) / res))
-        # A beam ending in the same cells as the one before it (dense scans) adds nothing
-        # but the same free cells again: skip it, so every cell counts once a beam fan.
-        rh = int(np.floor((ey[i] - oy) / res))
-        ch = int(np.floor((ex[i] - ox) / res))
-        key = (rh - r1) * 3 + (ch - c1)
-        if c1 == pc and r1 == pr and hit[i] == ph and key == pb:
+        c1 = int(np.floor((fx[i] - ox) / res))
+        r1 = int(np.floor((fy[i] - oy) / res))
+        # A beam stopping in the same cell as the one before it (dense scans) adds nothing
+        # but the same free cells again: skip it, so every cell counts once a beam fan
+        # (its hit's own cell may still be new).
+        if c1 == pc and r1 == pr and hit[i] == ph:
+            if hit[i]:
+                marked = _mark_hit(grid, r1, c1, ex[i], ey[i], ox, oy, res, marked, l_occ, lo, hi)
             continue
-        pc, pr, ph, pb = c1, r1, hit[i], key
+        pc, pr, ph = c1, r1, hit[i]
         dc = abs(c1 - c0)
         dr = abs(r1 - r0)
         step_c = 1 if c1 > c0 else -1
@@ -162,7 +170,11 @@ def _trace(
             if e2 < dc:
                 err += dc
                 r += step_r
-        _update_end(grid, r1, c1, rh, ch, hit[i], l_free, l_occ, lo, hi)
+        if hit[i]:
+            _add(grid, r1, c1, l_occ, lo, hi)
+            marked = _mark_hit(grid, r1, c1, ex[i], ey[i], ox, oy, res, 0, l_occ, lo, hi)
+        else:
+            _add(grid, r1, c1, l_free, lo, hi)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -175,20 +187,22 @@ def _trace_fan(
     sy: float,
     ex: np.ndarray,
     ey: np.ndarray,
+    fx: np.ndarray,
+    fy: np.ndarray,
     hit: np.ndarray,
     starts: np.ndarray,
     l_free: float,
     l_occ: float,
     lo: float,
     hi: float,
-    margin: float,
 ) -> None:
-    # Beam i has level k = trailing zeros of i (at most K = len(starts) - 1). The beams of
-    # level > k are at most half a cell apart closer than starts[k] metres, so a beam of
-    # level k is traced from there on. A cell at d metres takes 2^j frees, j the lowest
-    # level traced at d: it loses about as much as if every beam of the fan crossed it.
+    # Beams as in `_trace`. Beam i has level k = trailing zeros of i (at most
+    # K = len(starts) - 1). The beams of level > k are at most half a cell apart closer
+    # than starts[k] metres, so a beam of level k is traced from there on. A cell at d
+    # metres takes 2^j frees, j the lowest level traced at d: it loses about as much as
+    # if every beam of the fan crossed it.
     top = starts.shape[0] - 1
-    pc, pr, ph, pb = -1 << 30, -1 << 30, False, -1
+    pc, pr, ph, marked = -1 << 30, -1 << 30, False, 0
     pending = 0
     for i in range(ex.shape[0]):
         level = top
@@ -199,23 +213,21 @@ def _trace_fan(
                 b >>= 1
                 level += 1
         level = max(level, pending)
-        fx, fy = _stop(sx, sy, ex[i], ey[i], hit[i], margin)
-        c1 = int(np.floor((fx - ox) / res))
-        r1 = int(np.floor((fy - oy) / res))
-        rh = int(np.floor((ey[i] - oy) / res))
-        ch = int(np.floor((ex[i] - ox) / res))
-        key = (rh - r1) * 3 + (ch - c1)
-        if c1 == pc and r1 == pr and hit[i] == ph and key == pb:
+        c1 = int(np.floor((fx[i] - ox) / res))
+        r1 = int(np.floor((fy[i] - oy) / res))
+        if c1 == pc and r1 == pr and hit[i] == ph:
+            if hit[i]:
+                marked = _mark_hit(grid, r1, c1, ex[i], ey[i], ox, oy, res, marked, l_occ, lo, hi)
             pending = level
             continue
         pending = 0
-        pc, pr, ph, pb = c1, r1, hit[i], key
-        length = np.hypot(fx - sx, fy - sy)
+        pc, pr, ph = c1, r1, hit[i]
+        length = np.hypot(fx[i] - sx, fy[i] - sy)
         d0 = starts[level]
         if d0 < length:
             f = d0 / length if length > 0 else 0.0
-            c = int(np.floor((sx + f * (fx - sx) - ox) / res))
-            r = int(np.floor((sy + f * (fy - sy) - oy) / res))
+            c = int(np.floor((sx + f * (fx[i] - sx) - ox) / res))
+            r = int(np.floor((sy + f * (fy[i] - sy) - oy) / res))
             dc = abs(c1 - c)
             dr = abs(r1 - r)
             step_c = 1 if c1 > c else -1
@@ -245,7 +257,11 @@ def _trace_fan(
                     m += 1
                 if j > 0:
                     j -= 1
-        _update_end(grid, r1, c1, rh, ch, hit[i], l_free, l_occ, lo, hi)
+        if hit[i]:
+            _add(grid, r1, c1, l_occ, lo, hi)
+            marked = _mark_hit(grid, r1, c1, ex[i], ey[i], ox, oy, res, 0, l_occ, lo, hi)
+        else:
+            _add(grid, r1, c1, l_free, lo, hi)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -290,29 +306,34 @@ def trace_at(
     pose: np.ndarray,
     sensor: np.ndarray,
     ends: np.ndarray,
+    stops: np.ndarray,
     hit: np.ndarray,
     starts: np.ndarray,
     l_free: float,
     l_occ: float,
     lo: float,
     hi: float,
-    margin: float,
     warm: bool,
 ) -> bool:
-    """Trace a thinned beam fan (sensor (2,) and ends (N, 2) in the base frame) into the
-    grid at `pose`; with `warm`, read the region in memory order first (see `touch`).
-    Returns False, writing nothing, when the scan reaches past the grid's edge."""
+    """Trace a thinned beam fan (sensor (2,), ends and their `stop_points` (N, 2) in the
+    base frame) into the grid at `pose`; with `warm`, read the region in memory order
+    first (see `touch`). Returns False, writing nothing, when the scan reaches past the
+    grid's edge."""
     rows, cols = grid.shape
     c = np.cos(pose[2])
     s = np.sin(pose[2])
     ex = np.empty(ends.shape[0])
     ey = np.empty(ends.shape[0])
+    fx = np.empty(ends.shape[0])
+    fy = np.empty(ends.shape[0])
     sx = pose[0] + c * sensor[0] - s * sensor[1]
     sy = pose[1] + s * sensor[0] + c * sensor[1]
     x0, x1, y0, y1 = sx, sx, sy, sy
     for i in range(ends.shape[0]):
         ex[i] = pose[0] + c * ends[i, 0] - s * ends[i, 1]
         ey[i] = pose[1] + s * ends[i, 0] + c * ends[i, 1]
+        fx[i] = pose[0] + c * stops[i, 0] - s * stops[i, 1]
+        fy[i] = pose[1] + s * stops[i, 0] + c * stops[i, 1]
         x0, x1 = min(x0, ex[i]), max(x1, ex[i])
         y0, y1 = min(y0, ey[i]), max(y1, ey[i])
     c0, c1 = int(np.floor((x0 - ox) / res)), int(np.floor((x1 - ox) / res))
@@ -321,7 +342,7 @@ def trace_at(
         return False
     if warm:
         touch(grid, r0, r1 + 1, c0, c1 + 1)
-    _trace_fan(grid, ox, oy, res, sx, sy, ex, ey, hit, starts, l_free, l_occ, lo, hi, margin)
+    _trace_fan(grid, ox, oy, res, sx, sy, ex, ey, fx, fy, hit, starts, l_free, l_occ, lo, hi)
     return True
 
 
@@ -333,18 +354,18 @@ def _trace_fan_many(
     poses: np.ndarray,
     sensor: np.ndarray,
     ends: np.ndarray,
+    stops: np.ndarray,
     hit: np.ndarray,
     starts: np.ndarray,
     l_free: float,
     l_occ: float,
     lo: float,
     hi: float,
-    margin: float,
 ) -> None:
     for k in range(poses.shape[0]):
         trace_at(
-            grids[k], origins[k, 0], origins[k, 1], res, poses[k], sensor, ends, hit,
-            starts, l_free, l_occ, lo, hi, margin, True,
+            grids[k], origins[k, 0], origins[k, 1], res, poses[k], sensor, ends, stops,
+            hit, starts, l_free, l_occ, lo, hi, True,
         )  # fmt: skip
 
 
@@ -376,6 +397,7 @@ def integrate_many(
     sensor = np.array([float(sensor_xy[0]), float(sensor_xy[1])])
     for g, box in zip(grids, _bounds(poses, sensor, ends), strict=True):
         g.ensure(*box)
+    hit = np.ascontiguousarray(hit, dtype=np.bool_)
     _trace_fan_many(
         numba.typed.List([g.logodds for g in grids]),
         np.array([g.origin for g in grids], dtype=np.float64),
@@ -383,13 +405,13 @@ def integrate_many(
         poses,
         sensor,
         ends,
-        np.ascontiguousarray(hit, dtype=np.bool_),
+        stop_points(sensor, ends, hit, m.hit_margin * res),
+        hit,
         fan_starts(res, angle_step),
         m.free,
         m.occupied,
         m.clamp_min,
         m.clamp_max,
-        m.hit_margin * res,
     )
 
 
@@ -509,41 +531,21 @@ class LogOddsGrid:
             max(sy, float(end_xy[:, 1].max())),
         )
         m = self.model
-        if angle_step is not None and angle_step > 0:
-            _trace_fan(
-                self.logodds,
-                self.origin[0],
-                self.origin[1],
-                self.resolution,
-                sx,
-                sy,
-                np.ascontiguousarray(end_xy[:, 0]),
-                np.ascontiguousarray(end_xy[:, 1]),
-                np.asarray(hit, dtype=np.bool_),
-                fan_starts(self.resolution, angle_step),
-                m.free,
-                m.occupied,
-                m.clamp_min,
-                m.clamp_max,
-                m.hit_margin * self.resolution,
-            )
-            return
-        _trace(
-            self.logodds,
-            self.origin[0],
-            self.origin[1],
-            self.resolution,
-            sx,
-            sy,
+        hit = np.ascontiguousarray(hit, dtype=np.bool_)
+        stops = stop_points((sx, sy), end_xy, hit, m.hit_margin * self.resolution)
+        beams = (
             np.ascontiguousarray(end_xy[:, 0]),
             np.ascontiguousarray(end_xy[:, 1]),
-            np.asarray(hit, dtype=np.bool_),
-            m.free,
-            m.occupied,
-            m.clamp_min,
-            m.clamp_max,
-            m.hit_margin * self.resolution,
+            np.ascontiguousarray(stops[:, 0]),
+            np.ascontiguousarray(stops[:, 1]),
+            hit,
         )
+        grid = (self.logodds, self.origin[0], self.origin[1], self.resolution, sx, sy)
+        weights = (m.free, m.occupied, m.clamp_min, m.clamp_max)
+        if angle_step is not None and angle_step > 0:
+            _trace_fan(*grid, *beams, fan_starts(self.resolution, angle_step), *weights)
+            return
+        _trace(*grid, *beams, *weights)
 
     def pyramid(self, levels: int) -> list[np.ndarray]:
         """The grid and `levels - 1` coarser views of it: level k has cells 2^k times

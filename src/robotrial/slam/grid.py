@@ -89,33 +89,27 @@ def stop_points(
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _mark_hit(
+def _update_end(
     grid: np.ndarray,
     r1: int,
     c1: int,
-    x: float,
-    y: float,
-    ox: float,
-    oy: float,
-    res: float,
-    marked: int,
+    rh: int,
+    ch: int,
+    hit: bool,
+    l_free: float,
     l_occ: float,
     lo: float,
     hi: float,
-) -> int:
-    """Occupied evidence for the cell of a hit (x, y) whose free trace stopped in another
-    cell (r1, c1), unless a beam before it that stopped in (r1, c1) marked it already:
-    `marked` holds those cells (a bit each of the 3 x 3 around (r1, c1), the most a
-    margin of at most half a cell can reach). Returns the updated set."""
-    dr = int(np.floor((y - oy) / res)) - r1
-    dc = int(np.floor((x - ox) / res)) - c1
-    if dr == 0 and dc == 0:
-        return marked
-    bit = 1 << ((dr + 1) * 3 + dc + 1)
-    if marked & bit:
-        return marked
-    _add(grid, r1 + dr, c1 + dc, l_occ, lo, hi)
-    return marked | bit
+) -> None:
+    """The beam's end: where it hit, occupied evidence for the cell where its free trace
+    stopped (r1, c1) and, if another, the hit's cell (rh, ch); where it ran out, free
+    evidence for its end cell (r1, c1)."""
+    if not hit:
+        _add(grid, r1, c1, l_free, lo, hi)
+        return
+    _add(grid, r1, c1, l_occ, lo, hi)
+    if rh != r1 or ch != c1:
+        _add(grid, rh, ch, l_occ, lo, hi)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -140,18 +134,18 @@ def _trace(
     rows, cols = grid.shape
     c0 = int(np.floor((sx - ox) / res))
     r0 = int(np.floor((sy - oy) / res))
-    pc, pr, ph, marked = -1 << 30, -1 << 30, False, 0
+    pc, pr, ph, pcr, pcc = -1 << 30, -1 << 30, False, -1 << 30, -1 << 30
     for i in range(ex.shape[0]):
         c1 = int(np.floor((fx[i] - ox) / res))
         r1 = int(np.floor((fy[i] - oy) / res))
-        # A beam stopping in the same cell as the one before it (dense scans) adds nothing
-        # but the same free cells again: skip it, so every cell counts once a beam fan
-        # (its hit's own cell may still be new).
-        if c1 == pc and r1 == pr and hit[i] == ph:
-            if hit[i]:
-                marked = _mark_hit(grid, r1, c1, ex[i], ey[i], ox, oy, res, marked, l_occ, lo, hi)
+        rh = int(np.floor((ey[i] - oy) / res))
+        ch = int(np.floor((ex[i] - ox) / res))
+        # A beam whose trace stops in the same cell as the one before it and whose end
+        # falls in the same cell (dense scans) adds nothing but the same cells again:
+        # skip it, so every cell counts once a beam fan.
+        if c1 == pc and r1 == pr and hit[i] == ph and rh == pcr and ch == pcc:
             continue
-        pc, pr, ph = c1, r1, hit[i]
+        pc, pr, ph, pcr, pcc = c1, r1, hit[i], rh, ch
         dc = abs(c1 - c0)
         dr = abs(r1 - r0)
         step_c = 1 if c1 > c0 else -1
@@ -170,11 +164,7 @@ def _trace(
             if e2 < dc:
                 err += dc
                 r += step_r
-        if hit[i]:
-            _add(grid, r1, c1, l_occ, lo, hi)
-            marked = _mark_hit(grid, r1, c1, ex[i], ey[i], ox, oy, res, 0, l_occ, lo, hi)
-        else:
-            _add(grid, r1, c1, l_free, lo, hi)
+        _update_end(grid, r1, c1, rh, ch, hit[i], l_free, l_occ, lo, hi)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -202,7 +192,7 @@ def _trace_fan(
     # metres takes 2^j frees, j the lowest level traced at d: it loses about as much as
     # if every beam of the fan crossed it.
     top = starts.shape[0] - 1
-    pc, pr, ph, marked = -1 << 30, -1 << 30, False, 0
+    pc, pr, ph, pcr, pcc = -1 << 30, -1 << 30, False, -1 << 30, -1 << 30
     pending = 0
     for i in range(ex.shape[0]):
         level = top
@@ -215,13 +205,13 @@ def _trace_fan(
         level = max(level, pending)
         c1 = int(np.floor((fx[i] - ox) / res))
         r1 = int(np.floor((fy[i] - oy) / res))
-        if c1 == pc and r1 == pr and hit[i] == ph:
-            if hit[i]:
-                marked = _mark_hit(grid, r1, c1, ex[i], ey[i], ox, oy, res, marked, l_occ, lo, hi)
+        rh = int(np.floor((ey[i] - oy) / res))
+        ch = int(np.floor((ex[i] - ox) / res))
+        if c1 == pc and r1 == pr and hit[i] == ph and rh == pcr and ch == pcc:
             pending = level
             continue
         pending = 0
-        pc, pr, ph = c1, r1, hit[i]
+        pc, pr, ph, pcr, pcc = c1, r1, hit[i], rh, ch
         length = np.hypot(fx[i] - sx, fy[i] - sy)
         d0 = starts[level]
         if d0 < length:
@@ -257,11 +247,7 @@ def _trace_fan(
                     m += 1
                 if j > 0:
                     j -= 1
-        if hit[i]:
-            _add(grid, r1, c1, l_occ, lo, hi)
-            marked = _mark_hit(grid, r1, c1, ex[i], ey[i], ox, oy, res, 0, l_occ, lo, hi)
-        else:
-            _add(grid, r1, c1, l_free, lo, hi)
+        _update_end(grid, r1, c1, rh, ch, hit[i], l_free, l_occ, lo, hi)
 
 
 @numba.njit(cache=True, nogil=True)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from robotrial.slam.grid import LogOddsGrid, fan_starts, touch, trace_at
+from robotrial.slam.grid import LogOddsGrid, fan_starts, stop_points, touch, trace_at
 from robotrial.slam.scan import Beams
 
 
@@ -248,6 +248,7 @@ def _match_particles(
     write: bool,
     sensor: np.ndarray,
     ends: np.ndarray,
+    stops: np.ndarray,
     hit: np.ndarray,
     starts: np.ndarray,
     model: np.ndarray,
@@ -310,7 +311,7 @@ def _match_particles(
         if write:
             # The map is in the cache now, from the match.
             written[i] = trace_at(
-                grid, ox, oy, res, pose, sensor, ends, hit, starts,
+                grid, ox, oy, res, pose, sensor, ends, stops, hit, starts,
                 model[0], model[1], model[2], model[3], False,
             )  # fmt: skip
     return poses, logliks, written
@@ -370,9 +371,11 @@ def match_particles(
         ends = np.ascontiguousarray(scan.ends, dtype=np.float64).reshape(-1, 2)
         hit = np.ascontiguousarray(scan.hit, dtype=np.bool_)
         starts = fan_starts(res, scan.angle_step)
+        stops = stop_points(sensor, ends, hit, m.hit_margin * res)
     else:
-        sensor, ends, hit, starts = (
+        sensor, ends, stops, hit, starts = (
             np.zeros(2),
+            np.zeros((0, 2)),
             np.zeros((0, 2)),
             np.zeros(0, np.bool_),
             np.zeros(1),
@@ -398,6 +401,7 @@ def match_particles(
         write,
         sensor,
         ends,
+        stops,
         hit,
         starts,
         np.array([m.free, m.occupied, m.clamp_min, m.clamp_max]),

@@ -7,7 +7,10 @@ name loads its module (and MuJoCo, numba) on first use.
 
 from __future__ import annotations
 
+import hashlib
+import os
 from importlib import import_module
+from pathlib import Path
 from typing import Any
 
 __version__ = "0.1.0"
@@ -32,6 +35,28 @@ _PUBLIC = {
 """Public name -> the module that defines it ("module:name" where the name differs)."""
 
 __all__ = sorted(_PUBLIC)
+
+
+def _numba_cache_dir() -> None:
+    """Numba keeps compiled kernels on disk and checks them against their own module's
+    source only, so a kernel compiled into another (an inlined collision check in the
+    planner's loop, a grid update in the matcher) would outlive a change to it. One
+    cache folder per state of the package's source (file names, sizes, times) rules
+    that out; set before numba is imported. NUMBA_CACHE_DIR, when set, wins."""
+    if "NUMBA_CACHE_DIR" in os.environ:
+        return
+    root = Path(__file__).parent
+    h = hashlib.sha1()
+    for f in sorted(root.rglob("*.py")):
+        st = f.stat()
+        h.update(f"{f.relative_to(root)}:{st.st_size}:{st.st_mtime_ns}\n".encode())
+    base = os.environ.get("ROBOTRIAL_CACHE") or Path(
+        os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache", "robotrial"
+    )
+    os.environ["NUMBA_CACHE_DIR"] = str(Path(base, "numba", h.hexdigest()[:16]))
+
+
+_numba_cache_dir()
 
 
 def __getattr__(name: str) -> Any:

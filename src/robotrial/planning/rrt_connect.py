@@ -32,9 +32,6 @@ from robotrial.planning.base import (
 )
 
 CHUNK = 256  # iterations per compiled call between deadline checks
-# numba's on-disk cache of `_grow` holds the collision kernels compiled into it but is
-# keyed by this file alone: a change to collision/kernels.py needs a change here too,
-# or a stale `_grow` goes on answering with the old kernels (kernels with fine runs)
 
 
 @nb.njit(cache=True, inline="always")

@@ -128,37 +128,3 @@ def _shared_spheres(robot) -> RobotSpheres:
     if robot.name not in _SPHERES:
         _SPHERES[robot.name] = RobotSpheres(Kinematics(robot))
     return _SPHERES[robot.name]
-
-
-def test_a_board_the_mesh_clears_by_a_centimetre_is_not_a_contact() -> None:
-    """The Panda's forearm (link 5) 8 mm above a board: its coarse spheres reach the
-    board, the mesh does not (MuJoCo), and the checker asks the fine cover there and
-    calls the configuration free; 2 mm into the board it is a contact for both."""
-    import trimesh
-
-    from robotrial.benchmarks.planning import panda_path
-    from robotrial.collision.spheres import link_spheres
-
-    panda = load_robot(panda_path())
-    kin = Kinematics(panda)
-    spheres = RobotSpheres(kin, samples=500)
-    coarse_only = RobotSpheres(kin, link_spheres(panda), samples=500)
-    link = next(lk for lk in panda.links if lk.name == "panda_link5")
-    hull = trimesh.load(link.collisions[0].geometry.filename, force="mesh").convex_hull
-    q = np.array([0.0, 0.6, 0.0, -1.2, 0.0, 1.8, 0.0])
-    m = kin.fk(q)[kin.link_index["panda_link5"]]
-    world = hull.vertices @ m[:3, :3].T + m[:3, 3]
-    low = world[np.argmin(world[:, 2])]
-    for clearance, free in ((0.008, True), (-0.002, False)):
-        board = (
-            "board",
-            Box((0.06, 0.06, 0.02)),
-            Pose((low[0], low[1], low[2] - clearance - 0.01)),
-        )
-        env = Environment()
-        env.add(*board)
-        checker = CollisionChecker(spheres, env)
-        assert ExactChecker(checker, None, [board]).valid(q) == free
-        assert bool(checker.valid(q)[0]) == free
-        assert (checker.contacts(q) == set()) == free
-        assert not CollisionChecker(coarse_only, env).valid(q)[0]

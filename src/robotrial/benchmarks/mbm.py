@@ -156,16 +156,15 @@ def read_request(path: Path, joints: list[str]) -> tuple[np.ndarray, np.ndarray]
 
 def problems(folder: Path, scene: str, count: int, robot, spheres=None) -> list[Any]:
     """The first `count` problems of `scene` as PlanningProblems for `robot` (the Panda)."""
-    from robotrial.collision.sphere_model import CollisionChecker
+    from robotrial.collision.sphere_model import CollisionChecker, RobotSpheres
     from robotrial.kinematics.chain import Kinematics
     from robotrial.model.world import Floor, World
     from robotrial.planning.problems import PlanningProblem
-    from robotrial.planning.task import robot_spheres
 
     # the fingers open (the requests' own 0.065 m is past the Panda's 0.04 m limit), as
     # MBM's grasp goals around the objects need them
     kin = spheres.kin if spheres is not None else Kinematics(robot, fixed=FINGERS)
-    spheres = spheres or robot_spheres(kin)  # kept on disk: the fine covers take seconds
+    spheres = spheres or RobotSpheres(kin)
     # MBM's tables stand below the robot's base: no floor at z = 0
     world = World(name="mbm", floor=Floor(height=-5.0))
     where = folder / f"{scene}_panda"
@@ -175,12 +174,10 @@ def problems(folder: Path, scene: str, count: int, robot, spheres=None) -> list[
         start, goal = read_request(where / f"request{k:04d}.yaml", kin.joint_names)
         env = _environment(obstacles)
         # a pick goal closes the hand around its object: as MoveIt's allowed collisions
-        # let the fingers touch it there, the object the gripper's spheres reach at the
-        # goal leaves the scene (counted in the report) when no other link touches anything
-        checker = CollisionChecker(spheres, env)
-        near = checker.contacts(goal, fine=False)
-        grasped = {ob for link, ob in near if link in GRIPPER_LINKS}
-        touched = checker.contacts(goal)
+        # let the fingers touch it there, the object the fingers alone touch at the goal
+        # leaves the scene (counted in the report)
+        touched = CollisionChecker(spheres, env).contacts(goal)
+        grasped = {ob for link, ob in touched if link in GRIPPER_LINKS}
         if grasped and all(link in GRIPPER_LINKS for link, _ in touched):
             obstacles = [o for o in obstacles if o[0] not in grasped]
             env = _environment(obstacles)
@@ -391,8 +388,7 @@ def markdown(report: dict[str, Any]) -> str:
         lines.append(
             "Pick goals close the hand around an object; as MoveIt's allowed collisions "
             "let the fingers touch it there, that object is left out of the scene (for "
-            "both planners) where the gripper's spheres reach it at the goal and no other "
-            "link touches anything: "
+            "both planners) where only the gripper touches it at the goal: "
             + ", ".join(f"{s} {n}" for s, n in grasped.items() if n)
             + " problems."
         )

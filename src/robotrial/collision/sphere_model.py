@@ -17,7 +17,7 @@ import numpy as np
 
 from robotrial.collision import kernels
 from robotrial.collision.contacts import link_contacts
-from robotrial.collision.spheres import link_fine_spheres, link_spheres, shape_spheres
+from robotrial.collision.spheres import link_spheres, shape_spheres
 from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
 from robotrial.kinematics.chain import PRISMATIC, Kinematics
 from robotrial.model.robot import CollisionSphere
@@ -27,16 +27,12 @@ OBJECT = "object"  # the body name of the object held in the hand
 
 @dataclass(frozen=True)
 class Body:
-    """A named rigid set of spheres on link `link` (centres in that link's frame), and
-    optionally a finer cover of the same shapes, asked where the first one touches an
-    obstacle (see `link_fine_spheres`)."""
+    """A named rigid set of spheres on link `link` (centres in that link's frame)."""
 
     name: str
     link: str
     centres: np.ndarray
     radii: np.ndarray
-    fine_centres: np.ndarray | None = None
-    fine_radii: np.ndarray | None = None
 
 
 class RobotSpheres:
@@ -46,10 +42,6 @@ class RobotSpheres:
     separates or that one planning joint joins (adjacent), pairs whose real collision
     shapes (MuJoCo) are in contact at the zero configuration, and pairs that never touch
     in `samples` random configurations (neither as spheres nor as real shapes).
-
-    `spheres` cover the links (default `link_spheres`); `fine`, a tighter cover asked
-    only where those touch an obstacle (default `link_fine_spheres` when `spheres` is
-    not given, else none).
     """
 
     def __init__(
@@ -59,23 +51,19 @@ class RobotSpheres:
         samples: int = 3000,
         seed: int = 0,
         step: float = 0.015,
-        fine: Sequence[CollisionSphere] | None = None,
     ) -> None:
         self.kin = kin
         sph = list(spheres) if spheres is not None else link_spheres(kin.model)
-        if fine is None and spheres is None:
-            fine = link_fine_spheres(kin.model)
-        by_link = _by_link(sph)
-        fine_by_link = _by_link(fine or [])
-
-        def arrays(group: list[CollisionSphere] | None) -> tuple[Any, Any]:
-            if not group:
-                return None, None
-            centres = np.array([s.center for s in group], dtype=float)
-            return centres, np.array([s.radius for s in group], dtype=float)
-
+        by_link: dict[str, list[CollisionSphere]] = {}
+        for s in sph:
+            by_link.setdefault(s.link, []).append(s)
         self.bodies: list[Body] = [
-            Body(name, name, *arrays(by_link[name]), *arrays(fine_by_link.get(name)))
+            Body(
+                name,
+                name,
+                np.array([s.center for s in by_link[name]], dtype=float),
+                np.array([s.radius for s in by_link[name]], dtype=float),
+            )
             for name in kin.link_names
             if name in by_link
         ]
@@ -481,16 +469,6 @@ class CollisionChecker:
             body_link.append(node[li])
             bound_local.append(m[:3, :3] @ c + m[:3, 3])
             bound_r.append(float(np.max(np.linalg.norm(b.centres - c, axis=1) + b.radii)))
-        # the fine runs after all the coarse ones (`kernels.Bodies`)
-        fine_starts, fine_ends = [], []
-        for b in self.bodies:
-            m = rel[link_index[b.link]]
-            fine_starts.append(n)
-            if b.fine_centres is not None and b.fine_radii is not None:
-                n += len(b.fine_radii)
-                local.append(b.fine_centres @ m[:3, :3].T + m[:3, 3])
-                radius.append(b.fine_radii)
-            fine_ends.append(n)
         self._bodies = kernels.Bodies(
             np.ascontiguousarray(np.vstack(local).T),  # one row per axis
             np.concatenate(radius),
@@ -500,8 +478,6 @@ class CollisionChecker:
             np.array(bound_local).reshape(-1, 3),
             np.array(bound_r),
             self._ancestry(),
-            np.array(fine_starts, dtype=np.int64),
-            np.array(fine_ends, dtype=np.int64),
         )
 
     def _ancestry(self) -> np.ndarray:
@@ -555,17 +531,12 @@ class CollisionChecker:
         return bool(self.motions_valid(a, b)[0])
 
     def contacts(
-        self,
-        q: np.ndarray,
-        pairs: Iterable[tuple[str, str]] | None = None,
-        fine: bool = True,
+        self, q: np.ndarray, pairs: Iterable[tuple[str, str]] | None = None
     ) -> set[tuple[str, str]]:
         """Which bodies touch which (robot link, other link or obstacle name) at `q`.
 
         With `pairs`, only those robot pairs are tested (and no obstacles); otherwise
-        every enabled self pair and every obstacle. Used to explain a failure. Without
-        `fine`, obstacles count as touched where the first cover reaches them (within its
-        bulge of the link), as the checks would not decide.
+        every enabled self pair and every obstacle. Used to explain a failure.
         """
         poses = self.kin.fk(np.asarray(q, dtype=float))
         world = {}
@@ -586,28 +557,13 @@ class CollisionChecker:
                 out.add((a, b))
         if pairs is not None:
             return out
-        for i in self.env_bodies:
-            body = self.bodies[i]
-            c, r, _ = world[body.name]
-            refined = None
-            if fine and body.fine_centres is not None:
-                m = poses[self.kin.link_index[body.link]]
-                refined = (body.fine_centres @ m[:3, :3].T + m[:3, 3], body.fine_radii)
+        env_names = {self.bodies[i].name for i in self.env_bodies}
+        for name in env_names:
+            c, r, _ = world[name]
             for k, kind in enumerate(self.env.kinds):
-                pose, dims = self.env.poses[k], self.env.dims[k]
-                if _touches(c, r + self.padding, kind, pose, dims) and (
-                    refined is None
-                    or _touches(refined[0], refined[1] + self.padding, kind, pose, dims)
-                ):
-                    out.add((body.name, self.env.names[k]))
+                if _touches(c, r + self.padding, kind, self.env.poses[k], self.env.dims[k]):
+                    out.add((name, self.env.names[k]))
         return out
-
-
-def _by_link(spheres: Iterable[CollisionSphere]) -> dict[str, list[CollisionSphere]]:
-    out: dict[str, list[CollisionSphere]] = {}
-    for s in spheres:
-        out.setdefault(s.link, []).append(s)
-    return out
 
 
 def _local_gaps(local: np.ndarray, kind: str, dims: np.ndarray) -> np.ndarray:

@@ -12,14 +12,12 @@ export interface Gray {
   pixels: Uint8Array;
 }
 
-/** What a map_server YAML says about its image (REP and map_server's format). */
+/** What the editor reads from a map_server YAML: where its image is and how it lies. */
 export interface MapInfo {
   image: string;
   resolution: number;
   origin: XY;
   negate: boolean;
-  occupiedThresh: number;
-  freeThresh: number;
 }
 
 /** Rooms (their corners) and doorways found in a plan, in metres. */
@@ -89,13 +87,11 @@ export function parseMapYaml(text: string): MapInfo | string {
     resolution,
     origin: [origin[0], origin[1]],
     negate: ["1", "true"].includes((value("negate") ?? "0").toLowerCase()),
-    occupiedThresh: Number(value("occupied_thresh") ?? 0.65),
-    freeThresh: Number(value("free_thresh") ?? 0.196),
   };
 }
 
 /** Light pixels (floor) of a grey image: below `darkest` (0-255) counts as wall. */
-export function floorOf(gray: Gray, darkest = 128): Uint8Array {
+function floorOf(gray: Gray, darkest = 128): Uint8Array {
   const floor = new Uint8Array(gray.pixels.length);
   for (let k = 0; k < floor.length; k++) floor[k] = gray.pixels[k] >= darkest ? 1 : 0;
   return floor;

@@ -128,3 +128,50 @@ def _shared_spheres(robot) -> RobotSpheres:
     if robot.name not in _SPHERES:
         _SPHERES[robot.name] = RobotSpheres(Kinematics(robot))
     return _SPHERES[robot.name]
+
+
+def test_a_board_the_mesh_clears_by_a_centimetre_is_not_a_contact() -> None:
+    """The Panda's forearm (link 5) 8 mm above a board: its coarse spheres reach the
+    board, the mesh does not (MuJoCo); the checker on the fine covers calls the
+    configuration free and plans from it. 2 mm into the board it is a contact for both."""
+    import trimesh
+
+    from robotrial.benchmarks.planning import panda_path
+    from robotrial.collision.spheres import link_spheres
+    from robotrial.planning.base import Problem
+    from robotrial.planning.rrt_connect import RRTConnect
+
+    panda = load_robot(panda_path())
+    kin = Kinematics(panda)
+    spheres = RobotSpheres(kin, samples=500)
+    coarse_only = RobotSpheres(kin, link_spheres(panda), samples=500)
+    link = next(lk for lk in panda.links if lk.name == "panda_link5")
+    hull = trimesh.load(link.collisions[0].geometry.filename, force="mesh").convex_hull
+    q = np.array([0.0, 0.6, 0.0, -1.2, 0.0, 1.8, 0.0])
+    goal = np.array([0.8, 0.0, 0.0, -1.8, 0.0, 1.8, 0.0])
+    m = kin.fk(q)[kin.link_index["panda_link5"]]
+    world = hull.vertices @ m[:3, :3].T + m[:3, 3]
+    low = world[np.argmin(world[:, 2])]
+    for clearance, free in ((0.008, True), (-0.002, False)):
+        board = (
+            "board",
+            Box((0.06, 0.06, 0.02)),
+            Pose((low[0], low[1], low[2] - clearance - 0.01)),
+        )
+        env = Environment()
+        env.add(*board)
+        checker = CollisionChecker(spheres, env, fine=False)
+        finer = checker.finer()
+        assert finer is not None and finer.fine and finer.finer() is finer
+        assert ExactChecker(checker, None, [board]).valid(q) == free
+        assert not checker.valid(q)[0]  # the first cover reaches the board either way
+        assert checker.contacts(q) == {("panda_link5", "board")}
+        assert bool(finer.valid(q)[0]) == free
+        assert (finer.contacts(q) == set()) == free
+        # once the robot's fine covers are made, a checker asks them by default
+        assert CollisionChecker(spheres, env).fine
+        res = RRTConnect().solve(Problem(q, goal[None], 2.0, 0), finer)
+        assert res.status == ("solved" if free else "invalid_start")
+        if free:
+            assert ExactChecker(finer, None, [board]).path_valid(res.path)[0]
+        assert CollisionChecker(coarse_only, env).finer() is None

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from robotrial.benchmarks.planning import panda_path
 from robotrial.collision.spheres import (
+    link_fine_spheres,
     link_spheres,
     shape_spheres,
 )
@@ -158,6 +159,27 @@ def test_panda_links_get_tight_covers(panda) -> None:
         assert len(_uncovered(np.vstack([pts, hull.vertices]), centres, radii)) == 0
     # the four boxes of a finger share one budget
     assert per_link["panda_leftfinger"] <= 12
+
+
+def test_panda_fine_cover_holds_the_hull_and_bulges_less(panda) -> None:
+    """The fine cover asked near obstacles: still the whole hull, but standing off it
+    by under a centimetre where the coarse cover stands off two (links 5 and 6 of the
+    Panda were called touching shelf boards their meshes clear)."""
+    coarse, fine = link_spheres(panda), link_fine_spheres(panda)
+    for name in ("panda_link5", "panda_link6"):
+        link = next(lk for lk in panda.links if lk.name == name)
+        (col,) = link.collisions
+        hull = trimesh.load(col.geometry.filename, force="mesh").convex_hull
+        pts, _ = trimesh.sample.sample_surface(hull, 20000, seed=4)
+        bulge = {}
+        for kind, cover in (("coarse", coarse), ("fine", fine)):
+            centres = np.array([s.center for s in cover if s.link == name])
+            radii = np.array([s.radius for s in cover if s.link == name])
+            depth = _hull_depth(hull, centres)
+            assert np.all(depth >= -1e-9)
+            assert len(_uncovered(np.vstack([pts, hull.vertices]), centres, radii)) == 0
+            bulge[kind] = float(np.max(radii - depth))
+        assert bulge["fine"] < 0.01 < 0.015 < bulge["coarse"]
 
 
 def test_bad_shapes_are_named() -> None:

@@ -110,7 +110,7 @@ def _speeds(q, dq, packed_config):
         buf.motion,
     )
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
-    kernels._bounds(poses, bodies.link, bodies.bound_local, bound_c, ready)
+    kernels._bounds(poses, bodies.link, bodies.bound_local, bound_c, ready, buf.fine_ready)
     for b in range(bodies.link.shape[0]):
         kernels._place(
             b, poses, bodies.link, bodies.sphere_local, bodies.start, bodies.end, centres, ready

@@ -213,6 +213,35 @@ def test_start_in_collision_names_what_touches(planner) -> None:
     assert "crate" in resp.message and "touches" in resp.message
 
 
+def test_a_start_just_above_a_board_is_planned_from() -> None:
+    """The Panda's forearm 8 mm above a board: the first sphere cover calls the start
+    touching, the fine covers (asked then) do not, as MuJoCo; the request is planned and
+    validated instead of being refused as a start in collision."""
+    import trimesh
+
+    from robotrial.benchmarks.planning import panda_path
+    from robotrial.planning.task import TaskRequest
+
+    planner = TaskPlanner(load_robot(panda_path()))
+    kin = planner.kin
+    start = np.array([0.0, 0.6, 0.0, -1.2, 0.0, 1.8, 0.0])
+    goal = np.array([0.8, 0.0, 0.0, -1.8, 0.0, 1.8, 0.0])
+    link = next(lk for lk in planner.robot.links if lk.name == "panda_link5")
+    hull = trimesh.load(link.collisions[0].geometry.filename, force="mesh").convex_hull
+    m = kin.fk(start)[kin.link_index["panda_link5"]]
+    x, y, z = min(hull.vertices @ m[:3, :3].T + m[:3, 3], key=lambda v: v[2])
+    board = ("board", Box((0.06, 0.06, 0.02)), GeoPose((x, y, z - 0.018)))
+    env = Environment()
+    env.add(*board)
+    assert not CollisionChecker(planner.spheres, env, fine=False).valid(start)[0]
+    names = list(planner.joint_names)
+    request = TaskRequest(start, kin.link_pose(goal)[:3, 3], joint_names=names, obstacles=[board])
+    res = planner.plan(request, seed=0)
+    assert res.success, res.message
+    assert res.checker is not None and res.checker.fine
+    assert res.exact is not None and res.exact.path_valid(res.path)[0]
+
+
 def test_goal_in_collision(planner) -> None:
     resp, res = answer(planner, _request(goal=(0.2, 0.0, 0.15)))
     assert res.failure == "goal_in_collision"

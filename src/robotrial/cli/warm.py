@@ -1,7 +1,7 @@
 """`robotrial warm`: do at set-up time what the planner would otherwise do on its first
 request (layer 5): compile its kernels into numba's cache and compute each built-in
-arm's spheres and self-collision pairs into robotrial's cache (planning.task.cache_dir),
-so that the first Move Robot! after `make run` answers at once.
+arm's spheres (both covers) and self-collision pairs into robotrial's cache
+(planning.task.cache_dir), so that the first Move Robot! after `make run` answers at once.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ def run(args: argparse.Namespace) -> int:
     from robotrial.app.catalog import robot_kind
     from robotrial.console import console, progress
     from robotrial.model import library, load_robot, load_world
-    from robotrial.planning.task import TaskPlanner, cache_dir
+    from robotrial.planning.task import TaskPlanner, cache_dir, robot_spheres
 
     names = args.robot or library.robot_names()
     done = []
@@ -38,6 +38,8 @@ def run(args: argparse.Namespace) -> int:
                 continue
             world = load_world(library.DEFAULT_WORLD) if name == library.DEFAULT_ROBOT else None
             planner = TaskPlanner(robot, world)
+            # the fine covers, asked when a start or goal is close to an obstacle
+            planner.spheres = robot_spheres(planner.kin, fine=True)
             if name == library.DEFAULT_ROBOT or args.robot:
                 planner.warm()  # plans once: every kernel of a request compiles
             done.append(f"{name} ({time.perf_counter() - t0:.1f} s)")

@@ -57,7 +57,9 @@ class Bodies(NamedTuple):
     """The robot's sphere bodies in the frames of the collapsed tree: sphere centres
     (one row per axis) and radii, each body's run of spheres [start, end), its node,
     its bounding sphere (centre, radius), and which planning joints swing which (see
-    `CollisionChecker._ancestry`)."""
+    `CollisionChecker._ancestry`), and each body's fine run [fine_start, fine_end): a
+    tighter cover of the same link, asked only where the first run touches or nearly
+    touches a shape (empty when the body has none)."""
 
     sphere_local: np.ndarray
     radius: np.ndarray
@@ -67,6 +69,8 @@ class Bodies(NamedTuple):
     bound_local: np.ndarray
     bound_r: np.ndarray
     ancestry: np.ndarray
+    fine_start: np.ndarray
+    fine_end: np.ndarray
 
 
 class Scratch(NamedTuple):
@@ -76,6 +80,7 @@ class Scratch(NamedTuple):
     centres: np.ndarray
     bound_c: np.ndarray
     ready: np.ndarray
+    fine_ready: np.ndarray
     body_speed: np.ndarray
     pair_speed: np.ndarray
     ring: np.ndarray
@@ -273,9 +278,9 @@ def _place(b, poses, body_link, sphere_local, body_start, body_end, centres, rea
 
 
 @nb.njit(cache=True, inline="always")
-def _bounds(poses, body_link, bound_local, bound_c, ready) -> None:
+def _bounds(poses, body_link, bound_local, bound_c, ready, fine_ready) -> None:
     """Place every body's bounding sphere in the world (x, y and z rows); no body has
-    its spheres placed yet (`_place` does that on demand)."""
+    its spheres placed yet, coarse or fine (`_place` does that on demand)."""
     for b in range(body_link.shape[0]):
         li = body_link[b]
         x, y, z = bound_local[b, 0], bound_local[b, 1], bound_local[b, 2]
@@ -284,6 +289,7 @@ def _bounds(poses, body_link, bound_local, bound_c, ready) -> None:
                 poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
             )
         ready[b] = False
+        fine_ready[b] = False
 
 
 @nb.njit(cache=True, inline="always")
@@ -393,7 +399,7 @@ def item_lists(never: np.ndarray, n_pairs: int) -> tuple[np.ndarray, np.ndarray]
 
 def buffers(kin: TreeArrays, bodies: Bodies, n_items: int, n_pairs: int, queue: int) -> Scratch:
     """Scratch space for the kernels: link poses, sphere centres (x, y and z rows),
-    body bounds (rows), which bodies have their spheres placed, the speeds of bodies
+    body bounds (rows), which bodies have their spheres placed (coarse, fine), the speeds of bodies
     (the bound over a motion, how fast it may change, the speed at the configuration
     at hand) and of pairs (the bound, its change), a ring of `queue` stretches for
     `segment_clearance` (where they start and end, where their item list is), one gap
@@ -406,6 +412,7 @@ def buffers(kin: TreeArrays, bodies: Bodies, n_items: int, n_pairs: int, queue: 
         np.empty((n_nodes, 4, 4)),
         np.empty((3, n_spheres)),
         np.empty((3, n_bodies)),
+        np.zeros(n_bodies, dtype=np.bool_),
         np.zeros(n_bodies, dtype=np.bool_),
         np.zeros((3, n_bodies)),
         np.zeros((2, max(n_pairs, 1))),
@@ -552,7 +559,7 @@ def _clearance(
     poses, centres, bound_c, ready = buf.poses, buf.centres, buf.bound_c, buf.ready
     gaps, motion = buf.gaps, buf.motion
     fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
-    _bounds(poses, body_link, bound_local, bound_c, ready)
+    _bounds(poses, body_link, bound_local, bound_c, ready, buf.fine_ready)
     best = cap
     moving = cap > 0.0
     record = keep >= 0.0
@@ -585,6 +592,15 @@ def _clearance(
             gap = (
                 _shape_gaps(k, env.shapes, centres, radius, body_start[b], body_end[b], gaps) - pad
             )
+            # where the first run touches, the body's fine run decides (the narrow phase):
+            # both runs hold the link, so the larger gap is still no more than its own
+            f0, f1 = bodies.fine_start[b], bodies.fine_end[b]
+            if gap <= 0.0 and f1 > f0:
+                _place(
+                    b, poses, body_link, sphere_local, bodies.fine_start, bodies.fine_end,
+                    centres, buf.fine_ready,
+                )  # fmt: skip
+                gap = max(gap, _shape_gaps(k, env.shapes, centres, radius, f0, f1, gaps) - pad)
         else:
             p = item - _PAIR
             a, b = pairs[p, 0], pairs[p, 1]

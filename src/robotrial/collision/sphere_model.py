@@ -10,14 +10,14 @@ and answers the planners' batched questions `valid(qs)` and `motion_valid(a, b)`
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from robotrial.collision import kernels
 from robotrial.collision.contacts import link_contacts
-from robotrial.collision.spheres import link_spheres, shape_spheres
+from robotrial.collision.spheres import link_fine_spheres, link_spheres, shape_spheres
 from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
 from robotrial.kinematics.chain import PRISMATIC, Kinematics
 from robotrial.model.robot import CollisionSphere
@@ -27,12 +27,16 @@ OBJECT = "object"  # the body name of the object held in the hand
 
 @dataclass(frozen=True)
 class Body:
-    """A named rigid set of spheres on link `link` (centres in that link's frame)."""
+    """A named rigid set of spheres on link `link` (centres in that link's frame), and
+    optionally a finer cover of the same shapes, asked where the first one touches an
+    obstacle (see `link_fine_spheres`)."""
 
     name: str
     link: str
     centres: np.ndarray
     radii: np.ndarray
+    fine_centres: np.ndarray | None = None
+    fine_radii: np.ndarray | None = None
 
 
 class RobotSpheres:
@@ -42,6 +46,10 @@ class RobotSpheres:
     separates or that one planning joint joins (adjacent), pairs whose real collision
     shapes (MuJoCo) are in contact at the zero configuration, and pairs that never touch
     in `samples` random configurations (neither as spheres nor as real shapes).
+
+    `spheres` cover the links (default `link_spheres`); `fine`, a tighter cover asked
+    only where those touch an obstacle (default `link_fine_spheres` when `spheres` is
+    not given, else none), made on first use by `refine()` (seconds for a robot).
     """
 
     def __init__(
@@ -51,28 +59,36 @@ class RobotSpheres:
         samples: int = 3000,
         seed: int = 0,
         step: float = 0.015,
+        fine: Sequence[CollisionSphere] | None = None,
     ) -> None:
         self.kin = kin
         sph = list(spheres) if spheres is not None else link_spheres(kin.model)
-        by_link: dict[str, list[CollisionSphere]] = {}
-        for s in sph:
-            by_link.setdefault(s.link, []).append(s)
+        by_link = _by_link(sph)
         self.bodies: list[Body] = [
-            Body(
-                name,
-                name,
-                np.array([s.center for s in by_link[name]], dtype=float),
-                np.array([s.radius for s in by_link[name]], dtype=float),
-            )
-            for name in kin.link_names
-            if name in by_link
+            Body(name, name, *_arrays(by_link[name])) for name in kin.link_names if name in by_link
         ]
+        self._fine: Sequence[CollisionSphere] | None = fine
+        self.has_fine = fine is not None or spheres is None
+        self.refined = False
         # what every checker of this robot computes alike, by (what, body, padding):
         # a request builds a checker, and these took half its time
         self._memo: dict[tuple[str, str, float], Any] = {}
         self.disabled, self.reasons = self._disable_pairs(samples, seed)
         self.step = float(step)
         self.resolution = self._resolution(step, seed)
+
+    def refine(self) -> None:
+        """Give each body its fine cover (made here unless given), once."""
+        if self.refined or not self.has_fine:
+            return
+        fine = self._fine if self._fine is not None else link_fine_spheres(self.kin.model)
+        by_link = _by_link(fine)
+        self.bodies = [
+            replace(b, fine_centres=centres, fine_radii=radii)
+            for b in self.bodies
+            for centres, radii in [_arrays(by_link.get(b.link))]
+        ]
+        self.refined = True
 
     def _rigid_group(self) -> np.ndarray:
         """Index of the rigid group of each link: links no planning joint separates."""
@@ -316,6 +332,8 @@ class CollisionChecker:
     straight joint-space segment at the robot's resolution (times `resolution_scale`).
     `padding` (m) inflates the robot's spheres against the environment. `held` is an
     object carried by the hand; the links it touches at `held_touch_at` may touch it.
+    With `fine` (default: when the robot's fine covers are made), each link's fine cover
+    is asked where its first cover touches an obstacle; `finer()` gives that checker.
     """
 
     def __init__(
@@ -326,7 +344,13 @@ class CollisionChecker:
         held: HeldObject | None = None,
         held_touch_at: np.ndarray | None = None,
         resolution_scale: float = 1.0,
+        fine: bool | None = None,
     ) -> None:
+        self._settings = (robot, env, padding, held, held_touch_at, resolution_scale)
+        self.fine = robot.refined if fine is None else bool(fine) and robot.has_fine
+        if self.fine:
+            robot.refine()
+        self._finer: CollisionChecker | None = self if self.fine else None
         self.robot = robot
         self.kin = robot.kin
         self.env = env if env is not None else Environment()
@@ -469,6 +493,16 @@ class CollisionChecker:
             body_link.append(node[li])
             bound_local.append(m[:3, :3] @ c + m[:3, 3])
             bound_r.append(float(np.max(np.linalg.norm(b.centres - c, axis=1) + b.radii)))
+        # the fine runs after all the coarse ones (`kernels.Bodies`); empty unless asked
+        fine_starts, fine_ends = [], []
+        for b in self.bodies:
+            m = rel[link_index[b.link]]
+            fine_starts.append(n)
+            if self.fine and b.fine_centres is not None and b.fine_radii is not None:
+                n += len(b.fine_radii)
+                local.append(b.fine_centres @ m[:3, :3].T + m[:3, 3])
+                radius.append(b.fine_radii)
+            fine_ends.append(n)
         self._bodies = kernels.Bodies(
             np.ascontiguousarray(np.vstack(local).T),  # one row per axis
             np.concatenate(radius),
@@ -478,6 +512,8 @@ class CollisionChecker:
             np.array(bound_local).reshape(-1, 3),
             np.array(bound_r),
             self._ancestry(),
+            np.array(fine_starts, dtype=np.int64),
+            np.array(fine_ends, dtype=np.int64),
         )
 
     def _ancestry(self) -> np.ndarray:
@@ -530,14 +566,29 @@ class CollisionChecker:
     def motion_valid(self, a: np.ndarray, b: np.ndarray) -> bool:
         return bool(self.motions_valid(a, b)[0])
 
+    def finer(self) -> CollisionChecker | None:
+        """This checker with the robot's fine cover asked too (built once, then kept), or
+        None when the robot has no fine cover. For the configurations the first cover
+        calls touching although the links are 1-2 cm clear: a start or goal close to a
+        shelf board or a table top."""
+        if self._finer is None and self.robot.has_fine:
+            self._finer = CollisionChecker(*self._settings, fine=True)
+        return self._finer
+
     def contacts(
-        self, q: np.ndarray, pairs: Iterable[tuple[str, str]] | None = None
+        self,
+        q: np.ndarray,
+        pairs: Iterable[tuple[str, str]] | None = None,
+        fine: bool | None = None,
     ) -> set[tuple[str, str]]:
         """Which bodies touch which (robot link, other link or obstacle name) at `q`.
 
         With `pairs`, only those robot pairs are tested (and no obstacles); otherwise
-        every enabled self pair and every obstacle. Used to explain a failure.
+        every enabled self pair and every obstacle. Used to explain a failure. Obstacles
+        count as touched where the first cover reaches them and, with `fine` (default:
+        as this checker decides), the fine cover too.
         """
+        fine = self.fine if fine is None else fine
         poses = self.kin.fk(np.asarray(q, dtype=float))
         world = {}
         for b in self.bodies:
@@ -557,13 +608,39 @@ class CollisionChecker:
                 out.add((a, b))
         if pairs is not None:
             return out
-        env_names = {self.bodies[i].name for i in self.env_bodies}
-        for name in env_names:
-            c, r, _ = world[name]
+        if fine:
+            self.robot.refine()
+        own = {b.name: b for b in self.robot.bodies}
+        for i in self.env_bodies:
+            body = own.get(self.bodies[i].name, self.bodies[i])
+            c, r, _ = world[body.name]
+            refined = None
+            if fine and body.fine_centres is not None:
+                m = poses[self.kin.link_index[body.link]]
+                refined = (body.fine_centres @ m[:3, :3].T + m[:3, 3], body.fine_radii)
             for k, kind in enumerate(self.env.kinds):
-                if _touches(c, r + self.padding, kind, self.env.poses[k], self.env.dims[k]):
-                    out.add((name, self.env.names[k]))
+                pose, dims = self.env.poses[k], self.env.dims[k]
+                if _touches(c, r + self.padding, kind, pose, dims) and (
+                    refined is None
+                    or _touches(refined[0], refined[1] + self.padding, kind, pose, dims)
+                ):
+                    out.add((body.name, self.env.names[k]))
         return out
+
+
+def _arrays(group: list[CollisionSphere] | None) -> tuple[Any, Any]:
+    """Centres (n, 3) and radii (n,) of a group of spheres, or (None, None)."""
+    if not group:
+        return None, None
+    centres = np.array([s.center for s in group], dtype=float)
+    return centres, np.array([s.radius for s in group], dtype=float)
+
+
+def _by_link(spheres: Iterable[CollisionSphere]) -> dict[str, list[CollisionSphere]]:
+    out: dict[str, list[CollisionSphere]] = {}
+    for s in spheres:
+        out.setdefault(s.link, []).append(s)
+    return out
 
 
 def _local_gaps(local: np.ndarray, kind: str, dims: np.ndarray) -> np.ndarray:

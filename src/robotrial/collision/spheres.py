@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import hashlib
 from functools import lru_cache
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -38,6 +39,26 @@ REFINE_ROUNDS = 8  # rounds of moving the chosen centres to lower the bulge
 POLISH_ROUNDS = 2  # rounds of moving the centres off the grid
 POLISH_STEP = 2e-4  # m: the finest move when polishing a centre
 SAG = 2e-4  # m: how far a cylinder's curved surface may stand off its polygon
+# The fine cover (`link_fine_spheres`): what the checks ask only where the coarse cover
+# touches or nearly touches something; tighter, so it takes more spheres and finer grids.
+FINE_BULGE = 0.004  # m: its tolerance, at most
+FINE_SPHERES = 160  # spheres per link, at most
+FINE_CANDIDATES = 6000
+FINE_PATCHES = 2500
+
+
+class _Grid(NamedTuple):
+    """How finely a cover is searched: candidate centres, surface patches, interior
+    points, and the tolerance schedule (first tolerance, largest allowed)."""
+
+    candidates: int = CANDIDATES
+    patches: int = PATCHES
+    interior: int = INTERIOR
+    first_bulge: float = FIRST_BULGE
+
+
+COARSE = _Grid()
+FINE = _Grid(FINE_CANDIDATES, FINE_PATCHES, INTERIOR, FINE_BULGE)
 
 
 class _Convex:
@@ -53,13 +74,14 @@ class _Convex:
         lo: np.ndarray,
         hi: np.ndarray,
         depth,
+        grid: _Grid = COARSE,
     ) -> None:
         tris = np.asarray(vertices, dtype=float)[np.asarray(faces)]
         area = 0.5 * np.linalg.norm(
             np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1
         )
         extent = np.maximum(hi - lo, 1e-9)
-        edge = float(np.clip(np.sqrt(area.sum() / PATCHES), 0.002, 0.5 * extent.max()))
+        edge = float(np.clip(np.sqrt(area.sum() / grid.patches), 0.002, 0.5 * extent.max()))
         tris = _split(tris[area > 0], edge)
         # patches: the triangles whose centroids share a cell of side `edge`; each patch
         # is held by its distinct corners
@@ -77,16 +99,16 @@ class _Convex:
         self.patch_start = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
         self.margin = margin
         # per-axis odd counts put a grid plane through the middle of thin shapes
-        step = float(np.cbrt(np.prod(extent) / CANDIDATES))
+        step = float(np.cbrt(np.prod(extent) / grid.candidates))
         counts = 2 * np.ceil(extent / (2 * step)).astype(int) + 1
         axes = [np.linspace(lo[i], hi[i], counts[i]) for i in range(3)]
-        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
         # the corners' mean lies inside too, so a slab thinner than the grid still has
         # a candidate
-        grid = np.vstack([grid, self.vertices.mean(axis=0)])
-        h = np.maximum(depth(grid), np.r_[np.full(len(grid) - 1, -np.inf), 0.0])
+        points = np.vstack([points, self.vertices.mean(axis=0)])
+        h = np.maximum(depth(points), np.r_[np.full(len(points) - 1, -np.inf), 0.0])
         inside = h >= 0.0
-        self.centres, self.depth = grid[inside], h[inside]
+        self.centres, self.depth = points[inside], h[inside]
         self.depth_of = depth
         self.step = step
 
@@ -120,12 +142,19 @@ def _polyhedron_depth(normals: np.ndarray, offsets: np.ndarray):
     return depth
 
 
+def _group_need(centres, points, start, margin, dtype=np.float64) -> np.ndarray:
+    """(groups, centres): the radius a sphere at each centre needs to hold each group of
+    points (points[start[g]:start[g + 1]]) plus that group's margin. In single
+    precision for the search over many candidates (the final radii are recomputed in
+    double)."""
+    out = np.empty((len(start) - 1, len(centres)), dtype=dtype)
+    _group_need_into(centres, points, start, margin, out)
+    return out
+
+
 @nb.njit(cache=True)
-def _group_need(centres, points, start, margin):
-    """(centres, groups): the radius a sphere at each centre needs to hold each group of
-    points (points[start[g]:start[g + 1]]) plus that group's margin."""
+def _group_need_into(centres, points, start, margin, out) -> None:
     n, g = len(centres), len(start) - 1
-    out = np.empty((g, n))
     for k in range(g):
         for i in range(n):
             far = 0.0
@@ -135,7 +164,6 @@ def _group_need(centres, points, start, margin):
                 dz = points[j, 2] - centres[i, 2]
                 far = max(far, dx * dx + dy * dy + dz * dz)
             out[k, i] = np.sqrt(far) + margin[k]
-    return out
 
 
 @nb.njit(cache=True)
@@ -226,10 +254,10 @@ class _Fit:
     """One shape's cover problem: the radius each candidate centre needs for each group
     (a surface patch, or an interior grid point, so the cover is solid as well)."""
 
-    def __init__(self, shape: _Convex) -> None:
+    def __init__(self, shape: _Convex, grid: _Grid) -> None:
         cand, h = shape.centres, shape.depth
         deep = np.flatnonzero(h > 0)
-        interior = cand[deep[:: max(len(deep) // INTERIOR, 1)]]
+        interior = cand[deep[:: max(len(deep) // grid.interior, 1)]]
         points = np.vstack([shape.vertices, interior])
         start = np.concatenate(
             [shape.patch_start, len(shape.vertices) + np.arange(len(interior) + 1)]
@@ -237,14 +265,15 @@ class _Fit:
         margin = np.r_[np.full(len(shape.patch_start), shape.margin), np.zeros(len(interior))]
         self.shape, self.points, self.start, self.margin = shape, points, start, margin
         self.centres, self.depth = cand, h
-        self.need = _group_need(cand, points, start, margin)
+        self.first_bulge = grid.first_bulge
+        self.need = _group_need(cand, points, start, margin, np.float32)
         self._tried: dict[tuple[int, int], np.ndarray] = {}
 
     def greedy(self, step: int, budget: int) -> np.ndarray:
         """Chosen centres at tolerance step `step` (empty if over `budget`)."""
         key = (step, budget)
         if key not in self._tried:
-            reach = self.depth + FIRST_BULGE * BULGE_GROWTH**step
+            reach = self.depth + self.first_bulge * BULGE_GROWTH**step
             self._tried[key] = _greedy(self.need, reach, budget)
         return self._tried[key]
 
@@ -292,14 +321,17 @@ class _Fit:
         return centre
 
 
-def _shared_cover(shapes: list[_Convex], budget: int) -> list[tuple[np.ndarray, np.ndarray]]:
+def _shared_cover(
+    shapes: list[_Convex], budget: int, grid: _Grid = COARSE
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """Covers of several shapes (one link's) with one tolerance: the smallest step of the
     schedule at which all of them together need at most `budget` spheres (or one sphere
     each, if there are more shapes than that)."""
-    fits = [_Fit(s) for s in shapes]
+    fits = [_Fit(s, grid) for s in shapes]
     widest = max(float(np.max(s.vertices.max(0) - s.vertices.min(0))) for s in shapes)
+    first = grid.first_bulge
     # past this step one sphere holds any of the shapes
-    last = int(np.ceil(np.log(max(widest, FIRST_BULGE) / FIRST_BULGE) / np.log(BULGE_GROWTH)))
+    last = int(np.ceil(np.log(max(widest, first) / first) / np.log(BULGE_GROWTH)))
     last = max(last, 0) + 1
 
     def attempt(step: int) -> list[np.ndarray] | None:
@@ -331,7 +363,7 @@ def _shared_cover(shapes: list[_Convex], budget: int) -> list[tuple[np.ndarray, 
     return [f.finish(chosen) for f, chosen in zip(fits, found, strict=True)]
 
 
-def _box(size: tuple[float, float, float]) -> _Convex:
+def _box(size: tuple[float, float, float], grid: _Grid) -> _Convex:
     import trimesh
 
     extent = np.asarray(size, dtype=float)
@@ -339,10 +371,12 @@ def _box(size: tuple[float, float, float]) -> _Convex:
     tm = trimesh.creation.box(extents=extent)
     normals = np.vstack([np.eye(3), -np.eye(3)])
     offsets = np.concatenate([half, half])
-    return _Convex(tm.vertices, tm.faces, 0.0, -half, half, _polyhedron_depth(normals, offsets))
+    return _Convex(
+        tm.vertices, tm.faces, 0.0, -half, half, _polyhedron_depth(normals, offsets), grid
+    )
 
 
-def _cylinder(radius: float, length: float) -> _Convex:
+def _cylinder(radius: float, length: float, grid: _Grid) -> _Convex:
     import trimesh
 
     # a polygon with its corners on the circle: the true surface stands off its flat
@@ -355,10 +389,10 @@ def _cylinder(radius: float, length: float) -> _Convex:
         return np.minimum(radius - np.hypot(p[:, 0], p[:, 1]), length / 2 - np.abs(p[:, 2]))
 
     half = np.array([radius, radius, length / 2])
-    return _Convex(tm.vertices, tm.faces, float(sag), -half, half, depth)
+    return _Convex(tm.vertices, tm.faces, float(sag), -half, half, depth, grid)
 
 
-def _hull(mesh: Mesh) -> _Convex:
+def _hull(mesh: Mesh, grid: _Grid) -> _Convex:
     """The (scaled) convex hull of a mesh: what MuJoCo collides with."""
     import trimesh
 
@@ -383,7 +417,8 @@ def _hull(mesh: Mesh) -> _Convex:
     normals = np.asarray(hull.face_normals)
     offsets = np.einsum("ij,ij->i", normals, hull.triangles[:, 0])
     lo, hi = hull.bounds
-    return _Convex(hull.vertices, hull.faces, 0.0, lo, hi, _polyhedron_depth(normals, offsets))
+    depth = _polyhedron_depth(normals, offsets)
+    return _Convex(hull.vertices, hull.faces, 0.0, lo, hi, depth, grid)
 
 
 _MESHES: dict[tuple, Mesh] = {}  # a mesh by its key, so covers can be cached by key
@@ -415,20 +450,24 @@ def _key(shape: Shape) -> tuple:
 
 
 @lru_cache(maxsize=64)
-def _convex(key: tuple) -> _Convex:
+def _convex(key: tuple, grid: _Grid = COARSE) -> _Convex:
     if key[0] == "box":
-        return _box(key[1])
+        return _box(key[1], grid)
     if key[0] == "cylinder":
-        return _cylinder(key[1], key[2])
-    return _hull(_MESHES[key])
+        return _cylinder(key[1], key[2], grid)
+    return _hull(_MESHES[key], grid)
 
 
 @lru_cache(maxsize=256)
-def _covers(keys: tuple[tuple, ...], budget: int) -> list[tuple[np.ndarray, np.ndarray]]:
-    return _shared_cover([_convex(k) for k in keys], budget)
+def _covers(
+    keys: tuple[tuple, ...], budget: int, grid: _Grid = COARSE
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    return _shared_cover([_convex(k, grid) for k in keys], budget, grid)
 
 
-def _spheres_of(shapes: list[Shape], budget: int) -> list[tuple[np.ndarray, np.ndarray]]:
+def _spheres_of(
+    shapes: list[Shape], budget: int, grid: _Grid = COARSE
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """Covers (centres in each shape's frame, radii) of shapes sharing one tolerance and
     at most `budget` spheres (spheres are themselves and count one each)."""
     solid = [i for i, s in enumerate(shapes) if not isinstance(s, Sphere)]
@@ -436,7 +475,7 @@ def _spheres_of(shapes: list[Shape], budget: int) -> list[tuple[np.ndarray, np.n
     if solid:
         keys = tuple(_key(shapes[i]) for i in solid)
         left = max(int(budget) - (len(shapes) - len(solid)), 1)
-        for i, (c, r) in zip(solid, _covers(keys, left), strict=True):
+        for i, (c, r) in zip(solid, _covers(keys, left, grid), strict=True):
             out[i] = (c.copy(), r.copy())
     return out
 
@@ -452,12 +491,24 @@ def link_spheres(model: RobotModel, max_per_shape: int = 12) -> list[CollisionSp
 
     The shapes of one link share one tolerance and `max_per_shape` spheres between them,
     so a link of many small parts (a finger) costs no more than a link of one."""
+    return _link_covers(model, max_per_shape, COARSE)
+
+
+def link_fine_spheres(model: RobotModel) -> list[CollisionSphere]:
+    """A tighter cover of every link (within `FINE_BULGE` of its shapes where
+    `FINE_SPHERES` suffice): many more spheres than `link_spheres`, asked only where
+    the coarse cover touches something, so that a link passing a board a centimetre
+    away is not called colliding."""
+    return _link_covers(model, FINE_SPHERES, FINE)
+
+
+def _link_covers(model: RobotModel, budget: int, grid: _Grid) -> list[CollisionSphere]:
     out: list[CollisionSphere] = []
     for link in model.links:
         if not link.collisions:
             continue
         try:
-            covers = _spheres_of([c.geometry for c in link.collisions], max_per_shape)
+            covers = _spheres_of([c.geometry for c in link.collisions], budget, grid)
         except ValueError as err:
             raise ValueError(f"link {link.name!r}: {err}") from err
         for col, (centres, radii) in zip(link.collisions, covers, strict=True):

@@ -153,7 +153,8 @@ class Planner:
         t0 = time.perf_counter()
         rng = np.random.default_rng(problem.seed)
         if not checker.valid(problem.start[None])[0]:
-            return PlanResult(False, problem.start[None], "invalid_start", {"planning_time": 0.0})
+            stats = {"planning_time": time.perf_counter() - t0}
+            return PlanResult(False, problem.start[None], "invalid_start", stats)
         ok = checker.valid(problem.goals)
         if not np.any(ok):
             return PlanResult(

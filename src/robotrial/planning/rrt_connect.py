@@ -220,7 +220,7 @@ class RRTConnect(Planner):
             )
             first = False
             if status == -2:
-                stats = {"planning_time": 0.0}
+                stats = {"planning_time": time.perf_counter() - t0}
                 return PlanResult(False, problem.start[None], "invalid_start", stats)
             if status == -3:
                 stats = {"planning_time": time.perf_counter() - t0}

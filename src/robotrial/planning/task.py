@@ -19,6 +19,7 @@ import pickle
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -154,22 +155,27 @@ def _code_digest() -> bytes:
     return h.digest()
 
 
-def robot_spheres(kin: Kinematics) -> RobotSpheres:
+def robot_spheres(kin: Kinematics, fine: bool = False) -> RobotSpheres:
     """The robot's spheres and self-collision pairs (seconds of work for a robot: sphere
     covers of every shape, thousands of sampled configurations), kept on disk by robot,
-    joint group and code version, so that a fresh process reads them back."""
+    joint group and code version, so that a fresh process reads them back. With `fine`,
+    the fine covers too (made otherwise on first use, `RobotSpheres.refine`)."""
     key = hashlib.sha256(pickle.dumps((kin.model, kin.joint_names)) + _code_digest()).hexdigest()[
         :32
     ]
     path = cache_dir() / "robot-spheres" / f"{key}.pickle"
+    spheres = None
     try:
-        spheres = pickle.loads(path.read_bytes())
-        if isinstance(spheres, RobotSpheres):
-            spheres.kin = kin
-            return spheres
+        kept = pickle.loads(path.read_bytes())
+        if isinstance(kept, RobotSpheres):
+            spheres, spheres.kin = kept, kin
     except Exception:  # not kept yet, unreadable, or from other code: compute it
         pass
-    spheres = RobotSpheres(kin)
+    if spheres is not None and (spheres.refined or not fine):
+        return spheres
+    spheres = spheres or RobotSpheres(kin)
+    if fine:
+        spheres.refine()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
@@ -337,10 +343,17 @@ class TaskPlanner:
         checker, exact = scene.checker, scene.exact
         result.checker, result.exact = checker, exact
 
+        # the first sphere cover is the fast path; where it refuses an end, the fine one
+        # decides (`CollisionChecker.finer`), and the whole request goes on with it
         if not checker.valid(start[None])[0]:
-            touching = sorted(checker.contacts(start))
-            self._fail(result, "start_in_collision", "start in collision: " + _describe(touching))
-            return
+            finer = checker.finer()
+            if finer is None or not finer.valid(start[None])[0]:
+                touching = sorted((finer or checker).contacts(start))
+                self._fail(
+                    result, "start_in_collision", "start in collision: " + _describe(touching)
+                )
+                return
+            checker = finer
 
         # --- the goal, by IK
         target = np.asarray(request.goal_position, dtype=float)
@@ -354,7 +367,12 @@ class TaskPlanner:
         # the nearest of two free solutions from seeds tried four at a time (the current
         # joints first): over 150 random desk requests, trajectories 1 % longer in time
         # than the nearest of four from batches of eight, for half the IK time
-        ik = solve_ik(self.kin, ik_target, start, rng=rng, accept=checker.valid, batch=4, wanted=2)
+        free_ik = partial(solve_ik, self.kin, ik_target, start, rng=rng, batch=4, wanted=2)
+        ik = free_ik(accept=checker.valid)
+        if not ik.success and (finer := checker.finer()) not in (None, checker):
+            ik = free_ik(accept=finer.valid)
+            if ik.success:
+                checker = finer
         stats["ik_time"] = time.perf_counter() - t_ik
         if not ik.success:
             free = solve_ik(self.kin, ik_target, start, rng=rng, wanted=1)
@@ -374,7 +392,7 @@ class TaskPlanner:
                     f"{np.linalg.norm(target - base):.3f} m from the robot's base",
                 )
                 return
-            touching = sorted(checker.contacts(free.q))
+            touching = sorted((checker.finer() or checker).contacts(free.q))
             self._fail(
                 result,
                 "goal_in_collision",
@@ -401,6 +419,7 @@ class TaskPlanner:
                     held,
                     held_touch_at=start,
                     resolution_scale=0.5**attempt,
+                    fine=checker.fine,
                 )
             res = planner.solve(Problem(start, goal[None], limit, seed), checker)
             stats.update({f"planner_{k}": v for k, v in res.stats.items()})

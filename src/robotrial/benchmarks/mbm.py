@@ -2,8 +2,8 @@
 
 The seven Panda scenes of MotionBenchMaker (bookshelf small/tall/thin, box, cage, table
 pick, table under pick; 100 problems each), as VAMP publishes them inside its source
-distribution on PyPI (Apache-2.0). The data is fetched at benchmark time with `pip
-download` and cached outside the repository (`$XDG_CACHE_HOME/robotrial/mbm`, else
+distribution on PyPI (Apache-2.0). The data is fetched at benchmark time from the package
+index and cached outside the repository (`$XDG_CACHE_HOME/robotrial/mbm`, else
 ~/.cache/robotrial/mbm). Each scene YAML is a MoveIt PlanningScene (boxes, cylinders,
 spheres), each request a MotionPlanRequest (start joints, goal joint constraints). Our
 RRTConnect and OMPL's RRTConnect with the MuJoCo check solve the same problems on the
@@ -13,12 +13,13 @@ Panda of example-robot-data; every path is checked densely with MuJoCo.
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
 import os
-import subprocess
-import sys
 import tarfile
 import tempfile
 import time
+import urllib.request
 from datetime import date
 from pathlib import Path
 from typing import Any
@@ -85,27 +86,49 @@ def fetch(cache: Path | None = None) -> Path:
         return problems
     cache.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
-        command = [sys.executable, "-m", "pip", "download", "--no-deps", "--no-binary", ":all:"]
-        done = subprocess.run(
-            [*command, "-d", tmp, VAMP_SDIST], capture_output=True, text=True, check=False
-        )
-        sdists = list(Path(tmp).glob("vamp_planner-*.tar.gz"))
-        if done.returncode != 0 or not sdists:
-            raise MbmError(
-                f"could not download {VAMP_SDIST}'s source from PyPI: "
-                + (done.stderr.strip().splitlines() or ["no file"])[-1]
-            )
-        with tarfile.open(sdists[0]) as sdist:
-            member = next((m for m in sdist.getmembers() if m.name.endswith(PROBLEMS_MEMBER)), None)
+        sdist = _download_sdist(Path(tmp))
+        with tarfile.open(sdist) as outer:
+            member = next((m for m in outer.getmembers() if m.name.endswith(PROBLEMS_MEMBER)), None)
             if member is None:
-                raise MbmError(f"{sdists[0].name} holds no {PROBLEMS_MEMBER}")
-            inner = sdist.extractfile(member)
+                raise MbmError(f"{sdist.name} holds no {PROBLEMS_MEMBER}")
+            inner = outer.extractfile(member)
             assert inner is not None
             with tarfile.open(fileobj=inner, mode="r:bz2") as tar:
                 tar.extractall(cache, filter="data")
     if not (problems / "box_panda").is_dir():
         raise MbmError(f"{PROBLEMS_MEMBER} did not unpack into {problems}")
     return problems
+
+
+def _download_sdist(folder: Path) -> Path:
+    """VAMP's source distribution from the package index's JSON listing (PEP 691), its
+    sha256 checked. Not `pip download`: pip would build the package's build
+    dependencies (CMake among them) from source only to read its metadata."""
+    name, version = VAMP_SDIST.split("==")
+    index = os.environ.get("PIP_INDEX_URL", "https://pypi.org/simple").rstrip("/")
+    wanted = f"{name.replace('-', '_')}-{version}.tar.gz"
+    listing_url = f"{index}/{name}/"
+    try:
+        request = urllib.request.Request(
+            listing_url, headers={"Accept": "application/vnd.pypi.simple.v1+json"}
+        )
+        with urllib.request.urlopen(request, timeout=60) as answer:
+            files = json.load(answer)["files"]
+        entry = next((f for f in files if f["filename"] == wanted), None)
+        if entry is None:
+            raise MbmError(f"{listing_url} lists no {wanted}")
+        target = folder / wanted
+        digest = hashlib.sha256()
+        with urllib.request.urlopen(entry["url"], timeout=60) as answer, target.open("wb") as out:
+            while chunk := answer.read(1 << 20):
+                digest.update(chunk)
+                out.write(chunk)
+    except (OSError, ValueError, KeyError) as exc:
+        raise MbmError(f"could not download {wanted} from {listing_url}: {exc}") from None
+    expected = entry.get("hashes", {}).get("sha256")
+    if expected and digest.hexdigest() != expected:
+        raise MbmError(f"{wanted} from {entry['url']}: sha256 {digest.hexdigest()} != {expected}")
+    return target
 
 
 def _pose(p: dict[str, Any]) -> Pose:
@@ -156,15 +179,16 @@ def read_request(path: Path, joints: list[str]) -> tuple[np.ndarray, np.ndarray]
 
 def problems(folder: Path, scene: str, count: int, robot, spheres=None) -> list[Any]:
     """The first `count` problems of `scene` as PlanningProblems for `robot` (the Panda)."""
-    from robotrial.collision.sphere_model import CollisionChecker, RobotSpheres
+    from robotrial.collision.sphere_model import CollisionChecker
     from robotrial.kinematics.chain import Kinematics
     from robotrial.model.world import Floor, World
     from robotrial.planning.problems import PlanningProblem
+    from robotrial.planning.task import robot_spheres
 
     # the fingers open (the requests' own 0.065 m is past the Panda's 0.04 m limit), as
     # MBM's grasp goals around the objects need them
     kin = spheres.kin if spheres is not None else Kinematics(robot, fixed=FINGERS)
-    spheres = spheres or RobotSpheres(kin)
+    spheres = spheres or robot_spheres(kin, fine=True)  # kept on disk: seconds to make
     # MBM's tables stand below the robot's base: no floor at z = 0
     world = World(name="mbm", floor=Floor(height=-5.0))
     where = folder / f"{scene}_panda"
@@ -174,10 +198,12 @@ def problems(folder: Path, scene: str, count: int, robot, spheres=None) -> list[
         start, goal = read_request(where / f"request{k:04d}.yaml", kin.joint_names)
         env = _environment(obstacles)
         # a pick goal closes the hand around its object: as MoveIt's allowed collisions
-        # let the fingers touch it there, the object the fingers alone touch at the goal
-        # leaves the scene (counted in the report)
-        touched = CollisionChecker(spheres, env).contacts(goal)
-        grasped = {ob for link, ob in touched if link in GRIPPER_LINKS}
+        # let the fingers touch it there, the object the gripper's spheres reach at the
+        # goal leaves the scene (counted in the report) when no other link touches anything
+        checker = CollisionChecker(spheres, env)
+        near = checker.contacts(goal, fine=False)
+        grasped = {ob for link, ob in near if link in GRIPPER_LINKS}
+        touched = checker.contacts(goal, fine=True)
         if grasped and all(link in GRIPPER_LINKS for link, _ in touched):
             obstacles = [o for o in obstacles if o[0] not in grasped]
             env = _environment(obstacles)
@@ -278,7 +304,6 @@ def run_scene(probs: list[Any], time_limit: float, ompl: bool, on_problem=None) 
 
 def run(args: argparse.Namespace) -> int:
     """`robotrial bench planning --suite mbm`."""
-    import json
     import platform
 
     from robotrial.benchmarks.planning import panda_path
@@ -370,7 +395,8 @@ def markdown(report: dict[str, Any]) -> str:
         f"Measured {report['date']} on {report['machine']}; the first "
         f"{report['problems_per_scene']} problems of each scene, one run each, "
         f"{report['time_limit_s']:g} s limit. Data: {report['source']}, fetched at "
-        "benchmark time into the user's cache. Ours: RRTConnect on the sphere model. "
+        "benchmark time into the user's cache. Ours: RRTConnect on the sphere model "
+        "(the fine cover asked where the first one touches an obstacle). "
         "OMPL: RRTConnect (OMPL 2 Python bindings) with MuJoCo as its validity checker, "
         "MoveIt's motion resolution. Every solved path is checked densely with MuJoCo.",
         "",
@@ -388,7 +414,8 @@ def markdown(report: dict[str, Any]) -> str:
         lines.append(
             "Pick goals close the hand around an object; as MoveIt's allowed collisions "
             "let the fingers touch it there, that object is left out of the scene (for "
-            "both planners) where only the gripper touches it at the goal: "
+            "both planners) where the gripper's spheres reach it at the goal and no other "
+            "link touches anything: "
             + ", ".join(f"{s} {n}" for s, n in grasped.items() if n)
             + " problems."
         )

@@ -311,7 +311,8 @@ class PoseGraphSlam:
     def process(self, scan: Beams, stamp: float, odom: np.ndarray | None = None) -> np.ndarray:
         """Match one scan (odometry, if given, is ignored), add a node when the robot has
         moved enough and hand it to the back end; return the pose (x, y, yaw)."""
-        self._adopt()
+        if not self.params.lockstep:
+            self._adopt()
         if self.nodes and scan.hit.any():
             res = self.matcher.match(self._grid, scan.hits, self.pose, self._pyramid)
             self.pose, self._last_hessian = res.pose, res.hessian
@@ -343,6 +344,10 @@ class PoseGraphSlam:
         return h + np.diag([1e2, 1e2, 1e2])
 
     def _add_node(self, scan: Beams) -> None:
+        if self.params.lockstep and self._job is not None:
+            job, self._job = self._job, None
+            job.result()
+            self._adopt()
         k = len(self.nodes)
         with self._lock:
             self.nodes.append(self.pose.copy())
@@ -374,29 +379,34 @@ class PoseGraphSlam:
             return
         if not self._queue and not (flush and self._pending):
             return
+        # the pass's input is taken here, on the scan path: what it sees does not
+        # depend on when the worker starts
+        with self._lock:
+            todo, self._queue = self._queue, []
+            nodes = np.array(self.nodes)
+            scans = self.scans[: len(nodes)]
         if not self.params.background:
-            self._backend_pass(flush)
+            self._backend_pass(flush, todo, nodes, scans)
             self._adopt()
             return
         if self._executor is None:
             self._executor = ThreadPoolExecutor(1, thread_name_prefix="posegraph-backend")
-        self._job = self._executor.submit(self._backend_pass, flush)
+        self._job = self._executor.submit(self._backend_pass, flush, todo, nodes, scans)
 
     @staticmethod
     def _write(grid: LogOddsGrid, pose: np.ndarray, scan: Beams) -> None:
         origin = transform_points(pose, np.array([scan.origin]))[0]
         grid.integrate(origin, transform_points(pose, scan.ends), scan.hit)
 
-    def _backend_pass(self, flush: bool) -> None:
-        """Search the queued nodes for loop closures; after `optimize_every` accepted
+    def _backend_pass(
+        self, flush: bool, todo: list[int], nodes: np.ndarray, scans: list[Beams]
+    ) -> None:
+        """Search the nodes `todo` for loop closures; after `optimize_every` accepted
         closures (or any, when `flush`), optimise the graph and rebuild the map, and
-        leave the result in `_solution`. Runs in the worker: reads a snapshot of the
-        nodes, touches no state of the scan path but the shared lists (under the lock)."""
+        leave the result in `_solution`. Runs in the worker on a snapshot of the nodes
+        and their scans; touches no state of the scan path but the shared lists (under
+        the lock)."""
         t0 = time.perf_counter()
-        with self._lock:
-            todo, self._queue = self._queue, []
-            nodes = np.array(self.nodes)
-            scans = self.scans[: len(nodes)]
         found = [e for e in (self._close_loop(k, nodes, scans) for k in todo) if e is not None]
         with self._lock:
             self.edges.extend(found)

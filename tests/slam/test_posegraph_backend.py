@@ -30,9 +30,7 @@ class HeldPoseGraph(PoseGraphSlam):
 
 
 def test_scans_are_matched_while_the_optimisation_runs(room_b: Recording):
-    # free running: a pass is swapped in whenever it ends (in lockstep the next node
-    # would wait for the held pass)
-    slam = HeldPoseGraph(PoseGraphParams(optimize_every=1, lockstep=False))
+    slam = HeldPoseGraph(PoseGraphParams(optimize_every=1))
     for s in room_b.scans:
         slam.process(scan_beams(slam, s, room_b.laser_pose), s.stamp)
     # The square drive closes its loop: the worker reaches the optimisation and holds.
@@ -93,7 +91,7 @@ def test_in_lockstep_the_worker_gives_the_same_map_every_time(room_b: Recording)
         spinner = threading.Thread(target=spin)
         if busy:
             spinner.start()
-        slam = make_slam("graph", {"optimize_every": 1})
+        slam = make_slam("graph", {"optimize_every": 1, "lockstep": True})
         for s in room_b.scans:
             slam.process(scan_beams(slam, s, room_b.laser_pose), s.stamp)
         slam.settle()

@@ -131,11 +131,10 @@ class PoseGraphParams:
     The graph is optimised after every `optimize_every` accepted closures; the map is
     rebuilt when that moved a scan by more than `map_rebuild_shift`. With `background`
     the loop searches, the optimisation and the rebuild run in a worker thread, off the
-    scan path (False: inline, for comparisons). With `lockstep`, a pass is swapped in
-    when the next node is added, the scan path waiting for it then only if it has not
-    finished (it takes tens of ms; a node comes every 0.3 m): the same scans give the
-    same map whatever the machine's load. Without, a pass is swapped in at the first scan
-    after it ends, which depends on the timing."""
+    scan path (False: inline, for comparisons). A pass is swapped in at the first scan
+    after it ends, which depends on the timing; with `lockstep`, when the next node is
+    added, the scan path waiting for it then if it has not finished: the same scans give
+    the same map whatever the machine's load (the trials use it)."""
 
     resolution: float = 0.025
     match_levels: int = 3
@@ -157,7 +156,7 @@ class PoseGraphParams:
     map_rebuild_shift: float = 0.01
     map_pub_period: float = 2.0
     background: bool = True
-    lockstep: bool = True
+    lockstep: bool = False
 
     def __post_init__(self) -> None:
         if not self.resolution > 0:

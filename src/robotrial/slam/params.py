@@ -134,7 +134,7 @@ class PoseGraphParams:
     scan path (False: inline, for comparisons). A pass is swapped in at the first scan
     after it ends, which depends on the timing; with `lockstep`, when the next node is
     added, the scan path waiting for it then if it has not finished: the same scans give
-    the same map whatever the machine's load (the trials use it)."""
+    the same map whatever the machine's load."""
 
     resolution: float = 0.025
     match_levels: int = 3

@@ -297,10 +297,7 @@ class CarryTrial(Node):
         self.bus = Bus()
         super().__init__(self.bus, "/carry")
         self.sim_node = SimNode(self.bus, self.sim)
-        # a trial is driven as fast as the machine goes: the pose graph in lockstep, so
-        # that a seed gives the same map whatever the load
-        lockstep = {"lockstep": True} if setup.slam == "graph" else None
-        self.slam_node: SlamNode | None = SlamNode(self.bus, make_slam(setup.slam, lockstep))
+        self.slam_node: SlamNode | None = SlamNode(self.bus, make_slam(setup.slam))
         self.nav_node: NavNode | None = None
         self.recorder = None
         if out is not None:

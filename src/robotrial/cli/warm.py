@@ -38,8 +38,7 @@ def run(args: argparse.Namespace) -> int:
                 continue
             world = load_world(library.DEFAULT_WORLD) if name == library.DEFAULT_ROBOT else None
             planner = TaskPlanner(robot, world)
-            # the fine covers, asked when a start or goal is close to an obstacle
-            planner.spheres = robot_spheres(planner.kin, fine=True)
+            robot_spheres(planner.kin, fine=True)  # the fine covers too, kept on disk
             if name == library.DEFAULT_ROBOT or args.robot:
                 planner.warm()  # plans once: every kernel of a request compiles
             done.append(f"{name} ({time.perf_counter() - t0:.1f} s)")

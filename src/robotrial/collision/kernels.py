@@ -58,8 +58,8 @@ class Bodies(NamedTuple):
     (one row per axis) and radii, each body's run of spheres [start, end), its node,
     its bounding sphere (centre, radius), and which planning joints swing which (see
     `CollisionChecker._ancestry`), and each body's fine run [fine_start, fine_end): a
-    tighter cover of the same link, asked only where the first run touches or nearly
-    touches a shape (empty when the body has none)."""
+    tighter cover of the same link, asked only where the first run touches a shape
+    (empty when the body has none or the checker does not ask it)."""
 
     sphere_local: np.ndarray
     radius: np.ndarray

@@ -40,7 +40,7 @@ POLISH_ROUNDS = 2  # rounds of moving the centres off the grid
 POLISH_STEP = 2e-4  # m: the finest move when polishing a centre
 SAG = 2e-4  # m: how far a cylinder's curved surface may stand off its polygon
 # The fine cover (`link_fine_spheres`): what the checks ask only where the coarse cover
-# touches or nearly touches something; tighter, so it takes more spheres and finer grids.
+# touches something; tighter, so it takes more spheres and finer grids.
 FINE_BULGE = 0.004  # m: its tolerance, at most
 FINE_SPHERES = 160  # spheres per link, at most
 FINE_CANDIDATES = 6000

@@ -392,7 +392,7 @@ class TaskPlanner:
                     f"{np.linalg.norm(target - base):.3f} m from the robot's base",
                 )
                 return
-            touching = sorted((checker.finer() or checker).contacts(free.q))
+            touching = sorted((finer or checker).contacts(free.q))
             self._fail(
                 result,
                 "goal_in_collision",

@@ -395,8 +395,9 @@ def markdown(report: dict[str, Any]) -> str:
         f"Measured {report['date']} on {report['machine']}; the first "
         f"{report['problems_per_scene']} problems of each scene, one run each, "
         f"{report['time_limit_s']:g} s limit. Data: {report['source']}, fetched at "
-        "benchmark time into the user's cache. Ours: RRTConnect on the sphere model "
-        "(the fine cover asked where the first one touches an obstacle). "
+        "benchmark time into the user's cache. Ours: RRTConnect with balanced trees and "
+        "dynamic domains on the sphere model (the fine cover asked where the first one "
+        "touches an obstacle). "
         "OMPL: RRTConnect (OMPL 2 Python bindings) with MuJoCo as its validity checker, "
         "MoveIt's motion resolution. Every solved path is checked densely with MuJoCo.",
         "",

@@ -84,6 +84,15 @@ def _steer(a, b, step, out) -> bool:
     return False
 
 
+@nb.njit(cache=True, inline="always")
+def _add(tq, tpar, trad, n, q, parent) -> None:
+    """Make node n of a tree: configuration q, its parent, no domain yet."""
+    for j in range(q.shape[0]):
+        tq[n, j] = q[j]
+    tpar[n] = parent
+    trad[n] = np.inf
+
+
 @nb.njit(cache=True, _nrt=False)
 def _grow(
     first, start, goals, seed, work, trees, t_is_start, lower, upper, step, domain, iters, packed
@@ -110,17 +119,11 @@ def _grow(
         np.random.seed(seed)  # noqa: NPY002 (numba has only the legacy generator)
         if not config_valid(start, config):
             return -2, 0, 0, t_is_start
-        for j in range(d):
-            tq[0, j] = start[j]
-        tpar[0] = -1
-        trad[0] = np.inf
+        _add(tq, tpar, trad, 0, start, -1)
         ng = 0
         for g in range(goals.shape[0]):
             if config_valid(goals[g], config):
-                for j in range(d):
-                    uq[ng, j] = goals[g, j]
-                upar[ng] = -1
-                urad[ng] = np.inf
+                _add(uq, upar, urad, ng, goals[g], -1)
                 ng += 1
         counts[0], counts[1], counts[2] = 1, ng, 0
         if ng == 0:
@@ -142,10 +145,7 @@ def _grow(
             if 0.0 <= segment_clearance(tq[near], q_new, -1.0, checks, scratch):
                 if trad[near] < np.inf:
                     trad[near] *= 1.0 + rate
-                for j in range(d):
-                    tq[nt, j] = q_new[j]
-                tpar[nt] = near
-                trad[nt] = np.inf
+                _add(tq, tpar, trad, nt, q_new, near)
                 new = nt
                 nt += 1
                 k = _nearest(uq, nu, q_new)
@@ -158,10 +158,7 @@ def _grow(
                     c_k = segment_clearance(uq[k], q_next, c_k, checks, scratch)
                     if c_k < 0.0:
                         break
-                    for j in range(d):
-                        uq[nu, j] = q_next[j]
-                    upar[nu] = k
-                    urad[nu] = np.inf
+                    _add(uq, upar, urad, nu, q_next, k)
                     k = nu
                     nu += 1
                     if reached:

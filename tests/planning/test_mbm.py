@@ -85,6 +85,7 @@ def test_a_scene_and_request_become_a_problem_we_solve(tmp_path, panda) -> None:
     np.testing.assert_allclose(prob.goal, GOAL)
     result = mbm.run_scene([prob], time_limit=5.0, ompl=True)
     assert result["ours"]["solved"] == 1 and result["ompl"]["solved"] == 1
+    assert result["alternating"]["solved"] == 1  # OMPL's algorithm on our checks
     assert result["ours_colliding"] == 0 and result["ompl_colliding"] == 0
     assert result["rows"][0]["valid_ends_mujoco"]
 

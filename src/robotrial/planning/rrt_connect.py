@@ -102,12 +102,12 @@ def _grow(
     done], updated in place. `domain`: (balance the trees, first radius, floor, rate),
     no dynamic domains with a radius of 0. `packed` is the checker's `kernel_args()`.
     An iteration whose sample falls outside its nearest node's domain checks nothing.
-    Returns (status, i_t, i_u,
-    t_is_start): status 1 when node i_t of t and node i_u of u are the same point (the
-    trees met), 0 when the iterations ran out, -1 when a tree is full. With `first`, the
-    query starts here: seed the generator, check the ends, fill the roots of tq (the
-    start) and uq (the free goals), try the direct motion; status 2 when that motion is
-    free, -2 for a start in contact, -3 when no goal is free.
+    Returns (status, i_t, i_u, t_is_start): status 1 when node i_t of t and node i_u of
+    u are the same point (the trees met), 0 when the iterations ran out, -1 when a tree
+    is full. With `first`, the query starts here: seed the generator, check the ends,
+    fill the roots of tq (the start) and uq (the free goals), try the direct motion;
+    status 2 when that motion is free, -2 for a start in contact, -3 when no goal is
+    free.
     """
     tq, tpar, trad, uq, upar, urad, counts = trees
     balance, r0, floor, rate = domain[0] > 0.0, domain[1], domain[2], domain[3]

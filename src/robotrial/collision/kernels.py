@@ -448,7 +448,7 @@ def config_valid(q, checks) -> bool:
     )
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def valid_batch(qs, packed_checks) -> np.ndarray:
     """Which configurations of `qs` (N, d) are free (`packed_checks`: a `ConfigChecks`,
     `packed`)."""
@@ -803,7 +803,7 @@ def _grid_walk(
     return c_b
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def motions_valid(a, b, packed_checks) -> np.ndarray:
     """For each row i: is the straight joint-space motion a[i] -> b[i] free? Ends excluded
     for `a` (assumed valid), included for `b`. `packed_checks`: a `MotionChecks`,

@@ -93,7 +93,7 @@ def _add(tq, tpar, trad, n, q, parent) -> None:
     trad[n] = np.inf
 
 
-@nb.njit(cache=True, _nrt=False)
+@nb.njit(cache=True, _nrt=False, nogil=True)
 def _grow(
     first, start, goals, seed, work, trees, t_is_start, lower, upper, step, domain, iters, packed
 ):

@@ -14,8 +14,10 @@ path within the time limit.
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import pickle
+import threading
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -46,6 +48,7 @@ from robotrial.planning.smoothing import densify, round_corners, shortcut
 from robotrial.planning.timing import Trajectory, time_parameterize
 
 DEFAULT_TIME_LIMIT = 2.0  # s
+MAX_TIME_LIMIT = 60.0  # s: the longest answer a request may ask for
 HOLD_DISTANCE = 0.05  # m: an object this close to the tcp is in the hand
 DEFAULT_ACCEL_RATIO = 2.0  # joint acceleration limit = ratio x velocity limit, per second
 FLOOR_THICKNESS = 0.1  # m
@@ -70,13 +73,18 @@ class TaskError(ValueError):
     """A request that cannot be planned as given (names the field)."""
 
 
+class _OutOfTime(Exception):
+    """The request's time limit has passed, or its caller stopped waiting."""
+
+
 @dataclass
 class TaskRequest:
     """One Move Robot! request: from the joints `positions` (named by `joint_names`; none:
     the planning joints, or all of the robot's joints, by count) to the end effector at
     `goal_position` (m, base frame) with `goal_orientation` (quaternion x, y, z, w; None:
     position only), around `obstacles`, carrying `object` (name, box, pose; None: nothing).
-    `planner` "" is the default; `time_limit` 0 s is the default."""
+    `planner` "" is the default; `time_limit` (s) bounds the whole answer, IK and smoothing
+    included (0: the default, DEFAULT_TIME_LIMIT for the planner)."""
 
     positions: np.ndarray
     goal_position: np.ndarray
@@ -217,6 +225,8 @@ class TaskPlanner:
         )
         self.amax = DEFAULT_ACCEL_RATIO * self.vmax
         self._scenes: OrderedDict[tuple, _Scene] = OrderedDict()
+        self._deadline = 0.0
+        self._abandoned: threading.Event | None = None
         self.world_env = Environment()
         if world is not None:
             fl = world.floor
@@ -272,19 +282,43 @@ class TaskPlanner:
         if len(free) < 2:
             return None
         hand = self.kin.link_pose(free[1])[:3, 3]
-        return self.plan(TaskRequest(free[0], hand, joint_names=list(self.joint_names)), seed=0)
+        return self.plan(TaskRequest(free[0], hand, joint_names=self.joint_names), seed=0)
 
-    def plan(self, request: TaskRequest, seed: int | None = None) -> TaskResult:
-        """Answer one request (never raises for a bad request: the result says why)."""
+    def plan(
+        self,
+        request: TaskRequest,
+        seed: int | None = None,
+        abandoned: threading.Event | None = None,
+    ) -> TaskResult:
+        """Answer one request (never raises for a bad request: the result says why).
+        The answer comes within the request's time limit; once `abandoned` is set (the
+        caller has gone) the work stops at the next stage."""
         t0 = time.perf_counter()
         result = TaskResult(joint_names=self.joint_names)
         try:
+            limit = time_limit(request.time_limit)
+            self._deadline = math.inf if limit is None else t0 + limit
+            self._abandoned = abandoned
             self._plan(request, seed, result)
         except TaskError as exc:
             self._fail(result, "bad_request", str(exc))
+        except _OutOfTime as exc:
+            self._fail(result, "timeout", str(exc))
+        finally:
+            self._abandoned = None
         result.planning_time = time.perf_counter() - t0
         result.stats["total_time"] = result.planning_time
         return result
+
+    def _remaining(self, stage: str) -> float:
+        """Seconds left for the request; _OutOfTime (naming `stage`) when none are, or
+        when the caller has gone."""
+        if self._abandoned is not None and self._abandoned.is_set():
+            raise _OutOfTime(f"stopped before {stage}: the caller no longer waits")
+        left = self._deadline - time.perf_counter()
+        if left <= 0:
+            raise _OutOfTime(f"the time limit ran out before {stage}")
+        return left
 
     def _scene(self, obstacles: Obstacles, held: HeldObject | None, start: np.ndarray) -> _Scene:
         """The checkers for these obstacles and this held object: kept from an earlier
@@ -340,6 +374,7 @@ class TaskPlanner:
         t = time.perf_counter()
         scene = self._scene(obstacles, held, start)
         stats["scene_time"] = time.perf_counter() - t
+        self._remaining("the collision checks")
         checker, exact = scene.checker, scene.exact
         result.checker, result.exact = checker, exact
 
@@ -363,6 +398,7 @@ class TaskPlanner:
         if request.goal_orientation is not None:
             goal_pose = Pose(tuple(target), tuple(request.goal_orientation))  # type: ignore[arg-type]
         ik_target = target if goal_pose is None else goal_pose.matrix()
+        self._remaining("inverse kinematics")
         t_ik = time.perf_counter()
         # the nearest of two free solutions from seeds tried four at a time (the current
         # joints first): over 150 random desk requests, trajectories 1 % longer in time
@@ -408,9 +444,8 @@ class TaskPlanner:
         except ValueError as exc:
             raise TaskError(f"planner: {exc}") from None
         limit = request.time_limit if request.time_limit > 0 else DEFAULT_TIME_LIMIT
-        if not np.isfinite(limit):
-            raise TaskError(f"time_limit must be a finite number of seconds, got {limit}")
         for attempt in range(3):
+            left = min(limit, self._remaining("planning"))
             if attempt:
                 checker = CollisionChecker(
                     self.spheres,
@@ -421,7 +456,7 @@ class TaskPlanner:
                     resolution_scale=0.5**attempt,
                     fine=checker.fine,
                 )
-            res = planner.solve(Problem(start, goal[None], limit, seed), checker)
+            res = planner.solve(Problem(start, goal[None], left, seed), checker)
             stats.update({f"planner_{k}": v for k, v in res.stats.items()})
             stats["planner"] = planner.name
             stats["attempts"] = attempt + 1
@@ -442,10 +477,12 @@ class TaskPlanner:
                     f"{1e3 * checker.padding:.0f} mm)",
                 )
                 return
+            self._remaining("smoothing")
             t_post = time.perf_counter()
             path = shortcut(res.path, checker, rng)
             smooth = round_corners(path, checker)
             stats["shortcut_time"] = stats.get("shortcut_time", 0.0) + time.perf_counter() - t_post
+            self._remaining("timing and validation")
             traj = self._timed_and_checked(smooth, path, checker, exact, stats)
             if traj is not None:
                 break
@@ -496,6 +533,18 @@ class TaskPlanner:
         result.success = False
         result.failure = failure
         result.message = message
+
+
+def time_limit(asked: float) -> float | None:
+    """The seconds a whole answer may take: `asked`, or None for 0 (the default: the
+    planner alone is held to DEFAULT_TIME_LIMIT, so that a first request that compiles
+    the kernels is answered); TaskError for a negative, non-finite or too long limit."""
+    if not np.isfinite(asked) or asked < 0 or asked > MAX_TIME_LIMIT:
+        raise TaskError(
+            f"time_limit must be 0 (the default: {DEFAULT_TIME_LIMIT:g} s of planning) to "
+            f"{MAX_TIME_LIMIT:g} s, got {float(asked):g}"
+        )
+    return float(asked) if asked > 0 else None
 
 
 def _describe(pairs: list[tuple[str, str]]) -> str:

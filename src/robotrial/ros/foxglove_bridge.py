@@ -297,6 +297,10 @@ class FoxgloveBridge(Node):
 
     def _check_request(self, conn: ServerConnection, request: Request) -> Response | None:
         headers = {k.lower(): v for k, v in request.headers.raw_items()}
+        refusal = self.access.host_refusal(headers)
+        if refusal is not None:
+            log.warning("foxglove: %s", refusal)
+            return conn.respond(400, refusal + "\n")
         if not self.access.origin_allowed(headers):
             log.warning("foxglove: %s", self.access.refusal(headers))
             return conn.respond(403, self.access.refusal(headers) + "\n")

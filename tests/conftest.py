@@ -13,6 +13,8 @@ from robotrial.gl import choose_gl_backend
 
 ROOT = Path(__file__).resolve().parents[1]
 ARTIFACTS = ROOT / "test-artifacts"
+LOCAL = "http://127.0.0.1"
+"""TestClient's base URL: a Host the server answers to (it refuses other names)."""
 CHROMIUM = os.environ.get("ROBOTRIAL_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = [
     "--headless",

@@ -18,6 +18,8 @@ from playwright.sync_api import Page, sync_playwright
 
 from robotrial.app.server import create_app
 
+from tests.conftest import LOCAL
+
 pytestmark = [pytest.mark.timeout(90)]
 
 INERTIAL = (
@@ -121,7 +123,7 @@ def test_upload_good_and_broken_robot(
 @pytest.fixture
 def client(tmp_path: Path) -> Iterator[TestClient]:
     app = create_app(warm=False, uploads_dir=tmp_path / "uploads", max_upload_bytes=100_000)
-    with TestClient(app) as c:
+    with TestClient(app, base_url=LOCAL) as c:
         yield c
 
 

@@ -78,7 +78,10 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "_run", None):
         parser.print_help()
         return 2
-    return int(args._run(args) or 0)
+    try:
+        return int(args._run(args) or 0)
+    except KeyboardInterrupt as stop:  # Ctrl+C or SIGTERM: the command has cleaned up
+        return 128 + (signal.SIGTERM if str(stop).startswith("signal") else signal.SIGINT)
 
 
 if __name__ == "__main__":

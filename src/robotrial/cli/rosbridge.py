@@ -33,10 +33,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from robotrial.cli.serving import run_server
     from robotrial.console import console
     from robotrial.model import ModelError, load_robot, load_world
     from robotrial.ros.bus import Bus
-    from robotrial.ros.rosbridge import serve
+    from robotrial.ros.rosbridge import standalone_app
 
     bus = Bus()
     try:
@@ -59,5 +60,5 @@ def run(args: argparse.Namespace) -> int:
         return 2
     dialect = "ros1" if args.ros_version == "1" else "ros2"
     print(f"rosbridge v2 on ws://{args.host}:{args.port}/ (also /rosbridge); Ctrl-C stops")
-    serve(args.host, args.port, bus, dialect=dialect, access=access)
+    run_server(standalone_app(bus, dialect=dialect, access=access), args.host, args.port)
     return 0

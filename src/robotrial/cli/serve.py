@@ -36,9 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import uvicorn
-
     from robotrial.app.server import ROSBRIDGE_PATH, create_app
+    from robotrial.cli.serving import run_server
     from robotrial.console import console
     from robotrial.model.robot import ModelError
     from robotrial.ros.bus import Bus
@@ -68,5 +67,5 @@ def run(args: argparse.Namespace) -> int:
         f"rosbridge at ws://{host}:{args.port}{ROSBRIDGE_PATH}{foxglove}; Ctrl+C stops",
         flush=True,
     )
-    uvicorn.run(app, host=args.host, port=args.port, log_level="warning")
+    run_server(app, args.host, args.port)
     return 0

@@ -1,6 +1,7 @@
 """`robotrial bag`: look into a recording, rescue one cut short (layer 5).
 
-    robotrial bag info run.mcap              # messages per topic
+    robotrial bag info run.mcap              # topics, types, messages (from the index)
+    robotrial bag info rosbag2_2026_01_01/   # a ROS 2 bag folder (sqlite3 or MCAP), or a .db3
     robotrial bag recover run.mcap -o fixed.mcap
 
 `recover` copies every message of the complete chunks of an MCAP file whose writer was
@@ -20,7 +21,9 @@ HELP = "recordings: messages per topic (info), rescue a recording cut short (rec
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
-    info = sub.add_parser("info", help="messages per topic of a .mcap or .bag")
+    info = sub.add_parser(
+        "info", help="topics, types and messages of a .mcap, .bag, .db3 or ROS 2 bag folder"
+    )
     info.add_argument("file")
     add_json_flag(info)
     rec = sub.add_parser("recover", help="rewrite an MCAP cut short as a complete file")
@@ -30,16 +33,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from robotrial.ros.playback import summary
+    from robotrial.ros.playback import contents
     from robotrial.ros.recorder import recover_mcap
 
     path = Path(args.file)
-    if not path.is_file():
+    if not path.exists():
         console.print(f"[red]robotrial bag: no such file {path}[/red]")
         return 2
+    types: dict[str, str] = {}
     try:
         if args.action == "info":
-            counts = summary(path)
+            found = contents(path)
+            counts = {t: n for t, (_, n) in found.items()}
+            types = {t: ty for t, (ty, _) in found.items()}
             title = f"{path.name}: {sum(counts.values())} messages"
         else:
             if path.suffix.lower() != ".mcap":
@@ -57,7 +63,13 @@ def run(args: argparse.Namespace) -> int:
         )
         return 2
     if args.json:
-        print_json({"file": str(path), "messages": counts, "title": title})
+        out = {"file": str(path), "messages": counts, "title": title}
+        if types:
+            out["types"] = types
+        print_json(out)
+    elif types:
+        rows = [(t, types[t], n) for t, n in sorted(counts.items())]
+        print_table(title, ["topic", "type", "messages"], rows)
     else:
         print_table(title, ["topic", "messages"], sorted(counts.items()))
     return 0

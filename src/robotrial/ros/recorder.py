@@ -9,6 +9,16 @@ and records what they carry (like `ros2 bag record`). Messages are serialized by
 and its chunks are compressed (LZ4 by default: quick to write; zstd: smaller; both as
 rosbag2 and the MCAP tools write them, and Foxglove and Lichtblick read them).
 
+What other readers need, and gets written for them:
+
+- log times are at least 1 ns: ROS 1's `rosbag_storage` drops index entries stamped 0,
+  and a simulation starts at 0;
+- a .bag's LZ4 chunks are frames without a content size, with a content checksum and
+  independent blocks, the only kind `roslz4` (Python `rosbag`) decompresses;
+- a latched topic is a latching connection in a .bag and, in an MCAP, a channel whose
+  `offered_qos_profiles` say transient local (as rosbag2 writes them), so converters
+  and players keep it latched.
+
 `recover_mcap` rescues a recording cut short (the process killed): every message of the
 complete chunks goes into a new, indexed file that seeking readers open.
 """
@@ -20,7 +30,9 @@ import threading
 from pathlib import Path
 from typing import Any
 
+import lz4.frame
 import numpy as np
+import yaml
 from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 from rosbags.rosbag1 import Writer as Bag1Writer
@@ -40,6 +52,31 @@ COMPRESSIONS = {
 _STORES: dict[str, Any] = {}
 _STORE_LOCK = threading.Lock()
 _READY: set[tuple[int, str]] = set()
+MIN_LOG_TIME_NS = 1  # rosbag_storage's TIME_MIN: an index entry at 0 is dropped
+_INFINITE = {"sec": 9223372036, "nsec": 854775807}
+
+
+def offered_qos(latched: bool) -> str:
+    """A channel's `offered_qos_profiles` as rosbag2 (Jazzy) writes them in MCAP
+    metadata: reliable, keep last, transient local for a latched topic."""
+    profile = {
+        "history": "keep_last",
+        "depth": 1 if latched else 10,
+        "reliability": "reliable",
+        "durability": "transient_local" if latched else "volatile",
+        "deadline": dict(_INFINITE),
+        "lifespan": dict(_INFINITE),
+        "liveliness": "automatic",
+        "liveliness_lease_duration": dict(_INFINITE),
+        "avoid_ros_namespace_conventions": False,
+    }
+    return yaml.safe_dump([profile], sort_keys=False)
+
+
+def _roslz4_frame(data: bytes) -> bytes:
+    """An LZ4 frame that ROS 1's roslz4 reads: no content size, a content checksum,
+    independent blocks."""
+    return lz4.frame.compress(data, store_size=False, content_checksum=True, block_linked=False)
 
 
 def format_of(path: str | Path) -> str:
@@ -146,8 +183,10 @@ class Recorder:
     """Writes messages to `path` (.mcap or .bag). Use as a context manager or `close()`.
     `compression`: lz4, zstd or none (a .bag takes lz4 or none).
 
-    `write(topic, msg, stamp)`: `stamp` (s) is the log time; without it the message's
-    header stamp, else the last time written. A topic keeps the type of its first message.
+    `write(topic, msg, stamp, latched)`: `stamp` (s) is the log time; without it the
+    message's header stamp, else the last time written (never below 1 ns). A topic keeps
+    the type of its first message; `latched` (default: the topic is one of
+    `LATCHED_TOPICS`) is decided by its first message too.
     """
 
     def __init__(self, path: str | Path, compression: str = "lz4") -> None:
@@ -174,34 +213,40 @@ class Recorder:
             self._bag = Bag1Writer(self.path)
             if compression == "lz4":
                 self._bag.set_compression(Bag1Writer.CompressionFormat.LZ4)
+                self._bag.compressor = _roslz4_frame
             self._bag.open()
 
-    def _channel(self, topic: str, cls: type[Message]) -> Any:
+    def _channel(self, topic: str, cls: type[Message], latched: bool | None) -> Any:
         name = cls.__ros_type__
         known = self._types.get(topic)
         if known is not None:
             if known != name:
                 raise ValueError(f"recording: topic {topic} carries {known}, not {name}")
             return self._channels[topic]
+        if latched is None:
+            latched = topic in LATCHED_TOPICS
         if self.format == "mcap":
             if name not in self._schemas:
                 self._schemas[name] = self._mcap.register_schema(
                     name=name, encoding="ros2msg", data=full_definition(cls).encode()
                 )
             ch = self._mcap.register_channel(
-                topic=topic, message_encoding="cdr", schema_id=self._schemas[name]
+                topic=topic,
+                message_encoding="cdr",
+                schema_id=self._schemas[name],
+                metadata={"offered_qos_profiles": offered_qos(latched)},
             )
         else:
             store = typestore("ros1")
             ensure_type(store, cls, "ros1")
-            ch = self._bag.add_connection(
-                topic, name, typestore=store, latching=1 if topic in LATCHED_TOPICS else 0
-            )
+            ch = self._bag.add_connection(topic, name, typestore=store, latching=int(latched))
         self._types[topic] = name
         self._channels[topic] = ch
         return ch
 
-    def write(self, topic: str, msg: Message, stamp: float | None = None) -> None:
+    def write(
+        self, topic: str, msg: Message, stamp: float | None = None, latched: bool | None = None
+    ) -> None:
         if not isinstance(msg, Message):
             raise TypeError(
                 f"recording {topic}: expected a robotrial.msgs message, got {type(msg)}"
@@ -212,8 +257,8 @@ class Recorder:
                 raise ValueError(f"recording {self.path} is closed")
             t = self._last if t is None else t
             self._last = max(self._last, t)
-            ns = round(t * 1e9)
-            ch = self._channel(topic, type(msg))
+            ns = max(round(t * 1e9), MIN_LOG_TIME_NS)
+            ch = self._channel(topic, type(msg), latched)
             if self.format == "mcap":
                 self._mcap.add_message(
                     channel_id=ch, log_time=ns, publish_time=ns, data=serialize(msg, "ros2")
@@ -253,7 +298,7 @@ class BusRecorder(Node):
 
     def _on(self, topic: str, msg: Any) -> None:
         if isinstance(msg, Message):
-            self.recorder.write(topic, msg)
+            self.recorder.write(topic, msg, latched=self.bus.is_latched(topic))
 
 
 def recover_mcap(path: str | Path, out: str | Path) -> dict[str, int]:

@@ -518,6 +518,11 @@ export interface TopicsResponse {
   types: string[];
 }
 
+/** rosgraph_msgs/msg/Clock */
+export interface Clock {
+  clock: Time;
+}
+
 /** sensor_msgs/msg/CameraInfo */
 export interface CameraInfo {
   header: Header;
@@ -874,6 +879,7 @@ export interface MessageTypes {
   "rosapi_msgs/srv/TopicsForType_Response": TopicsForTypeResponse;
   "rosapi_msgs/srv/Topics_Request": TopicsRequest;
   "rosapi_msgs/srv/Topics_Response": TopicsResponse;
+  "rosgraph_msgs/msg/Clock": Clock;
   "sensor_msgs/msg/CameraInfo": CameraInfo;
   "sensor_msgs/msg/CompressedImage": CompressedImage;
   "sensor_msgs/msg/Image": Image;

@@ -21,12 +21,12 @@ import itertools
 import logging
 import math
 import threading
-import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from robotrial.msgs import DIALECTS, Dialect, Message, MessageError, lookup_action, type_dialect
+from robotrial.msgs.core import use_clock
 from robotrial.ros import actions
 from robotrial.ros.bus import Bus, BusError, Node, Publisher, ServiceServer, Subscription
 from robotrial.ros.rosbridge import encoding
@@ -183,7 +183,7 @@ class RosbridgeServer:
         if compression == "cbor-raw":
             from robotrial.msgs import cdr
 
-            ns = time.time_ns()
+            ns = self.bus.now_ns()
             raw = {"secs": ns // 1_000_000_000, "nsecs": ns % 1_000_000_000}
             raw["bytes"] = cdr.serialize_ros1(msg) if dialect == "ros1" else cdr.serialize(msg)
             return encoding.encode_op({"op": "publish", "topic": topic, "msg": raw}, "cbor")
@@ -321,7 +321,8 @@ class Session:
                     raise ProtocolError(f"{name} nested inside another {name}")
                 await handler(op, depth + 1)
             else:
-                result = handler(op)
+                with use_clock(self.bus.now_ns):  # "now" in a message is the bus's time
+                    result = handler(op)
                 if inspect.isawaitable(result):
                     await result
                 elif name == "publish":
@@ -391,6 +392,10 @@ class Session:
         bound = queue_length or self.limits.default_queue_length
         sub = self.subscriptions.get(topic)
         if sub is None:
+            if not type_name and not self.bus.topic_type(topic):
+                raise ProtocolError(
+                    f"cannot infer the type of {topic}: it is not advertised yet; name it in 'type'"
+                )
             if len(self.subscriptions) >= self.limits.max_subscriptions:
                 raise ProtocolError(
                     f"this client already has {self.limits.max_subscriptions} subscriptions"

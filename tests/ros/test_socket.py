@@ -37,7 +37,13 @@ def test_fifty_clients_receive_every_message(live) -> None:
         async with websockets.connect(f"{live.url}/rosbridge", max_size=None) as ws:
             await ws.send(
                 json.dumps(
-                    {"op": "subscribe", "id": f"c{i}", "topic": "/bench", "queue_length": 100}
+                    {
+                        "op": "subscribe",
+                        "id": f"c{i}",
+                        "topic": "/bench",
+                        "type": "sensor_msgs/JointState",
+                        "queue_length": 100,
+                    }
                 )
             )
             await ws.send(
@@ -138,7 +144,11 @@ def test_clients_vanishing_mid_call_are_cleaned_up(live) -> None:
         await ws.send(
             json.dumps({"op": "advertise_service", "service": "/ghost", "type": "std_srvs/Trigger"})
         )
-        await ws.send(json.dumps({"op": "subscribe", "topic": "/joint_states"}))
+        await ws.send(
+            json.dumps(
+                {"op": "subscribe", "topic": "/joint_states", "type": "sensor_msgs/JointState"}
+            )
+        )
         await ws.send(json.dumps({"op": "call_service", "id": "w", "service": "/slow"}))
         await asyncio.sleep(0.2)
         ws.transport.abort()  # no close handshake: the client just disappears

@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 from robotrial.cli.robot_source import add_robot_source_arguments, load_robot_from_args
+from robotrial.cli.zenoh_options import add_zenoh_arguments, zenoh_bridge
 from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
 HELP = "simulate a robot in a world headless (LiDAR, scan, odometry, cameras), record a bag"
@@ -78,6 +79,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="127.0.0.1",
         help="address the Foxglove server listens on (default 127.0.0.1: this computer only)",
     )
+    add_zenoh_arguments(parser)
     add_json_flag(parser)
 
 
@@ -242,9 +244,17 @@ def run(args: argparse.Namespace) -> int:
             return 2
         console.print(f"Foxglove and Lichtblick: open connection {foxglove.url}")
 
+    try:
+        zenoh = zenoh_bridge(args, bus)
+    except (ValueError, OSError) as exc:
+        console.print(f"[red]robotrial sim: {exc}")
+        if foxglove is not None:
+            foxglove.destroy()
+        sim.close()
+        return 2
     teleop = None
     realtime = args.realtime
-    if foxglove is not None and realtime is None:
+    if (foxglove is not None or zenoh is not None) and realtime is None:
         realtime = 1.0
     if args.drive == "keys":
         lim = sim.base.limits if sim.base else None
@@ -283,6 +293,8 @@ def run(args: argparse.Namespace) -> int:
             except KeyboardInterrupt:
                 interrupted = True
     finally:
+        if zenoh is not None:
+            zenoh.destroy()
         if foxglove is not None:
             foxglove.destroy()
         if teleop is not None:

@@ -19,6 +19,7 @@ from robotrial.msgs import (
     std_msgs,
     std_srvs,
     tf2_msgs,
+    tf2_web_republisher,
     trajectory_msgs,
     visualization_msgs,
 )
@@ -68,6 +69,7 @@ __all__ = [
     "std_msgs",
     "std_srvs",
     "tf2_msgs",
+    "tf2_web_republisher",
     "trajectory_msgs",
     "type_dialect",
     "type_for_value",

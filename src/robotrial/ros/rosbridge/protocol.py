@@ -27,12 +27,13 @@ from typing import Any
 
 from robotrial.msgs import DIALECTS, Dialect, Message, MessageError, lookup_action, type_dialect
 from robotrial.msgs.core import use_clock
-from robotrial.ros import actions
+from robotrial.ros import actions, tf_republisher
 from robotrial.ros.bus import Bus, BusError, Node, Publisher, ServiceServer, Subscription
 from robotrial.ros.rosbridge import encoding
 from robotrial.ros.rosbridge.access import Access
 from robotrial.ros.rosbridge.encoding import ProtocolError, Reassembly
 from robotrial.ros.rosbridge.rosapi import Rosapi
+from robotrial.ros.tf_republisher import TfRepublisher
 
 log = logging.getLogger(__name__)
 
@@ -144,6 +145,10 @@ class RosbridgeServer:
         self.rosapi = (
             Rosapi(bus, dialect) if rosapi and bus.service("/rosapi/topics") is None else None
         )
+        # what roslibjs's TFClient and ROS2TFClient ask for, as a rosbridge host runs it
+        self.tf_republisher = (
+            TfRepublisher(bus) if rosapi and tf_republisher.SERVER not in bus.actions else None
+        )
         self._cache: collections.OrderedDict[tuple, tuple[Any, str | bytes]] = (
             collections.OrderedDict()
         )
@@ -159,10 +164,14 @@ class RosbridgeServer:
         return session
 
     def close(self) -> None:
-        """Withdraw the rosapi node (sessions close with their connections)."""
+        """Withdraw the rosapi and TF republisher nodes (sessions close with their
+        connections)."""
         if self.rosapi is not None:
             self.rosapi.destroy()
             self.rosapi = None
+        if self.tf_republisher is not None:
+            self.tf_republisher.destroy()
+            self.tf_republisher = None
 
     def encode_publish(
         self, topic: str, msg: Any, dialect: Dialect, compression: str

@@ -167,6 +167,22 @@ def plot_trajectories(path: Path, truth: list, odom: list, title: str) -> None:
     plt.close(fig)
 
 
+def _write_failure(path: Path, error: OSError, sim_time: float) -> str:
+    """One line: which file failed, why, and what of it can be read or rescued."""
+    from robotrial.ros.playback import contents
+
+    why = error.strerror or str(error)
+    head = f"robotrial sim: cannot write {path}: {why}; the run stopped at {sim_time:.2f} s"
+    try:
+        n = sum(count for _, count in contents(path).values())
+        return f"{head}; the {n} messages written before are readable"
+    except Exception:  # no index: the writer could not finish the file
+        return (
+            f"{head}; rescue what was written with: robotrial bag recover {path} "
+            f"-o FIXED{path.suffix} (on a disk with room)"
+        )
+
+
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import ModelError, load_world
     from robotrial.msgs.nav_msgs import Odometry
@@ -208,8 +224,7 @@ def run(args: argparse.Namespace) -> int:
     node = SimNode(bus, sim)
     topics = sorted({t for t, _ in node.topics.values()} | {"/tf", "/tf_static", ROBOT_DESCRIPTION})
     recorder = Recorder(args.record, args.compression) if args.record else None
-    if recorder is not None:
-        BusRecorder(bus, recorder, topics)
+    writer = BusRecorder(bus, recorder, topics) if recorder is not None else None
     x0, y0, yaw0 = spawn.xyz[0], spawn.xyz[1], spawn.yaw
     truth: list[tuple[float, float]] = []
     odom: list[tuple[float, float]] = []
@@ -276,6 +291,8 @@ def run(args: argparse.Namespace) -> int:
         ) as advance:
 
             def on_step(t: float) -> None:
+                if writer is not None and writer.error is not None:
+                    node.stop()  # the recording cannot go on: neither does the run
                 if square is not None:
                     sim.drive(*square.command(t))
                 elif teleop is not None:
@@ -300,11 +317,19 @@ def run(args: argparse.Namespace) -> int:
         if teleop is not None:
             teleop.close()
         if recorder is not None:
-            recorder.close()
+            try:
+                recorder.close()
+            except OSError as exc:
+                writer.error = writer.error or exc
         sim.close()
     wall = time.perf_counter() - wall0
     cpu = time.process_time() - cpu0
     sim_time = sim.world.time
+    if writer is not None and writer.error is not None:
+        console.print(
+            f"[red]{_write_failure(Path(args.record), writer.error, sim_time)}", soft_wrap=True
+        )
+        return 1
     drift = math.dist(truth[-1], odom[-1]) if truth and odom else 0.0
     result = {
         "world": world.name,

@@ -19,8 +19,10 @@ What other readers need, and gets written for them:
   `offered_qos_profiles` say transient local (as rosbag2 writes them), so converters
   and players keep it latched.
 
-`recover_mcap` rescues a recording cut short (the process killed): every message of the
-complete chunks goes into a new, indexed file that seeking readers open.
+`recover_mcap` and `recover_bag` rescue a recording cut short (the process killed, the
+disk full): every message of the complete chunks goes into a new, indexed file that
+seeking readers open. A `BusRecorder` whose file cannot be written stops recording and
+keeps the error in `error`, so the run can stop and say so.
 """
 
 from __future__ import annotations
@@ -53,6 +55,7 @@ _STORES: dict[str, Any] = {}
 _STORE_LOCK = threading.Lock()
 _READY: set[tuple[int, str]] = set()
 MIN_LOG_TIME_NS = 1  # rosbag_storage's TIME_MIN: an index entry at 0 is dropped
+BAG_CHUNK_BYTES = 768 * 1024  # `rosbag record`'s default chunk size
 _INFINITE = {"sec": 9223372036, "nsec": 854775807}
 
 
@@ -211,6 +214,7 @@ class Recorder:
             if self.path.exists():
                 self.path.unlink()
             self._bag = Bag1Writer(self.path)
+            self._bag.chunk_threshold = BAG_CHUNK_BYTES
             if compression == "lz4":
                 self._bag.set_compression(Bag1Writer.CompressionFormat.LZ4)
                 self._bag.compressor = _roslz4_frame
@@ -272,11 +276,18 @@ class Recorder:
             if self._closed:
                 return
             self._closed = True
+            # the file is let go even when finishing it fails (a full disk)
             if self.format == "mcap":
-                self._mcap.finish()
-                self._file.close()
+                try:
+                    self._mcap.finish()
+                finally:
+                    self._file.close()
             else:
-                self._bag.close()
+                try:
+                    self._bag.close()
+                finally:
+                    if self._bag.bio is not None and not self._bag.bio.closed:
+                        self._bag.bio.close()
 
     def __enter__(self) -> Recorder:
         return self
@@ -286,19 +297,27 @@ class Recorder:
 
 
 class BusRecorder(Node):
-    """Records topics of a bus into a Recorder (every message, in arrival order)."""
+    """Records topics of a bus into a Recorder (every message, in arrival order).
+
+    When the file cannot be written (a full disk, a quota), recording stops and `error`
+    holds the OSError; the caller decides whether the run goes on."""
 
     def __init__(
         self, bus: Bus, recorder: Recorder, topics: list[str], name: str = "/recorder"
     ) -> None:
         super().__init__(bus, bus.unique_node_name(name))
         self.recorder = recorder
+        self.error: OSError | None = None
         for topic in topics:
             self.create_subscription(topic, None, lambda msg, t=topic: self._on(t, msg))
 
     def _on(self, topic: str, msg: Any) -> None:
-        if isinstance(msg, Message):
+        if not isinstance(msg, Message) or self.error is not None:
+            return
+        try:
             self.recorder.write(topic, msg, latched=self.bus.is_latched(topic))
+        except OSError as exc:
+            self.error = exc
 
 
 def recover_mcap(path: str | Path, out: str | Path) -> dict[str, int]:
@@ -344,4 +363,99 @@ def recover_mcap(path: str | Path, out: str | Path) -> dict[str, int]:
         except (McapError, EOFError, ValueError, struct.error):
             pass  # the torn end of the file: what came before it is kept
         writer.finish()
+    return counts
+
+
+_BAG_MAGIC = b"#ROSBAG V2.0\n"
+_OP_MSG_DATA, _OP_CHUNK, _OP_CONNECTION = 0x02, 0x05, 0x07
+
+
+def _bag_fields(data: bytes) -> dict[str, bytes]:
+    """The `name=value` fields of a ROS 1 bag record header."""
+    fields, pos = {}, 0
+    while pos + 4 <= len(data):
+        (n,) = struct.unpack_from("<I", data, pos)
+        name, _, value = data[pos + 4 : pos + 4 + n].partition(b"=")
+        fields[name.decode()] = value
+        pos += 4 + n
+    return fields
+
+
+def _bag_records(data: bytes, pos: int = 0):
+    """(header fields, data) of each complete record of a ROS 1 bag from `pos` on."""
+    while pos + 4 <= len(data):
+        (hlen,) = struct.unpack_from("<I", data, pos)
+        if pos + 8 + hlen > len(data):
+            return
+        header = _bag_fields(data[pos + 4 : pos + 4 + hlen])
+        (dlen,) = struct.unpack_from("<I", data, pos + 4 + hlen)
+        start = pos + 8 + hlen
+        if start + dlen > len(data) or "op" not in header:
+            return
+        yield header, data[start : start + dlen]
+        pos = start + dlen
+
+
+def _unchunk(header: dict[str, bytes], data: bytes) -> bytes:
+    compression = header.get("compression", b"none").decode()
+    if compression == "lz4":
+        return lz4.frame.decompress(data)
+    if compression == "bz2":
+        import bz2
+
+        return bz2.decompress(data)
+    return data
+
+
+def recover_bag(path: str | Path, out: str | Path) -> dict[str, int]:
+    """Copy every message of the complete chunks of a ROS 1 bag without an index (its
+    writer killed, or the disk full) into an indexed bag `out`; messages per topic."""
+    src, dst = Path(path), Path(out)
+    if src.resolve() == dst.resolve():
+        raise ValueError(f"{src}: write the recovered recording to another file")
+    data = src.read_bytes()
+    if not data.startswith(_BAG_MAGIC):
+        raise ValueError(f"{src} is not a ROS 1 bag (no '#ROSBAG V2.0' at its start)")
+    if dst.exists():
+        dst.unlink()
+    counts: dict[str, int] = {}
+    conns: dict[int, Any] = {}
+    topics: dict[int, str] = {}
+    writer = Bag1Writer(dst)
+    writer.set_compression(Bag1Writer.CompressionFormat.LZ4)
+    writer.compressor = _roslz4_frame
+    writer.open()
+    try:
+        for header, body in _bag_records(data, len(_BAG_MAGIC)):
+            if header["op"] != bytes([_OP_CHUNK]):
+                continue
+            try:
+                inner = _unchunk(header, body)
+            except (RuntimeError, OSError, ValueError):
+                break  # the torn last chunk
+            for h, d in _bag_records(inner):
+                op = h["op"]
+                if op == bytes([_OP_CONNECTION]):
+                    cid = struct.unpack("<I", h["conn"])[0]
+                    if cid in conns:
+                        continue
+                    f = _bag_fields(d)
+                    pkg, _, name = f["type"].decode().partition("/")
+                    conns[cid] = writer.add_connection(
+                        h["topic"].decode(),
+                        f"{pkg}/msg/{name}",
+                        msgdef=f["message_definition"].decode(),
+                        md5sum=f["md5sum"].decode(),
+                        latching=int(f.get("latching", b"0") or b"0"),
+                    )
+                    topics[cid] = h["topic"].decode()
+                elif op == bytes([_OP_MSG_DATA]):
+                    cid = struct.unpack("<I", h["conn"])[0]
+                    if cid not in conns:
+                        continue
+                    secs, nsecs = struct.unpack("<II", h["time"])
+                    writer.write(conns[cid], secs * 10**9 + nsecs, d)
+                    counts[topics[cid]] = counts.get(topics[cid], 0) + 1
+    finally:
+        writer.close()
     return counts

@@ -173,3 +173,17 @@ def test_clients_vanishing_mid_call_are_cleaned_up(live) -> None:
     wait_for(lambda: not [n for n in live.bus.nodes() if n.startswith("/rosbridge_websocket")])
     assert live.bus.subscriber_count("/joint_states") == 0
     wait_for(lambda: answered)  # the slow handler finished; its answer went nowhere, quietly
+
+
+def test_untyped_subscribe_to_an_unknown_topic_is_an_error(live) -> None:
+    """As rosbridge_suite answers: the type cannot be inferred, nothing is subscribed."""
+
+    async def main() -> dict:
+        async with websockets.connect(f"{live.url}/rosbridge") as ws:
+            await ws.send(json.dumps({"op": "subscribe", "id": "s1", "topic": "/nobody"}))
+            return await recv_op(ws, "status")
+
+    status = asyncio.run(main())
+    assert status["level"] == "error" and status["id"] == "s1"
+    assert "cannot infer the type of /nobody" in status["msg"]
+    assert live.bus.subscriber_count("/nobody") == 0

@@ -46,7 +46,7 @@ from robotrial.msgs.tf2_web_republisher import (
     TFSubscriptionFeedback,
 )
 from robotrial.ros.actions import ActionServer, GoalHandle
-from robotrial.ros.bus import Bus, Node
+from robotrial.ros.bus import Bus, Node, Timer
 
 SERVER = "/tf2_web_republisher"
 SERVICE = "/republish_tfs"
@@ -77,25 +77,22 @@ class TfRepublisher(Node):
 
     def __init__(self, bus: Bus, name: str = "/tf2_web_republisher") -> None:
         super().__init__(bus, bus.unique_node_name(name))
-        self._lock = threading.Lock()
+        self._lock = threading.RLock()  # latched /tf_static arrives inside _listen
         self._parents: dict[str, tuple[str, Pose]] = {}  # child -> (parent, parent_T_child)
         self._subs: dict[Any, Subscription] = {}
         self._topics: dict[
             str, tuple[Any, float, float]
         ] = {}  # topic -> (publisher, timeout, since)
         self._count = itertools.count(1)
-        self.create_subscription("/tf", TFMessage, self._on_tf)
-        self.create_subscription("/tf_static", TFMessage, self._on_tf)
+        self._tf_subs: list[Any] = []  # /tf and /tf_static, only while someone asks
+        self._timer: Timer | None = None
         self.action = ActionServer(
             bus, SERVER, TFSubscription, self._execute, self._cancel, self.name
         )
         self.create_subscription(f"{SERVER}/goal", TFSubscriptionActionGoal, self._on_ros1_goal)
         self.create_subscription(f"{SERVER}/cancel", GoalID, self._on_ros1_cancel)
-        self._ros1_feedback = self.create_publisher(
-            f"{SERVER}/feedback", TFSubscriptionActionFeedback
-        )
+        self._ros1_feedback: Any = None
         self.create_service(SERVICE, RepublishTFs, self._republish, threaded=False)
-        self.create_timer(TICK, self._tick)
 
     # --- the TF tree --------------------------------------------------------------------
 
@@ -175,6 +172,34 @@ class TfRepublisher(Node):
             [_strip(f) for f in frames], _strip(target), ang, trans, 1.0 / rate, send
         )
         self._subs[key] = sub
+        self._listen()
+
+    def _remove(self, key: Any) -> None:
+        self._subs.pop(key, None)
+        if not self._subs:
+            self._stop_listening()
+
+    def _listen(self) -> None:
+        """Follow /tf and /tf_static and start sending (the simulator only builds /tf
+        messages while someone subscribes, so this waits for a client)."""
+        with self._lock:
+            if self._timer is not None:
+                return
+            self._tf_subs = [
+                self.bus.subscribe(t, self._on_tf, TFMessage, node=self.name)
+                for t in ("/tf", "/tf_static")
+            ]
+            self._timer = Timer(TICK, self._tick, name=f"{self.name} timer")
+
+    def _stop_listening(self) -> None:
+        with self._lock:
+            timer, self._timer = self._timer, None
+            subs, self._tf_subs = self._tf_subs, []
+            self._parents.clear()
+        for sub in subs:
+            sub.close()
+        if timer is not None:
+            timer.cancel()
 
     # --- ROS 2 action -------------------------------------------------------------------
 
@@ -191,13 +216,17 @@ class TfRepublisher(Node):
         )
 
     def _cancel(self, handle: GoalHandle) -> None:
-        self._subs.pop(handle.id, None)
+        self._remove(handle.id)
         handle.canceled(TFSubscription.Result())
 
     # --- ROS 1 actionlib ----------------------------------------------------------------
 
     def _on_ros1_goal(self, msg: TFSubscriptionActionGoal) -> None:
         goal_id = msg.goal_id
+        if self._ros1_feedback is None:
+            self._ros1_feedback = self.create_publisher(
+                f"{SERVER}/feedback", TFSubscriptionActionFeedback
+            )
 
         def send(ts: list[TransformStamped]) -> None:
             status = GoalStatus(goal_id=goal_id, status=GoalStatus.ACTIVE)
@@ -221,7 +250,7 @@ class TfRepublisher(Node):
         """actionlib's cancel: one goal by id, or every goal when the id is empty."""
         for key in [k for k in self._subs if isinstance(k, tuple) and k[0] == "ros1"]:
             if not msg.id or key[1] == msg.id:
-                del self._subs[key]
+                self._remove(key)
 
     # --- ROS 2 service ------------------------------------------------------------------
 
@@ -249,10 +278,12 @@ class TfRepublisher(Node):
         if self.bus.subscriber_count(key):
             self._topics[key] = (pub, timeout, now)
         elif now - since > timeout:
-            del self._topics[key], self._subs[key]
+            del self._topics[key]
+            self._remove(key)
             pub.close()
 
     def destroy(self) -> None:
         self._subs.clear()
+        self._stop_listening()
         self.action.close()
         super().destroy()

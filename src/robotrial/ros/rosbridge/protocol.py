@@ -511,6 +511,10 @@ class Session:
                 service, args or {}, timeout or self.limits.service_timeout
             )
             out["values"] = resp.to_dict(dialect) if isinstance(resp, Message) else resp
+            if service == "/rosapi/get_time" and dialect == "ros2":
+                # roslibpy's get_time() reads secs/nsecs whatever the ROS version
+                t = out["values"]["time"]
+                t.update(secs=t["sec"], nsecs=t["nanosec"])
             out["result"] = True
         except asyncio.CancelledError:
             raise

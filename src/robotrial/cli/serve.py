@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from robotrial.cli.access import access_from, add_access_arguments
+from robotrial.cli.zenoh_options import add_zenoh_arguments, zenoh_bridge
 from robotrial.model.library import DEFAULT_ROBOT, DEFAULT_WORLD
 
 HELP = "serve the web page: a robot in a world, in the browser"
@@ -33,6 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "Lichtblick (default 8765, on --host; 0: off)",
     )
     add_access_arguments(parser)
+    add_zenoh_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -42,6 +44,7 @@ def run(args: argparse.Namespace) -> int:
     from robotrial.model.robot import ModelError
     from robotrial.ros.bus import Bus
 
+    bus = Bus()
     try:
         if not 0 <= args.foxglove_port <= 65535:
             raise ValueError(f"--foxglove-port must be 0 (off) to 65535, got {args.foxglove_port}")
@@ -49,13 +52,14 @@ def run(args: argparse.Namespace) -> int:
         app = create_app(
             args.robot,
             args.world,
-            bus=Bus(),
+            bus=bus,
             live=True,
             planner=True,
             access=access,
             foxglove_port=args.foxglove_port or None,
         )
-    except (ModelError, ValueError) as exc:
+        zenoh = zenoh_bridge(args, bus)
+    except (ModelError, ValueError, OSError) as exc:
         console.print(f"[red]error:[/red] {exc}")
         return 2
     shown = "127.0.0.1" if args.host in ("0.0.0.0", "::") else args.host
@@ -67,5 +71,7 @@ def run(args: argparse.Namespace) -> int:
         f"rosbridge at ws://{host}:{args.port}{ROSBRIDGE_PATH}{foxglove}; Ctrl+C stops",
         flush=True,
     )
-    run_server(app, args.host, args.port)
+    if zenoh is not None:
+        print(f"robotrial: ROS 2 (rmw_zenoh) on Zenoh, domain {zenoh.domain_id}", flush=True)
+    run_server(app, args.host, args.port, on_stop=zenoh.destroy if zenoh is not None else None)
     return 0

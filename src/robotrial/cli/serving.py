@@ -11,14 +11,15 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Callable
 from typing import Any
 
 from robotrial.console import console
 
 
-def run_server(app: Any, host: str, port: int) -> None:
-    """Serve `app` on host:port until Ctrl+C or SIGTERM, then end the process (exit code
-    0, or 128 + the signal's number as a shell reports it)."""
+def run_server(app: Any, host: str, port: int, on_stop: Callable[[], None] | None = None) -> None:
+    """Serve `app` on host:port until Ctrl+C or SIGTERM, call `on_stop`, then end the
+    process (exit code 0, or 128 + the signal's number as a shell reports it)."""
     import signal
 
     import uvicorn
@@ -34,6 +35,8 @@ def run_server(app: Any, host: str, port: int) -> None:
     if not server.started:
         console.print(f"[red]error:[/red] could not listen on {host}:{port} (see above)")
         code = code or 1
+    if on_stop is not None:
+        on_stop()
     console.file.flush()
     sys.stdout.flush()
     sys.stderr.flush()

@@ -17,6 +17,9 @@ Everything the platform runs (simulator, planners, SLAM, rosbridge clients) meet
   its call's deadline and whether the caller has gone (timed out, disconnected), so
   that it can stop working for nobody.
 - Types unknown to `robotrial.msgs` (a rosbridge client's own types) travel as dicts.
+- One clock: `now()` is wall time until a node (the simulator) sets the bus's clock with
+  `set_clock`; from then on rosapi, rosbridge's "now" and the bridges read simulated time,
+  the time in the messages' headers.
 
 All methods are thread-safe.
 """
@@ -231,6 +234,22 @@ class Bus:
         self._anonymous: dict[str, Publisher] = {}
         self.params: dict[str, Any] = {}
         self.actions: dict[str, Any] = {}  # name -> robotrial.ros.actions.ActionServer
+        self._clock: Callable[[], float] | None = None
+
+    # ------------------------------------------------------------ time
+
+    def set_clock(self, clock: Callable[[], float] | None) -> None:
+        """Make `clock()` (s, e.g. a simulation's time) the bus's time; None: wall time."""
+        self._clock = clock
+
+    def now(self) -> float:
+        """The bus's time (s): the clock set by `set_clock`, else wall time."""
+        clock = self._clock
+        return clock() if clock is not None else time.time()
+
+    def now_ns(self) -> int:
+        clock = self._clock
+        return round(clock() * 1e9) if clock is not None else time.time_ns()
 
     # ------------------------------------------------------------ topics
 
@@ -301,6 +320,13 @@ class Bus:
         with self._lock:
             t = self._topics.get(topic)
             return t.type_name if t else ""
+
+    def is_latched(self, topic: str) -> bool:
+        """Whether late subscribers of `topic` get its last messages (ROS 1 latched,
+        ROS 2 transient local)."""
+        with self._lock:
+            t = self._topics.get(topic)
+            return t.latched if t else topic in self._latched_names
 
     def topics(self) -> dict[str, str]:
         """Every topic with a publisher or a subscriber, and its type name."""

@@ -18,6 +18,10 @@ sensor topics a Gazebo robot has):
 | `/NAME/depth/image_raw`, `/NAME/depth/camera_info` | Image 32FC1, CameraInfo | depth camera |
 | `/NAME/points` | sensor_msgs/PointCloud2 (x, y, z) | depth camera, from the image |
 
+The simulated time is the bus's clock (`Bus.set_clock`) while the node lives, and goes
+out on `/clock` (rosgraph_msgs/Clock) every control period while someone listens, as
+Gazebo publishes it for `use_sim_time` nodes.
+
 It listens to `/cmd_vel` (geometry_msgs/Twist) and `/robotrial/joint_reference`
 (trajectory_msgs/JointTrajectory), and offers the arm's
 `/arm_controller/follow_joint_trajectory` action (`trajectory_action`). Other lidars
@@ -46,6 +50,7 @@ from robotrial.msgs.geometry_msgs import (
     Vector3,
 )
 from robotrial.msgs.nav_msgs import Odometry
+from robotrial.msgs.rosgraph_msgs import Clock
 from robotrial.msgs.sensor_msgs import (
     CameraInfo,
     Image,
@@ -313,6 +318,8 @@ class SimNode(Node):
         self._tf = self.create_publisher("/tf", TFMessage)
         self._tf_static = self.create_publisher("/tf_static", TFMessage, latched=True)
         self._description = self.create_publisher(ROBOT_DESCRIPTION, String, latched=True)
+        self._clock = self.create_publisher("/clock", Clock)
+        bus.set_clock(lambda: sim.world.time)
         self.create_subscription("/cmd_vel", Twist, self._on_cmd_vel)
         self.create_subscription("/robotrial/joint_reference", JointTrajectory, self._on_reference)
         self._started = False
@@ -411,6 +418,8 @@ class SimNode(Node):
         """One control period of the simulation, its readings published."""
         with self._lock:
             readings = self.sim.control_step()
+        if self.bus.subscriber_count("/clock"):
+            self._clock.publish(Clock(clock=Time.from_sec(self.sim.world.time)))
         for r in readings:
             self.publish_reading(r)
 
@@ -459,4 +468,5 @@ class SimNode(Node):
 
     def destroy(self) -> None:
         self.stop()
+        self.bus.set_clock(None)
         super().destroy()

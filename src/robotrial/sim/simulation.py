@@ -157,6 +157,7 @@ class Simulation:
         self.odometry = WheelOdometry(opts.odometry_noise, seed=world.seed + 1)
         self.streams: list[_Stream] = []
         self.closers: list[Callable[[], None]] = []
+        self.closed = False
         self._build_streams()
         self.latest: dict[str, Reading] = {}
 
@@ -316,6 +317,8 @@ class Simulation:
 
     def control_step(self) -> list[Reading]:
         """One control period: controllers, physics substeps, odometry, due sensors."""
+        if self.closed:
+            raise ValueError(f"the simulation of {self.robot.name!r} is closed")
         w = self.world
         data = w.data
         data.qfrc_applied[:] = 0.0
@@ -409,6 +412,15 @@ class Simulation:
         return base @ chain_to_root(transforms, frame, self.robot.root)
 
     def close(self) -> None:
+        """Release the sensors' resources (renderers, threads); the simulation no longer
+        steps after this."""
+        self.closed = True
         for c in self.closers:
             c()
         self.closers.clear()
+
+    def __enter__(self) -> Simulation:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

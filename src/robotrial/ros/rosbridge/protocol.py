@@ -25,18 +25,19 @@ import itertools
 import logging
 import math
 import threading
-import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from robotrial.msgs import DIALECTS, Dialect, Message, MessageError, lookup_action, type_dialect
-from robotrial.ros import actions
+from robotrial.msgs.core import use_clock
+from robotrial.ros import actions, tf_republisher
 from robotrial.ros.bus import Bus, BusError, Node, Publisher, ServiceServer, Subscription
 from robotrial.ros.rosbridge import encoding
 from robotrial.ros.rosbridge.access import Access
 from robotrial.ros.rosbridge.encoding import ProtocolError, Reassembly
 from robotrial.ros.rosbridge.rosapi import Rosapi
+from robotrial.ros.tf_republisher import TfRepublisher
 
 log = logging.getLogger(__name__)
 
@@ -157,6 +158,10 @@ class RosbridgeServer:
         self.rosapi = (
             Rosapi(bus, dialect) if rosapi and bus.service("/rosapi/topics") is None else None
         )
+        # what roslibjs's TFClient and ROS2TFClient ask for, as a rosbridge host runs it
+        self.tf_republisher = (
+            TfRepublisher(bus) if rosapi and tf_republisher.SERVER not in bus.actions else None
+        )
         self._cache: collections.OrderedDict[tuple, tuple[Any, str | bytes]] = (
             collections.OrderedDict()
         )
@@ -175,10 +180,14 @@ class RosbridgeServer:
         return session
 
     def close(self) -> None:
-        """Withdraw the rosapi node (sessions close with their connections)."""
+        """Withdraw the rosapi and TF republisher nodes (sessions close with their
+        connections)."""
         if self.rosapi is not None:
             self.rosapi.destroy()
             self.rosapi = None
+        if self.tf_republisher is not None:
+            self.tf_republisher.destroy()
+            self.tf_republisher = None
         self.encoder.shutdown(wait=False, cancel_futures=True)
 
     def encode_publish(
@@ -219,7 +228,7 @@ class RosbridgeServer:
         if compression == "cbor-raw":
             from robotrial.msgs import cdr
 
-            ns = time.time_ns()
+            ns = self.bus.now_ns()
             raw = {"secs": ns // 1_000_000_000, "nsecs": ns % 1_000_000_000}
             raw["bytes"] = cdr.serialize_ros1(msg) if dialect == "ros1" else cdr.serialize(msg)
             return encoding.encode_op({"op": "publish", "topic": topic, "msg": raw}, "cbor")
@@ -359,7 +368,8 @@ class Session:
                     raise ProtocolError(f"{name} nested inside another {name}")
                 await handler(op, depth + 1)
             else:
-                result = handler(op)
+                with use_clock(self.bus.now_ns):  # "now" in a message is the bus's time
+                    result = handler(op)
                 if inspect.isawaitable(result):
                     await result
                 elif name == "publish":
@@ -432,6 +442,10 @@ class Session:
         bound = queue_length or self.limits.default_queue_length
         sub = self.subscriptions.get(topic)
         if sub is None:
+            if not type_name and not self.bus.topic_type(topic):
+                raise ProtocolError(
+                    f"cannot infer the type of {topic}: it is not advertised yet; name it in 'type'"
+                )
             if len(self.subscriptions) >= self.limits.max_subscriptions:
                 raise ProtocolError(
                     f"this client already has {self.limits.max_subscriptions} subscriptions"
@@ -538,6 +552,10 @@ class Session:
                 service, args or {}, timeout or self.limits.service_timeout
             )
             out["values"] = resp.to_dict(dialect) if isinstance(resp, Message) else resp
+            if service == "/rosapi/get_time" and dialect == "ros2":
+                # roslibpy's get_time() reads secs/nsecs whatever the ROS version
+                t = out["values"]["time"]
+                t.update(secs=t["sec"], nsecs=t["nanosec"])
             out["result"] = True
         except asyncio.CancelledError:
             raise

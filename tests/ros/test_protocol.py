@@ -540,7 +540,11 @@ def test_fragments_out_and_in() -> None:
     run(main)
 
 
-def test_throttle_and_queue_length() -> None:
+@pytest.mark.parametrize("queue_length", [0, 1])
+def test_throttle_sends_the_newest_message(queue_length: int) -> None:
+    """With a throttle, queue_length 0 (the default) and 1 both drop what arrives
+    between two sends: the next message is the newest, not one queued long ago."""
+
     async def main() -> None:
         bus = Bus()
         server = RosbridgeServer(bus)
@@ -551,7 +555,7 @@ def test_throttle_and_queue_length() -> None:
                 "topic": "/n",
                 "type": "std_msgs/Int32",
                 "throttle_rate": 200,
-                "queue_length": 1,
+                "queue_length": queue_length,
             }
         )
         bus.publish("/n", {"data": 0}, "std_msgs/msg/Int32")
@@ -560,7 +564,7 @@ def test_throttle_and_queue_length() -> None:
             bus.publish("/n", {"data": i}, "std_msgs/msg/Int32")
         second = await c.recv_op("publish", timeout=2.0)
         assert first["msg"]["data"] == 0
-        assert second["msg"]["data"] == 19  # the queue of 1 kept only the newest
+        assert second["msg"]["data"] == 19  # only the newest was kept
         assert await c.drain(0.05) == []
 
     run(main)

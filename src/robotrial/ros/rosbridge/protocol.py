@@ -7,8 +7,9 @@ drive the same code. Every failure of a client's operation becomes a `status` me
 a client sends ends the session, and `close()` removes everything the client created.
 
 Outgoing traffic goes through one writer task per session. Each subscription keeps a
-bounded queue (`queue_length`; 0 means the server's default bound), so a slow client
-loses its oldest messages instead of growing memory, and a message published to many
+bounded queue (`queue_length`; 0 means the server's default bound, or only the newest
+message when the subscription is throttled), so a slow client loses its oldest messages
+instead of growing memory, and a message published to many
 clients is encoded once per encoding. Large messages (point clouds, images, maps) are
 encoded in a worker thread, so the event loop that serves every client never waits on
 them; a client that has not taken a frame for `Limits.stall_timeout` seconds (it stopped
@@ -439,7 +440,9 @@ class Session:
             raise ProtocolError(f"compression must be one of {', '.join(COMPRESSIONS)}")
         sid = _id_key(op.get("id"))
         dialect = type_dialect(type_name) or self.server.dialect
-        bound = queue_length or self.limits.default_queue_length
+        # queue_length 0 with a throttle keeps only the newest message: what arrives
+        # between two sends is dropped, as rosbridge_suite does
+        bound = queue_length or (1 if throttle_ms > 0 else self.limits.default_queue_length)
         sub = self.subscriptions.get(topic)
         if sub is None:
             if not type_name and not self.bus.topic_type(topic):
@@ -785,7 +788,8 @@ class Session:
         """Hand one frame to the transport; a client that does not take it within
         `stall_timeout` seconds has stopped reading and is dropped."""
         try:
-            await asyncio.wait_for(self._send(frame), self.limits.stall_timeout)
+            async with asyncio.timeout(self.limits.stall_timeout):
+                await self._send(frame)
         except TimeoutError:
             raise ClientStalled(
                 f"the client did not read its messages for {self.limits.stall_timeout:g} s "

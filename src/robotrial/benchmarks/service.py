@@ -51,7 +51,6 @@ PLAN_REQUEST = {
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.formatter_class = argparse.ArgumentDefaultsHelpFormatter
     parser.add_argument("--seconds", type=float, default=60.0, help="length of the load")
     parser.add_argument("--clients", type=int, default=3, help="compressing /points readers")
     parser.add_argument("--stalled", type=int, default=1, help="/points clients that never read")

@@ -48,6 +48,13 @@ def run(args: argparse.Namespace) -> int:
     try:
         if not 0 <= args.foxglove_port <= 65535:
             raise ValueError(f"--foxglove-port must be 0 (off) to 65535, got {args.foxglove_port}")
+        if args.foxglove_port and not _port_free(args.host, args.foxglove_port):
+            print(
+                f"robotrial: Foxglove is off: port {args.foxglove_port} is in use (another "
+                "server?); choose another with --foxglove-port PORT, or 0 to turn it off",
+                flush=True,
+            )
+            args.foxglove_port = 0
         access = access_from(args)
         app = create_app(
             args.robot,
@@ -75,3 +82,17 @@ def run(args: argparse.Namespace) -> int:
         print(f"robotrial: ROS 2 (rmw_zenoh) on Zenoh, domain {zenoh.domain_id}", flush=True)
     run_server(app, args.host, args.port, on_stop=zenoh.destroy if zenoh is not None else None)
     return 0
+
+
+def _port_free(host: str, port: int) -> bool:
+    """Whether a server could listen on host:port now."""
+    import socket
+
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind((host, port))
+        except OSError:
+            return False
+    return True

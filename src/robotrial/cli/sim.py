@@ -4,8 +4,7 @@
         --drive square --record run.mcap
 
 prints (or with --json emits) simulated time, wall time, real-time factor, messages per
-topic and the odometry drift, and writes a PNG of ground truth vs odometry next to the
-recording (or where --plot says).
+topic and the odometry drift; `--plot PNG` writes ground truth vs odometry.
 """
 
 from __future__ import annotations
@@ -346,8 +345,6 @@ def run(args: argparse.Namespace) -> int:
         "interrupted": interrupted,
     }
     png = Path(args.plot) if args.plot else None
-    if png is None and args.record:
-        png = Path(args.record).with_suffix(".png")
     if png is not None and truth:
         plot_trajectories(png, truth, odom, f"{robot.name} in {world.name}: {args.drive} drive")
         result["plot"] = str(png)

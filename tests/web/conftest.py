@@ -16,7 +16,8 @@ import pytest
 @pytest.fixture(scope="module")
 def serve(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Callable[..., str]]:
     """Start `robotrial serve ARGS...` on a free loopback port and return the page's URL,
-    once the server prints that URL and answers /api/config; stopped at the module's end."""
+    once the server prints that URL and answers /api/config (401 with --token); stopped at
+    the module's end."""
     procs: list[subprocess.Popen] = []
 
     def start(*args: str, timeout: float = 30.0) -> str:
@@ -36,7 +37,9 @@ def serve(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Callable[..., st
         deadline = time.monotonic() + timeout
         while True:
             try:
-                httpx.get(url + "api/config", timeout=1).raise_for_status()
+                answer = httpx.get(url + "api/config", timeout=1)
+                if answer.status_code != 401:
+                    answer.raise_for_status()
                 return url
             except httpx.HTTPError:
                 assert proc.poll() is None, f"serve exited: {log.read_text()}"

@@ -3,11 +3,7 @@ a goal sent without its orientation, a planner per robot, and `robotrial rosbrid
 
 from __future__ import annotations
 
-import socket
-import subprocess
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -220,37 +216,6 @@ def test_a_planner_per_robot_built_on_first_use(served) -> None:
     assert resp["success"], resp["message"]
     assert resp["trajectory"]["joint_names"] == node.planner_for("manipulator_h").joint_names
     assert "manipulator_h" in node._planners
-
-
-@pytest.mark.slow
-def test_robotrial_rosbridge_offers_plan_task() -> None:
-    port = free_port()
-    cmd = [str(Path(sys.executable).parent / "robotrial"), "rosbridge", "--port", str(port)]
-    proc = subprocess.Popen(
-        [*cmd, "--robot", "desk_arm", "--world", "desk"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    try:
-        deadline = time.monotonic() + 120
-        while True:
-            try:
-                socket.create_connection(("127.0.0.1", port), 0.5).close()
-                break
-            except OSError:
-                if time.monotonic() > deadline or proc.poll() is not None:
-                    raise AssertionError(f"no server: {proc.communicate()[0]}") from None
-                time.sleep(0.2)
-        client = roslibpy.Ros(host="127.0.0.1", port=port)
-        client.run(timeout=10)
-        assert client.get_service_type(PLAN_TASK) == "robotrial_msgs/srv/PlanTask"
-        resp = _call(client, _request())
-        assert resp["success"] and resp["error_code"] == 1, resp["message"]
-        client.close()
-    finally:
-        proc.terminate()
-        proc.wait(10)
 
 
 def test_server_says_while_the_planner_compiles_and_offers_every_arm() -> None:

@@ -48,10 +48,11 @@ def qpos_map(kin: Kinematics, m) -> tuple[np.ndarray, ...]:
     )
 
 
-def link_contacts(kin: Kinematics, qs: np.ndarray, tolerance: float = 1e-6) -> set[tuple[str, str]]:
-    """Pairs of links (sorted names) whose real collision shapes MuJoCo finds
-    penetrating at any of the configurations `qs`: the exact counterpart of sampling
-    the spheres when deciding which link pairs can ever touch."""
+def link_contact_counts(
+    kin: Kinematics, qs: np.ndarray, tolerance: float = 1e-6
+) -> dict[tuple[str, str], int]:
+    """In how many of the configurations `qs` each pair of links (sorted names) has its
+    real collision shapes penetrating (pairs never touching are left out)."""
     import mujoco
 
     doc = to_mjcf(
@@ -67,7 +68,7 @@ def link_contacts(kin: Kinematics, qs: np.ndarray, tolerance: float = 1e-6) -> s
     qpos0, adr, src, mult, off = qpos_map(kin, m)
     names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, i) or "" for i in range(m.nbody)]
     body = np.asarray(m.geom_bodyid)
-    out: set[tuple[str, str]] = set()
+    out: dict[tuple[str, str], int] = {}
     for q in np.atleast_2d(qs):
         qpos = qpos0.copy()
         qpos[adr] = mult * q[src] + off
@@ -78,7 +79,10 @@ def link_contacts(kin: Kinematics, qs: np.ndarray, tolerance: float = 1e-6) -> s
         if n == 0:
             continue
         hit = data.contact.dist[:n] < -tolerance
+        seen = set()
         for g1, g2 in data.contact.geom[:n][hit]:
             a, b = names[body[g1]], names[body[g2]]
-            out.add((min(a, b), max(a, b)))
+            seen.add((min(a, b), max(a, b)))
+        for pair in seen:
+            out[pair] = out.get(pair, 0) + 1
     return out

@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import numba as nb
 import numpy as np
 
-from robotrial.collision.contacts import link_contact_counts
+from robotrial.collision.contacts import link_contacts
 from robotrial.kinematics.chain import Kinematics
 
 ALWAYS = 0.95  # the share of samples in contact that makes a pair "always" touching
@@ -141,8 +141,9 @@ def self_collision_pairs(
     zero = np.clip(np.zeros(kin.d), kin.lower, kin.upper)[None]
     qs = kin.random(np.random.default_rng(seed), max(int(samples), 1))
     touched = sphere_contact_counts(kin, links, spheres, open_pairs, qs)
-    at_zero = link_contact_counts(kin, zero)
-    real = link_contact_counts(kin, qs)
+    rows, excluded = link_contacts(kin, np.vstack([zero, qs]))
+    at_zero = rows[0] | excluded
+    real = set().union(*rows[1:])
     for (i, j), count in zip(map(tuple, open_pairs), touched, strict=True):
         names = (min(links[i], links[j]), max(links[i], links[j]))
         if names in at_zero:

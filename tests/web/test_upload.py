@@ -11,10 +11,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import httpx
+import numpy as np
 import pytest
 import trimesh
 from fastapi.testclient import TestClient
-from playwright.sync_api import Page, sync_playwright
+from playwright.sync_api import Page
 
 from robotrial.app.server import create_app
 
@@ -73,49 +74,135 @@ def wait_ready(page: Page, robot: str) -> dict:
 
 @pytest.mark.browser
 def test_upload_good_and_broken_robot(
-    server: str, chromium: str, chromium_args: list[str], artifacts: Path, tmp_path: Path
+    server: str, browser, artifacts: Path, tmp_path: Path
 ) -> None:
     good = tmp_path / "tower.zip"
     good.write_bytes(tower_zip())
     broken = tmp_path / "broken.urdf"
     broken.write_text(URDF.replace('<child link="boom"/>', '<child link="bom"/>'))
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=chromium, args=chromium_args)
-        page = browser.new_page(viewport={"width": 1280, "height": 800})
-        errors: list[str] = []
-        page.on("pageerror", lambda e: errors.append(str(e)))
-        page.goto(server)
-        wait_ready(page, "desk_arm")
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(server)
+    wait_ready(page, "desk_arm")
 
-        page.set_input_files("#robot-upload", str(good))
-        page.wait_for_selector("#upload-message[data-status='ready']", timeout=30_000)
-        state = wait_ready(page, "tower_arm")
-        assert state["joints"]["names"] == ["swing"]
-        assert state["world"] == "desk"
-        assert page.locator("#robot-picker option[value='tower_arm']").count() == 1
-        assert "tower_arm" in page.locator("#upload-message").inner_text()
-        page.screenshot(path=artifacts / "web_upload_good.png")
-        catalog = httpx.get(server + "api/robots").json()["robots"]
-        assert {"name": "tower_arm", "uploaded": True}.items() <= next(
-            r for r in catalog if r["name"] == "tower_arm"
-        ).items()
-        assert httpx.get(server + "api/robots/tower_arm.glb").content[:4] == b"glTF"
+    page.set_input_files("#robot-upload", str(good))
+    page.wait_for_selector("#upload-message[data-status='ready']", timeout=30_000)
+    state = wait_ready(page, "tower_arm")
+    assert state["joints"]["names"] == ["swing"]
+    assert state["world"] == "desk"
+    # listed under its name as the URDF writes it, not re-cased
+    assert page.locator("#robot-picker option[value='tower_arm']").inner_text() == "Tower Arm"
+    assert "Tower Arm" in page.locator("#upload-message").inner_text()
+    page.screenshot(path=artifacts / "web_upload_good.png")
+    catalog = httpx.get(server + "api/robots").json()["robots"]
+    assert {"name": "tower_arm", "title": "Tower Arm", "uploaded": True}.items() <= next(
+        r for r in catalog if r["name"] == "tower_arm"
+    ).items()
+    assert httpx.get(server + "api/robots/tower_arm.glb").content[:4] == b"glTF"
 
-        page.set_input_files("#robot-upload", str(broken))
-        page.wait_for_selector("#upload-message[data-status='error']", timeout=30_000)
-        message = page.locator("#upload-message").inner_text()
-        assert "broken.urdf:11" in message, message
-        assert "swing" in message and "bom" in message, message
-        page.screenshot(path=artifacts / "web_upload_broken.png")
+    page.set_input_files("#robot-upload", str(broken))
+    page.wait_for_selector("#upload-message[data-status='error']", timeout=30_000)
+    message = page.locator("#upload-message").inner_text()
+    assert "broken.urdf:11" in message, message
+    assert "swing" in message and "bom" in message, message
+    page.screenshot(path=artifacts / "web_upload_broken.png")
 
-        # The page keeps working: the uploaded robot is still shown and moves.
-        state = wait_ready(page, "tower_arm")
-        page.locator("input[data-joint='swing']").fill("1")
-        page.wait_for_function("Math.abs(window.robotrial.state().joints.values[0] - 1) < 1e-6")
-        page.select_option("#robot-picker", "desk_arm")
-        wait_ready(page, "desk_arm")
-        assert not errors, errors
-        browser.close()
+    # The page keeps working: the uploaded robot is still shown and moves.
+    state = wait_ready(page, "tower_arm")
+    page.locator("input[data-joint='swing']").fill("1")
+    page.wait_for_function("Math.abs(window.robotrial.state().joints.values[0] - 1) < 1e-6")
+    page.select_option("#robot-picker", "desk_arm")
+    wait_ready(page, "desk_arm")
+    assert not errors, errors
+    page.close()
+
+
+def ur5_zip() -> bytes:
+    """example-robot-data's UR5 as a user zips its description package: the folder
+    ur_description/ at the top, while the URDF asks for
+    package://example-robot-data/robots/ur_description/... (one package folder off)."""
+    from robotrial.benchmarks.arms import corpus_root
+
+    package = corpus_root() / "ur_description"
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w") as z:
+        z.write(package / "urdf" / "ur5_robot.urdf", "ur_description/urdf/ur5_robot.urdf")
+        for f in sorted((package / "meshes" / "ur5").rglob("*")):
+            z.write(f, str(f.relative_to(package.parent)))
+    return out.getvalue()
+
+
+def set_joints(page: Page, values: dict[str, float]) -> None:
+    """Move joint sliders as a drag would (an input event per slider)."""
+    page.evaluate(
+        """(values) => { for (const [name, value] of Object.entries(values)) {
+            const input = document.querySelector(`input[data-joint="${name}"]`);
+            input.value = String(value);
+            input.dispatchEvent(new Event('input', { bubbles: true })); } }""",
+        values,
+    )
+
+
+@pytest.mark.browser
+@pytest.mark.timeout(240)
+def test_uploaded_ur5_shows_its_tool_and_moves_to_a_goal(
+    server: str, browser, artifacts: Path, tmp_path: Path
+) -> None:
+    """The UR5 of example-robot-data, zipped one folder off: it loads (the mapping fixed
+    and said), its read-out names tool0 and follows the sliders, and Move Robot! takes
+    its hand to a goal from the upright pose the issue's users were refused at."""
+    from robotrial.kinematics.chain import Kinematics
+    from robotrial.model import load_robot
+
+    from .test_experiment import FINISHED, type_into
+
+    archive = tmp_path / "ur5.zip"
+    archive.write_bytes(ur5_zip())
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(server)
+    wait_ready(page, "desk_arm")
+    page.set_input_files("#robot-upload", str(archive))
+    page.wait_for_selector("#upload-message[data-status='ready']", timeout=60_000)
+    assert "fixed automatically" in page.locator("#upload-message").inner_text()
+    state = wait_ready(page, "ur5")
+    assert page.locator("#robot-picker option[value='ur5']").inner_text() == "ur5"
+    assert state["tool"] == "tool0"
+    assert "tool0" in page.locator("#end-effector-link").inner_text()
+    assert page.locator("#tool-picker").is_visible()
+
+    from robotrial.benchmarks.arms import corpus_root
+
+    model = load_robot(corpus_root() / "ur_description/urdf/ur5_robot.urdf")
+    kin = Kinematics(model)
+    upright = dict(zip(kin.joint_names, (0.0, -1.57, 1.57, -1.57, -1.57, 0.0), strict=True))
+    set_joints(page, upright)
+    hand = kin.link_pose(np.array(list(upright.values())))[:3, 3]
+    page.wait_for_function(
+        "(p) => { const e = window.robotrial.state().endEffector;"
+        " return e && Math.hypot(e[0] - p[0], e[1] - p[1], e[2] - p[2]) < 1e-3; }",
+        arg=hand.tolist(),
+    )
+    page.wait_for_function(
+        "() => window.robotrial.state().connection.status === 'connected'", timeout=30_000
+    )
+    page.wait_for_selector("#move-robot:not([disabled])", timeout=30_000)
+    goal = kin.link_pose(np.array([0.9, -1.2, 1.3, -1.67, -1.57, 0.0]))[:3, 3]
+    page.locator("summary", has_text="Goal for the hand").click()
+    for axis, value in zip("xyz", goal, strict=True):
+        type_into(page, f"#goal-{axis}", round(float(value) * 100, 1))
+    page.click("#set-robot")
+    page.click("#move-robot")
+    page.wait_for_function(FINISHED, timeout=180_000)
+    state = page.evaluate("window.robotrial.state()")
+    page.screenshot(path=artifacts / "web_upload_ur5_moved.png")
+    page.close()
+    assert state["planner"]["status"] == "planned", state["planner"]["message"]
+    assert state["run"]["finalError"] <= 0.01, state["run"]
+    np.testing.assert_allclose(state["endEffector"], goal, atol=0.01)
+    assert not errors, errors
 
 
 @pytest.fixture

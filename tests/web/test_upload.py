@@ -6,6 +6,9 @@ server's refusals (size, zip-slip) through FastAPI's TestClient."""
 from __future__ import annotations
 
 import io
+import os
+import subprocess
+import sys
 import zipfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -279,3 +282,93 @@ def test_uploads_cannot_read_the_servers_environment_or_files(client: TestClient
     )
     names = [robot["name"] for robot in client.get("/api/robots").json()["robots"]]
     assert "spy" not in names and "tower_arm" not in names
+
+
+def test_a_zip_one_folder_off_is_mapped_and_said(client: TestClient) -> None:
+    """The URDF asks for package://example-robot-data/robots/ur_description/... and the
+    zip holds ur_description/ at its top: unambiguous, so it loads, and the answer says
+    what was fixed; the robot keeps the name its authors wrote and finds its tool."""
+    client.app.state.uploads.max_bytes = 20 * 2**20
+    r = client.post("/api/robots/upload", files={"file": ("ur5.zip", ur5_zip())})
+    assert r.status_code == 201, r.text
+    answer = r.json()
+    assert any("fixed automatically" in line for line in answer["repairs"]), answer["repairs"]
+    robot = answer["robot"]
+    assert (robot["name"], robot["title"], robot["tool"]) == ("ur5", "ur5", "tool0")
+    assert robot["tools"][0] == "tool0" and "forearm_link" in robot["tools"]
+    # another tool: the entry says so; a link that cannot be one is refused by name
+    r = client.post("/api/robots/ur5/tool", json={"link": "wrist_3_link"})
+    assert r.status_code == 200 and r.json()["tool"] == "wrist_3_link", r.text
+    r = client.post("/api/robots/ur5/tool", json={"link": "base_link"})
+    assert r.status_code == 422 and "not moved by an arm" in r.json()["detail"]
+    assert client.post("/api/robots/desk_arm/tool", json={"link": "link3"}).status_code == 404
+
+
+def test_missing_meshes_are_told_in_the_uploads_terms(client: TestClient, tmp_path: Path) -> None:
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w") as z:
+        mesh = '<mesh filename="package://tower/meshes/base.stl"/>'
+        z.writestr(
+            "tower/urdf/tower.urdf",
+            URDF.replace(
+                f"<visual><geometry>{mesh}</geometry></visual>",
+                f"<collision><geometry>{mesh}</geometry></collision>",
+            ),
+        )
+    r = client.post("/api/robots/upload", files={"file": ("tower.zip", out.getvalue())})
+    assert r.status_code == 422
+    detail = r.json()["detail"]
+    assert "tower.zip/tower/urdf/tower.urdf:4" in detail, detail
+    assert "the upload has package 'tower' but no file tower/meshes/base.stl" in detail, detail
+    assert "in the zip" in detail, detail
+    assert "--package-path" not in detail and str(tmp_path) not in detail, detail
+
+
+def _rss() -> int:
+    """This process's resident memory (bytes)."""
+    return int(Path("/proc/self/statm").read_text().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def test_too_many_triangles_are_refused_before_they_are_read(client: TestClient) -> None:
+    """A mesh of 1.2 M triangles (a small zip: its faces repeat) is refused with its
+    count and name, and the server's memory comes back to where it was."""
+    faces = b"v 0 0 0\nv 1 0 0\nv 0 1 0\n" + b"f 1 2 3\n" * 1_200_000
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("tower/urdf/tower.urdf", URDF.replace("meshes/base.stl", "meshes/base.obj"))
+        z.writestr("tower/meshes/base.obj", faces)
+    data = out.getvalue()
+    assert len(data) < 100_000
+    before = _rss()
+    r = client.post("/api/robots/upload", files={"file": ("tower.zip", data)})
+    assert r.status_code == 413
+    detail = r.json()["detail"]
+    assert "1,200,000 triangles" in detail and "tower/meshes/base.obj" in detail, detail
+    assert _rss() - before < 30 * 2**20
+    assert not list(client.app.state.uploads.root.rglob("*.obj"))
+
+
+def test_serve_takes_robot_and_world_files(tmp_path: Path) -> None:
+    robot = tmp_path / "tower.urdf"
+    robot.write_text(
+        URDF.replace(
+            '<mesh filename="package://tower/meshes/base.stl"/>', "<box size='0.3 0.3 0.1'/>"
+        )
+    )
+    world = tmp_path / "corner.yaml"
+    world.write_text("name: corner\nfloor: {size: [3, 3]}\n")
+    app = create_app(str(robot), str(world), warm=False, uploads_dir=tmp_path / "uploads")
+    with TestClient(app) as c:
+        config = c.get("/api/config").json()
+        assert (config["robot"], config["world"]) == ("tower_arm", "corner")
+        entry = next(r for r in c.get("/api/robots").json()["robots"] if r["name"] == "tower_arm")
+        assert entry["title"] == "Tower Arm"
+    mistyped = subprocess.run(
+        [Path(sys.executable).with_name("robotrial"), "serve", "--robot", "towr.urdf"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert mistyped.returncode == 2
+    said = (mistyped.stdout + mistyped.stderr).strip()
+    assert said.splitlines() == ["error: towr.urdf: no such file"], said

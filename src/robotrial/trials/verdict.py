@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from robotrial.model.anatomy import wheel_joints
 from robotrial.model.gridmap import NavMap, world_map
 from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
@@ -194,8 +195,9 @@ class HomeVerdict:
 
 
 def has_base(robot: RobotModel) -> bool:
-    """Whether the robot drives about (its description gives a `drive`)."""
-    return bool((robot.metadata or {}).get("drive"))
+    """Whether the robot drives about: its description gives a `drive`, or its tree has
+    wheels (model/anatomy.py), as a base of the user's own does."""
+    return bool((robot.metadata or {}).get("drive")) or len(wheel_joints(robot)) >= 2
 
 
 def check_home(

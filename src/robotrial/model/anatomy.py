@@ -113,6 +113,22 @@ def _zero_frames(model: RobotModel) -> dict[str, np.ndarray]:
     return out
 
 
+def has_wheels(model: RobotModel) -> bool:
+    """Whether the tree has a wheeled base (at least two wheel joints)."""
+    return len(wheel_joints(model)) >= 2
+
+
+def base_links(model: RobotModel) -> list[str]:
+    """The links of the mobile base: those no driven joint moves but wheels (and what
+    turns with a wheel). Tree order, the root first."""
+    wheels = set(wheel_joints(model))
+    out = [model.root]
+    for j in model.topological_joints():
+        if j.parent in out and (j.type == "fixed" or j.name in wheels):
+            out.append(j.child)
+    return out
+
+
 def _moves_below(model: RobotModel, link: str) -> bool:
     stack = [link]
     while stack:
@@ -256,9 +272,11 @@ def with_tool(model: RobotModel, link: str) -> RobotModel:
 
 __all__ = [
     "arm_joints",
+    "base_links",
     "completed",
     "find_tool",
     "finger_joints",
+    "has_wheels",
     "tool_choices",
     "tool_score",
     "wheel_joints",

@@ -367,26 +367,13 @@ def run(args: argparse.Namespace) -> int:
                         results.append(
                             ArmResult(name, rel, planned, refused=f"{type(exc).__name__}: {exc}")
                         )
+                    write(args, results, load)
                     advance()
     if kept is None:
         os.environ.pop("ROBOTRIAL_CACHE", None)
     else:
         os.environ["ROBOTRIAL_CACHE"] = kept
-    report = {
-        "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
-        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-        "load_start": load,
-        "load_end": os.getloadavg()[0],
-        "goals": args.goals,
-        "seed": args.seed,
-        "arms": [asdict(r) for r in results],
-        "not_arms": [list(x) for x in NOT_ARMS],
-    }
-    if args.output:
-        args.output.write_text(json.dumps(report, indent=1))
-    if args.md:
-        args.md.parent.mkdir(parents=True, exist_ok=True)
-        args.md.write_text(markdown(results, report))
+    report = write(args, results, load)
     if args.json:
         print_json(report)
         return 0
@@ -395,6 +382,28 @@ def run(args: argparse.Namespace) -> int:
         for line in failures(r):
             console.print(f"{r.name}: {line}", markup=False, highlight=False)
     return 0
+
+
+def write(args: argparse.Namespace, results: list[ArmResult], load: float) -> dict[str, Any]:
+    """The report so far, written where `--md` and `-o` say (after every arm, so that a
+    long run stopped halfway keeps what it measured)."""
+    report = {
+        "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
+        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+        "load_start": load,
+        "load_end": os.getloadavg()[0],
+        "goals": args.goals,
+        "seed": args.seed,
+        "time_limit": args.time_limit,
+        "arms": [asdict(r) for r in results],
+        "not_arms": [list(x) for x in NOT_ARMS],
+    }
+    if args.output:
+        args.output.write_text(json.dumps(report, indent=1))
+    if args.md:
+        args.md.parent.mkdir(parents=True, exist_ok=True)
+        args.md.write_text(markdown(results, report))
+    return report
 
 
 COLUMNS = (
@@ -458,7 +467,9 @@ def markdown(results: list[ArmResult], report: dict[str, Any]) -> str:
         f"Measured {report['date']} on {report['machine']['platform']}, "
         f"{report['machine']['cpus']} cores shared with other jobs (load average "
         f"{report['load_start']:.1f} at the start, {report['load_end']:.1f} at the end), by "
-        f"`robotrial bench arms --goals {report['goals']} --seed {report['seed']}`. "
+        f"`robotrial bench arms --goals {report['goals']} --seed {report['seed']}"
+        + (f" --time-limit {report['time_limit']:g}" if report["time_limit"] else "")
+        + "`. "
         "Times under that load are several times what a quiet machine gives; compare "
         "them with each other, not with a target.",
         "",

@@ -75,6 +75,19 @@ def wait_ready(page: Page, robot: str) -> dict:
     return state
 
 
+def upload_on_page(browser, server: str, robot: Path) -> tuple[Page, list[str]]:
+    """A new page on the desk arm that uploads `robot` and waits for the answer; the page
+    and the list its errors go to."""
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(server)
+    wait_ready(page, "desk_arm")
+    page.set_input_files("#robot-upload", str(robot))
+    page.wait_for_selector("#upload-message[data-status='ready']", timeout=60_000)
+    return page, errors
+
+
 @pytest.mark.browser
 def test_upload_good_and_broken_robot(
     server: str, browser, artifacts: Path, tmp_path: Path
@@ -83,14 +96,7 @@ def test_upload_good_and_broken_robot(
     good.write_bytes(tower_zip())
     broken = tmp_path / "broken.urdf"
     broken.write_text(URDF.replace('<child link="boom"/>', '<child link="bom"/>'))
-    page = browser.new_page(viewport={"width": 1280, "height": 800})
-    errors: list[str] = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    page.goto(server)
-    wait_ready(page, "desk_arm")
-
-    page.set_input_files("#robot-upload", str(good))
-    page.wait_for_selector("#upload-message[data-status='ready']", timeout=30_000)
+    page, errors = upload_on_page(browser, server, good)
     state = wait_ready(page, "tower_arm")
     assert state["joints"]["names"] == ["swing"]
     assert state["world"] == "desk"
@@ -148,7 +154,7 @@ def set_joints(page: Page, values: dict[str, float]) -> None:
 
 
 @pytest.mark.browser
-@pytest.mark.timeout(240)
+@pytest.mark.timeout(480)
 def test_uploaded_ur5_shows_its_tool_and_moves_to_a_goal(
     server: str, browser, artifacts: Path, tmp_path: Path
 ) -> None:
@@ -162,13 +168,7 @@ def test_uploaded_ur5_shows_its_tool_and_moves_to_a_goal(
 
     archive = tmp_path / "ur5.zip"
     archive.write_bytes(ur5_zip())
-    page = browser.new_page(viewport={"width": 1280, "height": 800})
-    errors: list[str] = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    page.goto(server)
-    wait_ready(page, "desk_arm")
-    page.set_input_files("#robot-upload", str(archive))
-    page.wait_for_selector("#upload-message[data-status='ready']", timeout=60_000)
+    page, errors = upload_on_page(browser, server, archive)
     assert "fixed automatically" in page.locator("#upload-message").inner_text()
     state = wait_ready(page, "ur5")
     assert page.locator("#robot-picker option[value='ur5']").inner_text() == "ur5"
@@ -198,7 +198,7 @@ def test_uploaded_ur5_shows_its_tool_and_moves_to_a_goal(
         type_into(page, f"#goal-{axis}", round(float(value) * 100, 1))
     page.click("#set-robot")
     page.click("#move-robot")
-    page.wait_for_function(FINISHED, timeout=180_000)
+    page.wait_for_function(FINISHED, timeout=360_000)
     state = page.evaluate("window.robotrial.state()")
     page.screenshot(path=artifacts / "web_upload_ur5_moved.png")
     page.close()

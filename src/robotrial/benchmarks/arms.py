@@ -5,9 +5,10 @@ No arm here was written or tuned for robotrial. For each one, its URDF and the f
 names are zipped as a package (folders as in the corpus, so the `package://` names are
 one or two folders off, as a user's zip often is) and:
 
-1. uploaded through the page's route (`POST /api/robots/upload`) to a fresh server with
-   an empty robot cache; its first PlanTask request is timed through the planning node,
-   so the time includes building its sphere model and self-collision pairs;
+1. uploaded through the page's route (`POST /api/robots/upload`) to a server that has
+   warmed its planner as `robotrial serve` does, with an empty robot cache; its first
+   PlanTask request is timed through the planning node, so the time includes building
+   its sphere model and self-collision pairs;
 2. loaded as `--robot FILE` reads it (`cli/robot_source.py`); its tool, arm group and
    joints must equal the upload's;
 3. asked `--goals` positions (reached by forward kinematics from random collision-free
@@ -356,8 +357,11 @@ def run(args: argparse.Namespace) -> int:
         warnings.simplefilter("ignore")
         folder = Path(scratch)
         os.environ["ROBOTRIAL_CACHE"] = str(folder / "server")
-        app = create_app(bus=bus, planner=True, warm=False, uploads_dir=folder / "uploads")
+        app = create_app(bus=bus, planner=True, uploads_dir=folder / "uploads")
         with TestClient(app) as client:
+            # as a served page: the planner's kernels compiled before anyone uploads
+            while client.get("/api/config").json()["planner"] != "ready":
+                time.sleep(0.5)
             server = (client, bus, app.state.catalog, folder)
             with progress("arms", len(chosen), enabled=not args.json) as advance:
                 for name, rel, planned in chosen:

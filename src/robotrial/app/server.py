@@ -39,6 +39,7 @@ from robotrial.app.models import (
     RobotEntry,
     RobotList,
     SpawnPose,
+    ToolChoice,
     UploadAnswer,
     VerdictJob,
     VerdictRequest,
@@ -144,7 +145,9 @@ def create_app(
     that port (robotrial.ros.foxglove_bridge; 0: any free port; None: not at all), on the
     address `access` listens on; `app.state.foxglove` is the bridge once started (None if
     the port could not be opened; the reason is logged).
-    Raises ModelError if `robot` or `world` is not built in.
+    `robot` and `world` may be files (a robot description, a world YAML): they join the
+    lists under their own names. Raises ModelError if `robot` or `world` is neither a
+    built-in name nor a file that loads.
     """
     try:
         catalog = Catalog(robot, world)
@@ -316,6 +319,45 @@ def create_app(
         entry = next(r for r in catalog.robots() if r["name"] == robot.name)
         answer = UploadAnswer(robot=RobotEntry(**entry), repairs=list(robot.model.repairs))
         return JSONResponse(answer.model_dump(), status_code=201)
+
+    @app.post(
+        "/api/robots/{name}/tool",
+        response_model=RobotEntry,
+        tags=["robots"],
+        openapi_extra={
+            "requestBody": {
+                "required": True,
+                "content": {"application/json": {"schema": ToolChoice.model_json_schema()}},
+            }
+        },
+        responses={
+            401: {"description": "the server needs a token (Authorization: Bearer TOKEN)"},
+            403: {"description": "sent from a web page of another site"},
+            404: {"description": "no uploaded robot of that name"},
+            422: {"description": "the link cannot be the tool; detail names those that can"},
+        },
+    )
+    async def choose_tool(name: str, request: Request) -> Response:
+        """Make another link the tool of an uploaded arm (one of its entry's `tools`):
+        the hand read-out and Move Robot!'s goal then refer to it, and the arm is the
+        chain of joints that moves it. Answers the robot's new entry."""
+        refused = _refusal(access, request)
+        if refused is not None:
+            return refused
+        body = await _bounded_body(request, 4096)
+        try:
+            link = ToolChoice.model_validate_json(bytes(body or b"")).link
+        except ValidationError as exc:
+            return JSONResponse({"detail": _invalid(exc)}, status_code=422)
+        try:
+            model = await run_in_threadpool(catalog.set_tool, name, link)
+        except ModelError as exc:
+            return JSONResponse({"detail": str(exc)}, status_code=422)
+        if planning is not None and robot_kind(model) == "arm":
+            default = name == catalog.default_robot
+            await run_in_threadpool(planning.forget, name, default)
+        entry = next(r for r in catalog.robots() if r["name"] == name)
+        return JSONResponse(RobotEntry(**entry).model_dump())
 
     @app.post(
         "/api/worlds",

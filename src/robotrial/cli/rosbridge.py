@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 
 from robotrial.cli.access import access_from, add_access_arguments
+from robotrial.cli.robot_source import add_tool_argument, with_tool_from_args
 
 HELP = "serve the rosbridge v2 protocol (WebSocket) without the web app"
 
@@ -29,6 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--robot", help="offer /robotrial/plan_task for this robot (built-in name or file)"
     )
     parser.add_argument("--world", help="the world the robot stands in (with --robot)")
+    add_tool_argument(parser)
     add_access_arguments(parser)
 
 
@@ -42,13 +44,13 @@ def run(args: argparse.Namespace) -> int:
     bus = Bus()
     try:
         access = access_from(args)
-        if args.world and not args.robot:
-            raise ValueError("--world needs --robot (the robot that stands in it)")
+        if (args.world or args.tool) and not args.robot:
+            raise ValueError("--world and --tool need --robot (the robot they are for)")
         if args.robot:
             from robotrial.ros.planning_node import PLAN_TASK, PlanningNode
 
             world = load_world(args.world) if args.world else None
-            node = PlanningNode(bus, load_robot(args.robot), world)
+            node = PlanningNode(bus, with_tool_from_args(load_robot(args.robot), args), world)
             console.print(
                 f"{PLAN_TASK} plans for {args.robot}"
                 + (f" in {args.world}" if world else "")

@@ -20,10 +20,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")
     parser.add_argument(
-        "--robot", default=DEFAULT_ROBOT, help=f"robot the page opens on (default {DEFAULT_ROBOT})"
+        "--robot",
+        default=DEFAULT_ROBOT,
+        help="robot the page opens on: a built-in name or a .urdf, .xacro or .glb file "
+        f"(default {DEFAULT_ROBOT})",
     )
     parser.add_argument(
-        "--world", default=DEFAULT_WORLD, help=f"world the page opens on (default {DEFAULT_WORLD})"
+        "--world",
+        default=DEFAULT_WORLD,
+        help=f"world the page opens on: a built-in name or a YAML file (default {DEFAULT_WORLD})",
     )
     parser.add_argument(
         "--foxglove-port",

@@ -239,6 +239,17 @@ class PlanningNode(Node):
         """Robot name -> its PlanTask service, for every robot added."""
         return dict(self._services)
 
+    def forget(self, robot: str, default: bool = False) -> None:
+        """Drop `robot`'s TaskPlanner (its description changed): the next request builds
+        one for what `robots` gives then. With `default`, `robot` is the one PLAN_TASK
+        answers for, and its planner is built again now."""
+        with self._lock:
+            self._planners.pop(robot, None)
+        if default and self._robots is not None:
+            planner = TaskPlanner(*self._robots(robot))
+            with self._lock:
+                self.planner = planner
+
     def planner_for(self, robot: str) -> TaskPlanner:
         """The TaskPlanner of `robot`, built on first use."""
         with self._lock:

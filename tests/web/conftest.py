@@ -33,6 +33,8 @@ def serve(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Callable[..., st
         procs.append(proc)
         url = f"http://127.0.0.1:{port}/"
         line = proc.stdout.readline() if proc.stdout else ""
+        if "Foxglove is off" in line:  # a busy Foxglove port is said first
+            line = proc.stdout.readline()
         assert url in line, f"serve printed {line!r}; stderr: {log.read_text()}"
         deadline = time.monotonic() + timeout
         while True:

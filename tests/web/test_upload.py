@@ -372,7 +372,7 @@ def test_serve_takes_robot_and_world_files(tmp_path: Path) -> None:
     world = tmp_path / "corner.yaml"
     world.write_text("name: corner\nfloor: {size: [3, 3]}\n")
     app = create_app(str(robot), str(world), warm=False, uploads_dir=tmp_path / "uploads")
-    with TestClient(app) as c:
+    with TestClient(app, base_url=LOCAL) as c:
         config = c.get("/api/config").json()
         assert (config["robot"], config["world"]) == ("tower_arm", "corner")
         entry = next(r for r in c.get("/api/robots").json()["robots"] if r["name"] == "tower_arm")

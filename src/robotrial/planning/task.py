@@ -464,7 +464,7 @@ class TaskPlanner:
                 self._fail(
                     result,
                     "timeout",
-                    f"no path found by {planner.name} within {limit:g} s "
+                    f"no path found by {planner.name} within its time limit of {limit:g} s "
                     f"({res.stats.get('nodes', 0)} nodes explored)",
                 )
                 return

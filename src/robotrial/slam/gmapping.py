@@ -33,7 +33,7 @@ import numpy as np
 from robotrial.slam.grid import LogOddsGrid, integrate_many
 from robotrial.slam.matcher import match_particles
 from robotrial.slam.params import GMappingParams
-from robotrial.slam.scan import Beams, compose, relative, transform_points
+from robotrial.slam.scan import Beams, compose, motion_sigma, relative, transform_points
 
 
 def one_per_cell(points: np.ndarray, cell: float) -> np.ndarray:
@@ -64,6 +64,10 @@ def angle_step(scan: Beams) -> float | None:
     a = np.unwrap(np.arctan2(scan.ends[:, 1] - scan.origin[1], scan.ends[:, 0] - scan.origin[0]))
     step = float(np.median(np.abs(np.diff(a))))
     return step if step > 0 else None
+
+
+# slam_gmapping's documented maxUrange, for a scanner that states no range_max.
+DEFAULT_USABLE_RANGE = 80.0
 
 
 class OdometryRequired(ValueError):
@@ -97,13 +101,16 @@ class GMappingSlam:
         self.resamples = 0
         self.neff = float(n)
 
-    @property
-    def usable_range(self) -> float:
-        return self.params.maxUrange
-
-    @property
-    def min_range(self) -> float:
-        return 0.0
+    def range_limits(self, range_max: float) -> tuple[float, float, float]:
+        """(min, maximum, usable) range for a scanner whose range_max is given (0 when
+        unknown), as slam_gmapping sets them: maxRange unset is range_max - 0.01 (so a
+        reading at range_max, "no return", is left out), maxUrange unset is maxRange."""
+        p = self.params
+        top = p.maxRange if p.maxRange > 0 else (range_max - 0.01 if range_max > 0 else np.inf)
+        usable = p.maxUrange if p.maxUrange > 0 else top
+        if not np.isfinite(usable):
+            usable = DEFAULT_USABLE_RANGE
+        return 0.0, top, min(usable, top)
 
     @property
     def grid(self) -> LogOddsGrid:
@@ -192,13 +199,7 @@ class GMappingSlam:
         """GMapping's odometry motion model: standard deviations of x, y (in the frame
         of the previous pose) and yaw, growing with the distance and angle moved."""
         p = self.params
-        sxy = 0.3 * p.srr
-        dx, dy, dth = (abs(float(v)) for v in d)
-        return (
-            p.srr * dx + p.str * dth + sxy * dy,
-            p.srr * dy + p.str * dth + sxy * dx,
-            p.stt * dth + p.srt * float(np.hypot(dx, dy)),
-        )
+        return motion_sigma(d, p.srr, p.str, p.srt, p.stt)
 
     def _systematic(self, w: np.ndarray) -> np.ndarray:
         n = w.size

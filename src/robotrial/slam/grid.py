@@ -497,9 +497,12 @@ class LogOddsGrid:
         end_xy: np.ndarray,
         hit: np.ndarray,
         angle_step: float | None = None,
+        weight: float = 1.0,
     ) -> None:
         """Trace beams from the sensor to (N, 2) end points in the map frame; `hit[i]`
-        says whether beam i ended on something (else only its cells are freed).
+        says whether beam i ended on something (else only its cells are freed). The
+        updates are scaled by `weight`: -1 takes back what the same scan at the same pose
+        wrote with 1 (exactly, on a grid whose clamps are never reached).
 
         With `angle_step` (the angle between neighbouring beams of a fan given in scan
         order), near the sensor, where many beams cross each cell, only a thinned set is
@@ -527,7 +530,7 @@ class LogOddsGrid:
             hit,
         )
         grid = (self.logodds, self.origin[0], self.origin[1], self.resolution, sx, sy)
-        weights = (m.free, m.occupied, m.clamp_min, m.clamp_max)
+        weights = (m.free * weight, m.occupied * weight, m.clamp_min, m.clamp_max)
         if angle_step is not None and angle_step > 0:
             _trace_fan(*grid, *beams, fan_starts(self.resolution, angle_step), *weights)
             return
@@ -548,8 +551,10 @@ class LogOddsGrid:
     def ros_values(self, occupied_above: float = 0.65, free_below: float = 0.35) -> np.ndarray:
         """int8 cells as a ROS OccupancyGrid carries them: 100 occupied, 0 free, -1 unknown
         (never observed, or between the thresholds)."""
-        p = self.probability()
+        # On the log-odds directly: no float64 copy of a large map.
+        occ = np.float32(np.log(occupied_above / (1 - occupied_above)))
+        free = np.float32(np.log(free_below / (1 - free_below)))
         out = np.full(self.shape, -1, dtype=np.int8)
-        out[p >= occupied_above] = 100
-        out[p <= free_below] = 0
+        out[self.logodds >= occ] = 100
+        out[self.logodds <= free] = 0
         return out

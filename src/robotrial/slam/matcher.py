@@ -147,7 +147,7 @@ def _gauss_newton(
         h22 += prior_weight[2]
         g0 += prior_weight[0] * (prior[0] - p0)
         g1 += prior_weight[1] * (prior[1] - p1)
-        g2 += prior_weight[2] * (prior[2] - p2)
+        g2 += prior_weight[2] * ((prior[2] - p2 + np.pi) % (2 * np.pi) - np.pi)
         tr = h00 + h11 + h22
         if tr <= 1e-12:
             break
@@ -450,6 +450,7 @@ class ScanMatcher:
         guess: np.ndarray,
         pyramid: list[np.ndarray] | None = None,
         prior_sigma: tuple[float, float, float] | None = None,
+        prior_mean: np.ndarray | None = None,
     ) -> MatchResult:
         """Refine `guess` so that `points` ((N, 2), base frame) fall on the map's
         occupied cells. With `pyramid` (LogOddsGrid.pyramid, computed once a map update)
@@ -457,7 +458,8 @@ class ScanMatcher:
         deviations of a motion model) the cost adds sum ((pose - guess) / sigma)^2, so
         along directions the scan cannot tell apart (a corridor, a wall seen alone) the
         pose stays at the guess instead of sliding: the proposal of GMapping combines
-        the scan and the motion model this way."""
+        the scan and the motion model this way. The prior is centred on `prior_mean`
+        (x, y, yaw) when given, else on the guess."""
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
         pose = np.asarray(guess, dtype=np.float64).copy()
         if pts.shape[0] == 0 or grid.logodds.size == 0:
@@ -465,7 +467,7 @@ class ScanMatcher:
         hess = np.zeros((3, 3))
         cost = 0.0
         ox, oy = grid.origin
-        start = pose.copy()
+        start = pose.copy() if prior_mean is None else np.asarray(prior_mean, np.float64).copy()
         weight = np.zeros(3)
         if prior_sigma is not None:
             weight = 1.0 / np.maximum(np.asarray(prior_sigma, dtype=np.float64), 1e-3) ** 2

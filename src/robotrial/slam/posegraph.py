@@ -191,6 +191,29 @@ def optimize_graph(
     return x, start, cost
 
 
+def optimize_pruned(
+    poses: np.ndarray, edges: list[Edge], kernel: float, max_chi2: float, rounds: int
+) -> tuple[np.ndarray, list[Edge]]:
+    """`optimize_graph` with loop closures under a Cauchy kernel of width `kernel`; then,
+    while a closure's chi-square stays above `max_chi2` (it does not fit the rest of the
+    graph), the worst is taken out and the graph optimised again, `rounds` times at
+    most. Returns the poses and the closures taken out."""
+    after, _, _ = optimize_graph(poses, edges, loop_kernel=kernel)
+    removed: list[Edge] = []
+    for _ in range(rounds):
+        loops = [e for e in edges if e.loop]
+        if not loops:
+            break
+        chi = edge_chi2(after, loops)
+        worst = int(np.argmax(chi))
+        if chi[worst] <= max_chi2:
+            break
+        removed.append(loops[worst])
+        edges = [e for e in edges if e is not loops[worst]]
+        after, _, _ = optimize_graph(after, edges, loop_kernel=kernel)
+    return after, removed
+
+
 def likelihood_field(grid: LogOddsGrid, sigma: float) -> np.ndarray:
     """A smooth score per cell, 1 on a wall and falling off over about `sigma` m: the
     occupied cells blurred by a Gaussian and scaled so that a straight wall peaks at 1
@@ -376,10 +399,15 @@ def search(
 @dataclass(frozen=True)
 class _Solution:
     """What a back-end pass hands to the scan path: the optimised poses `after` of the
-    first len(after) nodes, the poses `before` they had when the pass began."""
+    first len(after) nodes, the poses `before` they had when the pass began, the local
+    map of the window's nodes among them at `after` (with those nodes), and the map of
+    them all (when one is kept)."""
 
     before: np.ndarray
     after: np.ndarray
+    local: LogOddsGrid
+    window: list[int]
+    map: LogOddsGrid | None
 
 
 @dataclass
@@ -612,7 +640,6 @@ class PoseGraphSlam:
             job, self._job = self._job, None
             job.result()
             self._adopt()
-        p = self.params
         k = len(self.nodes)
         with self._lock:
             self.nodes.append(self.pose.copy())
@@ -632,10 +659,8 @@ class PoseGraphSlam:
                 self._queue.append(k)
         self._window.append((k, self.pose.copy()))
         self._local_write(self.pose, scan, 1.0)
-        while len(self._window) > p.scan_buffer_size or (
-            len(self._window) > 1
-            and self._path[k] - self._path[self._window[0][0]] > p.scan_buffer_maximum_scan_distance
-        ):
+        keep = len(self._in_window([j for j, _ in self._window]))
+        while len(self._window) > keep:
             old, at = self._window.popleft()
             self._local_write(at, self.scans[old], -1.0)
         self._recentre()
@@ -643,16 +668,34 @@ class PoseGraphSlam:
         if k > 0:
             self._start_pass()
 
-    def _local_write(self, pose: np.ndarray, scan: Beams, weight: float) -> None:
-        """Add a scan to the local map at `pose` (weight 1) or take it back (-1). The map
-        grows by a quarter of the laser's range at a time: each growth copies it."""
+    def _local_write(
+        self, pose: np.ndarray, scan: Beams, weight: float, grid: LogOddsGrid | None = None
+    ) -> None:
+        """Add a scan to the local map (or `grid`) at `pose` (weight 1) or take it back
+        (-1). The map grows by a quarter of the laser's range at a time: each growth
+        copies it."""
+        grid = self._local if grid is None else grid
         origin = transform_points(pose, np.array([scan.origin]))[0]
         ends = transform_points(pose, scan.ends)
         if len(ends):
             lo = np.minimum(ends.min(axis=0), origin)
             hi = np.maximum(ends.max(axis=0), origin)
-            self._local.ensure(lo[0], lo[1], hi[0], hi[1], 0.25 * self.params.max_laser_range)
-        self._local.integrate(origin, ends, scan.hit, scan.angle_step, weight)
+            grid.ensure(lo[0], lo[1], hi[0], hi[1], 0.25 * self.params.max_laser_range)
+        grid.integrate(origin, ends, scan.hit, scan.angle_step, weight)
+
+    def _in_window(self, nodes: list[int]) -> list[int]:
+        """The last of `nodes` (increasing) that the local map holds: at most
+        `scan_buffer_size`, within `scan_buffer_maximum_scan_distance` m of path of the
+        newest."""
+        p = self.params
+        out: list[int] = []
+        for k in reversed(nodes):
+            if len(out) >= p.scan_buffer_size or (
+                out and self._path[out[0]] - self._path[k] > p.scan_buffer_maximum_scan_distance
+            ):
+                break
+            out.insert(0, k)
+        return out
 
     def _recentre(self) -> None:
         """Build the local map anew when it has grown far past the window's scans (the
@@ -660,17 +703,17 @@ class PoseGraphSlam:
         reach = 2.0 * self.params.max_laser_range + 4.0
         x0, y0, x1, y1 = self._local.extent()
         if (x1 - x0) * (y1 - y0) > 2.0 * reach * reach:
-            self._rebuild_local()
+            self._local = self._local_map(
+                [k for k, _ in self._window], [self.nodes[k] for k, _ in self._window]
+            )
+            self._window = deque((k, self.nodes[k].copy()) for k, _ in self._window)
 
-    def _rebuild_local(self) -> None:
-        """The local map from the window's scans at the nodes' current poses."""
-        self._local = LogOddsGrid(self.params.resolution, model=self._local_model)
-        window = deque()
-        for k, _ in self._window:
-            q = self.nodes[k]
-            self._local_write(q, self.scans[k], 1.0)
-            window.append((k, q.copy()))
-        self._window = window
+    def _local_map(self, ids: list[int], poses: list[np.ndarray]) -> LogOddsGrid:
+        """A local map of the scans of nodes `ids` at `poses`."""
+        grid = LogOddsGrid(self.params.resolution, model=self._local_model)
+        for k, q in zip(ids, poses, strict=True):
+            self._local_write(q, self.scans[k], 1.0, grid)
+        return grid
 
     @staticmethod
     def _write(grid: LogOddsGrid, pose: np.ndarray, scan: Beams) -> None:
@@ -875,26 +918,27 @@ class PoseGraphSlam:
         n = len(nodes)
         with self._lock:
             edges = [e for e in self.edges if e.i < n and e.j < n]
-        after = nodes
-        for _ in range(p.loop_removal_rounds + 1):
-            after, _, _ = optimize_graph(after, edges, loop_kernel=p.loop_kernel_width)
-            loops = [e for e in edges if e.loop]
-            if not loops:
-                break
-            chi = edge_chi2(after, loops)
-            worst = int(np.argmax(chi))
-            if chi[worst] <= p.loop_max_chi2:
-                break
-            bad = loops[worst]
-            edges = [e for e in edges if e is not bad]
+        after, bad = optimize_pruned(
+            nodes, edges, p.loop_kernel_width, p.loop_max_chi2, p.loop_removal_rounds
+        )
+        if bad:
             with self._lock:
-                self.edges = [e for e in self.edges if e is not bad]
-            self.removed += 1
-            self.closures -= 1
+                self.edges = [e for e in self.edges if not any(e is b for b in bad)]
+            self.removed += len(bad)
+            self.closures -= len(bad)
+        # The maps at the new poses, built here off the scan path: the local window's,
+        # and the whole map when one is kept (a live node publishes it).
+        window = self._in_window(list(range(n)))
+        local = self._local_map(window, [after[k] for k in window])
+        full = None
+        if self._map is not None:
+            full = LogOddsGrid(p.resolution, model=self._model)
+            for q, s in zip(after, scans, strict=True):
+                self._write(full, q, s)
         self._unoptimised = 0
         self.optimizations += 1
         self.optimize_time += time.perf_counter() - t0
-        return _Solution(nodes, after)
+        return _Solution(nodes, after, local, window, full)
 
     def _adopt(self) -> None:
         """Swap in a finished back-end pass: the optimised nodes, the nodes added since
@@ -921,8 +965,17 @@ class PoseGraphSlam:
             self.nodes = moved
         self.pose = carried(self.pose)
         if shift > self.params.map_rebuild_shift:
+            # The pass's maps, with the scans of the nodes added since it began.
+            ids = list(sol.window) + [k for k, _ in self._window if k >= n]
+            for k in ids[len(sol.window) :]:
+                self._local_write(moved[k], self.scans[k], 1.0, sol.local)
+            self._local = sol.local
+            self._window = deque((k, moved[k].copy()) for k in ids)
             self._version += 1
-            self._rebuild_local()
+            if sol.map is not None:
+                for q, scan in zip(moved[n:], self.scans[n : len(moved)], strict=True):
+                    self._write(sol.map, q, scan)
+                self._map, self._map_nodes, self._map_version = sol.map, len(moved), self._version
         self._solution = None
         # Nodes queued while the pass ran wait for the next one.
         self._start_pass()

@@ -149,12 +149,13 @@ class PoseGraphParams:
     Loop closure: candidates at least `loop_min_chain` nodes back whose estimate lies
     within `loop_search_maximum_distance` plus the search window of the new node; the
     window is +-(`loop_search_space` + `loop_search_growth` * graph distance) m, at most
-    `loop_search_space_max`, and likewise for the angle; a match is kept when its mean
-    likelihood-field value reaches `loop_match_minimum_response`, no peak more than
-    `loop_ambiguity_distance` m away reaches `loop_ambiguity_ratio` of it, and a closure
-    from a node at most `loop_confirm_nodes` away agrees within `loop_confirm_distance`
-    m and `loop_confirm_angle` rad. In the graph, loop closures (covariance at least
-    `loop_min_sigma_*`) carry a Cauchy kernel `loop_kernel_width` standard deviations
+    `loop_search_space_max`, and likewise for the angle, on a likelihood field of
+    `loop_resolution` m cells; a match is kept when its mean field value reaches
+    `loop_match_minimum_response` and a closure from a node at most `loop_confirm_nodes`
+    away agrees within `loop_confirm_distance` m and `loop_confirm_angle` rad. Its
+    covariance is the spread of the poses that score nearly as well (long along a
+    corridor) plus the refinement's, at least `loop_min_sigma_*`. In the graph, loop
+    closures carry a Cauchy kernel `loop_kernel_width` standard deviations
     wide; after an optimisation the worst closure with a chi-square above `loop_max_chi2`
     is taken out and the graph optimised again, `loop_removal_rounds` times at most. The
     graph is optimised when a closure waiting in it has a chi-square above
@@ -194,7 +195,7 @@ class PoseGraphParams:
     loop_neighbours: int = 3
     loop_search_space: float = 0.3
     loop_search_growth: float = 0.05
-    loop_search_space_max: float = 2.0
+    loop_search_space_max: float = 10.0
     loop_search_angle: float = 0.15
     loop_search_angle_growth: float = 0.005
     loop_search_angle_max: float = 0.35
@@ -202,8 +203,7 @@ class PoseGraphParams:
     loop_cooldown: int = 1
     loop_match_minimum_response: float = 0.6
     loop_points: int = 300
-    loop_ambiguity_distance: float = 0.3
-    loop_ambiguity_ratio: float = 0.9
+    loop_resolution: float = 0.05
     loop_confirm_nodes: int = 10
     loop_confirm_distance: float = 0.1
     loop_confirm_angle: float = 0.05

@@ -15,17 +15,19 @@ Loop closure (the back end): for each new node, the earlier nodes not recent in 
 whose estimate lies within reach are candidates; the reach grows with the graph distance
 between the two nodes (the path length along the constraints, loop closures counting as
 short cuts), since the estimates drift apart with it. The scan is matched correlatively
-against a small map of the candidate's neighbouring scans, coarse to fine, over a window
-as wide as that reach. A match is verified before it enters the graph: its response must
-be high, no distinct second peak may score nearly as well (a corridor, a symmetric room),
-the Gauss-Newton refinement must stay by the peak, and a second closure from a nearby node
-must imply the same correction of the graph (two wrong matches rarely agree). In the
-graph, loop closures carry a Cauchy kernel, so one that slipped through pulls little;
-after each optimisation a closure whose error is still too large for its covariance is
-taken out and the graph optimised again. Optimisation is sparse Levenberg-Marquardt over
-the SE(2) node poses, run when the closures waiting disagree with the estimate (or after
-`optimize_every` of them); scans between nodes keep their pose relative to the node
-before them, so the whole trajectory follows.
+against a likelihood field of the candidate's neighbouring scans, coarse to fine, over a
+window as wide as that reach, and refined by Gauss-Newton on the same field. The match's
+covariance is the spread of the poses that score nearly as well (Karto's: long along a
+corridor, where the closure then holds only across it) plus the refinement's. A match is
+verified before it enters the graph: its response must be high, the refinement must stay
+by the peak, and a second closure from a nearby node must imply the same correction of
+the graph (two wrong matches rarely agree). In the graph, loop closures carry a Cauchy
+kernel, so one that slipped through pulls little; after each optimisation a closure
+whose error is still too large for its covariance is taken out and the graph optimised
+again. Optimisation is sparse Levenberg-Marquardt over the SE(2) node poses, run when the
+closures waiting disagree with the estimate (or after `optimize_every` of them); scans
+between nodes keep their pose relative to the node before them, so the whole trajectory
+follows.
 
 The map (`grid`) is built from the node scans at their current poses when it is asked for
 (and kept, scans added as nodes come, until an optimisation moves the nodes).
@@ -320,12 +322,20 @@ def _correlate_peaks(
 
 @dataclass(frozen=True)
 class Search:
-    """What a correlative search found: the best pose, its score, and the best score of
-    a pose clearly apart from it (more than `apart` m or rad away: a second peak)."""
+    """What a correlative search found: the best pose, its score, and the covariance of
+    the poses that score nearly as well (within `SPREAD` of the best), weighted by their
+    scores: long along a corridor, where the scan cannot tell the places apart (Karto's
+    covariance of a correlative match)."""
 
     pose: np.ndarray
     response: float
-    second: float
+    cov: np.ndarray
+    # The best poses that are local peaks (apart by more than a step), best first.
+    peaks: tuple[np.ndarray, ...] = ()
+
+
+# The poses within this share of the best score make a search's spread.
+SPREAD = 0.9
 
 
 def correlative_search(
@@ -357,20 +367,20 @@ def search(
     angle_step: float,
     step_cells: int = 1,
     occupancy: bool = False,
-    apart: tuple[float, float] = (0.3, 0.2),
 ) -> Search:
-    """`correlative_search` that also reports the best score of a second peak (a pose
-    more than `apart` (m, rad) from the best), translating in steps of `step_cells`
-    cells; with `occupancy`, `field` is a log-odds grid read as occupancy."""
+    """`correlative_search` that also reports the spread of the near-best poses,
+    translating in steps of `step_cells` cells; with `occupancy`, `field` is a log-odds
+    grid read as occupancy."""
     pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
     g = np.asarray(guess, dtype=np.float64)
+    step = resolution * step_cells
+    floor = np.diag([step * step / 12, step * step / 12, angle_step * angle_step / 12])
     if pts.shape[0] == 0 or field.size == 0:
-        return Search(g.copy(), 0.0, 0.0)
+        return Search(g.copy(), 0.0, floor)
     if not (space >= 0 and angle >= 0 and angle_step > 0):
         raise ValueError("correlative search: need space >= 0, angle >= 0, angle_step > 0")
     offsets = np.arange(-angle, angle + 1e-9, angle_step)
     yaws = g[2] + offsets
-    step = resolution * step_cells
     steps = max(0, round(space / step))
     scores = _correlate_peaks(
         np.ascontiguousarray(field),
@@ -388,12 +398,99 @@ def search(
     a, i, j = np.unravel_index(int(np.argmax(scores)), scores.shape)
     best = float(scores[a, i, j])
     pose = np.array([g[0] + (j - steps) * step, g[1] + (i - steps) * step, wrap(float(yaws[a]))])
-    ax = np.abs(offsets - offsets[a])[:, None, None]
-    ti = (np.arange(2 * steps + 1) - i)[None, :, None] * step
-    tj = (np.arange(2 * steps + 1) - j)[None, None, :] * step
-    far = (np.hypot(ti, tj) > apart[0]) | (ax > apart[1])
-    second = float(scores[far].max()) if far.any() else 0.0
-    return Search(pose, best, second)
+    near = np.argwhere(scores >= SPREAD * best) if best > 0 else np.zeros((0, 3), int)
+    cov = floor
+    if len(near) > 1:
+        w = scores[near[:, 0], near[:, 1], near[:, 2]]
+        d = np.stack(
+            [(near[:, 2] - j) * step, (near[:, 1] - i) * step, offsets[near[:, 0]] - offsets[a]],
+            axis=1,
+        )
+        cov = (w[:, None, None] * d[:, :, None] * d[:, None, :]).sum(axis=0) / w.sum() + floor
+        cov = _unbounded(cov, space, angle)
+    return Search(pose, best, cov, _peaks(scores, g, yaws, steps, step, 4))
+
+
+def _unbounded(cov: np.ndarray, space: float, angle: float) -> np.ndarray:
+    """A search's spread with the directions it reached the window's edge along made
+    wide open: there the window, not the scan, bounded it (a corridor longer than the
+    window), so the match says nothing along them."""
+    out = cov.copy()
+    vals, vecs = np.linalg.eigh(out[:2, :2])
+    if 2.0 * np.sqrt(max(vals[-1], 0.0)) > 0.5 * space > 0:
+        vals[-1] = max(vals[-1], (10.0 * space) ** 2)
+        out[:2, :2] = (vecs * vals) @ vecs.T
+        out[:2, 2] = out[2, :2] = 0.0
+    if 2.0 * np.sqrt(max(out[2, 2], 0.0)) > 0.5 * angle > 0:
+        out[2, 2] = max(out[2, 2], (10.0 * angle) ** 2)
+    return out
+
+
+def _peaks(
+    scores: np.ndarray, g: np.ndarray, yaws: np.ndarray, steps: int, step: float, k: int
+) -> tuple[np.ndarray, ...]:
+    """The `k` best poses of a search's scores that lie more than a step apart, as poses
+    (x, y, yaw) with their scores in a fourth column."""
+    flat = np.argsort(scores, axis=None)[::-1][: 64 * k]
+    chosen: list[tuple[int, int, int]] = []
+    out = []
+    for f in flat:
+        a, i, j = np.unravel_index(int(f), scores.shape)
+        if any(abs(a - x) <= 1 and abs(i - y) <= 1 and abs(j - z) <= 1 for x, y, z in chosen):
+            continue
+        chosen.append((a, i, j))
+        x, y = g[0] + (j - steps) * step, g[1] + (i - steps) * step
+        out.append(np.array([x, y, wrap(float(yaws[a])), float(scores[a, i, j])]))
+        if len(chosen) == k:
+            break
+    return tuple(out)
+
+
+def coarse_to_fine(
+    field: np.ndarray,
+    origin: tuple[float, float],
+    resolution: float,
+    points: np.ndarray,
+    guess: np.ndarray,
+    space: float,
+    angle: float,
+    angle_step: float,
+    coarse_space: float,
+    keep: int = 4,
+) -> tuple[Search, Search]:
+    """A correlative search over a wide window, coarse to fine: first on cells `block`
+    times larger, each the best of the cells it covers (an upper bound of what the poses
+    in it score), with `block` the power of two that leaves about +-`coarse_space` /
+    resolution steps, in angle steps as many times larger; then, level by level with
+    cells half as large, around the `keep` best poses of the level above. Returns the
+    coarsest level's search (its spread says how alike the places in the window look)
+    and the finest's."""
+    block = 1
+    while space > coarse_space * block and block < 64:
+        block *= 2
+    fields = {1: field}
+    b = 2
+    while b <= block:
+        fields[b] = _max_pool(fields[b // 2], 2)
+        b *= 2
+    steps = max(1.0, angle / angle_step)
+    first = search(fields[block], origin, resolution * block, points, guess, space, angle,
+                   angle / max(1.0, np.ceil(steps / block)))  # fmt: skip
+    level_angle = angle / max(1.0, np.ceil(steps / block))
+    seeds = [q[:3] for q in first.peaks[:keep]] or [first.pose]
+    best = first
+    while block > 1:
+        block //= 2
+        tried = [
+            search(fields[block], origin, resolution * block, points, q,
+                   2 * block * resolution, level_angle, max(angle_step, level_angle / 2))
+            for q in seeds
+        ]  # fmt: skip
+        level_angle = max(angle_step, level_angle / 2)
+        tried.sort(key=lambda s: -s.response)
+        best = tried[0]
+        seeds = [s.pose for s in tried[:keep]]
+    return first, best
 
 
 @dataclass(frozen=True)
@@ -812,6 +909,11 @@ class PoseGraphSlam:
         near = d <= reach
         if not near.any():
             return None
+        # The place least known from here is the one to close: among the nodes within
+        # reach, those at least half as far along the graph as the farthest, and of
+        # those the nearest (a node just behind in the chain adds nothing).
+        far = np.where(np.isfinite(gd), gd, 2.0 * limit)
+        near &= far >= 0.5 * far[near].max()
         cand = int(np.argmin(np.where(near, d, np.inf)))
         space = float(window[cand])
         hits = scans[k].hits
@@ -829,54 +931,30 @@ class PoseGraphSlam:
         old_hits = np.concatenate(
             [transform_points(nodes[n], scans[n].hits) for n in range(lo, hi + 1)]
         )
-        field, origin = point_field(old_hits, p.resolution, 2 * p.resolution, box)
+        res = p.loop_resolution
+        field, origin = point_field(old_hits, res, res, box)
         angle = p.loop_search_angle_max
         if np.isfinite(gd[cand]):
             grown = p.loop_search_angle + p.loop_search_angle_growth * float(gd[cand])
             angle = min(grown, angle)
-        # Coarse to fine: the window on cells `block` times larger (each the best of the
-        # cells it covers), then the fine cells around the coarse peak.
-        block = max(1, round(space / p.loop_search_space))
-        found = search(
-            _max_pool(field, block) if block > 1 else field,
-            origin,
-            p.resolution * block,
-            sub,
-            here,
-            space,
-            angle,
-            p.loop_search_angle_step * block,
-            apart=(max(p.loop_ambiguity_distance, 2 * block * p.resolution), 0.2),
-        )
-        second = found.second
-        if block > 1:
-            fine = search(
-                field,
-                origin,
-                p.resolution,
-                sub,
-                found.pose,
-                block * p.resolution,
-                p.loop_search_angle_step * block,
-                p.loop_search_angle_step,
-            )
-            found = Search(fine.pose, fine.response, second)
+        coarse, found = coarse_to_fine(
+            field, origin, res, sub, here, space, angle, p.loop_search_angle_step,
+            p.loop_search_space,
+        )  # fmt: skip
         if found.response < p.loop_match_minimum_response:
             return None
-        if found.second > p.loop_ambiguity_ratio * found.response:
-            self.rejected += 1
-            return None
-        local = LogOddsGrid(p.resolution, model=self._model)
-        for n in range(lo, hi + 1):
-            self._write(local, nodes[n], scans[n])
-        refined = self.matcher.match(local, hits, found.pose)
+        # Gauss-Newton on the same field, read as occupancy 0.5 + 0.5 f.
+        smooth = LogOddsGrid(res, origin, field.shape)
+        smooth.logodds = (field / (1.0001 - field)).astype(np.float32)
+        refined = self.matcher.match(smooth, hits, found.pose)
         # Consistency: the Gauss-Newton refinement stays by the search's peak.
         shift = relative(found.pose, refined.pose)
-        if np.hypot(shift[0], shift[1]) > 2 * p.resolution or abs(shift[2]) > 0.02:
+        if np.hypot(shift[0], shift[1]) > 2 * res or abs(shift[2]) > 0.02:
             self.rejected += 1
             return None
         anchor = nodes[cand]
-        cov = self._match_cov(refined.hessian, refined.residual)
+        # As uncertain as the wider of the search's spread and the refinement's fit.
+        cov = coarse.cov + found.cov + self._match_cov(refined.hessian, refined.residual)
         floor = (p.loop_min_sigma_xy, p.loop_min_sigma_xy, p.loop_min_sigma_yaw)
         info = _rotate(_information(cov, floor), anchor[2])
         edge = Edge(cand, k, relative(anchor, refined.pose), info, True)

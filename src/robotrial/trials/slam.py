@@ -265,7 +265,7 @@ def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration
         slam.close()
     stamps, poses = slam.trajectory()
     if isinstance(slam, GMappingSlam):
-        nbytes = sum(m.logodds.nbytes for m in slam.maps)
+        nbytes = slam.map_bytes
         extra: dict[str, Any] = {"updates": slam.updates, "resamples": slam.resamples}
     elif isinstance(slam, PoseGraphSlam):
         nbytes = slam.grid.logodds.nbytes

@@ -152,11 +152,12 @@ class PoseGraphParams:
     `loop_search_space_max`, and likewise for the angle, on a likelihood field of
     `loop_resolution` m cells; a match is kept when its mean field value reaches
     `loop_match_minimum_response` and a closure from a node at most `loop_confirm_nodes`
-    away agrees within `loop_confirm_distance` m and `loop_confirm_angle` rad. Its
-    covariance is the spread of the poses that score nearly as well (long along a
-    corridor) plus the refinement's, at least `loop_min_sigma_*`. In the graph, loop
-    closures carry a Cauchy kernel `loop_kernel_width` standard deviations
-    wide; after an optimisation the worst closure with a chi-square above `loop_max_chi2`
+    away implies the same correction, within 3 standard deviations of both closures'
+    covariances plus `loop_confirm_distance` m (and 2 % of the way between the nodes) and
+    `loop_confirm_angle` rad. Its covariance is the spread of the poses that score
+    nearly as well (long along a corridor) plus the refinement's, at least
+    `loop_min_sigma_*`. In the graph, loop closures carry a Cauchy kernel
+    `loop_kernel_width` standard deviations wide; after an optimisation the worst closure with a chi-square above `loop_max_chi2`
     is taken out and the graph optimised again, `loop_removal_rounds` times at most. The
     graph is optimised when a closure waiting in it has a chi-square above
     `loop_optimize_chi2` at the current estimate, or after `optimize_every` closures.

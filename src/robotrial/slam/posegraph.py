@@ -13,8 +13,8 @@ by the fit's residual: along a corridor the match knows little and the odometry 
 
 Loop closure (the back end): for each new node, the earlier nodes not recent in the chain
 whose estimate lies within reach are candidates; the reach grows with the graph distance
-between the two nodes (the path length along the constraints, loop closures counting as
-short cuts), since the estimates drift apart with it. The scan is matched correlatively
+between the two nodes (the path length along the constraints, a loop closure as short
+as it is certain), since the estimates drift apart with it. The scan is matched correlatively
 against a likelihood field of the candidate's neighbouring scans, coarse to fine, over a
 window as wide as that reach, and refined by Gauss-Newton on the same field. The match's
 covariance is the spread of the poses that score nearly as well (Karto's: long along a
@@ -255,7 +255,7 @@ def point_field(
     y0 = np.floor(box[1] / resolution) * resolution
     cols = max(1, int(np.ceil((box[2] - x0) / resolution)))
     rows = max(1, int(np.ceil((box[3] - y0) / resolution)))
-    field = np.zeros((rows, cols))
+    field = np.zeros((rows, cols), dtype=np.float32)
     pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
     _stamp(field, x0, y0, resolution, pts, sigma)
     return field, (float(x0), float(y0))
@@ -266,7 +266,7 @@ def _max_pool(field: np.ndarray, block: int) -> np.ndarray:
     """Each `block` x `block` cell of a coarser field holds the highest of the cells it
     covers: a bound, at the coarse level, of what any pose in it can score."""
     rows, cols = field.shape
-    out = np.zeros(((rows + block - 1) // block, (cols + block - 1) // block))
+    out = np.zeros(((rows + block - 1) // block, (cols + block - 1) // block), field.dtype)
     for r in range(rows):
         for c in range(cols):
             v = field[r, c]
@@ -367,10 +367,11 @@ def search(
     angle_step: float,
     step_cells: int = 1,
     occupancy: bool = False,
+    peaks: int = 0,
 ) -> Search:
-    """`correlative_search` that also reports the spread of the near-best poses,
-    translating in steps of `step_cells` cells; with `occupancy`, `field` is a log-odds
-    grid read as occupancy."""
+    """`correlative_search` that also reports the spread of the near-best poses and the
+    `peaks` best local peaks, translating in steps of `step_cells` cells; with
+    `occupancy`, `field` is a log-odds grid read as occupancy."""
     pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
     g = np.asarray(guess, dtype=np.float64)
     step = resolution * step_cells
@@ -408,7 +409,7 @@ def search(
         )
         cov = (w[:, None, None] * d[:, :, None] * d[:, None, :]).sum(axis=0) / w.sum() + floor
         cov = _unbounded(cov, space, angle)
-    return Search(pose, best, cov, _peaks(scores, g, yaws, steps, step, 4))
+    return Search(pose, best, cov, _peaks(scores, g, yaws, steps, step, peaks) if peaks else ())
 
 
 def _unbounded(cov: np.ndarray, space: float, angle: float) -> np.ndarray:
@@ -475,7 +476,7 @@ def coarse_to_fine(
         b *= 2
     steps = max(1.0, angle / angle_step)
     first = search(fields[block], origin, resolution * block, points, guess, space, angle,
-                   angle / max(1.0, np.ceil(steps / block)))  # fmt: skip
+                   angle / max(1.0, np.ceil(steps / block)), peaks=keep)  # fmt: skip
     level_angle = angle / max(1.0, np.ceil(steps / block))
     seeds = [q[:3] for q in first.peaks[:keep]] or [first.pose]
     best = first
@@ -510,11 +511,13 @@ class _Solution:
 @dataclass
 class _Closure:
     """A verified match waiting for a second one that agrees: the loop edge, the node it
-    closes from, and where it says that node is (x, y, yaw, in the map frame)."""
+    closes from, where it says that node is (x, y, yaw, in the map frame) and how
+    uncertain that is (3 x 3, map frame)."""
 
     edge: Edge
     node: int
     target: np.ndarray
+    cov: np.ndarray
 
 
 def _information(cov: np.ndarray, floor: tuple[float, float, float]) -> np.ndarray:
@@ -564,6 +567,8 @@ class PoseGraphSlam:
         self.nodes: list[np.ndarray] = []
         self.scans: list[Beams] = []
         self.edges: list[Edge] = []
+        # The loop closures among `edges` (the back end reads them at every pass).
+        self._loops: list[Edge] = []
         self.closures = 0
         self.rejected = 0
         self.removed = 0
@@ -834,14 +839,14 @@ class PoseGraphSlam:
             todo, self._queue = self._queue, []
             nodes = np.array(self.nodes)
             scans = self.scans[: len(nodes)]
-            edges = list(self.edges)
+            loops = list(self._loops)
         if not self.params.background:
-            self._backend_pass(flush, todo, nodes, scans, edges)
+            self._backend_pass(flush, todo, nodes, scans, loops)
             self._adopt()
             return
         if self._executor is None:
             self._executor = ThreadPoolExecutor(1, thread_name_prefix="posegraph-backend")
-        self._job = self._executor.submit(self._backend_pass, flush, todo, nodes, scans, edges)
+        self._job = self._executor.submit(self._backend_pass, flush, todo, nodes, scans, loops)
 
     def _backend_pass(
         self,
@@ -849,12 +854,12 @@ class PoseGraphSlam:
         todo: list[int],
         nodes: np.ndarray,
         scans: list[Beams],
-        edges: list[Edge],
+        loops: list[Edge],
     ) -> None:
         """Search the nodes `todo` for loop closures and verify them; optimise when the
         accepted closures disagree with the estimate (or at a flush), leaving the result
         in `_solution`. Runs in the worker on a snapshot of the nodes, their scans and the
-        edges; touches no state of the scan path but the shared lists (under the lock)."""
+        loop closures; touches no state of the scan path but the shared lists (under the lock)."""
         t0 = time.perf_counter()
         p = self.params
         graph = None
@@ -862,30 +867,37 @@ class PoseGraphSlam:
             if k <= p.loop_min_chain or k - self._last_closure <= p.loop_cooldown:
                 continue
             if graph is None:
-                graph = self._graph_distances(len(nodes), edges)
+                graph = self._graph_distances(len(nodes), loops)
             found = self._close_loop(k, nodes, scans, graph)
             if found is not None:
                 accepted = self._confirm(found, nodes)
                 if accepted:
-                    edges.extend(accepted)
+                    loops.extend(accepted)
                     graph = None
                     with self._lock:
                         self.edges.extend(accepted)
-        chi = edge_chi2(nodes, [e for e in edges if e.loop])
+                        self._loops.extend(accepted)
+        chi = edge_chi2(nodes, loops)
         surprise = bool(len(chi)) and float(chi.max()) > p.loop_optimize_chi2
         if self._unoptimised and (flush or surprise or self._unoptimised >= p.optimize_every):
             self._solution = self._optimise(nodes, scans)
         self.backend_time += time.perf_counter() - t0
 
-    def _graph_distances(self, n: int, edges: list[Edge]) -> sparse.csr_matrix:
+    def _graph_distances(self, n: int, closures: list[Edge]) -> sparse.csr_matrix:
         """The graph of the first `n` nodes as a sparse matrix of path lengths: the chain
-        between consecutive nodes as long as the motion, a loop closure 0.1 m."""
+        between consecutive nodes as long as the motion; a loop closure as long as the
+        path over which the search window grows by 3 of its standard deviations (a
+        closure along a corridor, open along it, is no short cut)."""
         steps = np.asarray(self._path[:n])
         chain = np.diff(steps)
-        loops = [(e.i, e.j) for e in edges if e.loop and e.i < n and e.j < n]
-        rows = np.concatenate([np.arange(n - 1), np.array([i for i, _ in loops], dtype=int)])
-        cols = np.concatenate([np.arange(1, n), np.array([j for _, j in loops], dtype=int)])
-        length = np.concatenate([np.maximum(chain, 1e-3), np.full(len(loops), 0.1)])
+        loops = [e for e in closures if e.i < n and e.j < n]
+        growth = max(self.params.loop_search_growth, 1e-9)
+        spans = [3.0 / np.sqrt(max(np.linalg.eigvalsh(e.info[:2, :2])[0], 1e-12)) for e in loops]
+        rows = np.concatenate([np.arange(n - 1), np.array([e.i for e in loops], dtype=int)])
+        cols = np.concatenate([np.arange(1, n), np.array([e.j for e in loops], dtype=int)])
+        length = np.concatenate(
+            [np.maximum(chain, 1e-3), np.maximum(np.array(spans) / growth, 0.1)]
+        )
         return sparse.coo_matrix((length, (rows, cols)), shape=(n, n)).tocsr()
 
     def _close_loop(
@@ -922,21 +934,27 @@ class PoseGraphSlam:
         self.loop_attempts += 1
         lo, hi = max(0, cand - p.loop_neighbours), min(last, cand + p.loop_neighbours)
         sub = hits[:: max(1, hits.shape[0] // p.loop_points)]
-        # The field covers where the scan can land: its points at the estimate, widened
-        # by the window.
-        at = transform_points(here, sub)
-        pad = space + 0.5 + p.loop_search_angle_max * float(np.hypot(*sub.T).max())
-        box = (at[:, 0].min() - pad, at[:, 1].min() - pad, at[:, 0].max() + pad,
-               at[:, 1].max() + pad)  # fmt: skip
-        old_hits = np.concatenate(
-            [transform_points(nodes[n], scans[n].hits) for n in range(lo, hi + 1)]
-        )
-        res = p.loop_resolution
-        field, origin = point_field(old_hits, res, res, box)
         angle = p.loop_search_angle_max
         if np.isfinite(gd[cand]):
             grown = p.loop_search_angle + p.loop_search_angle_growth * float(gd[cand])
             angle = min(grown, angle)
+        # The field covers where the scan can land (its points at the estimate, widened
+        # by the window) and where the candidate's scans saw something.
+        at = transform_points(here, sub)
+        pad = space + 0.5 + angle * float(np.percentile(np.hypot(*sub.T), 90))
+        old_hits = np.concatenate(
+            [transform_points(nodes[n], scans[n].hits) for n in range(lo, hi + 1)]
+        )
+        box = (
+            max(at[:, 0].min() - pad, old_hits[:, 0].min() - 0.5),
+            max(at[:, 1].min() - pad, old_hits[:, 1].min() - 0.5),
+            min(at[:, 0].max() + pad, old_hits[:, 0].max() + 0.5),
+            min(at[:, 1].max() + pad, old_hits[:, 1].max() + 0.5),
+        )
+        if box[2] <= box[0] or box[3] <= box[1]:
+            return None
+        res = p.loop_resolution
+        field, origin = point_field(old_hits, res, res, box)
         coarse, found = coarse_to_fine(
             field, origin, res, sub, here, space, angle, p.loop_search_angle_step,
             p.loop_search_space,
@@ -956,15 +974,16 @@ class PoseGraphSlam:
         # As uncertain as the wider of the search's spread and the refinement's fit.
         cov = coarse.cov + found.cov + self._match_cov(refined.hessian, refined.residual)
         floor = (p.loop_min_sigma_xy, p.loop_min_sigma_xy, p.loop_min_sigma_yaw)
-        info = _rotate(_information(cov, floor), anchor[2])
-        edge = Edge(cand, k, relative(anchor, refined.pose), info, True)
-        return _Closure(edge, k, refined.pose)
+        world = _information(cov, floor)
+        edge = Edge(cand, k, relative(anchor, refined.pose), _rotate(world, anchor[2]), True)
+        return _Closure(edge, k, refined.pose, np.linalg.inv(world))
 
     def _confirm(self, found: _Closure, nodes: np.ndarray) -> list[Edge]:
         """The closures that enter the graph now: `found` once a closure from a nearby
         node implies the same correction (where its node should be, carried to `found`'s
-        node along the current estimate), and with it any that agreed; closures too old
-        to be confirmed are dropped."""
+        node along the current estimate, within their covariances and the tolerances:
+        two closures along a corridor agree across it), and with it any that agreed;
+        closures too old to be confirmed are dropped."""
         p = self.params
         k = found.node
         self._pending = [c for c in self._pending if k - c.node <= p.loop_confirm_nodes]
@@ -972,11 +991,10 @@ class PoseGraphSlam:
         for c in self._pending:
             # Where c says found's node is: c's correction applied to found's estimate.
             moved = compose(c.target, relative(nodes[c.node], nodes[k]))
-            off = relative(moved, found.target)
-            tol = p.loop_confirm_distance + 0.02 * abs(
-                float(np.hypot(*(nodes[k] - nodes[c.node])[:2]))
-            )
-            if np.hypot(off[0], off[1]) <= tol and abs(off[2]) <= p.loop_confirm_angle:
+            off = np.array([*(found.target[:2] - moved[:2]), wrap(found.target[2] - moved[2])])
+            tol = p.loop_confirm_distance + 0.02 * float(np.hypot(*(nodes[k] - nodes[c.node])[:2]))
+            spread = found.cov + c.cov + np.diag([tol**2, tol**2, p.loop_confirm_angle**2])
+            if float(off @ np.linalg.solve(spread, off)) <= 9.0:
                 agree.append(c)
         if not agree:
             self._pending.append(found)
@@ -1002,6 +1020,7 @@ class PoseGraphSlam:
         if bad:
             with self._lock:
                 self.edges = [e for e in self.edges if not any(e is b for b in bad)]
+                self._loops = [e for e in self._loops if not any(e is b for b in bad)]
             self.removed += len(bad)
             self.closures -= len(bad)
         # The maps at the new poses, built here off the scan path: the local window's,

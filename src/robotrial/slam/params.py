@@ -157,8 +157,9 @@ class PoseGraphParams:
     `loop_confirm_angle` rad. Its covariance is the spread of the poses that score
     nearly as well (long along a corridor) plus the refinement's, at least
     `loop_min_sigma_*`. In the graph, loop closures carry a Cauchy kernel
-    `loop_kernel_width` standard deviations wide; after an optimisation the worst closure with a chi-square above `loop_max_chi2`
-    is taken out and the graph optimised again, `loop_removal_rounds` times at most. The
+    `loop_kernel_width` standard deviations wide; after an optimisation the worst
+    closure with a chi-square above `loop_max_chi2` is taken out and the graph optimised
+    again, `loop_removal_rounds` times at most. The
     graph is optimised when a closure waiting in it has a chi-square above
     `loop_optimize_chi2` at the current estimate, or after `optimize_every` closures.
     With `background` the loop searches and the optimisation run in a worker thread, off

@@ -531,6 +531,12 @@ def _information(cov: np.ndarray, floor: tuple[float, float, float]) -> np.ndarr
     return (vecs / vals) @ vecs.T / np.outer(scale, scale)
 
 
+def _span(edge: Edge) -> float:
+    """Three standard deviations of a constraint's position, along its least certain
+    direction (m)."""
+    return float(3.0 / np.sqrt(max(np.linalg.eigvalsh(edge.info[:2, :2])[0], 1e-12)))
+
+
 def _rotate(m: np.ndarray, yaw: float) -> np.ndarray:
     """A 3 x 3 information matrix over a world pose, in the frame of a pose at `yaw`."""
     c, s = np.cos(yaw), np.sin(yaw)
@@ -567,8 +573,10 @@ class PoseGraphSlam:
         self.nodes: list[np.ndarray] = []
         self.scans: list[Beams] = []
         self.edges: list[Edge] = []
-        # The loop closures among `edges` (the back end reads them at every pass).
+        # The loop closures among `edges` (the back end reads them at every pass), and
+        # how certain each is (`_span`, computed once).
         self._loops: list[Edge] = []
+        self._spans: dict[tuple[int, int, int], float] = {}
         self.closures = 0
         self.rejected = 0
         self.removed = 0
@@ -892,7 +900,7 @@ class PoseGraphSlam:
         chain = np.diff(steps)
         loops = [e for e in closures if e.i < n and e.j < n]
         growth = max(self.params.loop_search_growth, 1e-9)
-        spans = [3.0 / np.sqrt(max(np.linalg.eigvalsh(e.info[:2, :2])[0], 1e-12)) for e in loops]
+        spans = [self._spans.setdefault((id(e), e.i, e.j), _span(e)) for e in loops]
         rows = np.concatenate([np.arange(n - 1), np.array([e.i for e in loops], dtype=int)])
         cols = np.concatenate([np.arange(1, n), np.array([e.j for e in loops], dtype=int)])
         length = np.concatenate(

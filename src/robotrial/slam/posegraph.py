@@ -839,7 +839,7 @@ class PoseGraphSlam:
             job.result()  # a failure in the back end surfaces here, on the scan path
         if self.busy or self._solution is not None:
             return
-        if not self._queue and not (flush and (self._unoptimised or self._pending)):
+        if not self._queue and not (flush and self._unoptimised):
             return
         # the pass's input is taken here, on the scan path: what it sees does not
         # depend on when the worker starts

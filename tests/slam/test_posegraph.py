@@ -119,27 +119,21 @@ def _room_scan(pose: np.ndarray, n: int = 720) -> np.ndarray:
 
 
 def test_correlative_search_finds_a_known_offset_and_scores_a_wrong_place_low():
-    from robotrial.slam.grid import LogOddsGrid
-    from robotrial.slam.posegraph import correlative_search, likelihood_field
+    from robotrial.slam.posegraph import point_field, search
     from robotrial.slam.scan import transform_points
 
     where = np.array([2.0, 1.5, 0.3])
     pts = _room_scan(where)
-    grid = LogOddsGrid(0.025)
-    grid.integrate(tuple(where[:2]), transform_points(where, pts), np.ones(len(pts), bool))
-    field = likelihood_field(grid, 0.05)
+    field, origin = point_field(transform_points(where, pts), 0.025, 0.05, (-1, -1, 7, 5))
     guess = where + np.array([0.12, -0.07, 0.06])
-    found, response = correlative_search(
-        field, grid.origin, grid.resolution, pts, guess, 0.3, 0.15, 0.005
-    )
-    assert np.hypot(*(found[:2] - where[:2])) < 0.03 and abs(found[2] - where[2]) < 0.01
-    assert response > 0.8
+    found = search(field, origin, 0.025, pts, guess, 0.3, 0.15, 0.005)
+    assert np.hypot(*(found.pose[:2] - where[:2])) < 0.03 and abs(found.pose[2] - where[2]) < 0.01
+    assert found.response > 0.8
+    # The spread of the near-best poses is a few cells: the room pins the scan down.
+    assert np.sqrt(np.linalg.eigvalsh(found.cov[:2, :2])[-1]) < 0.05
     # The same scan seen from elsewhere in the room does not fit anywhere near the guess.
     other = _room_scan(np.array([5.0, 1.0, 0.3]))
-    _, wrong = correlative_search(
-        field, grid.origin, grid.resolution, other, guess, 0.3, 0.15, 0.005
-    )
-    assert wrong < 0.6
+    assert search(field, origin, 0.025, other, guess, 0.3, 0.15, 0.005).response < 0.6
 
 
 def test_a_wrong_loop_closure_pulls_little_and_is_taken_out():

@@ -94,7 +94,21 @@ class GMappingParams:
 
 
 @dataclass(frozen=True)
-class HectorParams:
+class OdometryModel:
+    """The odometry motion model of Hector's and the pose graph's front ends: standard
+    deviations of x, y and yaw per m and rad moved (`slam.scan.motion_sigma`), at least
+    the minimums."""
+
+    odom_trans_per_trans: float = 0.1
+    odom_trans_per_rot: float = 0.05
+    odom_rot_per_trans: float = 0.05
+    odom_rot_per_rot: float = 0.1
+    odom_min_sigma_xy: float = 0.005
+    odom_min_sigma_yaw: float = 0.005
+
+
+@dataclass(frozen=True)
+class HectorParams(OdometryModel):
     """hector_mapping parameters (ROS names and defaults)."""
 
     map_resolution: float = 0.025
@@ -108,15 +122,8 @@ class HectorParams:
     map_pub_period: float = 2.0
     # Gauss-Newton steps per resolution level (hector_mapping hard-codes a few).
     iterations: int = 5
-    # Odometry, when given: the start of each match and its prior (standard deviations
-    # per m and rad moved, at least the minimums), as the pose graph's front end.
+    # Odometry, when given: the start of each match and its prior (OdometryModel).
     use_odometry: bool = True
-    odom_trans_per_trans: float = 0.1
-    odom_trans_per_rot: float = 0.05
-    odom_rot_per_trans: float = 0.05
-    odom_rot_per_rot: float = 0.1
-    odom_min_sigma_xy: float = 0.005
-    odom_min_sigma_yaw: float = 0.005
 
     def __post_init__(self) -> None:
         if not self.map_resolution > 0:
@@ -132,7 +139,7 @@ class HectorParams:
 
 
 @dataclass(frozen=True)
-class PoseGraphParams:
+class PoseGraphParams(OdometryModel):
     """Pose-graph SLAM parameters (names after slam_toolbox's where one exists; see
     slam/posegraph.py for what each part does). Distances in m, angles in rad.
 
@@ -186,12 +193,6 @@ class PoseGraphParams:
     match_variance_scale: float = 30.0
     match_min_sigma_xy: float = 0.005
     match_min_sigma_yaw: float = 0.002
-    odom_trans_per_trans: float = 0.1
-    odom_trans_per_rot: float = 0.05
-    odom_rot_per_trans: float = 0.05
-    odom_rot_per_rot: float = 0.1
-    odom_min_sigma_xy: float = 0.005
-    odom_min_sigma_yaw: float = 0.005
     loop_search_maximum_distance: float = 2.0
     loop_min_chain: int = 10
     loop_neighbours: int = 3

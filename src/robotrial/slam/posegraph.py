@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from scipy import ndimage, sparse
+from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 from scipy.sparse.linalg import spsolve
 
@@ -216,18 +216,6 @@ def optimize_pruned(
     return after, removed
 
 
-def likelihood_field(grid: LogOddsGrid, sigma: float) -> np.ndarray:
-    """A smooth score per cell, 1 on a wall and falling off over about `sigma` m: the
-    occupied cells blurred by a Gaussian and scaled so that a straight wall peaks at 1
-    (a separable filter, much cheaper than a distance transform on a whole room)."""
-    occ = (grid.logodds > 0).astype(np.float32)
-    if not occ.any():
-        return np.zeros(grid.shape)
-    s = sigma / grid.resolution
-    blurred = ndimage.gaussian_filter(occ, s, truncate=3.0)
-    return np.minimum(1.0, blurred * np.sqrt(2 * np.pi) * s)
-
-
 @numba.njit(cache=True, nogil=True)
 def _stamp(field: np.ndarray, ox: float, oy: float, res: float, pts: np.ndarray, sigma: float):
     rows, cols = field.shape
@@ -338,24 +326,6 @@ class Search:
 SPREAD = 0.9
 
 
-def correlative_search(
-    field: np.ndarray,
-    origin: tuple[float, float],
-    resolution: float,
-    points: np.ndarray,
-    guess: np.ndarray,
-    space: float,
-    angle: float,
-    angle_step: float,
-) -> tuple[np.ndarray, float]:
-    """The pose within +-`space` m (in steps of one cell) and +-`angle` rad (in steps of
-    `angle_step`) of `guess` that puts `points` ((N, 2), base frame) on the highest mean
-    of `field`, by brute force (Olson's correlative matching, one resolution). Returns
-    (pose, mean field value there)."""
-    found = search(field, origin, resolution, points, guess, space, angle, angle_step)
-    return found.pose, found.response
-
-
 def search(
     field: np.ndarray,
     origin: tuple[float, float],
@@ -369,9 +339,11 @@ def search(
     occupancy: bool = False,
     peaks: int = 0,
 ) -> Search:
-    """`correlative_search` that also reports the spread of the near-best poses and the
-    `peaks` best local peaks, translating in steps of `step_cells` cells; with
-    `occupancy`, `field` is a log-odds grid read as occupancy."""
+    """The pose within +-`space` m (in steps of `step_cells` cells) and +-`angle` rad (in
+    steps of `angle_step`) of `guess` that puts `points` ((N, 2), base frame) on the
+    highest mean of `field`, by brute force (Olson's correlative matching, one
+    resolution), with the spread of the near-best poses and the `peaks` best local
+    peaks; with `occupancy`, `field` is a log-odds grid read as occupancy."""
     pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
     g = np.asarray(guess, dtype=np.float64)
     step = resolution * step_cells

@@ -316,12 +316,16 @@ class LogOddsGrid:
         return x0, y0, x0 + cols * self.resolution, y0 + rows * self.resolution
 
     def ensure(self, xmin: float, ymin: float, xmax: float, ymax: float, pad: float = 2.0) -> None:
-        """Grow (with `pad` metres to spare) so the box lies inside; cell edges stay on
-        multiples of the resolution, so content never shifts."""
+        """Grow (with `pad` metres to spare, and at least a quarter of the grid's size, so
+        that a robot exploring a large site does not copy the grid every few metres) so
+        the box lies inside; cell edges stay on multiples of the resolution, so content
+        never shifts."""
         x0, y0, x1, y1 = self.extent()
         empty = self.logodds.size == 0
         if not empty and xmin >= x0 and ymin >= y0 and xmax < x1 and ymax < y1:
             return
+        if not empty:
+            pad = max(pad, 0.25 * max(x1 - x0, y1 - y0))
         r = self.resolution
         nx0 = min(xmin - pad, x0) if not empty else xmin - pad
         ny0 = min(ymin - pad, y0) if not empty else ymin - pad

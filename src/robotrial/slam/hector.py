@@ -38,7 +38,6 @@ class HectorSlam:
         self.pose = np.zeros(3)
         self._last_update: np.ndarray | None = None
         self._last_odom: np.ndarray | None = None
-        self._pyramid: list[np.ndarray] | None = None
         self.stamps: list[float] = []
         self.poses: list[np.ndarray] = []
         self.map_updates = 0
@@ -67,7 +66,9 @@ class HectorSlam:
             self._last_odom = odom
         self.pose = guess
         if self._last_update is not None and scan.hit.any():
-            self.pose = self.matcher.match(self.grid, scan.hits, guess, self._pyramid, prior).pose
+            # Coarse levels are read from the grid as the match goes (only where the scan
+            # lands): a precomputed pyramid of a large map costs more than the match.
+            self.pose = self.matcher.match(self.grid, scan.hits, guess, None, prior).pose
         if self._moved_enough():
             self._integrate(scan)
         self.stamps.append(float(stamp))
@@ -88,7 +89,6 @@ class HectorSlam:
         origin = transform_points(self.pose, np.array([scan.origin]))[0]
         self.grid.integrate(origin, transform_points(self.pose, scan.ends), scan.hit)
         self._last_update = self.pose.copy()
-        self._pyramid = self.grid.pyramid(self.params.map_multi_res_levels)
         self.map_updates += 1
 
     def map_to_odom(self, odom: np.ndarray) -> np.ndarray:

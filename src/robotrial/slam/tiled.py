@@ -140,8 +140,19 @@ def _trace_fan(
                 if j > 0:
                     until = min(steps, max(m, int(np.ceil((starts[j - 1] - d0) / step_len))))
                 w = l_free * (1 << j)
+                # The tile the walk is in, made the particle's own once (the walk stays in
+                # one tile for up to TILE cells).
+                ltr, ltc, lt = -1, -1, -1
                 while m < until:
-                    _add(index, pool, refs, free, top, k, r, c, w, lo, hi)
+                    tr, tc = r >> SHIFT, c >> SHIFT
+                    if tr != ltr or tc != ltc:
+                        ltr, ltc = tr, tc
+                        lt = -1
+                        if 0 <= r and 0 <= c and tr < index.shape[1] and tc < index.shape[2]:
+                            lt = _own(index, pool, refs, free, top, k, tr, tc)
+                    if lt >= 0:
+                        v = pool[lt, r & MASK, c & MASK] + w
+                        pool[lt, r & MASK, c & MASK] = lo if v < lo else v
                     e2 = 2 * err
                     if e2 > -dr:
                         err -= dr

@@ -4,7 +4,7 @@ pose out, like slam_gmapping and hector_mapping (layer 4).
 | direction | topic | type |
 | --- | --- | --- |
 | in | `/scan` | sensor_msgs/LaserScan |
-| in | `/odom` | nav_msgs/Odometry (GMapping needs it; Hector and the pose graph use it when it comes) |
+| in | `/odom` | nav_msgs/Odometry (GMapping needs it; Hector and the graph use it if any) |
 | in | `/tf_static` | tf2_msgs/TFMessage (where the laser sits on the base) |
 | out | `/map` | nav_msgs/OccupancyGrid, latched, every `map_update_interval` s of scan time |
 | out | `/tf` | map -> odom (map -> base frame when there is no odometry) |

@@ -67,6 +67,9 @@ class Recording:
     laser_pose: tuple[float, float, float]
     laser_height: float
     source: str = ""
+    # The odometry pose (N, 3) that came with each scan, when the recording holds one per
+    # scan (a CARMEN log's laser lines); otherwise `odom` is interpolated at its stamp.
+    scan_odom: np.ndarray | None = None
 
     @property
     def duration(self) -> float:
@@ -198,13 +201,16 @@ class SlamRun:
 
 
 def scan_beams(slam: Slam, s: ScanSample, laser_pose) -> Any:
+    """A scan's beams in the base frame with the method's range limits."""
+    low, top, usable = slam.range_limits(s.range_max)
     return beams(
         s.ranges,
         s.angle_min,
         s.angle_increment,
-        max(s.range_min, slam.min_range),
-        min(s.range_max, slam.usable_range) if s.range_max > 0 else slam.usable_range,
+        max(s.range_min, low),
+        min(s.range_max, usable) if s.range_max > 0 else usable,
         laser_pose,
+        top,
     )
 
 
@@ -226,7 +232,7 @@ def run_slam(
     updated = np.zeros(len(rec.scans), bool)
     wall0 = time.perf_counter()
     for i, s in enumerate(rec.scans):
-        odom = rec.odom_at(s.stamp) if slam.uses_odometry else None
+        odom = rec.scan_odom[i] if rec.scan_odom is not None else rec.odom_at(s.stamp)
         if not (slam.uses_odometry and odom is None):
             before = _updates(slam)
             t0, c0 = time.perf_counter(), time.thread_time()
@@ -259,7 +265,7 @@ def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration
         slam.close()
     stamps, poses = slam.trajectory()
     if isinstance(slam, GMappingSlam):
-        nbytes = sum(m.logodds.nbytes for m in slam.maps)
+        nbytes = slam.map_bytes
         extra: dict[str, Any] = {"updates": slam.updates, "resamples": slam.resamples}
     elif isinstance(slam, PoseGraphSlam):
         nbytes = slam.grid.logodds.nbytes
@@ -267,9 +273,11 @@ def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration
             "map_updates": slam.map_updates,
             "nodes": len(slam.nodes),
             "closures": slam.closures,
+            "closures_rejected": slam.rejected,
+            "closures_removed": slam.removed,
             "loop_attempts": slam.loop_attempts,
             "optimizations": slam.optimizations,
-            "map_rebuilds": slam.rebuilds,
+            "correlative_searches": slam.searches,
             "optimize_ms_total": slam.optimize_time * 1e3,
             "backend_ms_total": slam.backend_time * 1e3,
             "background": slam.params.background,
@@ -464,6 +472,9 @@ def write_outputs(
     return {"pgm": str(pgm), "yaml": str(yml), "trajectory": str(tum), "png": str(png)}
 
 
+PLOT_CELLS = 2400
+
+
 def plot_map(run: SlamRun, rec: Recording, world: World | None, png: Path) -> None:
     """The map in its own frame, the true walls and path moved into that frame."""
     import matplotlib
@@ -473,11 +484,21 @@ def plot_map(run: SlamRun, rec: Recording, world: World | None, png: Path) -> No
 
     g = run.grid
     vals = g.ros_values()
-    img = np.full(vals.shape, 0.8)
+    # A large map (a building, a campus) is drawn at most PLOT_CELLS cells a side, each
+    # pixel occupied if any of its cells is, else free if any is.
+    k = max(1, -(-max(vals.shape) // PLOT_CELLS))
+    if k > 1:
+        rows, cols = -(-vals.shape[0] // k) * k, -(-vals.shape[1] // k) * k
+        padded = np.full((rows, cols), -1, dtype=np.int8)
+        padded[: vals.shape[0], : vals.shape[1]] = vals
+        blocks = padded.reshape(rows // k, k, cols // k, k)
+        vals = np.where((blocks == 100).any(axis=(1, 3)), 100,
+                        np.where((blocks == 0).any(axis=(1, 3)), 0, -1))  # fmt: skip
+    img = np.full(vals.shape, 0.8, dtype=np.float32)
     img[vals == 0] = 1.0
     img[vals == 100] = 0.0
     x0, y0, x1, y1 = g.extent()
-    fig, ax = plt.subplots(figsize=(7, 7))
+    fig, ax = plt.subplots(figsize=(7, 7) if k == 1 else (12, 12))
     ax.imshow(img, cmap="gray", origin="lower", extent=(x0, x1, y0, y1), vmin=0, vmax=1)
     start = map_pose_in_world(rec)
     if start is not None and world is not None:

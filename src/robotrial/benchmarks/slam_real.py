@@ -116,7 +116,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--memory-limit", type=float, default=6.0, help="GB of address space per run"
     )
-    parser.add_argument("-o", "--output", default="bench-slam/slam.json", help="JSON folder")
+    parser.add_argument(
+        "-o",
+        "--output",
+        help="write the results as slam_real.json in this file's folder, the maps beside it",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -225,8 +229,13 @@ def run_real(args: argparse.Namespace) -> int:
     if unknown:
         console.print(f"[red]bench slam --real: unknown methods {unknown}; choose from {METHODS}")
         return 2
-    out_dir = Path(args.output).parent
-    out_dir.mkdir(parents=True, exist_ok=True)
+    scratch = None
+    if args.output:
+        out_dir = Path(args.output).parent
+        out_dir.mkdir(parents=True, exist_ok=True)
+    else:  # the maps are needed for the scores only
+        scratch = tempfile.TemporaryDirectory(prefix="robotrial-slam-real-")
+        out_dir = Path(scratch.name)
     results: dict[str, Any] = {
         "folders": [str(f) for f in folders],
         "particles": args.particles,
@@ -262,8 +271,11 @@ def run_real(args: argparse.Namespace) -> int:
             per[method] = s
             rows.append(_row(ds, method, s))
         results["sets"][ds.name] = per
-    out = Path(args.output).with_name("slam_real.json")
-    out.write_text(json.dumps(results, indent=2, default=float))
+    if args.output:
+        out = Path(args.output).with_name("slam_real.json")
+        out.write_text(json.dumps(results, indent=2, default=float))
+    if scratch is not None:
+        scratch.cleanup()
     print_table(
         "bench slam --real (relation error of Kuemmerle et al. 2009; published: their table, "
         "translational error m, for the same class of method)",

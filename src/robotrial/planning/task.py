@@ -29,6 +29,7 @@ import numpy as np
 
 import robotrial.collision
 import robotrial.kinematics
+from robotrial.cache import cache_dir
 from robotrial.collision.exact import ExactChecker
 from robotrial.collision.sphere_model import (
     OBJECT,
@@ -54,7 +55,6 @@ DEFAULT_ACCEL_RATIO = 2.0  # joint acceleration limit = ratio x velocity limit, 
 FLOOR_THICKNESS = 0.1  # m
 SCENES_KEPT = 8  # collision checkers of this many recent scenes are kept
 REFERENCE_PERIOD = 0.1  # s between the trajectory's samples; trackers interpolate (Hermite)
-CACHE_ENV = "ROBOTRIAL_CACHE"  # folder for what is computed once per robot (default ~/.cache)
 
 Obstacles = list[tuple[str, Shape, Pose]]
 
@@ -144,15 +144,6 @@ def _scene_key(obstacles: Obstacles, held: HeldObject | None, start: np.ndarray)
     return tuple(parts)
 
 
-def cache_dir() -> Path:
-    """Where per-robot results are kept between processes: $ROBOTRIAL_CACHE, else
-    $XDG_CACHE_HOME/robotrial, else ~/.cache/robotrial."""
-    if os.environ.get(CACHE_ENV):
-        return Path(os.environ[CACHE_ENV])
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "robotrial"
-
-
 def _code_digest() -> bytes:
     """The source of the modules that compute a robot's spheres and pairs: a new version
     of them must not read an old answer."""
@@ -171,7 +162,7 @@ def robot_spheres(kin: Kinematics, fine: bool = False) -> RobotSpheres:
     key = hashlib.sha256(pickle.dumps((kin.model, kin.joint_names)) + _code_digest()).hexdigest()[
         :32
     ]
-    path = cache_dir() / "robot-spheres" / f"{key}.pickle"
+    path = cache_dir("robot-spheres") / f"{key}.pickle"
     spheres = None
     try:
         kept = pickle.loads(path.read_bytes())

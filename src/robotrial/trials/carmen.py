@@ -10,13 +10,13 @@ they are looked for in a cache folder (`cache_dir`), where a user puts them.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from robotrial.cache import cache_dir as shared_cache
 from robotrial.model.carmen import CarmenLog, read_carmen, read_relations
 from robotrial.slam.metrics import relation_metric
 from robotrial.trials.slam import Recording, ScanSample, SlamRun
@@ -55,10 +55,8 @@ def relation_scores(run: SlamRun, relations_file: str | Path) -> dict[str, float
 
 
 def cache_dir() -> Path:
-    """Where real logs are kept: $XDG_CACHE_HOME/robotrial/slam-logs, else
-    ~/.cache/robotrial/slam-logs."""
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "robotrial" / "slam-logs"
+    """Where real logs are kept: the cache's slam-logs folder (robotrial.cache)."""
+    return shared_cache("slam-logs")
 
 
 @dataclass(frozen=True)

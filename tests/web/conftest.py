@@ -26,6 +26,8 @@ def serve(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Callable[..., st
             port = s.getsockname()[1]
         log = tmp_path_factory.mktemp("serve") / "serve.log"
         command = [Path(sys.executable).with_name("robotrial"), "serve", "--port", str(port)]
+        if "--foxglove-port" not in args:  # one port for every server: off unless asked
+            command += ["--foxglove-port", "0"]
         with log.open("w") as errors:
             proc = subprocess.Popen(
                 [*command, *args], stdout=subprocess.PIPE, stderr=errors, text=True

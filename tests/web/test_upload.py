@@ -378,7 +378,8 @@ def test_serve_takes_robot_and_world_files(tmp_path: Path) -> None:
         entry = next(r for r in c.get("/api/robots").json()["robots"] if r["name"] == "tower_arm")
         assert entry["title"] == "Tower Arm"
     mistyped = subprocess.run(
-        [Path(sys.executable).with_name("robotrial"), "serve", "--robot", "towr.urdf"],
+        [Path(sys.executable).with_name("robotrial"), "serve", "--robot", "towr.urdf"]
+        + ["--foxglove-port", "0"],
         capture_output=True,
         text=True,
         timeout=60,

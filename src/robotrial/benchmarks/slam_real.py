@@ -173,7 +173,11 @@ def _one_run(
     """One method over one log, in a process of its own: the scores, time per scan, peak
     memory (MB), and the map files written at `stem`."""
     if limit_gb > 0:
+        # Never above a limit the caller's shell set already (that cannot be raised).
+        _, hard = resource.getrlimit(resource.RLIMIT_AS)
         cap = int(limit_gb * 1e9)
+        if hard != resource.RLIM_INFINITY:
+            cap = min(cap, hard)
         resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
     from robotrial.model.carmen import read_relations
     from robotrial.slam.metrics import relation_metric
@@ -282,7 +286,8 @@ def run_real(args: argparse.Namespace) -> int:
         COLUMNS,
         rows,
     )
-    console.print(f"results: {out}")
+    if args.output:
+        console.print(f"results: {out}")
     return 0
 
 

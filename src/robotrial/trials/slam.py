@@ -39,6 +39,7 @@ from robotrial.slam.metrics import ate, cell_centres, room_dimensions, rpe
 from robotrial.slam.params import GMappingParams, HectorParams, PoseGraphParams
 from robotrial.slam.posegraph import PoseGraphSlam
 from robotrial.slam.scan import beams, relative, wrap
+from robotrial.slam.tiled import TiledGrid
 
 METHODS = ("gmapping", "hector", "graph")
 Slam = GMappingSlam | HectorSlam | PoseGraphSlam
@@ -188,7 +189,7 @@ class SlamRun:
     which scans updated the map."""
 
     method: str
-    grid: LogOddsGrid
+    grid: LogOddsGrid | TiledGrid
     stamps: np.ndarray
     poses: np.ndarray
     scan_times: np.ndarray
@@ -575,7 +576,7 @@ def true_poses(rec: Recording, stamps: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 
 def map_accuracy(
-    grid: LogOddsGrid, map_in_world: np.ndarray, world: World, laser_height: float
+    grid: LogOddsGrid | TiledGrid, map_in_world: np.ndarray, world: World, laser_height: float
 ) -> dict[str, float]:
     """Precision and recall of the map's occupied cells against the world's ground truth
     with a one-cell tolerance (see the module docstring). `map_in_world` is the map

@@ -1,6 +1,8 @@
 """The particle filter's tiled maps: each particle's map is what a grid of its own would
 hold, children share their parents' tiles, and matching all particles at once recovers
-their offsets (GMapping's proposal and weights)."""
+their offsets (GMapping's proposal and weights); one tiled map (Hector's and the pose
+graph's) holds what a grid would, costs only the tiles scans reach, and is matched on as
+a grid is."""
 
 from __future__ import annotations
 
@@ -8,9 +10,9 @@ import numpy as np
 import pytest
 
 from robotrial.slam.grid import LogOddsGrid
-from robotrial.slam.matcher import likelihood
+from robotrial.slam.matcher import ScanMatcher, likelihood
 from robotrial.slam.scan import Beams, transform_points
-from robotrial.slam.tiled import TILE, TiledMaps
+from robotrial.slam.tiled import TILE, TiledGrid, TiledMaps
 
 from .test_matcher import cast
 
@@ -86,3 +88,40 @@ def test_all_particles_matched_at_once_recover_their_offsets():
         r = np.floor((ends[:, 1] - g.origin[1]) / 0.05).astype(int)
         c = np.floor((ends[:, 0] - g.origin[0]) / 0.05).astype(int)
         assert np.mean(g.logodds[r, c] > 0) > 0.95
+
+
+def test_one_tiled_map_holds_a_grids_cells_and_costs_only_the_tiles_scans_reach():
+    grid, tiled = LogOddsGrid(0.05), TiledGrid(0.05)
+    for pose in POSES:
+        ends = transform_points(pose, cast(pose))
+        for g in (grid, tiled):
+            g.integrate(pose[:2], ends, np.ones(len(ends), bool))
+    dr = round((grid.origin[1] - tiled.origin[1]) / 0.05)
+    dc = round((grid.origin[0] - tiled.origin[0]) / 0.05)
+    h, w = grid.shape
+    got = tiled.ros_values()[dr : dr + h, dc : dc + w]
+    # Cells on a cell boundary may differ (one in five hundred), hardly any wall.
+    assert (got == grid.ros_values()).mean() > 0.995
+    assert np.count_nonzero((got == 100) != (grid.ros_values() == 100)) <= 3
+    # The same room seen again 300 m away: the map's box spans 300 m (36 million
+    # cells), its memory the two rooms' tiles.
+    far = np.array([300.0, 0.0, 0.0])
+    ends = transform_points(far, cast(np.zeros(3)))
+    tiled.integrate(far[:2], ends, np.ones(len(ends), bool))
+    assert tiled.extent()[2] - tiled.extent()[0] > 300
+    assert tiled.nbytes < 3 * 4 * grid.logodds.size
+
+
+def test_the_matcher_recovers_known_offsets_on_a_tiled_map():
+    tiled = TiledGrid(0.05)
+    for pose in POSES:
+        ends = transform_points(pose, cast(pose))
+        for _ in range(3):
+            tiled.integrate(pose[:2], ends, np.ones(len(ends), bool))
+    true = np.array([-0.3, 0.2, 0.1])
+    scan = cast(true)
+    matcher = ScanMatcher(levels=3, iterations=10)
+    for offset in [(0.10, -0.08, 0.05), (-0.15, 0.05, -0.08), (0.0, 0.2, 0.0)]:
+        got = matcher.match(tiled, scan, true + np.array(offset)).pose
+        assert np.hypot(*(got[:2] - true[:2])) < 0.015
+        assert abs(got[2] - true[2]) < 0.01

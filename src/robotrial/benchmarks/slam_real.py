@@ -28,6 +28,8 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing
+import os
+import platform
 import resource
 import subprocess
 import sys
@@ -173,7 +175,11 @@ def _one_run(
     """One method over one log, in a process of its own: the scores, time per scan, peak
     memory (MB), and the map files written at `stem`."""
     if limit_gb > 0:
+        # Never above a limit the caller's shell set already (that cannot be raised).
+        _, hard = resource.getrlimit(resource.RLIMIT_AS)
         cap = int(limit_gb * 1e9)
+        if hard != resource.RLIM_INFINITY:
+            cap = min(cap, hard)
         resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
     from robotrial.model.carmen import read_relations
     from robotrial.slam.metrics import relation_metric
@@ -236,7 +242,12 @@ def run_real(args: argparse.Namespace) -> int:
     else:  # the maps are needed for the scores only
         scratch = tempfile.TemporaryDirectory(prefix="robotrial-slam-real-")
         out_dir = Path(scratch.name)
+    # The machine may be shared: each run's wall times are read beside the load average
+    # (1 min) at its start and end.
     results: dict[str, Any] = {
+        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+        "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
+        "load_start": os.getloadavg()[0],
         "folders": [str(f) for f in folders],
         "particles": args.particles,
         "sets": {},
@@ -265,12 +276,15 @@ def run_real(args: argparse.Namespace) -> int:
         for method in ["odometry", *methods]:
             params: dict[str, Any] = {"particles": args.particles} if method == "gmapping" else {}
             stem = str(out_dir / f"{ds.name}_{method}")
+            load = os.getloadavg()[0]
             with console.status(f"{method} over {log.name}"):
                 s = _in_child(str(log), str(rel) if rel else None, method, params, stem,
                               args.memory_limit)  # fmt: skip
+            s["load"] = [load, os.getloadavg()[0]]
             per[method] = s
             rows.append(_row(ds, method, s))
         results["sets"][ds.name] = per
+    results["load_end"] = os.getloadavg()[0]
     if args.output:
         out = Path(args.output).with_name("slam_real.json")
         out.write_text(json.dumps(results, indent=2, default=float))
@@ -282,7 +296,12 @@ def run_real(args: argparse.Namespace) -> int:
         COLUMNS,
         rows,
     )
-    console.print(f"results: {out}")
+    console.print(
+        f"load average (1 min) {results['load_start']:.1f} at the start, "
+        f"{results['load_end']:.1f} at the end, on {os.cpu_count()} CPUs"
+    )
+    if args.output:
+        console.print(f"results: {out}")
     return 0
 
 

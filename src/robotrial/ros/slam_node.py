@@ -41,6 +41,7 @@ from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.hector import HectorSlam
 from robotrial.slam.posegraph import PoseGraphSlam
 from robotrial.slam.scan import Beams, beams, compose, relative
+from robotrial.slam.tiled import TiledGrid
 
 POSE_TOPIC = "/slam_out_pose"
 
@@ -111,7 +112,7 @@ def scan_to_beams(
     )
 
 
-def grid_message(grid: LogOddsGrid, stamp: float, frame: str = "map") -> OccupancyGrid:
+def grid_message(grid: LogOddsGrid | TiledGrid, stamp: float, frame: str = "map") -> OccupancyGrid:
     """The map as nav_msgs/OccupancyGrid (100 occupied, 0 free, -1 unknown)."""
     values = grid.ros_values()
     h, w = values.shape

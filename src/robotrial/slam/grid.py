@@ -309,6 +309,11 @@ class LogOddsGrid:
     def shape(self) -> tuple[int, int]:
         return self.logodds.shape  # type: ignore[return-value]
 
+    @property
+    def nbytes(self) -> int:
+        """The memory of the cells."""
+        return self.logodds.nbytes
+
     def extent(self) -> tuple[float, float, float, float]:
         """(xmin, ymin, xmax, ymax) in metres."""
         rows, cols = self.shape

@@ -17,10 +17,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from robotrial.slam.grid import LogOddsGrid, LogOddsModel
+from robotrial.slam.grid import LogOddsModel
 from robotrial.slam.matcher import ScanMatcher
 from robotrial.slam.params import HectorParams
 from robotrial.slam.scan import Beams, compose, motion_sigma, relative, transform_points
+from robotrial.slam.tiled import TiledGrid
 
 
 class HectorSlam:
@@ -30,7 +31,8 @@ class HectorSlam:
 
     def __init__(self, params: HectorParams | None = None) -> None:
         self.params = p = params or HectorParams()
-        self.grid = LogOddsGrid(
+        # In tiles: a large site costs the cells seen, not its bounding box.
+        self.grid = TiledGrid(
             p.map_resolution,
             model=LogOddsModel.from_probabilities(p.update_factor_free, p.update_factor_occupied),
         )

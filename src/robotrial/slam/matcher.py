@@ -18,11 +18,15 @@ monotone map l -> 0.5 + 0.5 l / (1 + |l|), which needs no exp in the inner loop.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
 from robotrial.slam.grid import LogOddsGrid
+
+if TYPE_CHECKING:
+    from robotrial.slam.tiled import TiledGrid
 
 
 @numba.njit(cache=True, inline="always")
@@ -252,7 +256,7 @@ class ScanMatcher:
 
     def match(
         self,
-        grid: LogOddsGrid,
+        grid: LogOddsGrid | TiledGrid,
         points: np.ndarray,
         guess: np.ndarray,
         pyramid: list[np.ndarray] | None = None,
@@ -269,7 +273,7 @@ class ScanMatcher:
         (x, y, yaw) when given, else on the guess."""
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
         pose = np.asarray(guess, dtype=np.float64).copy()
-        if pts.shape[0] == 0 or grid.logodds.size == 0:
+        if pts.shape[0] == 0 or min(grid.shape) == 0:
             return MatchResult(pose, np.zeros((3, 3)), 0.0)
         hess = np.zeros((3, 3))
         cost = 0.0
@@ -280,6 +284,12 @@ class ScanMatcher:
             weight = 1.0 / np.maximum(np.asarray(prior_sigma, dtype=np.float64), 1e-3) ** 2
         for level in range(self.levels - 1, -1, -1):
             block = 1 << level
+            if not isinstance(grid, LogOddsGrid):
+                # A map stored in tiles (slam.tiled.TiledGrid) reads its own cells.
+                pose, hess, cost = grid.gauss_newton(
+                    pts, pose, block, block, self.iterations, start, weight, 1e-2
+                )
+                continue
             if pyramid is not None and level < len(pyramid):
                 arr, res, view = pyramid[level], grid.resolution * block, 1
             else:

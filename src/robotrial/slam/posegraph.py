@@ -51,6 +51,7 @@ from robotrial.slam.grid import LogOddsGrid, LogOddsModel
 from robotrial.slam.matcher import ScanMatcher
 from robotrial.slam.params import PoseGraphParams
 from robotrial.slam.scan import Beams, compose, motion_sigma, relative, transform_points, wrap
+from robotrial.slam.tiled import TiledGrid
 
 
 @dataclass(frozen=True)
@@ -477,7 +478,7 @@ class _Solution:
     after: np.ndarray
     local: LogOddsGrid
     window: list[int]
-    map: LogOddsGrid | None
+    map: TiledGrid | None
 
 
 @dataclass
@@ -572,7 +573,7 @@ class PoseGraphSlam:
         self._offsets: list[np.ndarray] = []
         # The map kept for `grid`: built from the first `_map_nodes` nodes at version
         # `_map_version` of their poses.
-        self._map: LogOddsGrid | None = None
+        self._map: TiledGrid | None = None
         self._map_nodes = 0
         self._version = 0
         self._map_version = -1
@@ -594,7 +595,7 @@ class PoseGraphSlam:
         return p.laser_min_dist, top, top
 
     @property
-    def grid(self) -> LogOddsGrid:
+    def grid(self) -> TiledGrid:
         """The map: the node scans at their current poses (call `settle` first for the
         final map). Built when asked for after the nodes moved; else the newer nodes'
         scans are added to the map kept."""
@@ -602,7 +603,7 @@ class PoseGraphSlam:
             nodes = [q.copy() for q in self.nodes]
             scans = self.scans[: len(nodes)]
         if self._map is None or self._map_version != self._version:
-            self._map = LogOddsGrid(self.params.resolution, model=self._model)
+            self._map = TiledGrid(self.params.resolution, self._model)
             self._map_nodes, self._map_version = 0, self._version
         for q, s in zip(nodes[self._map_nodes :], scans[self._map_nodes :], strict=True):
             self._write(self._map, q, s)
@@ -798,7 +799,7 @@ class PoseGraphSlam:
         return grid
 
     @staticmethod
-    def _write(grid: LogOddsGrid, pose: np.ndarray, scan: Beams) -> None:
+    def _write(grid: TiledGrid, pose: np.ndarray, scan: Beams) -> None:
         origin = transform_points(pose, np.array([scan.origin]))[0]
         grid.integrate(origin, transform_points(pose, scan.ends), scan.hit)
 
@@ -1009,7 +1010,7 @@ class PoseGraphSlam:
         local = self._local_map(window, [after[k] for k in window])
         full = None
         if self._map is not None:
-            full = LogOddsGrid(p.resolution, model=self._model)
+            full = TiledGrid(p.resolution, self._model)
             for q, s in zip(after, scans, strict=True):
                 self._write(full, q, s)
         self._unoptimised = 0

@@ -172,45 +172,68 @@ def _trace_fan(
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _coarse_occ(index: np.ndarray, pool: np.ndarray, k: int, r: int, c: int, block: int) -> float:
+    # A cell of a view `block` times coarser: as occupied as the most occupied cell it
+    # covers (matcher.py's `_coarse`).
+    if block == 1:
+        return _occ(index, pool, k, r, c)
+    best = 0.0
+    for i in range(block):
+        for j in range(block):
+            v = _occ(index, pool, k, r * block + i, c * block + j)
+            if v > best:
+                best = v
+    return best
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _sample(
     index: np.ndarray, pool: np.ndarray, k: int, ox: float, oy: float, res: float,
-    x: float, y: float,
+    block: int, x: float, y: float,
 ) -> tuple[float, float, float]:  # fmt: skip
-    u = (x - ox) / res - 0.5
-    v = (y - oy) / res - 0.5
+    cres = res * block
+    u = (x - ox) / cres - 0.5
+    v = (y - oy) / cres - 0.5
     c0 = int(np.floor(u))
     r0 = int(np.floor(v))
     fu = u - c0
     fv = v - r0
-    m00 = _occ(index, pool, k, r0, c0)
-    m01 = _occ(index, pool, k, r0, c0 + 1)
-    m10 = _occ(index, pool, k, r0 + 1, c0)
-    m11 = _occ(index, pool, k, r0 + 1, c0 + 1)
+    m00 = _coarse_occ(index, pool, k, r0, c0, block)
+    m01 = _coarse_occ(index, pool, k, r0, c0 + 1, block)
+    m10 = _coarse_occ(index, pool, k, r0 + 1, c0, block)
+    m11 = _coarse_occ(index, pool, k, r0 + 1, c0 + 1, block)
     m = (1 - fv) * ((1 - fu) * m00 + fu * m01) + fv * ((1 - fu) * m10 + fu * m11)
     du = (1 - fv) * (m01 - m00) + fv * (m11 - m10)
     dv = (1 - fu) * (m10 - m00) + fu * (m11 - m01)
-    return m, du / res, dv / res
+    return m, du / cres, dv / cres
 
 
 @numba.njit(cache=True, nogil=True)
-def _fine_gauss_newton(
+def _gauss_newton_tiles(
     index: np.ndarray, pool: np.ndarray, k: int, ox: float, oy: float, res: float,
-    pts: np.ndarray, pose: np.ndarray, iterations: int, prior: np.ndarray,
-    prior_weight: np.ndarray, tol: float,
-) -> np.ndarray:  # fmt: skip
-    # matcher.py's `_gauss_newton` at the finest level, on particle k's tiles.
+    block: int, pts: np.ndarray, stride: int, pose: np.ndarray, iterations: int,
+    prior: np.ndarray, prior_weight: np.ndarray, tol: float,
+) -> tuple[np.ndarray, np.ndarray, float]:  # fmt: skip
+    # matcher.py's `_gauss_newton` on map k's tiles, read through blocks of `block`
+    # cells: (pose, Hessian, cost). Steps are capped at one block; it stops when a step
+    # moves less than `tol` cells and 1e-3 rad.
     p0, p1, p2 = pose[0], pose[1], pose[2]
+    h00 = h01 = h02 = h11 = h12 = h22 = 0.0
+    cost = 0.0
+    max_step = res * block
     for _ in range(iterations):
         h00 = h01 = h02 = h11 = h12 = h22 = 0.0
         g0 = g1 = g2 = 0.0
+        cost = 0.0
         c = np.cos(p2)
         s = np.sin(p2)
-        for i in range(pts.shape[0]):
+        for i in range(0, pts.shape[0], stride):
             px = pts[i, 0]
             py = pts[i, 1]
-            m, dx, dy = _sample(index, pool, k, ox, oy, res, p0 + c * px - s * py,
+            m, dx, dy = _sample(index, pool, k, ox, oy, res, block, p0 + c * px - s * py,
                                 p1 + s * px + c * py)  # fmt: skip
             r = 1.0 - m
+            cost += r * r
             j2 = dx * (-s * px - c * py) + dy * (c * px - s * py)
             h00 += dx * dx
             h01 += dx * dy
@@ -233,9 +256,9 @@ def _fine_gauss_newton(
         damp = 1e-6 * tr
         d0, d1, d2 = _solve3(h00 + damp, h01, h02, h11 + damp, h12, h22 + damp, g0, g1, g2)
         lin = np.hypot(d0, d1)
-        if lin > res:
-            d0 *= res / lin
-            d1 *= res / lin
+        if lin > max_step:
+            d0 *= max_step / lin
+            d1 *= max_step / lin
         if abs(d2) > 0.2:
             d2 = 0.2 * np.sign(d2)
         p0 += d0
@@ -245,7 +268,11 @@ def _fine_gauss_newton(
             break
     out = np.empty(3)
     out[0], out[1], out[2] = p0, p1, (p2 + np.pi) % (2 * np.pi) - np.pi
-    return out
+    hess = np.empty((3, 3))
+    hess[0, 0], hess[0, 1], hess[0, 2] = h00, h01, h02
+    hess[1, 0], hess[1, 1], hess[1, 2] = h01, h11, h12
+    hess[2, 0], hess[2, 1], hess[2, 2] = h02, h12, h22
+    return out, hess, cost
 
 
 @numba.njit(cache=True, nogil=True)
@@ -305,8 +332,10 @@ def _match_all(
                     coarse[level - 1], cox, coy, res * block, 1, match_pts, block, pose,
                     iterations, start, prior_weight, COARSE_TOL,
                 )  # fmt: skip
-            pose = _fine_gauss_newton(index, pool, k, ox, oy, res, match_pts, pose,
-                                      iterations, start, prior_weight, 0.05)  # fmt: skip
+            pose, _, _ = _gauss_newton_tiles(
+                index, pool, k, ox, oy, res, 1, match_pts, 1, pose, iterations, start,
+                prior_weight, 0.05,
+            )  # fmt: skip
         score, loglik = _likelihood(index, pool, k, ox, oy, res, pts, stride, pose, kernel,
                                     sigma, lsigma, null_likelihood)  # fmt: skip
         if score <= min_score:
@@ -319,6 +348,28 @@ def _match_all(
             _trace_fan(index, pool, refs, free, top, k, ox, oy, res, pose, sensor, ends,
                        stops, hit, starts, model[0], model[1], model[2], model[3])  # fmt: skip
     return poses, logliks
+
+
+@numba.njit(cache=True, nogil=True)
+def _unpack(index: np.ndarray, pool: np.ndarray, k: int, out: np.ndarray, ros: bool,
+            occ: float, free: float) -> None:  # fmt: skip
+    # Map k's tiles into a dense array, cells of missing tiles left as they are: the
+    # log-odds, or with `ros` the cells as a ROS OccupancyGrid holds them (100 at or
+    # above `occ`, 0 at or below `free`, else left: `out` starts at -1, unknown).
+    for a in range(index.shape[1]):
+        for b in range(index.shape[2]):
+            t = index[k, a, b]
+            if t < 0:
+                continue
+            for i in range(TILE):
+                for j in range(TILE):
+                    v = pool[t, i, j]
+                    if not ros:
+                        out[a * TILE + i, b * TILE + j] = v
+                    elif v >= occ:
+                        out[a * TILE + i, b * TILE + j] = 100
+                    elif v <= free:
+                        out[a * TILE + i, b * TILE + j] = 0
 
 
 @numba.njit(cache=True, nogil=True)
@@ -515,11 +566,7 @@ class TiledMaps:
         """Particle k's map as a LogOddsGrid (missing tiles unknown)."""
         _, rows, cols = self.index.shape
         grid = LogOddsGrid(self.resolution, self.origin, (rows * TILE, cols * TILE), self.model)
-        have = np.argwhere(self.index[k] >= 0)
-        for a, b in have:
-            grid.logodds[a * TILE : (a + 1) * TILE, b * TILE : (b + 1) * TILE] = self.pool[
-                self.index[k, a, b]
-            ]
+        _unpack(self.index, self.pool, k, grid.logodds, False, 0.0, 0.0)
         return grid
 
     def coarse(
@@ -546,3 +593,120 @@ class TiledMaps:
             level = _halve(level)
             out.append(level)
         return out, (x0 + c0 * span, y0 + r0 * span)
+
+
+class TiledGrid:
+    """One log-odds map in tiles, allocated where a scan reaches: a robot that crosses a
+    large site along its corridors keeps the cells it saw, not the site's bounding box
+    (Hector's and the pose graph's 2.5 cm maps of MIT Killian Court, 270 x 300 m: the
+    box alone would be 130 million cells). Growing it copies only the tile index.
+
+    It reads like a LogOddsGrid (`resolution`, `origin`, `shape`, `extent`,
+    `ros_values`, `probability`, `logodds`, `copy`) and is written like one
+    (`integrate`); `logodds` and `probability` make dense arrays, for small maps.
+    `ScanMatcher.match` matches on it through `gauss_newton`."""
+
+    def __init__(self, resolution: float, model: LogOddsModel | None = None) -> None:
+        self._tiles = TiledMaps(1, resolution, model)
+
+    @property
+    def resolution(self) -> float:
+        return self._tiles.resolution
+
+    @property
+    def model(self) -> LogOddsModel:
+        return self._tiles.model
+
+    @property
+    def origin(self) -> tuple[float, float]:
+        return self._tiles.origin
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        _, rows, cols = self._tiles.index.shape
+        return rows * TILE, cols * TILE
+
+    @property
+    def nbytes(self) -> int:
+        """The memory of the cells held and the index."""
+        return self._tiles.nbytes
+
+    def extent(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) in metres."""
+        rows, cols = self.shape
+        x0, y0 = self.origin
+        return x0, y0, x0 + cols * self.resolution, y0 + rows * self.resolution
+
+    def integrate(
+        self,
+        sensor_xy: tuple[float, float] | np.ndarray,
+        end_xy: np.ndarray,
+        hit: np.ndarray,
+        angle_step: float | None = None,
+    ) -> None:
+        """Trace beams from the sensor to (N, 2) end points in the map frame, as
+        `LogOddsGrid.integrate` does (with `angle_step`, the thinned fan)."""
+        end_xy = np.ascontiguousarray(end_xy, dtype=np.float64).reshape(-1, 2)
+        if end_xy.shape[0] == 0:
+            return
+        t = self._tiles
+        sensor = np.array([float(sensor_xy[0]), float(sensor_xy[1])])
+        lo = np.minimum(end_xy.min(axis=0), sensor)
+        hi = np.maximum(end_xy.max(axis=0), sensor)
+        t.ensure(lo[0], lo[1], hi[0], hi[1])
+        span = TILE * t.resolution
+        t.reserve((int((hi[0] - lo[0]) / span) + 2) * (int((hi[1] - lo[1]) / span) + 2))
+        m = t.model
+        hit = np.ascontiguousarray(hit, dtype=np.bool_)
+        stops = stop_points(sensor, end_xy, hit, m.hit_margin * t.resolution)
+        # Without an angle step every beam is traced from the sensor (one level).
+        fan = angle_step is not None and angle_step > 0
+        starts = fan_starts(t.resolution, angle_step) if fan else np.zeros(1)
+        ox, oy = t.origin
+        _trace_fan(t.index, t.pool, t.refs, t.free, t.top, 0, ox, oy, t.resolution,
+                   np.zeros(3), sensor, end_xy, stops, hit, starts, m.free, m.occupied,
+                   m.clamp_min, m.clamp_max)  # fmt: skip
+
+    def ros_values(self, occupied_above: float = 0.65, free_below: float = 0.35) -> np.ndarray:
+        """int8 cells as a ROS OccupancyGrid carries them: 100 occupied, 0 free, -1 unknown."""
+        occ = float(np.float32(np.log(occupied_above / (1 - occupied_above))))
+        free = float(np.float32(np.log(free_below / (1 - free_below))))
+        out = np.full(self.shape, -1, dtype=np.int8)
+        _unpack(self._tiles.index, self._tiles.pool, 0, out, True, occ, free)
+        return out
+
+    @property
+    def logodds(self) -> np.ndarray:
+        """The cells as one dense float32 array (rows = y), unknown 0."""
+        return self._tiles.dense(0).logodds
+
+    def probability(self) -> np.ndarray:
+        """Occupancy probability of every cell (0.5 where unknown)."""
+        return self._tiles.dense(0).probability()
+
+    def copy(self) -> TiledGrid:
+        out = TiledGrid.__new__(TiledGrid)
+        t = TiledMaps(1, self.resolution, self.model)
+        src = self._tiles
+        t.origin, t.index, t.pool = src.origin, src.index.copy(), src.pool.copy()
+        t.refs, t.free, t.top = src.refs.copy(), src.free.copy(), src.top.copy()
+        out._tiles = t
+        return out
+
+    def gauss_newton(
+        self,
+        points: np.ndarray,
+        pose: np.ndarray,
+        block: int,
+        stride: int,
+        iterations: int,
+        prior: np.ndarray,
+        prior_weight: np.ndarray,
+        tol: float,
+    ) -> tuple[np.ndarray, np.ndarray, float]:
+        """Gauss-Newton steps of `ScanMatcher` on this map read through blocks of `block`
+        cells: (pose, Hessian, cost)."""
+        t = self._tiles
+        return _gauss_newton_tiles(t.index, t.pool, 0, t.origin[0], t.origin[1], t.resolution,
+                                   block, points, stride, pose, iterations, prior,
+                                   prior_weight, tol)  # fmt: skip

@@ -84,6 +84,7 @@ from robotrial.sim.controllers import DriveLimits
 from robotrial.sim.odometry import wrap_angle
 from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.matcher import ScanMatcher
+from robotrial.slam.tiled import TiledGrid
 from robotrial.trials.nav import ContactWatch, footprint_of, navigator_config
 from robotrial.trials.slam import RouteDrive, make_slam
 
@@ -341,7 +342,7 @@ class CarryTrial(Node):
 
         self.planner = TaskPlanner(robot)
         self.matcher = ScanMatcher()
-        self.slam_grid: LogOddsGrid | None = None
+        self.slam_grid: LogOddsGrid | TiledGrid | None = None
         self.arm_names = self.planner.joint_names
         self.watch = ContactWatch(self.sim)
         self._allow_gripper_contacts()

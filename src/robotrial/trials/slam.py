@@ -39,6 +39,7 @@ from robotrial.slam.metrics import ate, cell_centres, room_dimensions, rpe
 from robotrial.slam.params import GMappingParams, HectorParams, PoseGraphParams
 from robotrial.slam.posegraph import PoseGraphSlam
 from robotrial.slam.scan import beams, relative, wrap
+from robotrial.slam.tiled import TiledGrid
 
 METHODS = ("gmapping", "hector", "graph")
 Slam = GMappingSlam | HectorSlam | PoseGraphSlam
@@ -188,7 +189,7 @@ class SlamRun:
     which scans updated the map."""
 
     method: str
-    grid: LogOddsGrid
+    grid: LogOddsGrid | TiledGrid
     stamps: np.ndarray
     poses: np.ndarray
     scan_times: np.ndarray
@@ -268,7 +269,7 @@ def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration
         nbytes = slam.map_bytes
         extra: dict[str, Any] = {"updates": slam.updates, "resamples": slam.resamples}
     elif isinstance(slam, PoseGraphSlam):
-        nbytes = slam.grid.logodds.nbytes
+        nbytes = slam.grid.nbytes
         extra = {
             "map_updates": slam.map_updates,
             "nodes": len(slam.nodes),
@@ -284,7 +285,7 @@ def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration
             "settle_ms": settle_ms,
         }
     else:
-        nbytes = slam.grid.logodds.nbytes
+        nbytes = slam.grid.nbytes
         extra = {"map_updates": slam.map_updates}
     return SlamRun(method, slam.grid, stamps, poses, times, wall, duration, int(nbytes), extra)
 
@@ -459,7 +460,8 @@ def write_outputs(
 
     stem = Path(stem)
     g = run.grid
-    pgm, yml = write_map(stem, OccupancyMap(g.ros_values(), g.resolution, (*g.origin, 0.0)))
+    values = g.ros_values()
+    pgm, yml = write_map(stem, OccupancyMap(values, g.resolution, (*g.origin, 0.0)))
     tum = stem.with_name(stem.name + ".tum")
     with open(tum, "w") as f:
         for t, p in zip(run.stamps, run.poses, strict=True):
@@ -468,32 +470,50 @@ def write_outputs(
                 f"{np.cos(p[2] / 2):.9f}\n"
             )
     png = stem.with_name(stem.name + ".png")
-    plot_map(run, rec, world, png)
+    plot_map(run, rec, world, png, values)
     return {"pgm": str(pgm), "yaml": str(yml), "trajectory": str(tum), "png": str(png)}
 
 
 PLOT_CELLS = 2400
 
 
-def plot_map(run: SlamRun, rec: Recording, world: World | None, png: Path) -> None:
-    """The map in its own frame, the true walls and path moved into that frame."""
+def _shrunk(vals: np.ndarray, k: int) -> np.ndarray:
+    """ROS map values with k x k cells a pixel: occupied if any of its cells is, else
+    free if any is; a band of rows at a time (no copy of a large map)."""
+    rows, cols = -(-vals.shape[0] // k), -(-vals.shape[1] // k)
+    out = np.full((rows, cols), -1, dtype=np.int8)
+    band = max(1, 1024 // k)
+    for r0 in range(0, rows, band):
+        part = vals[r0 * k : (r0 + band) * k]
+        padded = np.full((-(-part.shape[0] // k) * k, cols * k), -1, dtype=np.int8)
+        padded[: part.shape[0], : part.shape[1]] = part
+        blocks = padded.reshape(-1, k, cols, k)
+        out[r0 : r0 + blocks.shape[0]] = np.where(
+            (blocks == 100).any(axis=(1, 3)), 100, np.where((blocks == 0).any(axis=(1, 3)), 0, -1)
+        )
+    return out
+
+
+def plot_map(
+    run: SlamRun,
+    rec: Recording,
+    world: World | None,
+    png: Path,
+    values: np.ndarray | None = None,
+) -> None:
+    """The map in its own frame, the true walls and path moved into that frame
+    (`values`: the map's ROS values, when already at hand)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     g = run.grid
-    vals = g.ros_values()
-    # A large map (a building, a campus) is drawn at most PLOT_CELLS cells a side, each
-    # pixel occupied if any of its cells is, else free if any is.
+    vals = g.ros_values() if values is None else values
+    # A large map (a building, a campus) is drawn at most PLOT_CELLS cells a side.
     k = max(1, -(-max(vals.shape) // PLOT_CELLS))
     if k > 1:
-        rows, cols = -(-vals.shape[0] // k) * k, -(-vals.shape[1] // k) * k
-        padded = np.full((rows, cols), -1, dtype=np.int8)
-        padded[: vals.shape[0], : vals.shape[1]] = vals
-        blocks = padded.reshape(rows // k, k, cols // k, k)
-        vals = np.where((blocks == 100).any(axis=(1, 3)), 100,
-                        np.where((blocks == 0).any(axis=(1, 3)), 0, -1))  # fmt: skip
+        vals = _shrunk(vals, k)
     img = np.full(vals.shape, 0.8, dtype=np.float32)
     img[vals == 0] = 1.0
     img[vals == 100] = 0.0
@@ -556,7 +576,7 @@ def true_poses(rec: Recording, stamps: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 
 def map_accuracy(
-    grid: LogOddsGrid, map_in_world: np.ndarray, world: World, laser_height: float
+    grid: LogOddsGrid | TiledGrid, map_in_world: np.ndarray, world: World, laser_height: float
 ) -> dict[str, float]:
     """Precision and recall of the map's occupied cells against the world's ground truth
     with a one-cell tolerance (see the module docstring). `map_in_world` is the map

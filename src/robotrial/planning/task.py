@@ -20,7 +20,8 @@ import pickle
 import threading
 import time
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -44,7 +45,7 @@ from robotrial.kinematics.ik import solve_ik
 from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
 from robotrial.planning import planner_class
-from robotrial.planning.base import Problem, path_length
+from robotrial.planning.base import PlanResult, Problem, path_length
 from robotrial.planning.smoothing import densify, round_corners, shortcut
 from robotrial.planning.timing import Trajectory, time_parameterize
 
@@ -301,6 +302,25 @@ class TaskPlanner:
         result.stats["total_time"] = result.planning_time
         return result
 
+    def _solve(self, planner, problem: Problem, checker, free_ik: Callable) -> PlanResult:
+        """Plan to the nearest IK solution for half the time, then to it and to other IK
+        solutions for the rest: on arms whose joints turn twice around, the nearest
+        solution can sit in a pocket the start has no free motion into."""
+        t0 = time.perf_counter()
+        half = replace(problem, time_limit=problem.time_limit / 2)
+        res = planner.solve(half, checker)
+        if res.success or res.status != "timeout":
+            return res
+        more = free_ik(accept=checker.valid, wanted=8, batch=8).solutions
+        left = problem.time_limit - (time.perf_counter() - t0)
+        if not more or left <= 0:
+            return res
+        goals = np.vstack([problem.goals, *more])
+        second = planner.solve(replace(problem, goals=goals, time_limit=left), checker)
+        for key in ("nodes", "planning_time"):
+            second.stats[key] = second.stats.get(key, 0) + res.stats.get(key, 0)
+        return second
+
     def _remaining(self, stage: str) -> float:
         """Seconds left for the request; _OutOfTime (naming `stage`) when none are, or
         when the caller has gone."""
@@ -447,7 +467,7 @@ class TaskPlanner:
                     resolution_scale=0.5**attempt,
                     fine=checker.fine,
                 )
-            res = planner.solve(Problem(start, goal[None], left, seed), checker)
+            res = self._solve(planner, Problem(start, goal[None], left, seed), checker, free_ik)
             stats.update({f"planner_{k}": v for k, v in res.stats.items()})
             stats["planner"] = planner.name
             stats["attempts"] = attempt + 1

@@ -10,8 +10,9 @@ by friction.
 Each grasp: the object stands on the table at a random yaw; the hand comes in along a
 side grasp as the carry trial's pick does (the palm stopping `GRASP_MARGIN` short of the
 object), aimed where a detector with a given error (`--error`, mm, Gaussian per
-horizontal axis) says the object is; it closes with the grip force, lifts 6 cm, drives
-0.3 m forth and back at the base's acceleration limit (1 m/s^2) and holds still. A grasp
+horizontal axis) says the object is; it closes with the grip force, lifts 6 cm and is
+carried: three drives of 0.4 m in random directions and back, each peaking at 1.2 m/s^2
+(the base's limit is 1 m/s^2), 9 s. A grasp
 succeeds when the object is still between the fingers at the end; its slip is how far
 the object moved in the hand from the closing to the end (mm) and how far it tilted.
 Objects wider than the gripper opens are not tried (reported as such).
@@ -173,15 +174,16 @@ def grasp_once(hand, full, obj, force: float, error: float, rng: np.random.Gener
     held0 = in_hand()
     lifted = grasp + np.array([0.0, 0.0, LIFT])
     move([grasp, lifted], 0.8)
-    # the base drives 0.3 m and back: 1 m/s^2 up to 0.5 m/s and down (as the trial's base)
-    ahead = lifted + np.array([0.3, 0.0, 0.0])
-    t = np.linspace(0.0, 1.2, 25)
-    s = 0.5 - 0.5 * np.cos(np.pi * t / 1.2)
-    path = lifted + np.outer(s, ahead - lifted)
-    sim.follow(JointReference(list(HAND_AXES), t, path))
-    sim.advance(1.4)
-    sim.follow(JointReference(list(HAND_AXES), t, path[::-1]))
-    sim.advance(2.4)
+    # carried: six drives of 0.4 m in random directions and back, each a smooth start
+    # and stop peaking at 1.2 m/s^2 (the base's limit is 1 m/s^2), 9 s in all
+    t = np.linspace(0.0, 1.3, 27)
+    s = 0.5 - 0.5 * np.cos(np.pi * t / 1.3)
+    for _ in range(3):
+        d = rng.normal(size=2)
+        away = lifted + 0.4 * np.array([*(d / np.linalg.norm(d)), 0.0])
+        for a, b in ((lifted, away), (away, lifted)):
+            sim.follow(JointReference(list(HAND_AXES), t, a + np.outer(s, b - a)))
+            sim.advance(1.5)
     held1 = in_hand()
     rel = held1[:3, 3] - held0[:3, 3]
     tilt = np.rad2deg(Rotation.from_matrix(held0[:3, :3].T @ held1[:3, :3]).magnitude())

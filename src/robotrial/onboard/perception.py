@@ -14,10 +14,11 @@ The classic tabletop pipeline: support surfaces first, then what stands on them.
 3. Classification against the catalogue by size (height, width across the view, a box's
    sides from its top face) and colour (chromaticity: the share of red, green and blue,
    which shading scales alike); the best kind within tolerance, else unknown ("").
-4. Pose: a cylinder's axis from its top disc (seen whole from a head camera above it)
-   or, when the top is hidden, a circle of the catalogue's radius fitted to its side; a
-   box's centre and yaw from its top face; a sphere's centre by a fit of its radius;
-   the height from the surface and the catalogue's size.
+4. Pose: a cylinder's axis by a circle of the catalogue's radius fitted to the points of
+   its side (the half that faces the camera; the middle of the top face, seen from
+   above, would lean 5-6 mm toward the camera: the side's rim joins it); a box's centre
+   and yaw from its top face; a sphere's centre by a fit of its radius; the height from
+   the surface and the catalogue's size.
 """
 
 from __future__ import annotations
@@ -40,6 +41,9 @@ OBJECT_CELL = 0.012  # m, the clustering grid
 MIN_OBJECT_POINTS = 20
 STANDS_ON = 0.03  # m, a cluster's lowest point is at most this above its surface
 TOP_BAND = 0.006  # m, points this close to a cluster's top are its top face
+SIDE_BELOW_TOP = 0.01  # m: a cylinder's side points start this far below its top...
+SIDE_ABOVE_SURFACE = 0.01  # m: ...and end this far above its surface
+MIN_SIDE_POINTS = 20  # fewer, and the top face's middle stands for the axis
 SIZE_TOLERANCE = (0.1, 0.012)  # relative and absolute (m): a size within either matches
 COLOUR_TOLERANCE = 0.09  # chromaticity distance that still matches
 
@@ -334,14 +338,15 @@ def _pose(
     if kind.shape == "sphere":
         c = _fit_sphere(pts, r, view)
         return c, 0.0
-    if top.sum() >= 12:
-        c = xy[top].mean(axis=0)
+    side = (above < above.max() - SIDE_BELOW_TOP) & (above > SIDE_ABOVE_SURFACE)
+    if side.sum() >= MIN_SIDE_POINTS:
+        c = fit_circle(xy[side], r, view)
     else:
-        c = _fit_circle(xy[~top] if (~top).sum() >= 8 else xy, r, view)
+        c = xy[top].mean(axis=0) if top.sum() else xy.mean(axis=0)
     return np.array([c[0], c[1], base + kind.height / 2]), 0.0
 
 
-def _fit_circle(xy: np.ndarray, r: float, view: np.ndarray) -> np.ndarray:
+def fit_circle(xy: np.ndarray, r: float, view: np.ndarray) -> np.ndarray:
     """Centre of a circle of radius `r` through points (N, 2) seen along `view` (the
     visible arc faces the camera, so the centre starts behind the points)."""
     c = xy.mean(axis=0) + view * r * 0.5

@@ -48,14 +48,15 @@ CMD_RATE = 20.0  # Hz, the robot's own /cmd_vel (route driving, docking)
 @dataclass(frozen=True)
 class RobotSetup:
     """How the robot's software is set up (what a launch file says): its description,
-    its footprint on the floor, the SLAM it maps with (an object from `slam/`), the
-    navigator's settings, the RGB-D pair it looks with (colour camera and depth camera
-    names), the grip force (N) and the arm planner."""
+    its footprint on the floor, the SLAM it maps with (an object from `slam/`; None: no
+    mapping, the pose is the odometry's), the navigator's settings (None: it does not
+    navigate), the RGB-D pair it looks with (colour camera and depth camera names), the
+    grip force (N) and the arm planner."""
 
     model: RobotModel
-    footprint: Footprint
-    slam: object
-    navigator: NavigatorConfig
+    footprint: Footprint | None = None
+    slam: object | None = None
+    navigator: NavigatorConfig | None = None
     camera: str = "head_camera"
     depth: str = "head_depth"
     grip_force: float = 20.0
@@ -96,7 +97,7 @@ class Robot(Node):
         self.joints: dict[str, float] = {}
         self._static: dict[str, tuple[str, np.ndarray]] = {}
         self._last_cmd = -np.inf
-        self.slam_node: SlamNode | None = SlamNode(bus, setup.slam)
+        self.slam_node = SlamNode(bus, setup.slam) if setup.slam is not None else None
         self.nav_node: NavNode | None = None
         self.grid: LogOddsGrid | None = None
 
@@ -194,7 +195,10 @@ class Robot(Node):
     def start_navigation(self, xy_tolerance: float, yaw_tolerance: float) -> None:
         """Stop SLAM, start AMCL and the navigator on the map SLAM built, from SLAM's
         last pose."""
-        assert self.slam_node is not None
+        if self.slam_node is None or self.setup.navigator is None or self.setup.footprint is None:
+            raise ValueError(
+                "robot: navigating needs SLAM, the navigator's settings and a footprint"
+            )
         self.slam_node.settle()
         pose = self.pose()
         grid = self.slam_node.slam.grid

@@ -41,7 +41,14 @@ from robotrial.nav.navigator import Status
 from robotrial.nav.tour import open_spot
 from robotrial.onboard.catalogue import Catalogue, ObjectKind
 from robotrial.onboard.drive import RouteDrive
-from robotrial.onboard.perception import Detection, ObjectDetector, Surface
+from robotrial.onboard.perception import (
+    MIN_SIDE_POINTS,
+    SIDE_BELOW_TOP,
+    Detection,
+    ObjectDetector,
+    Surface,
+    fit_circle,
+)
 from robotrial.onboard.robot import Robot
 from robotrial.onboard.voxels import Obstacles, RobotBody, VoxelMap
 from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult
@@ -55,13 +62,14 @@ log = logging.getLogger(__name__)
 STANDOFF = 0.35  # m driven straight in to a work site and back out
 REACHES = (0.5, 0.45, 0.55)  # m, arm base to the object, in the plane, in this order
 GRASP_BACKOFF = 0.1  # m, pre-grasp distance along the approach
-GRASP_MARGIN = 0.008  # m kept between the object and the palm
+GRASP_MARGIN = 0.003  # m kept between the object and the palm
 LIFT = 0.06  # m
 SETTLE = 0.3  # s after each arm motion
 MAPPING_SPEED = 0.3  # m/s, the top speed while the map is being built
 DOCK_SCANS = 5  # scans matched to the map for the pose at a work site
 HEADINGS = 6  # looks per turn on the spot while searching
 SEARCH_SPOTS = 3  # places in a room to search from
+NAV_TRIES = 3  # work sites the navigator may fail to reach before a skill gives up
 FAR_LOOK = 2  # pixel stride of a look from afar (every other row and column)
 NEAR_LOOK = 1  # pixel stride of a look at the object up close
 SAME_OBJECT = 0.15  # m: a detection this close to the expected place is the object
@@ -204,10 +212,23 @@ class Skills:
         st = nav.navigator
         return st.status.value if st.status is Status.SUCCEEDED else st.message
 
-    def go(self, goal: np.ndarray, why: str) -> Iterator[None]:
-        status = yield from self.navigate(goal)
-        if status != "succeeded":
-            raise SkillFailed("navigation", f"to {why}: {status}")
+    def reach_stage(
+        self, stage: np.ndarray, why: str, failed: list[np.ndarray]
+    ) -> Generator[None, None, bool]:
+        """Navigate to a staging pose; when the navigator gives up, note the pose in
+        `failed` and say so (False), so the caller tries another work site; the
+        NAV_TRIES-th failure ends the skill (`navigation`)."""
+        status = yield from self.navigate(stage)
+        if status == "succeeded":
+            return True
+        failed.append(stage)
+        log.info("navigation to %s failed (%s); %d tries so far", why, status, len(failed))
+        if len(failed) >= NAV_TRIES:
+            raise SkillFailed("navigation", f"to {why}, {len(failed)} tries: {status}")
+        return False
+
+    def _near_failed(self, stage: np.ndarray, failed: list[np.ndarray]) -> bool:
+        return any(np.hypot(*(stage[:2] - f[:2])) < 0.3 for f in failed)
 
     def straight(self, distance: float, speed: float = 0.12) -> Iterator[None]:
         """Drive `distance` m straight ahead (negative: back), holding the heading."""
@@ -225,6 +246,13 @@ class Skills:
             yield
         self.robot.drive(0.0, 0.0)
         yield from self.wait(0.1)
+
+    def drive_in(self, base: np.ndarray) -> Iterator[None]:
+        """From the staging pose, straight ahead to the work site `base` (as far as the
+        navigator's stop left it, not a fixed distance)."""
+        p = self.robot.pose()
+        ahead = (base[0] - p[0]) * np.cos(p[2]) + (base[1] - p[1]) * np.sin(p[2])
+        yield from self.straight(float(ahead))
 
     def turn_to(self, yaw: float) -> Iterator[None]:
         """Turn on the spot to heading `yaw` (map frame)."""
@@ -264,17 +292,13 @@ class Skills:
         frame = self.robot.capture()
         pts, colours = frame.points(stride)
         near = np.linalg.norm(pts - frame.viewpoint, axis=1) <= VIEW_RANGE
-        held = []
-        if self.held is not None:
-            tcp = self.planner.kin.link_pose(self.arm_q())
-            pose = tcp.copy()
-            pose[:3, 3] = tcp[:3, :3] @ self.held.in_hand + tcp[:3, 3]
-            held.append((Box(self.held.kind.size), pose))
+        held = self._held_shapes()
         keep = near & ~self.body.mask(pts, self.robot.joints, held)
         pts = pts[keep]
         colours = colours[keep] if colours is not None else None
         surfaces = self.detector.surfaces(pts)
         self.voxels.integrate(frame, pts, base, surfaces)
+        self.voxels.clear_body(self.body, base, self.robot.joints, held)
         found = self.detector.detect(pts, colours, frame.viewpoint, surfaces)
         sightings = []
         for d in found:
@@ -307,14 +331,17 @@ class Skills:
         yield from self.arm_to_pose("stow")
         spots = self._spots(bounds)
         looks = 0
+        failed: list[np.ndarray] = []
         for spot in spots:
             centre = np.mean(np.asarray(bounds), axis=0)
             yaw = float(np.arctan2(centre[1] - spot[1], centre[0] - spot[0]))
             if np.hypot(*(spot - centre)) < 0.3:
                 yaw = self.robot.pose()[2]
-            yield from self.go(
-                np.array([spot[0], spot[1], yaw]), f"a place to look from in the {room}"
-            )
+            goal = np.array([spot[0], spot[1], yaw])
+            if not (
+                yield from self.reach_stage(goal, f"a place to look from in the {room}", failed)
+            ):
+                continue
             for k in range(HEADINGS):
                 if k:
                     yield from self.turn_to(yaw + 2 * np.pi * k / HEADINGS)
@@ -373,6 +400,15 @@ class Skills:
         reach = self.reach + (self.held.kind.width + self.held.kind.height if self.held else 0.0)
         boxes = self.voxels.boxes(base, self.shoulder, reach + 0.05, keep_out=keep_out)
         return [floor, *boxes]
+
+    def _held_shapes(self) -> list[tuple[Box, np.ndarray]]:
+        """The held object as a shape and its pose in the base frame (none: [])."""
+        if self.held is None:
+            return []
+        tcp = self.planner.kin.link_pose(self.arm_q())
+        pose = tcp.copy()
+        pose[:3, 3] = tcp[:3, :3] @ self.held.in_hand + tcp[:3, 3]
+        return [(Box(self.held.kind.size), pose)]
 
     def _held_object(self, q: np.ndarray) -> tuple[str, Box, Pose] | None:
         if self.held is None:
@@ -444,7 +480,9 @@ class Skills:
         joints: np.ndarray | None = None,
         keep_out=(),
     ) -> Iterator[None]:
-        """Plan and follow an arm motion in the voxel scene; `cause` names the failure."""
+        """Plan and follow an arm motion in the voxel scene, the robot standing at `base`;
+        `cause` names the failure."""
+        self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
         res = self.plan(self.arm_q(), self._obstacles(base, keep_out), local, orientation, joints)
         if not res.success:
             raise SkillFailed(cause, f"arm planning: {res.message}")
@@ -559,14 +597,16 @@ class Skills:
         candidates = self.base_candidates(target.position[:2])
         if not candidates:
             raise SkillFailed("no_base_pose", "no free base pose on the map within the arm's reach")
+        failed: list[np.ndarray] = []
         for base, stage in candidates:
-            if not self._reaches(base, target.position, kind):
+            if self._near_failed(stage, failed) or not self._reaches(base, target.position, kind):
                 continue
-            yield from self.go(stage, f"the pose before the {kind.name}")
+            if not (yield from self.reach_stage(stage, f"the pose before the {kind.name}", failed)):
+                continue
             seen = self._find(self.look(), target)
             if seen is not None:
                 target = seen
-            yield from self.straight(STANDOFF)
+            yield from self.drive_in(base)
             return target
         raise SkillFailed(
             "no_base_pose",
@@ -686,13 +726,17 @@ class Skills:
             raise SkillFailed("no_base_pose", "no free base pose on the map near the place")
         height = None
         tried = 0
+        failed: list[np.ndarray] = []
         for base, stage in candidates:
+            if self._near_failed(stage, failed):
+                continue
             if height is not None:
                 target = np.array([point[0], point[1], height + kind.height / 2])
                 if not self._reaches(base, target, kind):
                     continue
             tried += 1
-            yield from self.go(stage, "the pose before the place")
+            if not (yield from self.reach_stage(stage, "the pose before the place", failed)):
+                continue
             self.check_grip("carrying")
             surface = self._surface_at(self.look(), point)
             if surface is None:
@@ -702,7 +746,7 @@ class Skills:
             height = surface
             target = np.array([point[0], point[1], height + kind.height / 2])
             if self._reaches(base, target, kind):
-                yield from self.straight(STANDOFF)
+                yield from self.drive_in(base)
                 return height
         if height is None:
             raise SkillFailed("place_not_seen", "no surface was seen at the place point")
@@ -730,18 +774,34 @@ class Skills:
         pts = pts[near]
         pts = pts[~self.body.mask(pts, self.robot.joints, padding=HELD_CUT)]
         if len(pts) < 15:
+            log.info("held %s: %d points near where it should be", kind.name, len(pts))
             return False
-        z = float(np.percentile(pts[:, 2], 90))
-        face = pts[pts[:, 2] > z - TOP_FACE]
-        if len(face) < 10:
-            return False
-        c = face[:, :2].mean(axis=0)
+        z = float(np.percentile(pts[:, 2], 95))
+        side = pts[:, 2] < z - SIDE_BELOW_TOP
+        if kind.shape == "cylinder" and side.sum() >= MIN_SIDE_POINTS:
+            view = expected[:2] - frame.viewpoint[:2]
+            c = fit_circle(pts[side, :2], kind.width / 2, view / max(np.linalg.norm(view), 1e-9))
+        else:
+            face = pts[pts[:, 2] > z - TOP_FACE]
+            if len(face) < 10:
+                return False
+            c = face[:, :2].mean(axis=0)
         centre = np.array([c[0], c[1], z - kind.height / 2])
         moved = float(np.linalg.norm(centre - expected))
         if moved > kind.width / 2:
-            return False  # something else: keep the grasp's estimate
+            raise SkillFailed(
+                "slipped",
+                f"the {kind.name} moved {100 * moved:.1f} cm in the hand since the grasp "
+                "(seen by the head camera above the place)",
+            )
+        before = held.in_hand
         held.in_hand = (np.linalg.inv(tcp) @ np.append(centre, 1.0))[:3]
-        log.info("held %s measured %.1f mm from where the grasp put it", kind.name, 1e3 * moved)
+        log.info(
+            "held %s measured %.1f mm from where the grasp put it (in the hand: %s mm)",
+            kind.name,
+            1e3 * moved,
+            np.round(1e3 * (held.in_hand - before), 1).tolist(),
+        )
         self.log.held_correction = moved
         return True
 

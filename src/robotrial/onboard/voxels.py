@@ -177,6 +177,23 @@ class VoxelMap:
         for (i, j), h in zip(cells.tolist(), heights.tolist(), strict=True):
             self.slabs[(i, j)] = max(h, self.slabs.get((i, j), -np.inf))
 
+    def clear_body(
+        self,
+        body: RobotBody,
+        base: np.ndarray,
+        joints: Mapping[str, float],
+        held: Sequence[tuple[Shape, np.ndarray]] = (),
+        padding: float = 0.04,
+    ) -> None:
+        """Forget the voxels where the robot (and what it holds) is now, with the base at
+        `base` (map): what stands there cannot be an obstacle (a piece of the robot, or
+        of its load, the self filter missed)."""
+        if not len(self.keys):
+            return
+        to_map = _planar(base)
+        local = (self.centres() - to_map[:3, 3]) @ to_map[:3, :3]
+        self.keys = self.keys[~body.mask(local, joints, held, padding)]
+
     def remove(self, centre: np.ndarray, radius: float, z: tuple[float, float]) -> None:
         """Forget the voxels in an upright cylinder (map frame): where an object was."""
         c = self.centres()

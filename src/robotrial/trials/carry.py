@@ -216,6 +216,7 @@ class CarryResult:
     collision: str = ""
     grasp: str = ""
     looks: int = 0
+    stopped: str = ""
     oracles: list[str] = field(default_factory=list)
     arm_plans: list[dict[str, Any]] = field(default_factory=list)
     truth: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
@@ -247,6 +248,7 @@ class CarryResult:
             "collision": self.collision,
             "grasp": self.grasp,
             "looks": self.looks,
+            "stopped": self.stopped,
             "arm_plans": self.arm_plans,
         }
 
@@ -341,11 +343,20 @@ class CarryTrial(Node):
 
     # --- the loop ----------------------------------------------------------------------
 
-    def run(self, on_progress: Callable[[str, float], None] | None = None) -> CarryResult:
+    def run(
+        self, on_progress: Callable[[str, float], None] | None = None, until: str = ""
+    ) -> CarryResult:
+        """Run to the end, or until the task begins phase `until` (then the result holds
+        what was done so far: not a success, no failure, `stopped` names the phase)."""
+        if until and until not in PHASES:
+            raise ValueError(f"carry trial: no phase {until!r}; the phases: {', '.join(PHASES)}")
         wall0 = time.perf_counter()
         self.sim_node.start_streams()
         try:
             while not self.task.finished:
+                if until and self.task.phase == until:
+                    self.result.stopped = until
+                    break
                 self.sim_node.step()
                 self._observe()
                 if self.sim.world.time > self.setup.time_limit:
@@ -509,14 +520,23 @@ def run_carry(
     seed: int,
     out: Path | None = None,
     on_progress: Callable[[str, float], None] | None = None,
+    until: str = "",
 ) -> CarryResult:
-    """One carry trial; with `out`, its MCAP, JSON summary and plot go there."""
+    """One carry trial (to the end, or until phase `until` begins); with `out`, its
+    MCAP, JSON summary and plot go there."""
+    if until and until not in PHASES:
+        raise ValueError(f"carry trial: no phase {until!r}; the phases: {', '.join(PHASES)}")
     trial = CarryTrial(setup, seed, out)
-    result = trial.run(on_progress)
+    result = trial.run(on_progress, until)
     if out is not None:
-        (out / f"carry_{seed}.json").write_text(json.dumps(result.summary(), indent=2))
-        plot_carry(out / f"carry_{seed}.png", result, trial.world, setup)
+        write_outputs(trial, result, out)
     return result
+
+
+def write_outputs(trial: CarryTrial, result: CarryResult, out: Path) -> None:
+    """A run's JSON summary and plot (its MCAP is written as it runs)."""
+    (out / f"carry_{result.seed}.json").write_text(json.dumps(result.summary(), indent=2))
+    plot_carry(out / f"carry_{result.seed}.png", result, trial.world, trial.setup)
 
 
 def plot_carry(png: Path, r: CarryResult, world: World, setup: CarrySetup) -> Path:

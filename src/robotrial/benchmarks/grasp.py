@@ -12,7 +12,8 @@ side grasp as the carry trial's pick does (the palm stopping `GRASP_MARGIN` shor
 object), aimed where a detector with a given error (`--error`, mm, Gaussian per
 horizontal axis) says the object is; it closes with the grip force, lifts 6 cm and is
 carried: three drives of 0.4 m in random directions and back, each peaking at 1.2 m/s^2
-(the base's limit is 1 m/s^2), 9 s. A grasp
+(the base's limit is 1 m/s^2), the hand tilting up to 40 degrees up or down and back on
+each (as the arm's moves between poses tilt it in the trial), 9 s. A grasp
 succeeds when the object is still between the fingers at the end; its slip is how far
 the object moved in the hand from the closing to the end (mm) and how far it tilted.
 Objects wider than the gripper opens are not tried (reported as such).
@@ -35,6 +36,8 @@ HELP = "friction grasps of each catalogue object by the mobile manipulator's han
 
 TABLE_TOP = 0.75  # m
 HAND_AXES = ("hand_x", "hand_y", "hand_z")
+PITCH = "hand_pitch"
+TILT = np.deg2rad(40.0)  # the hand's largest tilt while carried
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -50,8 +53,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def hand_robot(robot_name: str = "mobile_manipulator"):
-    """The robot's hand alone on three slides (x, y, z), turned for a side grasp along
-    +x: its gripper link with everything below it (fingers, tool point)."""
+    """The robot's hand alone on three slides (x, y, z) and a pitch joint, turned for a
+    side grasp along +x: its gripper link with everything below it (fingers, tool
+    point)."""
     from robotrial.geometry import Pose
     from robotrial.model import load_robot
     from robotrial.model.robot import Inertial, Joint, JointDynamics, JointLimit, Link
@@ -85,8 +89,21 @@ def hand_robot(robot_name: str = "mobile_manipulator"):
             strict=True,
         )
     ]
+    # the hand pitches about the world's y (its approach axis tilting up and down), as
+    # the arm's moves between poses tilt it
+    pitch = Joint(
+        PITCH,
+        "revolute",
+        HAND_AXES[-1],
+        PITCH,
+        axis=(0.0, 1.0, 0.0),
+        limit=JointLimit(lower=-1.5, upper=1.5, effort=100.0, velocity=3.0),
+        dynamics=JointDynamics(damping=0.1),
+    )
     quat = tuple(float(v) for v in SIDE_GRASP.as_quat())
-    mount = Joint("hand_fixed", "fixed", HAND_AXES[-1], hand, Pose((0.0, 0.0, 0.0), quat))  # type: ignore[arg-type]
+    mount = Joint("hand_fixed", "fixed", PITCH, hand, Pose((0.0, 0.0, 0.0), quat))  # type: ignore[arg-type]
+    carriers.append(Link(PITCH, inertial=mass))
+    slides.append(pitch)
     links = carriers + [lk for lk in robot.links if lk.name in keep]
     return robot.with_changes(
         name=f"{robot.name}_hand",
@@ -146,8 +163,8 @@ def grasp_once(hand, full, obj, force: float, error: float, rng: np.random.Gener
     depth = kind.grip_width / 2 + palm + GRASP_MARGIN
     grasp = aim - np.array([depth, 0.0, 0.0]) - tcp_in_slides
     pre = grasp - np.array([GRASP_BACKOFF, 0.0, 0.0])
-    q = {n: float(v) for n, v in zip(HAND_AXES, pre, strict=True)}
-    for n, v in q.items():
+    pre, grasp = np.append(pre, 0.0), np.append(grasp, 0.0)  # the pitch last
+    for n, v in zip((*HAND_AXES, PITCH), pre, strict=True):
         w.data.qpos[w.model.jnt_qposadr[w.model.joint(n).id]] = v
     w.forward()
     sim.joints.hold(w.data)
@@ -157,7 +174,7 @@ def grasp_once(hand, full, obj, force: float, error: float, rng: np.random.Gener
 
     def move(points: list[np.ndarray], duration: float) -> None:
         t = np.linspace(0.0, duration, len(points))
-        sim.follow(JointReference(list(HAND_AXES), t, np.array(points)))
+        sim.follow(JointReference([*HAND_AXES, PITCH], t, np.array(points)))
         sim.advance(duration + 0.2)
 
     move([pre, grasp], 1.0)
@@ -172,17 +189,22 @@ def grasp_once(hand, full, obj, force: float, error: float, rng: np.random.Gener
         return np.linalg.inv(w.body_pose(tcp)) @ w.body_pose(body)
 
     held0 = in_hand()
-    lifted = grasp + np.array([0.0, 0.0, LIFT])
+    lifted = grasp + np.array([0.0, 0.0, LIFT, 0.0])
     move([grasp, lifted], 0.8)
-    # carried: six drives of 0.4 m in random directions and back, each a smooth start
-    # and stop peaking at 1.2 m/s^2 (the base's limit is 1 m/s^2), 9 s in all
+    # carried: three drives of 0.4 m in random directions and back, each a smooth start
+    # and stop peaking at 1.2 m/s^2 (the base's limit is 1 m/s^2), the hand tilting up to
+    # 40 degrees up or down and back on the way, 9 s in all
     t = np.linspace(0.0, 1.3, 27)
     s = 0.5 - 0.5 * np.cos(np.pi * t / 1.3)
+    bump = np.sin(np.pi * t / 1.3)
     for _ in range(3):
         d = rng.normal(size=2)
-        away = lifted + 0.4 * np.array([*(d / np.linalg.norm(d)), 0.0])
+        away = lifted + np.array([*(0.4 * d / np.linalg.norm(d)), 0.0, 0.0])
+        tilt = float(rng.uniform(-TILT, TILT))
         for a, b in ((lifted, away), (away, lifted)):
-            sim.follow(JointReference(list(HAND_AXES), t, a + np.outer(s, b - a)))
+            path = a + np.outer(s, b - a)
+            path[:, 3] = tilt * bump
+            sim.follow(JointReference([*HAND_AXES, PITCH], t, path))
             sim.advance(1.5)
     held1 = in_hand()
     rel = held1[:3, 3] - held0[:3, 3]

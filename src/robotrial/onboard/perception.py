@@ -9,7 +9,8 @@ The classic tabletop pipeline: support surfaces first, then what stands on them.
    a least-squares plane fit z = a x + b y + c (its tilt and spread say whether it is
    one).
 2. Objects: the points a few millimetres to 45 cm above a patch, inside the patch's
-   outline (holes where objects hide the surface filled in), clustered by 3D grid
+   outline (its convex hull and its cells grown by 6 cm: where objects hide the surface
+   from the camera, even up to its far edge, is still the surface), clustered by 3D grid
    connectivity. A cluster must reach down to its surface (it stands on it).
 3. Classification against the catalogue by size (height, width across the view, a box's
    sides from its top face) and colour (chromaticity: the share of red, green and blue,
@@ -27,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import ConvexHull, Delaunay
 
 from robotrial.onboard.catalogue import Catalogue, ObjectKind
 
@@ -46,6 +48,7 @@ SIDE_ABOVE_SURFACE = 0.01  # m: ...and end this far above its surface
 MIN_SIDE_POINTS = 20  # fewer, and the top face's middle stands for the axis
 SIZE_TOLERANCE = (0.1, 0.012)  # relative and absolute (m): a size within either matches
 COLOUR_TOLERANCE = 0.09  # chromaticity distance that still matches
+BLUR_PIXELS = 2.5  # pixels a size may be off where the object is (edges, noise)
 
 
 @dataclass(frozen=True)
@@ -170,8 +173,8 @@ class ObjectDetector:
                 continue
             residual = float(np.sqrt(np.mean((a @ coef - p[:, 2]) ** 2)))
             centre = p[:, :2].mean(axis=0)
-            outline = ndimage.binary_dilation(cells, iterations=grow)
-            outline = ndimage.binary_fill_holes(outline)
+            outline = ndimage.binary_fill_holes(ndimage.binary_dilation(cells, iterations=grow))
+            outline |= _hull(cells)
             out.append(
                 Surface(
                     height=float(coef[0] * centre[0] + coef[1] * centre[1] + coef[2]),
@@ -193,9 +196,12 @@ class ObjectDetector:
         colours: np.ndarray | None,
         viewpoint: np.ndarray,
         surfaces: list[Surface] | None = None,
+        spacing: float = 0.0,
     ) -> list[Detection]:
         """The objects standing on the surfaces of `points` (N, 3; z up), seen from
-        `viewpoint` (the camera's position, same frame); `colours` (N, 3) uint8 or None."""
+        `viewpoint` (the camera's position, same frame); `colours` (N, 3) uint8 or None;
+        `spacing` (rad): the angle between neighbouring points (pixel stride / focal
+        length), which widens the size tolerance with range (BLUR_PIXELS pixels)."""
         pts = np.asarray(points, dtype=float)
         if surfaces is None:
             surfaces = self.surfaces(pts)
@@ -217,7 +223,7 @@ class ObjectDetector:
                 if np.min(above[sel]) > STANDS_ON:
                     continue
                 rgb = None if colours is None else colours[sel]
-                out.append(self._describe(pts[sel], above[sel], rgb, viewpoint, s))
+                out.append(self._describe(pts[sel], above[sel], rgb, viewpoint, s, spacing))
         return out
 
     def _clusters(self, pts: np.ndarray) -> list[np.ndarray]:
@@ -241,8 +247,10 @@ class ObjectDetector:
         colours: np.ndarray | None,
         viewpoint: np.ndarray,
         surface: Surface,
+        spacing: float = 0.0,
     ) -> Detection:
         height = float(np.percentile(above, 99))
+        blur = BLUR_PIXELS * spacing * float(np.linalg.norm(pts.mean(axis=0) - viewpoint))
         xy = pts[:, :2]
         view = xy.mean(axis=0) - np.asarray(viewpoint, dtype=float)[:2]
         view /= max(float(np.linalg.norm(view)), 1e-9)
@@ -257,7 +265,7 @@ class ObjectDetector:
         )
         best, best_err = None, np.inf
         for kind in self.catalogue:
-            err = _mismatch(kind, height, width, sides[:2], None if colours is None else rgb)
+            err = _mismatch(kind, height, width, sides[:2], None if colours is None else rgb, blur)
             if err < best_err:
                 best, best_err = kind, err
         kind = best if best is not None and best_err <= 1.0 else None
@@ -275,6 +283,20 @@ class ObjectDetector:
         )
 
 
+def _hull(cells: np.ndarray) -> np.ndarray:
+    """The cells inside the convex hull of the True cells: a table's top where the
+    objects on it hide it from the camera, even up to its far edge."""
+    ij = np.argwhere(cells)
+    out = np.zeros_like(cells)
+    if len(ij) < 4 or np.linalg.matrix_rank(ij - ij.mean(axis=0)) < 2:
+        return out
+    lo, hi = ij.min(axis=0), ij.max(axis=0) + 1
+    box = np.argwhere(np.ones(hi - lo, dtype=bool)) + lo
+    inside = Delaunay(ij[ConvexHull(ij).vertices]).find_simplex(box) >= 0
+    out[box[inside, 0], box[inside, 1]] = True
+    return out
+
+
 def _box_sides(xy: np.ndarray) -> tuple[float, float, float, np.ndarray]:
     """The shorter and longer side (m) of the rectangle around points (N, 2) along their
     principal axes, the longer side's direction (rad) and the rectangle's centre."""
@@ -283,16 +305,19 @@ def _box_sides(xy: np.ndarray) -> tuple[float, float, float, np.ndarray]:
     _, vecs = np.linalg.eigh(d.T @ d)
     major = vecs[:, 1]
     u, v = d @ major, d @ np.array([-major[1], major[0]])
-    lu = np.percentile(u, 1), np.percentile(u, 99)
-    lv = np.percentile(v, 1), np.percentile(v, 99)
+    # the 5th to 95th percentile of a side's points spans 90 % of it; farther out the
+    # depth noise blurs the edges outward
+    lu = np.percentile(u, 5), np.percentile(u, 95)
+    lv = np.percentile(v, 5), np.percentile(v, 95)
     centre = c + major * (lu[0] + lu[1]) / 2 + np.array([-major[1], major[0]]) * (lv[0] + lv[1]) / 2
-    a, b = lu[1] - lu[0], lv[1] - lv[0]
+    a, b = (lu[1] - lu[0]) / 0.9, (lv[1] - lv[0]) / 0.9
     return float(min(a, b)), float(max(a, b)), float(np.arctan2(major[1], major[0])), centre
 
 
-def _off(measured: float, want: float) -> float:
-    """How far a measured size is from the wanted one, in tolerances."""
-    return abs(measured - want) / max(SIZE_TOLERANCE[0] * want, SIZE_TOLERANCE[1])
+def _off(measured: float, want: float, blur: float = 0.0) -> float:
+    """How far a measured size is from the wanted one, in tolerances (the absolute one
+    at least `blur`, m: what a pixel spans where the object is)."""
+    return abs(measured - want) / max(SIZE_TOLERANCE[0] * want, SIZE_TOLERANCE[1], blur)
 
 
 def _mismatch(
@@ -301,14 +326,15 @@ def _mismatch(
     width: float,
     top_sides: tuple[float, float],
     rgb: np.ndarray | None,
+    blur: float = 0.0,
 ) -> float:
     """The worst of the size and colour mismatches, in tolerances (<= 1 matches)."""
-    errs = [_off(height, kind.height)]
+    errs = [_off(height, kind.height, blur)]
     if kind.shape == "box":
         small, large = sorted(kind.size[:2])
-        errs += [_off(top_sides[0], small), _off(top_sides[1], large)]
+        errs += [_off(top_sides[0], small, blur), _off(top_sides[1], large, blur)]
     else:
-        errs.append(_off(width, kind.width))
+        errs.append(_off(width, kind.width, blur))
     if rgb is not None and rgb.sum() > 0.05:
         diff = np.linalg.norm(chromaticity(rgb) - chromaticity(np.asarray(kind.rgb)))
         errs.append(float(diff) / COLOUR_TOLERANCE)

@@ -59,7 +59,7 @@ class RobotSetup:
     navigator: NavigatorConfig | None = None
     camera: str = "head_camera"
     depth: str = "head_depth"
-    grip_force: float = 20.0
+    grip_force: float = 40.0
     planner: str = "rrt_connect"
     seed: int = 0
 

@@ -50,7 +50,7 @@ from robotrial.onboard.perception import (
     fit_circle,
 )
 from robotrial.onboard.robot import Robot
-from robotrial.onboard.voxels import Obstacles, RobotBody, VoxelMap
+from robotrial.onboard.voxels import Obstacles, RobotBody, VoxelMap, merge_runs
 from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult
 from robotrial.ros.planning_node import joint_trajectory
 from robotrial.ros.slam_node import scan_to_beams
@@ -70,7 +70,7 @@ DOCK_SCANS = 5  # scans matched to the map for the pose at a work site
 HEADINGS = 6  # looks per turn on the spot while searching
 SEARCH_SPOTS = 3  # places in a room to search from
 NAV_TRIES = 3  # work sites the navigator may fail to reach before a skill gives up
-FAR_LOOK = 2  # pixel stride of a look from afar (every other row and column)
+FAR_LOOK = 1  # pixel stride of a look from afar (every other pixel: none found past 2.2 m)
 NEAR_LOOK = 1  # pixel stride of a look at the object up close
 SAME_OBJECT = 0.15  # m: a detection this close to the expected place is the object
 GRIP_SETTLE = 0.25  # s the fingers must stand still to count as closed
@@ -81,6 +81,7 @@ HELD_SEARCH = 0.025  # m around where the held object's top should be
 HELD_CUT = 0.01  # m, the robot's body grown by this when the held object is measured
 TOP_FACE = 0.006  # m below the highest points that are still the top face
 FLOOR_THICKNESS = 0.1  # m
+COLUMN_HEIGHT = 2.0  # m, how tall what the LiDAR mapped is taken to be
 
 # The hand's orientation for a side grasp approaching along base +x: the gripper's
 # approach axis (z) forward, its x axis up, fingers closing sideways.
@@ -162,12 +163,7 @@ class Skills:
         self.finger_closed = float(grip.get("closed", 0.0))
         zero = link_poses(self.model, {})
         self.arm_offset = float(zero[self.model.joint(self.arm_names[0]).parent][0, 3])
-        # the arm's reach: from its second joint (the shoulder) to the tool point's
-        # farthest, plus the fingers beyond it
-        self.shoulder = zero[self.model.joint(self.arm_names[1]).child][:3, 3]
-        tips = self.planner.kin.fk(self.planner.kin.random(np.random.default_rng(0), 400))
-        tcp = tips[:, self.planner.kin.link_index[self.model.end_effector], :3, 3]
-        self.reach = float(np.max(np.linalg.norm(tcp - self.shoulder, axis=1))) + 0.05
+        self.shoulder, self.reach = arm_reach(self.planner)
         self.palm = palm_depth(self.model, zero, self.model.end_effector)
         self.footprint = robot.setup.footprint
 
@@ -197,6 +193,7 @@ class Skills:
         assert grid is not None
         values = grid.ros_values()
         self.map_blocked = (values == 100) | (values < 0)
+        self.map_walls = values == 100
         self.map_origin, self.map_res = np.asarray(grid.origin, dtype=float), grid.resolution
         self.clearance = ndimage.distance_transform_edt(~self.map_blocked) * self.map_res
 
@@ -299,7 +296,7 @@ class Skills:
         surfaces = self.detector.surfaces(pts)
         self.voxels.integrate(frame, pts, base, surfaces)
         self.voxels.clear_body(self.body, base, self.robot.joints, held)
-        found = self.detector.detect(pts, colours, frame.viewpoint, surfaces)
+        found = self.detector.detect(pts, colours, frame.viewpoint, surfaces, stride / frame.k[0])
         sightings = []
         for d in found:
             if d.kind:
@@ -495,7 +492,36 @@ class Skills:
         goal = self.poses[name]
         if np.max(np.abs(self.arm_q() - goal)) < 0.02:
             return
-        yield from self.move_arm(self.robot.pose(), "arm_planning", joints=goal)
+        base = self.robot.pose()
+        self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
+        # folding the arm swings it beside the robot, where the camera may not have
+        # looked: what the LiDAR mapped there stands in as columns
+        obstacles = self._obstacles(base) + self._map_columns(base)
+        res = self.plan(self.arm_q(), obstacles, joints=goal)
+        if not res.success:
+            raise SkillFailed("arm_planning", f"arm planning: {res.message}")
+        yield from self.follow(res)
+
+    def _map_columns(self, base: np.ndarray) -> Obstacles:
+        """The occupied cells of the built map within the arm's reach, as columns from the
+        floor up to COLUMN_HEIGHT, in the base frame (merged rows of cells)."""
+        if not hasattr(self, "map_walls"):
+            return []
+        rows, cols = np.nonzero(self.map_walls)
+        xy = self.map_origin + (np.column_stack([cols, rows]) + 0.5) * self.map_res
+        c, s = np.cos(base[2]), np.sin(base[2])
+        d = xy - base[:2]
+        local = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+        near = np.hypot(*(local - self.shoulder[:2]).T) <= self.reach + 0.1
+        keys = np.column_stack([cols[near], rows[near], np.zeros(int(near.sum()), dtype=int)])
+        out: Obstacles = []
+        for lo, hi in merge_runs(keys) if len(keys) else []:
+            centre = self.map_origin + (lo[:2] + hi[:2] + 1) * self.map_res / 2
+            size = ((hi[0] - lo[0] + 1) * self.map_res, (hi[1] - lo[1] + 1) * self.map_res)
+            c = to_base(base, np.array([centre[0], centre[1], COLUMN_HEIGHT / 2]))
+            pose = Pose.from_xyz_rpy(tuple(float(v) for v in c), (0.0, 0.0, -float(base[2])))
+            out.append((f"map/{len(out)}", Box((*map(float, size), COLUMN_HEIGHT)), pose))
+        return out
 
     def orientation(self, local: np.ndarray) -> Rotation:
         """A side grasp facing the point `local` (base frame) from the arm's base."""
@@ -875,6 +901,18 @@ class Skills:
             if self._reaches(compose(base, np.array([shift, 0.0, 0.0])), point, kind):
                 yield from self.straight(shift, speed=0.06)
                 return
+
+
+def arm_reach(planner: TaskPlanner) -> tuple[np.ndarray, float]:
+    """Where the arm reaches from (its second joint, the shoulder, in the base frame) and
+    how far (m): the tool point's farthest over random configurations, plus 5 cm of
+    fingers beyond it."""
+    kin = planner.kin
+    zero = link_poses(kin.model, {})
+    shoulder = zero[kin.model.joint(planner.joint_names[1]).child][:3, 3]
+    tips = kin.fk(kin.random(np.random.default_rng(0), 400))
+    tcp = tips[:, kin.link_index[kin.model.end_effector], :3, 3]
+    return shoulder, float(np.max(np.linalg.norm(tcp - shoulder, axis=1))) + 0.05
 
 
 def to_base(base: np.ndarray, point: np.ndarray) -> np.ndarray:

@@ -963,6 +963,7 @@ export const TOPICS = {
   "/scan": "sensor_msgs/msg/LaserScan",
   "/odom": "nav_msgs/msg/Odometry",
   "/cmd_vel": "geometry_msgs/msg/Twist",
+  "/gripper/command": "control_msgs/msg/GripperCommand",
   "/map": "nav_msgs/msg/OccupancyGrid",
   "/plan": "nav_msgs/msg/Path",
   "/move_base_simple/goal": "geometry_msgs/msg/PoseStamped",

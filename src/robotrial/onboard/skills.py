@@ -51,7 +51,7 @@ from robotrial.onboard.perception import (
 )
 from robotrial.onboard.robot import Robot
 from robotrial.onboard.voxels import Obstacles, RobotBody, VoxelMap, merge_runs
-from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult
+from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult, robot_spheres
 from robotrial.ros.planning_node import joint_trajectory
 from robotrial.ros.slam_node import scan_to_beams
 from robotrial.slam.matcher import ScanMatcher
@@ -148,6 +148,10 @@ class Skills:
         self.catalogue = catalogue
         self.planner = TaskPlanner(self.model, checker=VoxelChecker)
         self.feasible = TaskPlanner(self.model, validate=False, checker=VoxelChecker)
+        # both covers, from the disk when made before (`robotrial warm`): the fine one is
+        # asked where a goal grazes a table top, and making it costs seconds
+        spheres = robot_spheres(self.planner.kin, fine=True)
+        self.planner.spheres = self.feasible.spheres = spheres
         self.arm_names = self.planner.joint_names
         self.detector = ObjectDetector(catalogue)
         self.voxels = VoxelMap()

@@ -402,22 +402,26 @@ class Skills:
         boxes = self.voxels.boxes(base, self.shoulder, reach + 0.05, keep_out=keep_out)
         return [floor, *boxes]
 
+    def _held_pose(self, q: np.ndarray) -> np.ndarray:
+        """The held object's pose (4x4, base frame) with the arm at `q`: the tool's
+        orientation, its centre where it sits in the hand."""
+        assert self.held is not None
+        tcp = self.planner.kin.link_pose(q)
+        pose = tcp.copy()
+        pose[:3, 3] = tcp[:3, :3] @ self.held.in_hand + tcp[:3, 3]
+        return pose
+
     def _held_shapes(self) -> list[tuple[Box, np.ndarray]]:
         """The held object as a shape and its pose in the base frame (none: [])."""
         if self.held is None:
             return []
-        tcp = self.planner.kin.link_pose(self.arm_q())
-        pose = tcp.copy()
-        pose[:3, 3] = tcp[:3, :3] @ self.held.in_hand + tcp[:3, 3]
-        return [(Box(self.held.kind.size), pose)]
+        return [(Box(self.held.kind.size), self._held_pose(self.arm_q()))]
 
     def _held_object(self, q: np.ndarray) -> tuple[str, Box, Pose] | None:
         if self.held is None:
             return None
-        tcp = self.planner.kin.link_pose(q)
-        pose = tcp.copy()
-        pose[:3, 3] = tcp[:3, :3] @ self.held.in_hand + tcp[:3, 3]
-        return self.held.kind.name, Box(self.held.kind.size), Pose.from_matrix(pose)
+        pose = Pose.from_matrix(self._held_pose(q))
+        return self.held.kind.name, Box(self.held.kind.size), pose
 
     def plan(
         self,
@@ -796,7 +800,7 @@ class Skills:
         frame = self.robot.capture()
         pts, _ = frame.points(1)
         tcp = self.planner.kin.link_pose(self.arm_q())
-        expected = tcp[:3, :3] @ held.in_hand + tcp[:3, 3]
+        expected = self._held_pose(self.arm_q())[:3, 3]
         top = expected[2] + kind.height / 2
         near = (np.hypot(*(pts[:, :2] - expected[:2]).T) < kind.width / 2 + HELD_SEARCH) & (
             np.abs(pts[:, 2] - top) < HELD_SEARCH

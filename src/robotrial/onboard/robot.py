@@ -136,8 +136,9 @@ class Robot(Node):
     # --- where it is -------------------------------------------------------------------
 
     def pose(self) -> np.ndarray:
-        """The robot's pose on its map (SLAM's while mapping, then AMCL's)."""
-        if self.nav_node is not None:
+        """The robot's pose on its map (SLAM's while mapping, then AMCL's once it has the
+        map and its initial pose; in between, SLAM's last correction with odometry)."""
+        if self.nav_node is not None and self.nav_node.amcl is not None:
             return self.nav_node.pose()
         return compose(self.map_to_odom, self.odom)
 

@@ -632,9 +632,11 @@ class Skills:
         if not candidates:
             raise SkillFailed("no_base_pose", "no free base pose on the map within the arm's reach")
         failed: list[np.ndarray] = []
+        reached = 0
         for base, stage in candidates:
             if self._near_failed(stage, failed) or not self._reaches(base, target.position, kind):
                 continue
+            reached += 1
             if not (yield from self.reach_stage(stage, f"the pose before the {kind.name}", failed)):
                 continue
             seen = self._find(self.look(), target)
@@ -642,10 +644,11 @@ class Skills:
                 target = seen
             yield from self.drive_in(base)
             return target
+        gave_up = f"; the navigator gave up on the way to {len(failed)}" if failed else ""
         raise SkillFailed(
             "no_base_pose",
-            f"the arm reaches the {kind.name} from none of the {len(candidates)} free base "
-            "poses around it",
+            f"the arm reaches the {kind.name} from {reached or 'none'} of the "
+            f"{len(candidates)} free base poses around it{gave_up}",
         )
 
     def _find(self, look: Look, target: Sighting) -> Sighting | None:

@@ -33,6 +33,12 @@ _PUBLIC = {
     "read_recording": "robotrial.ros.playback",
     "CarrySetup": "robotrial.trials.carry",
     "run_carry": "robotrial.trials.carry",
+    "catalogue_of": "robotrial.trials.carry",
+    "Bus": "robotrial.ros.bus",
+    "SimNode": "robotrial.ros.sim_node",
+    "Robot": "robotrial.onboard.robot",
+    "RobotSetup": "robotrial.onboard.robot",
+    "Skills": "robotrial.onboard.skills",
 }
 """Public name -> the module that defines it ("module:name" where the name differs)."""
 

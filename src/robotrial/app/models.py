@@ -182,7 +182,7 @@ class RobotVerdict(ApiModel):
     chores: list[dict[str, Any]] = []
     """One per chore asked for: `chore`, `object`, `room`, `runs`, `successes`, `done`,
     `mean_time` (s, simulated, of the successful runs), `failed_phases`, `outcomes`
-    (per run: `seed`, `success`, `failed_phase`, `reason`, `sim_time`), `refused` (why the
+    (per run: `seed`, `success`, `failed_phase`, `cause`, `reason`, `sim_time`), `refused` (why the
     trial would not run it, or "") and `wall_time` (s)."""
     details: dict[str, Any] = {}
     """Whatever else the engine reports, by name."""

@@ -35,6 +35,10 @@ def run(args: argparse.Namespace) -> int:
             t0 = time.perf_counter()
             robot = load_robot(name)
             if robot_kind(robot) != "arm":
+                # a mobile manipulator's arm: its covers (the carry trial plans with them)
+                if (robot.metadata.get("groups") or {}).get("arm"):
+                    robot_spheres(TaskPlanner(robot).kin, fine=True)
+                    done.append(f"{name} ({time.perf_counter() - t0:.1f} s)")
                 advance()
                 continue
             world = load_world(library.DEFAULT_WORLD) if name == library.DEFAULT_ROBOT else None

@@ -871,6 +871,7 @@ class _Reader:
         sensors: list[Sensor] = []
         spheres: list[CollisionSphere] = []
         groups: dict[str, list[str]] = {}
+        poses: dict[str, dict[str, float]] = {}
         tcp = ""
         for el in ext:
             t = _tag(el)
@@ -903,6 +904,13 @@ class _Reader:
                     if k != "type":
                         d[k] = self.number(el, k)
                 metadata["drive"] = d
+            elif t == "pose":
+                pname = self.name(el, "<pose>")
+                if pname in poses:
+                    raise self.error(el, f"pose {pname!r} defined twice")
+                names = self.joint_refs(el, joints)
+                values = self.floats(el, "values", len(names))
+                poses[pname] = dict(zip(names, values, strict=True))
             elif t == "sensor":
                 sensors.append(self.sensor(el, links))
             elif t == "sphere":
@@ -915,7 +923,7 @@ class _Reader:
                 raise self.error(
                     el,
                     f"unknown element <{t}> in <robotrial> "
-                    "(tcp, group, gripper, drive, sensor, sphere)",
+                    "(tcp, group, pose, gripper, drive, sensor, sphere)",
                 )
         names = [s.name for s in sensors]
         for s in sensors:
@@ -923,6 +931,8 @@ class _Reader:
                 raise self.error(ext, f"sensor {s.name!r} is defined twice")
         if groups:
             metadata["groups"] = groups
+        if poses:
+            metadata["poses"] = poses
         out.update(sensors=tuple(sensors), spheres=tuple(spheres), tcp=tcp, metadata=metadata)
         return out
 

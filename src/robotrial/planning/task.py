@@ -83,9 +83,11 @@ class TaskRequest:
     """One Move Robot! request: from the joints `positions` (named by `joint_names`; none:
     the planning joints, or all of the robot's joints, by count) to the end effector at
     `goal_position` (m, base frame) with `goal_orientation` (quaternion x, y, z, w; None:
-    position only), around `obstacles`, carrying `object` (name, box, pose; None: nothing).
-    `planner` "" is the default; `time_limit` (s) bounds the whole answer, IK and smoothing
-    included (0: the default, DEFAULT_TIME_LIMIT for the planner)."""
+    position only), or to the planning joints `goal_joints` (a joint-space goal, as
+    MoveIt's joint target; the goal pose is then not used), around `obstacles`, carrying
+    `object` (name, box, pose; None: nothing). `planner` "" is the default; `time_limit`
+    (s) bounds the whole answer, IK and smoothing included (0: the default,
+    DEFAULT_TIME_LIMIT for the planner)."""
 
     positions: np.ndarray
     goal_position: np.ndarray
@@ -95,6 +97,7 @@ class TaskRequest:
     object: tuple[str, Box, Pose] | None = None
     planner: str = ""
     time_limit: float = 0.0
+    goal_joints: np.ndarray | None = None
 
 
 @dataclass
@@ -191,6 +194,8 @@ class TaskPlanner:
 
     `joints`: the planning joints (default: the arm group, else the chain to the end
     effector). `padding` (m) keeps the robot's spheres that far from obstacles.
+    `checker`: the collision checker class built for each scene (a subclass of
+    `CollisionChecker` suited to the scenes at hand, e.g. `collision.voxels.VoxelChecker`).
     """
 
     def __init__(
@@ -200,8 +205,10 @@ class TaskPlanner:
         joints: list[str] | None = None,
         padding: float = 0.0,
         validate: bool = True,
+        checker: type[CollisionChecker] = CollisionChecker,
     ) -> None:
         self.robot = robot
+        self.checker_class = checker
         self.world = world
         self.joint_names = list(joints) if joints else default_planning_joints(robot)
         self.kin = Kinematics(robot, self.joint_names)
@@ -268,7 +275,7 @@ class TaskPlanner:
         compiles the kernels on their first use (half a minute after an install), and a
         server does this at start so that the first user does not wait. None when two
         free configurations did not turn up in `tries` samples."""
-        checker = CollisionChecker(self.spheres, self.world_env, self.padding)
+        checker = self.checker_class(self.spheres, self.world_env, self.padding)
         qs = np.random.default_rng(0).uniform(self.kin.lower, self.kin.upper, (tries, self.kin.d))
         free = qs[checker.valid(qs)]
         if len(free) < 2:
@@ -302,10 +309,13 @@ class TaskPlanner:
         result.stats["total_time"] = result.planning_time
         return result
 
-    def _solve(self, planner, problem: Problem, checker, free_ik: Callable) -> PlanResult:
+    def _solve(self, planner, problem: Problem, checker, free_ik: Callable | None) -> PlanResult:
         """Plan to the nearest IK solution for half the time, then to it and to other IK
         solutions for the rest: on arms whose joints turn twice around, the nearest
-        solution can sit in a pocket the start has no free motion into."""
+        solution can sit in a pocket the start has no free motion into. A joint-space
+        goal (no `free_ik`) gets the whole time."""
+        if free_ik is None:
+            return planner.solve(problem, checker)
         t0 = time.perf_counter()
         half = replace(problem, time_limit=problem.time_limit / 2)
         res = planner.solve(half, checker)
@@ -347,7 +357,7 @@ class TaskPlanner:
         )
         for name, shape, pose in obstacles:
             env.add(name, shape, pose)
-        checker = CollisionChecker(self.spheres, env, self.padding, held, held_touch_at=start)
+        checker = self.checker_class(self.spheres, env, self.padding, held, held_touch_at=start)
         exact = None
         if self.validate:
             exact = ExactChecker(
@@ -401,53 +411,21 @@ class TaskPlanner:
                 return
             checker = finer
 
-        # --- the goal, by IK
-        target = np.asarray(request.goal_position, dtype=float)
-        if target.shape != (3,) or not np.all(np.isfinite(target)):
-            raise TaskError(f"ee_goal.position must be three finite numbers, got {target}")
-        goal_pose = None
-        if request.goal_orientation is not None:
-            goal_pose = Pose(tuple(target), tuple(request.goal_orientation))  # type: ignore[arg-type]
-        ik_target = target if goal_pose is None else goal_pose.matrix()
-        self._remaining("inverse kinematics")
-        t_ik = time.perf_counter()
-        # the nearest of two free solutions from seeds tried four at a time (the current
-        # joints first): over 150 random desk requests, trajectories 1 % longer in time
-        # than the nearest of four from batches of eight, for half the IK time
-        free_ik = partial(solve_ik, self.kin, ik_target, start, rng=rng, batch=4, wanted=2)
-        ik = free_ik(accept=checker.valid)
-        if not ik.success and (finer := checker.finer()) not in (None, checker):
-            ik = free_ik(accept=finer.valid)
-            if ik.success:
-                checker = finer
-        stats["ik_time"] = time.perf_counter() - t_ik
-        if not ik.success:
-            free = solve_ik(self.kin, ik_target, start, rng=rng, wanted=1)
-            if not free.success:
-                base = self.kin.fk(start)[0, :3, 3]
-                where = ", ".join(f"{v:.3f}" for v in target)
-                turn = (
-                    f" and {free.orientation_error:.2f} rad from the orientation"
-                    if goal_pose is not None
-                    else ""
-                )
-                self._fail(
-                    result,
-                    "unreachable",
-                    f"goal out of reach: the end effector gets no closer than "
-                    f"{free.position_error:.3f} m to ({where}){turn}; the target is "
-                    f"{np.linalg.norm(target - base):.3f} m from the robot's base",
-                )
+        # --- the goal: given in joint space, else by IK
+        if request.goal_joints is not None:
+            goal = np.asarray(request.goal_joints, dtype=float)
+            if goal.shape != (self.kin.d,) or not np.all(np.isfinite(goal)):
+                raise TaskError(f"goal_joints must be {self.kin.d} finite joint values")
+            if not checker.valid(goal[None])[0]:
+                touching = sorted(checker.contacts(goal))
+                self._fail(result, "goal_in_collision", "goal in collision: " + _describe(touching))
                 return
-            touching = sorted((finer or checker).contacts(free.q))
-            self._fail(
-                result,
-                "goal_in_collision",
-                "goal in collision: every IK solution found collides, e.g. " + _describe(touching),
-            )
-            return
-        goal = ik.q
-        stats["ik_solutions"] = len(ik.solutions)
+            free_ik = None
+        else:
+            found = self._ik_goal(request, start, rng, checker, stats, result)
+            if found is None:
+                return
+            goal, checker, free_ik = found
 
         # --- plan, shortcut, round, time, validate; retry finer if MuJoCo disagrees
         try:
@@ -458,7 +436,7 @@ class TaskPlanner:
         for attempt in range(3):
             left = min(limit, self._remaining("planning"))
             if attempt:
-                checker = CollisionChecker(
+                checker = self.checker_class(
                     self.spheres,
                     scene.env,
                     self.padding + 0.005 * attempt,
@@ -516,6 +494,65 @@ class TaskPlanner:
             f"planned with {planner.name} in {res.planning_time * 1e3:.1f} ms; "
             f"{len(path)} waypoints, {traj.duration:.2f} s trajectory{checked}{held_note}"
         )
+
+    def _ik_goal(
+        self,
+        request: TaskRequest,
+        start: np.ndarray,
+        rng: np.random.Generator,
+        checker: CollisionChecker,
+        stats: dict[str, Any],
+        result: TaskResult,
+    ) -> tuple[np.ndarray, CollisionChecker, Callable] | None:
+        """The goal joints for the request's goal pose (the nearest of the free IK
+        solutions), the checker they were found free with and the IK call that finds
+        more; None after failing `result` (out of reach, or every solution colliding)."""
+        self._remaining("inverse kinematics")
+        target = np.asarray(request.goal_position, dtype=float)
+        if target.shape != (3,) or not np.all(np.isfinite(target)):
+            raise TaskError(f"ee_goal.position must be three finite numbers, got {target}")
+        goal_pose = None
+        if request.goal_orientation is not None:
+            goal_pose = Pose(tuple(target), tuple(request.goal_orientation))  # type: ignore[arg-type]
+        ik_target = target if goal_pose is None else goal_pose.matrix()
+        t_ik = time.perf_counter()
+        # the nearest of two free solutions from seeds tried four at a time (the current
+        # joints first): over 150 random desk requests, trajectories 1 % longer in time
+        # than the nearest of four from batches of eight, for half the IK time
+        free_ik = partial(solve_ik, self.kin, ik_target, start, rng=rng, batch=4, wanted=2)
+        ik = free_ik(accept=checker.valid)
+        if not ik.success and (finer := checker.finer()) not in (None, checker):
+            ik = free_ik(accept=finer.valid)
+            if ik.success:
+                checker = finer
+        stats["ik_time"] = time.perf_counter() - t_ik
+        if not ik.success:
+            free = solve_ik(self.kin, ik_target, start, rng=rng, wanted=1)
+            if not free.success:
+                base = self.kin.fk(start)[0, :3, 3]
+                where = ", ".join(f"{v:.3f}" for v in target)
+                turn = (
+                    f" and {free.orientation_error:.2f} rad from the orientation"
+                    if goal_pose is not None
+                    else ""
+                )
+                self._fail(
+                    result,
+                    "unreachable",
+                    f"goal out of reach: the end effector gets no closer than "
+                    f"{free.position_error:.3f} m to ({where}){turn}; the target is "
+                    f"{np.linalg.norm(target - base):.3f} m from the robot's base",
+                )
+                return None
+            touching = sorted((finer or checker).contacts(free.q))
+            self._fail(
+                result,
+                "goal_in_collision",
+                "goal in collision: every IK solution found collides, e.g. " + _describe(touching),
+            )
+            return None
+        stats["ik_solutions"] = len(ik.solutions)
+        return ik.q, checker, free_ik
 
     def _timed_and_checked(self, smooth, path, checker, exact, stats) -> Trajectory | None:
         """Time the rounded path, else the plain one with denser waypoints; keep the first

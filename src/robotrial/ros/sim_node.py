@@ -22,10 +22,13 @@ The simulated time is the bus's clock (`Bus.set_clock`) while the node lives, an
 out on `/clock` (rosgraph_msgs/Clock) every control period while someone listens, as
 Gazebo publishes it for `use_sim_time` nodes.
 
-It listens to `/cmd_vel` (geometry_msgs/Twist) and `/robotrial/joint_reference`
-(trajectory_msgs/JointTrajectory), and offers the arm's
-`/arm_controller/follow_joint_trajectory` action (`trajectory_action`). Other lidars
-publish on `/NAME/points`.
+It listens to `/cmd_vel` (geometry_msgs/Twist), `/robotrial/joint_reference`
+(trajectory_msgs/JointTrajectory) and `/gripper/command` (control_msgs/GripperCommand:
+the fingers' opening and the most they may push), and offers the arm's
+`/arm_controller/follow_joint_trajectory` action (`trajectory_action`). Each camera also
+offers `/NAME/capture` (std_srvs/Trigger): one frame rendered now and published on its
+topics, for a robot that renders only when it looks (its stream switched off). Other
+lidars publish on `/NAME/points`.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from robotrial.msgs.builtin_interfaces import Time
+from robotrial.msgs.control_msgs import GripperCommand
 from robotrial.msgs.geometry_msgs import (
     Point,
     Pose,
@@ -61,6 +65,7 @@ from robotrial.msgs.sensor_msgs import (
     PointField,
 )
 from robotrial.msgs.std_msgs import Header, String
+from robotrial.msgs.std_srvs import Trigger, TriggerResponse
 from robotrial.msgs.tf2_msgs import TFMessage
 from robotrial.msgs.trajectory_msgs import JointTrajectory
 from robotrial.ros.bus import Bus, Node
@@ -322,6 +327,13 @@ class SimNode(Node):
         bus.set_clock(lambda: sim.world.time)
         self.create_subscription("/cmd_vel", Twist, self._on_cmd_vel)
         self.create_subscription("/robotrial/joint_reference", JointTrajectory, self._on_reference)
+        if sim.gripper is not None:
+            self.create_subscription("/gripper/command", GripperCommand, self._on_gripper)
+        for s in sim.robot.sensors:
+            if s.type in ("camera", "depth_camera"):
+                self.create_service(
+                    f"/{s.name}/capture", Trigger, lambda _req, name=s.name: self._capture(name)
+                )
         self._started = False
         self.rejected: list[str] = []
         self.trajectory_action = JointTrajectoryAction(self) if sim.joints is not None else None
@@ -343,6 +355,22 @@ class SimNode(Node):
         except ValueError as exc:
             self.rejected.append(str(exc))
             log.warning("%s: joint reference ignored: %s", self.name, exc)
+
+    def _on_gripper(self, msg: GripperCommand) -> None:
+        try:
+            with self._lock:
+                self.sim.grip(float(msg.position), float(msg.max_effort))
+        except ValueError as exc:
+            self.rejected.append(str(exc))
+            log.warning("%s: gripper command ignored: %s", self.name, exc)
+
+    def _capture(self, sensor: str) -> TriggerResponse:
+        """Render one frame of a camera now and publish it on the camera's topics."""
+        with self._lock:
+            readings = self.sim.capture(sensor)
+        for r in readings:
+            self.publish_reading(r)
+        return TriggerResponse(success=True, message=f"{sensor}: one frame published")
 
     # --- outputs --------------------------------------------------------------------
 

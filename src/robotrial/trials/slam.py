@@ -30,6 +30,7 @@ from scipy import ndimage
 
 from robotrial.model.gridmap import world_occupancy
 from robotrial.model.world import World
+from robotrial.onboard.drive import RouteDrive
 from robotrial.ros.slam_node import frame_in, odom_pose, planar, stamp_of, transform_matrix
 from robotrial.sim.lidar import ScanConfig
 from robotrial.slam.gmapping import GMappingSlam, OdometryRequired
@@ -334,35 +335,6 @@ def route_world(name: str) -> str:
     if name not in ROUTES:
         raise ValueError(f"no SLAM route {name!r}; known: {', '.join(sorted(ROUTES))}")
     return name.removesuffix("_tour")
-
-
-class RouteDrive:
-    """Drives through waypoints like a careful teleoperator who sees the robot: turn on
-    the spot towards the next point, then drive at `speed` while steering onto it."""
-
-    def __init__(self, waypoints: list[tuple[float, float]], speed: float = 0.3) -> None:
-        if not waypoints:
-            raise ValueError("route: give at least one waypoint")
-        self.waypoints = list(waypoints)
-        self.speed = speed
-        self.index = 0
-
-    @property
-    def done(self) -> bool:
-        return self.index >= len(self.waypoints)
-
-    def command(self, x: float, y: float, yaw: float) -> tuple[float, float]:
-        while not self.done:
-            tx, ty = self.waypoints[self.index]
-            if np.hypot(tx - x, ty - y) > 0.15:
-                break
-            self.index += 1
-        if self.done:
-            return 0.0, 0.0
-        err = wrap(float(np.arctan2(ty - y, tx - x)) - yaw)
-        if abs(err) > 0.25:
-            return 0.0, float(np.clip(1.5 * err, -0.5, 0.5))
-        return self.speed, float(np.clip(1.5 * err, -0.3, 0.3))
 
 
 def record_drive(

@@ -94,8 +94,8 @@ export interface RobotVerdict {
   turning_diameter: number | null;
   /** One per chore asked for: `chore`, `object`, `room`, `runs`, `successes`, `done`,
    * `mean_time` (s, simulated, of the successful runs), `failed_phases`, `outcomes`
-   * (per run: `seed`, `success`, `failed_phase`, `reason`, `sim_time`), `refused` (why
-   * the trial would not run it, or "") and `wall_time` (s). */
+   * (per run: `seed`, `success`, `failed_phase`, `cause`, `reason`, `sim_time`),
+   * `refused` (why the trial would not run it, or "") and `wall_time` (s). */
   chores: Record<string, unknown>[];
   /** Whatever else the engine reports, by name. */
   details: Record<string, unknown>;

@@ -51,6 +51,12 @@ export interface FollowJointTrajectoryResult {
   error_string: string;
 }
 
+/** control_msgs/msg/GripperCommand: Move the fingers to `position` (the finger joint's value, m) pushing with at most `max_effort` (N; 0 or less: the gripper's own limit). */
+export interface GripperCommand {
+  position: number;
+  max_effort: number;
+}
+
 /** control_msgs/msg/JointTolerance: Bounds on one joint's error; 0 means the controller's default, -1 no bound. */
 export interface JointTolerance {
   name: string;
@@ -879,6 +885,7 @@ export interface MessageTypes {
   "control_msgs/action/FollowJointTrajectory_Feedback": FollowJointTrajectoryFeedback;
   "control_msgs/action/FollowJointTrajectory_Goal": FollowJointTrajectoryGoal;
   "control_msgs/action/FollowJointTrajectory_Result": FollowJointTrajectoryResult;
+  "control_msgs/msg/GripperCommand": GripperCommand;
   "control_msgs/msg/JointTolerance": JointTolerance;
   "geometry_msgs/msg/Accel": Accel;
   "geometry_msgs/msg/Point": Point;
@@ -1055,6 +1062,7 @@ export const TOPICS = {
   "/scan": "sensor_msgs/msg/LaserScan",
   "/odom": "nav_msgs/msg/Odometry",
   "/cmd_vel": "geometry_msgs/msg/Twist",
+  "/gripper/command": "control_msgs/msg/GripperCommand",
   "/map": "nav_msgs/msg/OccupancyGrid",
   "/plan": "nav_msgs/msg/Path",
   "/move_base_simple/goal": "geometry_msgs/msg/PoseStamped",

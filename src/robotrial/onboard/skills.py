@@ -446,7 +446,7 @@ class Skills:
             obstacles=obstacles,
             object=self._held_object(start),
             planner=self.robot.setup.planner,
-            time_limit=2.0,
+            time_limit=0.0,  # the default: 2 s for the planner, set-up and checks unbounded
         )
         planner = self.feasible if check_only else self.planner
         res = planner.plan(request, seed=self.robot.setup.seed)

@@ -32,7 +32,7 @@ CONTROLLERS = ("dwa", "pursuit", "profile")
 def add_planner_argument(parser: argparse.ArgumentParser) -> None:
     """The --planner option (also `robotrial bench nav`'s); its default is the one
     navigation default, `robotrial.nav.navigator.DEFAULT_PLANNER`."""
-    from robotrial.nav.navigator import DEFAULT_PLANNER
+    from robotrial.nav import DEFAULT_PLANNER
 
     parser.add_argument(
         "--planner",
@@ -85,7 +85,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import ModelError, load_world
     from robotrial.model.gridmap import file_map, world_map
-    from robotrial.nav.navigator import default_controller
+    from robotrial.nav import default_controller
     from robotrial.trials.nav import (
         NavTrialSetup,
         footprint_of_robot,
@@ -118,11 +118,13 @@ def run(args: argparse.Namespace) -> int:
         footprint = footprint_of_robot(args.robot)
         check = refuse_goal(setup, nav_map, start, footprint)
     except (ValueError, KeyError, OSError, ModelError) as err:
-        console.print(f"[red]robotrial nav: {_words(err)}[/red]", highlight=False)
+        console.print(f"[red]robotrial nav: {_words(err)}[/red]", highlight=False, soft_wrap=True)
         return 2
     if not check.ok:
         code = {"here": 0, "unreachable": 1}.get(check.kind, 2)
-        console.print(f"robotrial nav: {check.reason}", highlight=False)
+        where = " (with --map, goals are in the map's frame)" if args.map else ""
+        hint = where if check.kind in ("off_map", "in_obstacle") else ""
+        console.print(f"robotrial nav: {check.reason}{hint}", highlight=False, soft_wrap=True)
         return code
     length, best = (None, None)
     if start.pose is not None:
@@ -137,7 +139,9 @@ def run(args: argparse.Namespace) -> int:
         try:
             run_trials(setup, args.runs, args.seed, on_run=on_run)
         except ValueError as err:
-            console.print(f"[red]robotrial nav: {_words(err)}[/red]", highlight=False)
+            console.print(
+                f"[red]robotrial nav: {_words(err)}[/red]", highlight=False, soft_wrap=True
+            )
             return 2
     summary = summarize(results, best)
     summary["shortest_length"] = length

@@ -25,6 +25,7 @@ from enum import Enum
 
 import numpy as np
 
+from robotrial.nav import DEFAULT_PLANNER, default_controller
 from robotrial.nav.costmap import Costmap, Footprint, Inflation, coarsen
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
 from robotrial.nav.hybrid import HybridAStar, HybridConfig, footprint_hits, resample
@@ -34,21 +35,6 @@ from robotrial.nav.pursuit import PursuitConfig, PursuitController
 
 GLOBAL_PLANNERS = (*PLANNERS, "hybrid", "auto")
 CONTROLLERS = ("dwa", "pursuit", "profile")
-
-DEFAULT_PLANNER = "hybrid"
-"""The global planner of every navigation stack that does not name one: `robotrial nav`,
-`robotrial bench nav`, the carry trial and so the verdict's chores, the verdict's drives
-and the live server all read it here. Hybrid-A* with the speed profile is the best
-measured (docs/benchmarks/nav.md); Dijkstra with the DWA (the platform paper's
-move_base) stays selectable."""
-OLD_DEFAULT_PLANNER = "dijkstra"
-"""The default before: what `robotrial bench nav` measures beside the default."""
-
-
-def default_controller(planner: str = DEFAULT_PLANNER) -> str:
-    """The local controller a global planner gets unless one is named: the speed profile
-    for Hybrid-A*'s footprint plans, the DWA for the others."""
-    return "profile" if planner == "hybrid" else "dwa"
 
 
 class Status(Enum):

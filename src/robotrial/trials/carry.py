@@ -70,6 +70,7 @@ from robotrial.msgs.sensor_msgs import LaserScan
 from robotrial.msgs.std_msgs import Header
 from robotrial.msgs.tf2_msgs import TFMessage
 from robotrial.msgs.trajectory_msgs import JointTrajectory
+from robotrial.nav import DEFAULT_PLANNER
 from robotrial.nav.amcl import compose, inverse
 from robotrial.nav.costmap import Costmap, Footprint
 from robotrial.nav.navigator import NavigatorConfig, Status
@@ -523,7 +524,7 @@ class CarryTrial(Node):
             self.speed,
             self.limits.max_yaw_rate,
             self.limits.max_accel,
-            "dijkstra",
+            DEFAULT_PLANNER,
             self.limits.max_yaw_accel,
         )
         return NavigatorConfig(**{**base.__dict__, **changes})

@@ -30,10 +30,11 @@ from robotrial.model import load_robot, load_world
 from robotrial.model.gridmap import NavMap, file_map, world_map
 from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
+from robotrial.nav import DEFAULT_PLANNER
 from robotrial.nav.amcl import AMCL, AMCLConfig, compose, inverse
 from robotrial.nav.costmap import Costmap, Footprint
 from robotrial.nav.dwa import DWAConfig
-from robotrial.nav.navigator import DEFAULT_PLANNER, Navigator, NavigatorConfig, Status
+from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
 from robotrial.nav.planners import path_length, shortest_path
 from robotrial.nav.profile import ProfileConfig
 from robotrial.sim import SimOptions, Simulation, StreamSettings
@@ -597,6 +598,47 @@ def shortest_time(
     )
     length = path_length(p)
     return length, length / setup.speed
+
+
+def footprint_time(
+    nav_map: NavMap,
+    footprint: Footprint,
+    start: tuple[float, float, float],
+    goal: tuple[float, float, float],
+    speed: float,
+    limits: DriveLimits,
+) -> tuple[float | None, float | None]:
+    """The footprint-aware yardstick (s): the least time in which a base with `limits`
+    (top speed capped at `speed`) follows a Hybrid-A* plan from `start` to `goal` from
+    rest to rest (the cheaper of the cheapest plan and the navigator's own, each with
+    curves where the rectangle takes them), and turns to the goal's heading; and the same
+    for the plans exactly as planned (every turn on the spot kept). None where
+    Hybrid-A* finds no way for the rectangle."""
+    from robotrial.nav.costmap import Costmap, coarsen
+    from robotrial.nav.hybrid import HybridAStar, HybridConfig
+    from robotrial.nav.planners import NoPath
+    from robotrial.nav.profile import ProfileConfig, minimum_time
+
+    occupied, unknown, res = coarsen(nav_map.occupied, nav_map.unknown, nav_map.resolution, 0.05)
+    cm = Costmap(occupied, nav_map.origin, res, footprint, unknown=unknown)
+    base = ProfileConfig(
+        max_speed=min(speed, limits.max_speed),
+        max_yaw_rate=limits.max_yaw_rate,
+        max_accel=limits.max_accel,
+        max_yaw_accel=limits.max_yaw_accel,
+    )
+    curves, planned = np.inf, np.inf
+    # the cheapest plan, and the navigator's own (heuristic weight 1.1)
+    for config in (HybridConfig(heuristic_weight=1.0), HybridConfig()):
+        try:
+            poses = HybridAStar(config).plan_poses(cm, start, goal)
+        except NoPath:
+            continue
+        curves = min(curves, minimum_time(poses, base, goal[2], cm, config.margin))
+        planned = min(planned, minimum_time(poses, base, goal[2]))
+    if not np.isfinite(planned):
+        return None, None
+    return min(curves, planned), planned
 
 
 def summarize(results: list[RunResult], shortest: float | None = None) -> dict:

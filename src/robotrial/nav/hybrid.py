@@ -41,6 +41,7 @@ from robotrial.nav.planners import NoPath, StartBlocked, _heap_pop, _heap_push
 YAW_BINS = 72
 CHECK_BINS = 2 * YAW_BINS
 SUB = 4
+SHOT_NEAR = 0.6  # m: within this of the goal a straight shot needs only the margin
 
 
 @dataclass(frozen=True)
@@ -51,7 +52,11 @@ class HybridConfig:
     `reverse_penalty` (factor on backward steps; None: no backward motion),
     `goal_tolerance` (m), `shot_range` (m), `reverse_shot` (a base that turns on the
     spot may also end in a straight drive backwards to the goal, as into a spot whose
-    heading faces out of it), `max_expansions`, `wall_tolerance` (m:
+    heading faces out of it), `tight_margin` (m) and `tight_penalty` (a step that
+    ends with the rectangle nearer than `tight_margin` to something costs that much
+    more, and a straight shot must keep it until near the goal: plans keep room for
+    localization and tracking errors where there is room), `max_expansions`,
+    `wall_tolerance` (m:
     obstacle-layer cells this near the static map's are not blocking),
     `heuristic_weight` (>= 1; above 1 the search trades the cheapest plan for far fewer
     poses expanded: 1.1 takes the apartment's study route from 4,340 poses to about
@@ -67,6 +72,8 @@ class HybridConfig:
     goal_tolerance: float = 0.1
     shot_range: float = 3.0
     reverse_shot: bool = True
+    tight_margin: float = 0.07
+    tight_penalty: float = 2.0
     max_expansions: int = 400_000
     allow_unknown: bool = False
     wall_tolerance: float = 0.1
@@ -305,6 +312,10 @@ def _search(
     cell,
     st,
     ce,
+    tight_dist,
+    st2,
+    ce2,
+    tight_penalty,
     prims,
     rot_cost,
     tol,
@@ -313,10 +324,13 @@ def _search(
     max_exp,
 ):
     """Hybrid-A* from (sx, sy, yaw bin sb) to within `tol` of (gx, gy), from where a turn
-    on the spot at the goal to check bin `gk` is clear (-1: any heading will do). Returns
-    the states' (x, y, bin, parent) arrays, the index of the final state (-1: no path,
-    -2: expansion limit) and how the final state ends: 0 at the goal, 1 in a straight
-    shot to it, 2 in a straight shot backwards (tried with `reverse_shot`)."""
+    on the spot at the goal to check bin `gk` is clear (-1: any heading will do). A step
+    that ends where the rectangle is clear but not by the tight margin (cells `st2`,
+    `ce2`) costs `tight_penalty` times more; a straight shot to the goal must keep the
+    tight margin too, unless it starts within SHOT_NEAR of the goal. Returns the states'
+    (x, y, bin, parent) arrays, the index of the final state (-1: no path, -2: expansion
+    limit) and how the final state ends: 0 at the goal, 1 in a straight shot to it, 2 in
+    a straight shot backwards (tried with `reverse_shot`)."""
     rows, cols = blocked.shape
     hr = int(np.ceil(rows * res / cell))
     hc = int(np.ceil(cols * res / cell))
@@ -353,12 +367,20 @@ def _search(
         ):
             return xs[:n], ys[:n], bs[:n], par[:n], cur, 0
         if spin and dgoal <= shot_range and (expansions % 4 == 1 or dgoal < 1.0):
-            if _shot(x, y, b, gx, gy, gk, False, blocked, dist, free_dist, ox, oy, res, st, ce):
-                return xs[:n], ys[:n], bs[:n], par[:n], cur, 1
-            if reverse_shot and _shot(
-                x, y, b, gx, gy, gk, True, blocked, dist, free_dist, ox, oy, res, st, ce
-            ):
-                return xs[:n], ys[:n], bs[:n], par[:n], cur, 2
+            # far from the goal a shot keeps the tight margin: one that squeezes through
+            # a doorway at a slant would leave the base no room for error
+            near = dgoal < SHOT_NEAR
+            for rev in (False, True):
+                if rev and not reverse_shot:
+                    continue
+                if _shot(
+                    x, y, b, gx, gy, gk, rev, blocked, dist, tight_dist, ox, oy, res, st2, ce2
+                ):
+                    return xs[:n], ys[:n], bs[:n], par[:n], cur, 2 if rev else 1
+                if near and _shot(
+                    x, y, b, gx, gy, gk, rev, blocked, dist, free_dist, ox, oy, res, st, ce
+                ):
+                    return xs[:n], ys[:n], bs[:n], par[:n], cur, 2 if rev else 1
         for p in range(prims.shape[0]):
             kind = int(prims[p, 0])
             turn = int(prims[p, 1])
@@ -380,6 +402,10 @@ def _search(
                 step_cost = rot_cost * abs(turn) * 2 * np.pi / YAW_BINS
             else:
                 step_cost = length * prims[p, 3] * weight[r1, c1]
+            if tight_penalty > 1.0 and _collides(
+                x1, y1, 2 * b1, blocked, dist, tight_dist, ox, oy, res, st2, ce2
+            ):
+                step_cost *= tight_penalty
             g1 = gs[cur] + step_cost
             if g1 >= best[k1]:
                 continue
@@ -488,6 +514,13 @@ class HybridAStar:
         edge = footprint_cells(
             costmap.footprint, costmap.resolution, c.margin, 2 * costmap.resolution
         )
+        # the tight margin's edge band reaches past the margin: enough from a clear pose
+        tight = footprint_cells(
+            costmap.footprint,
+            costmap.resolution,
+            max(c.tight_margin, c.margin),
+            2 * costmap.resolution + max(c.tight_margin - c.margin, 0.0),
+        )
         blocked = self.blocked(costmap)
         fp = costmap.footprint
         free_dist = fp.circumscribed_radius + c.margin + 2 * res
@@ -540,6 +573,10 @@ class HybridAStar:
             2 * res,
             edge[0],
             edge[1],
+            fp.circumscribed_radius + max(c.tight_margin, c.margin) + 2 * res,
+            tight[0],
+            tight[1],
+            c.tight_penalty,
             motions(c),
             c.rotation_cost,
             c.goal_tolerance,

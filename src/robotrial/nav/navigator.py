@@ -50,6 +50,13 @@ class Recovery(Enum):
     BACK_UP = "back_up"
 
 
+RECOVERY_WORDS = {
+    Recovery.CLEAR_COSTMAPS.value: "clearing the costmaps",
+    Recovery.ROTATE.value: "rotating in place",
+    Recovery.BACK_UP.value: "backing up",
+}
+
+
 @dataclass(frozen=True)
 class NavigatorConfig:
     """Tolerances (m, rad), timing (s), local window size (m) and the sub-planners.
@@ -130,11 +137,17 @@ class Navigator:
         grid = "astar" if config.planner in ("hybrid", "auto") else config.planner
         self.planner = make_planner(grid)
         self.hybrid = HybridAStar(config.hybrid)
+        # from a start already within the margin (a doorway, localization a few cm off)
+        self.hybrid_tight = HybridAStar(replace(config.hybrid, margin=0.0))
         self.plans_by: list[str] = []
         kind = config.controller or default_controller(config.planner)
         if kind not in CONTROLLERS:
             raise ValueError(f"unknown controller {kind!r}; choose from {list(CONTROLLERS)}")
         self.controller_kind = kind
+        # once turning on the goal, how far (in tolerances) the turn may drift: a DWA
+        # stops up to twice the tolerance off (it cannot close a sideways gap); a
+        # footprint plan ends on the goal pose
+        self._near = 2.0 if kind == "dwa" else 1.3
         self.controller: DWAPlanner | PursuitController | ProfileController
         if kind == "dwa":
             self.controller = DWAPlanner(footprint, config.dwa)
@@ -191,6 +204,31 @@ class Navigator:
         if isinstance(self.controller, ProfileController):
             self.controller.reset()
 
+    def phase(self) -> tuple[str, str]:
+        """What the navigator is doing, for a status line: ('idle' | 'planning' |
+        'driving' | 'recovering' | 'reached' | 'failed', details in words: the recovery
+        running, the reason it failed)."""
+        if self.status is Status.SUCCEEDED:
+            return "reached", self.message
+        if self.status is Status.ABORTED:
+            return "failed", self.message
+        if self.status is Status.IDLE or self.goal is None:
+            return "idle", ""
+        if self._behaviour is not None:
+            return "recovering", RECOVERY_WORDS[self._behaviour.kind.value]
+        if self._rotating:
+            return "driving", "turning to the goal's heading"
+        if self.path is None:
+            return "planning", ""
+        return "driving", ""
+
+    def conclude(self, x: float, y: float, yaw: float, reached: bool, message: str) -> None:
+        """End a goal without driving: reached (the base already stands on it) or
+        refused (the message says why), as a goal judged before it starts."""
+        self.goal = np.array([x, y, yaw], dtype=float)
+        self.path = None
+        self._finish(Status.SUCCEEDED if reached else Status.ABORTED, message)
+
     def cancel(self, reason: str = "cancelled") -> None:
         self._finish(Status.ABORTED, reason)
 
@@ -235,7 +273,7 @@ class Navigator:
         if self._behaviour is not None:
             return self._recover(now, pose_a, velocity)
         if dist <= self.config.xy_tolerance or (
-            self._rotating and dist <= 2 * self.config.xy_tolerance
+            self._rotating and dist <= self._near * self.config.xy_tolerance
         ):
             self._rotating = True
             err = _wrap(goal[2] - pose_a[2])
@@ -271,12 +309,14 @@ class Navigator:
             return 0.0, 0.0
         self._blocked_since = None
         if (
-            dist <= 2 * self.config.xy_tolerance
+            self.controller_kind == "dwa"
+            and dist <= 2 * self.config.xy_tolerance
             and abs(res.v) < 0.05
             and abs(float(velocity[0])) < 0.05
         ):
             # stopped beside the goal: a skid-steer base cannot close a sideways gap
-            # without a detour, so finish with the turn to the goal's heading
+            # without a detour, so the DWA finishes with the turn to the goal's heading
+            # (a footprint plan ends on the goal pose itself, turns included)
             self._rotating = True
             return 0.0, self._turn_rate(_wrap(goal[2] - pose_a[2]), self._command[1])
         return res.v, res.w
@@ -336,14 +376,18 @@ class Navigator:
                 if not self.hybrid.collides(cm, along).any():
                     self.plans_by.append("grid")
                     return path
-            try:
-                self._poses = self.hybrid.plan_poses(cm, tuple(pose), tuple(self.goal))
-                self.plans_by.append("hybrid")
-                return resample(self._poses[:, :2], cm.resolution)
-            except StartBlocked:
-                # a base whose footprint already touches something (as mapped) plans
-                # its way out on the grid, where cells near the start stay open
-                pass
+            for planner in (self.hybrid, self.hybrid_tight):
+                try:
+                    self._poses = planner.plan_poses(cm, tuple(pose), tuple(self.goal))
+                    self.plans_by.append("hybrid")
+                    return resample(self._poses[:, :2], cm.resolution)
+                except StartBlocked:
+                    # a base within the margin of something (as mapped) plans with the
+                    # rectangle itself: a grid path has a turn on the spot at every
+                    # corner, which in a doorway would sweep the jambs
+                    continue
+            # a base whose footprint already touches something (as mapped) plans its way
+            # out on the grid, where cells near the start stay open
         self.plans_by.append("grid")
         return smooth(self.planner.plan(cm, tuple(pose[:2]), goal), cm)
 

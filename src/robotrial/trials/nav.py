@@ -34,6 +34,7 @@ from robotrial.nav import DEFAULT_PLANNER
 from robotrial.nav.amcl import AMCL, AMCLConfig, compose, inverse
 from robotrial.nav.costmap import Costmap, Footprint
 from robotrial.nav.dwa import DWAConfig
+from robotrial.nav.hybrid import HybridConfig
 from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
 from robotrial.nav.planners import path_length, shortest_path
 from robotrial.nav.profile import ProfileConfig
@@ -255,6 +256,9 @@ def navigator_config(
     )
     return NavigatorConfig(
         planner=planner,
+        # the footprint plan ends within half the navigator's tolerance (its last
+        # straight drive and turn to the goal's heading are planned)
+        hybrid=HybridConfig(goal_tolerance=0.5 * XY_TOLERANCE),
         dwa=dwa,
         profile=profile,
         controller=controller,

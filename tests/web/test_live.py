@@ -41,18 +41,6 @@ def page(server: str, browser) -> Iterator[Page]:
     page = browser.new_page(viewport={"width": 1200, "height": 760})
     errors: list[str] = []
     page.on("pageerror", lambda e: errors.append(str(e)))
-    page.on("console", lambda m: print("CONSOLE", time.monotonic(), m.text[:200], flush=True) if "WSCLOSE" in m.text else None)
-    page.on("websocket", lambda w: (print("WSOPEN", time.monotonic(), flush=True), w.on("framesent", lambda f: print("SENT", time.monotonic(), str(f)[:120], flush=True) if "move_base_simple" in str(f) else None)))
-    page.add_init_script("""
-      const Orig = window.WebSocket;
-      window.WebSocket = function(url, protocols) {
-        const ws = new Orig(url, protocols);
-        ws.addEventListener('close', (e) => console.log('WSCLOSE', e.code, e.reason, e.wasClean));
-        return ws;
-      };
-      window.WebSocket.prototype = Orig.prototype;
-      Object.assign(window.WebSocket, {CONNECTING: 0, OPEN: 1, CLOSING: 2, CLOSED: 3});
-    """)
     page.goto(server)
     page.wait_for_function(LIVE, timeout=60_000)
     assert page.evaluate("window.robotrial.state().error") is None

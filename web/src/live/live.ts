@@ -80,6 +80,8 @@ export interface LiveState {
   poseEstimate: [number, number, number] | null;
   /** The navigation node's last status, and the status line it gave. */
   status: { state: string; text: string; distance: number; elapsed: number } | null;
+  /** The states the navigator went through since the last goal was sent, in order. */
+  statusHistory: string[];
   statusLine: string;
   /** The last /cmd_vel sent: linear x (m/s), angular z (rad/s). */
   drive: [number, number];
@@ -153,6 +155,7 @@ export class LiveView {
   private goal: [number, number, number] | null = null;
   private poseEstimate: [number, number, number] | null = null;
   private status: NavStatus | null = null;
+  private statusHistory: string[] = [];
   private command: [number, number] = [0, 0];
   private readonly held = new Set<string>();
   private cmdTimer: number | undefined;
@@ -274,6 +277,7 @@ export class LiveView {
             elapsed: this.status.elapsed,
           }
         : null,
+      statusHistory: [...this.statusHistory],
       statusLine: this.statusText.textContent ?? "",
       drive: this.command,
       screen: this.screen(),
@@ -479,6 +483,7 @@ export class LiveView {
 
   private navStatus(m: NavStatus): void {
     this.status = m;
+    if (this.statusHistory[this.statusHistory.length - 1] !== m.state) this.statusHistory.push(m.state);
     this.say(statusLine(m), m.state);
     const done = m.state === "reached" || m.state === "failed" || m.state === "refused";
     this.goalArrow.setColor(done ? DONE_COLOR : GOAL_COLOR);
@@ -610,6 +615,7 @@ export class LiveView {
     if (this.ros.publish("/move_base_simple/goal", goal)) {
       this.goal = [x, y, heading];
       this.status = null; // the last goal's answer is not this one's
+      this.statusHistory = [];
       this.placeArrow(this.goalArrow, new Vector3(x, y, 0), heading);
       this.goalArrow.setColor(GOAL_COLOR);
       this.say("Goal sent…", "planning");

@@ -31,7 +31,7 @@ CONTROLLERS = ("dwa", "pursuit", "profile")
 
 def add_planner_argument(parser: argparse.ArgumentParser) -> None:
     """The --planner option (also `robotrial bench nav`'s); its default is the one
-    navigation default, `robotrial.nav.navigator.DEFAULT_PLANNER`."""
+    navigation default, `robotrial.nav.DEFAULT_PLANNER`."""
     from robotrial.nav import DEFAULT_PLANNER
 
     parser.add_argument(

@@ -98,7 +98,10 @@ def check_goal(
     try:
         poses = planner.plan_poses(costmap, (sx, sy, syaw), (gx, gy, gyaw))
     except NoPath as err:
-        return GoalCheck("unreachable", f"the goal {where} is out of reach: {err}")
+        text = str(err)  # the planner's words name the goal already, mostly
+        if not text.startswith("the goal"):
+            text = f"the goal {where} is out of reach: {text}"
+        return GoalCheck("unreachable", text)
     return GoalCheck("ok", plan=poses)
 
 

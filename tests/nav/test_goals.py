@@ -26,7 +26,7 @@ def costmap_of(world) -> Costmap:
 
 
 @pytest.mark.parametrize("seed", [3, 11, 29])
-def test_a_generated_home_has_its_rooms_doorways_and_furniture_all_reached(seed) -> None:
+def test_a_generated_home_has_doorways_furniture_and_every_room_reached(seed) -> None:
     plan = home_plan(seed)
     assert plan == home_plan(seed), "the same seed gives the same home"
     assert 2 <= len(plan["rooms"]) <= 6

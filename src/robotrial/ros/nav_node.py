@@ -212,6 +212,11 @@ class NavNode(Node):
             self.amcl.initialize(tuple(mean), tuple(std))
             self.map_to_odom = compose(mean, inverse(self.odom))
 
+    @property
+    def goal_pending(self) -> bool:
+        """Whether a goal came in that the next control step has yet to take up."""
+        return self._incoming is not None
+
     def _on_goal(self, msg: PoseStamped) -> None:
         with self._control:
             self._preempt()

@@ -674,7 +674,7 @@ class CarryTrial(Node):
         self.goal_pub.publish(PoseStamped(header=head, pose=PoseMsg.planar(*goal)))
         nav = self.nav_node.navigator
         assert nav is not None
-        while nav.status is Status.ACTIVE:
+        while self.nav_node.goal_pending or nav.status is Status.ACTIVE:
             yield
         self._drive(0.0, 0.0)
         for _ in range(10):

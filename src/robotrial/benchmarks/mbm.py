@@ -64,7 +64,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-ompl", action="store_true", help="skip the OMPL baseline")
     parser.add_argument("-o", "--output", type=Path, help="write the results as JSON here")
     parser.add_argument(
-        "--md", type=Path, default=Path("docs/benchmarks/mbm.md"), help="markdown to write"
+        "--md",
+        type=Path,
+        default=None,
+        help="write the results as Markdown here (e.g. docs/benchmarks/mbm.md)",
+    )
+    parser.add_argument(
+        "--plot",
+        type=Path,
+        metavar="PNG",
+        help="write the distribution of solve times per scene (ours, OMPL) as a PNG here",
     )
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
 
@@ -356,15 +365,64 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         args.output.parent.mkdir(parents=True, exist_ok=True)
         args.output.write_text(json.dumps(report, indent=2))
-    md = args.md.with_name("mbm.md") if args.md else None
-    if md:
-        md.parent.mkdir(parents=True, exist_ok=True)
-        md.write_text(markdown(report))
+    if args.md:
+        args.md.parent.mkdir(parents=True, exist_ok=True)
+        args.md.write_text(markdown(report))
+    if getattr(args, "plot", None):
+        plot_times(report, args.plot)
     if args.json:
         print_json(report)
     else:
         print_table("MotionBenchMaker, Panda (RRTConnect)", *_table(report))
     return 0
+
+
+def plot_times(report: dict[str, Any], path: Path) -> Path:
+    """A PNG of each scene's solve times (solved problems, log scale): ours and OMPL's
+    side by side, boxes from the quartiles, whiskers to the 5th and 95th percentiles,
+    every problem as a dot; the tails are what a median hides."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scenes = list(report["scenes"])
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for k, (key, colour) in enumerate((("ours", "tab:blue"), ("ompl", "tab:orange"))):
+        data, at = [], []
+        for i, scene in enumerate(scenes):
+            rows = report["scenes"][scene]["rows"]
+            ms = [r[f"{key}_ms"] for r in rows if r.get(f"{key}_solved")]
+            if ms:
+                data.append(ms)
+                at.append(i + (k - 0.5) * 0.35)
+        if not data:
+            continue
+        ax.boxplot(
+            data,
+            positions=at,
+            widths=0.3,
+            whis=(5, 95),
+            showfliers=False,
+            patch_artist=True,
+            boxprops={"facecolor": colour, "alpha": 0.35},
+            medianprops={"color": colour},
+        )
+        rng = np.random.default_rng(0)
+        for x, ms in zip(at, data, strict=True):
+            ax.plot(x + rng.uniform(-0.1, 0.1, len(ms)), ms, ".", ms=2, color=colour)
+        ax.plot([], [], "s", color=colour, label="ours" if key == "ours" else "OMPL + MuJoCo")
+    ax.set_yscale("log")
+    ax.set_xticks(range(len(scenes)), scenes, rotation=20)
+    ax.set_ylabel("solve time (ms)")
+    ax.set_title(f"MotionBenchMaker, Panda, RRTConnect ({report['date']})")
+    ax.legend()
+    ax.grid(True, axis="y", which="both", alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def _ms(v: float | None) -> str:

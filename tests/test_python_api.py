@@ -32,7 +32,7 @@ def test_the_public_names_resolve_and_unknown_ones_are_named() -> None:
 
 @pytest.mark.parametrize("code", EXAMPLES, ids=[f"example {i + 1}" for i in range(len(EXAMPLES))])
 def test_every_example_in_the_docs_runs(code: str, tmp_path: Path) -> None:
-    assert len(EXAMPLES) == 5
+    assert len(EXAMPLES) == 6
     done = subprocess.run(
         [sys.executable, "-c", code],
         cwd=tmp_path,

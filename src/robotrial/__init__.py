@@ -13,6 +13,8 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any
 
+from robotrial.cache import cache_dir
+
 __version__ = "0.1.0"
 
 _PUBLIC = {
@@ -31,6 +33,12 @@ _PUBLIC = {
     "read_recording": "robotrial.ros.playback",
     "CarrySetup": "robotrial.trials.carry",
     "run_carry": "robotrial.trials.carry",
+    "catalogue_of": "robotrial.trials.carry",
+    "Bus": "robotrial.ros.bus",
+    "SimNode": "robotrial.ros.sim_node",
+    "Robot": "robotrial.onboard.robot",
+    "RobotSetup": "robotrial.onboard.robot",
+    "Skills": "robotrial.onboard.skills",
 }
 """Public name -> the module that defines it ("module:name" where the name differs)."""
 
@@ -50,10 +58,7 @@ def _numba_cache_dir() -> None:
     for f in sorted(root.rglob("*.py")):
         st = f.stat()
         h.update(f"{f.relative_to(root)}:{st.st_size}:{st.st_mtime_ns}\n".encode())
-    base = os.environ.get("ROBOTRIAL_CACHE") or Path(
-        os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache", "robotrial"
-    )
-    os.environ["NUMBA_CACHE_DIR"] = str(Path(base, "numba", h.hexdigest()[:16]))
+    os.environ["NUMBA_CACHE_DIR"] = str(cache_dir("numba") / h.hexdigest()[:16])
 
 
 _numba_cache_dir()

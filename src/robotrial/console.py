@@ -21,7 +21,9 @@ from rich.progress import (
 )
 from rich.table import Table
 
-console = Console(stderr=True)
+console = Console(stderr=True, soft_wrap=True)
+"""Messages and progress on stderr; a message stays one line (a terminal wraps it, not
+rich), so that scripts and logs read an error as the one line it is."""
 
 
 def _plain(value: Any) -> Any:

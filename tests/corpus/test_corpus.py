@@ -9,7 +9,6 @@ test-artifacts/corpus_mjcf.json.
 
 from __future__ import annotations
 
-import importlib.metadata
 import json
 import time
 import warnings
@@ -27,16 +26,6 @@ from robotrial.model.robot import ModelError, RobotModel
 
 SIM_SECONDS = 1.0
 MIN_CONVERTED = 0.95
-
-
-def corpus_root() -> Path:
-    """The `robots` folder of the installed example-robot-data package."""
-    dist = importlib.metadata.distribution("example-robot-data")
-    for f in dist.files or []:
-        if str(f).endswith(".urdf"):
-            path = Path(f.locate()).resolve()
-            return next(p for p in path.parents if p.name == "robots")
-    raise RuntimeError("example-robot-data is installed but ships no URDF")
 
 
 @dataclass
@@ -86,13 +75,14 @@ def fk_error(robot: RobotModel, model: mujoco.MjModel, samples: int = 2) -> floa
     return worst
 
 
-def convert(urdf: Path, root: Path) -> Outcome:
+def convert(urdf: Path, root: Path, robot: RobotModel | None = None) -> Outcome:
+    """Convert `urdf` (loaded here unless `robot` is its model) to MJCF and simulate it."""
     start = time.perf_counter()
     name = str(urdf.relative_to(root))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # repairs are reported by the loader's own tests
-            robot = load_robot(urdf)
+            robot = robot or load_robot(urdf)
         doc = to_mjcf(robot, base="fixed", actuators="motor")
         model = doc.compile()
     except ModelError as exc:
@@ -114,12 +104,17 @@ def convert(urdf: Path, root: Path) -> Outcome:
 
 
 def test_every_example_robot_data_urdf_converts_or_names_its_fault(
-    artifacts: Path, capsys: pytest.CaptureFixture[str]
+    artifacts: Path, capsys: pytest.CaptureFixture[str], example_robot_data
 ) -> None:
-    root = corpus_root()
-    urdfs = sorted(root.rglob("*.urdf"))
+    root = example_robot_data.root
+    urdfs = example_robot_data.urdfs
     assert len(urdfs) >= 50, f"expected the example-robot-data corpus under {root}"
-    outcomes = [convert(u, root) for u in urdfs]
+    outcomes = [
+        convert(u, root, example_robot_data.models.get(u))
+        if u in example_robot_data.models
+        else Outcome(str(u.relative_to(root)), False, example_robot_data.refused[u])
+        for u in urdfs
+    ]
     done = [o for o in outcomes if o.converted]
     failed = [o for o in outcomes if not o.converted]
     (artifacts / "corpus_mjcf.json").write_text(json.dumps([asdict(o) for o in outcomes], indent=1))

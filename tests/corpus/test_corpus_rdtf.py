@@ -3,7 +3,6 @@ glTF validator accepts with no errors, and reads back equal to the loaded model.
 
 from __future__ import annotations
 
-import importlib.metadata
 import json
 import shutil
 import subprocess
@@ -13,20 +12,11 @@ from pathlib import Path
 import pytest
 
 from robotrial.model.rdtf import read_rdtf, write_rdtf
-from robotrial.model.robot import ModelError
-from robotrial.model.urdf import load_urdf
 
 from ..model.rdtf_compare import model_differences
 
 ROOT = Path(__file__).resolve().parents[2]
 VALIDATOR = ROOT / "tools" / "validate_gltf.mjs"
-
-
-def example_robot_data_urdfs() -> list[Path]:
-    """The URDF files shipped by the installed example-robot-data package."""
-    dist = importlib.metadata.distribution("example-robot-data")
-    files = [Path(str(dist.locate_file(f))) for f in dist.files or [] if str(f).endswith(".urdf")]
-    return sorted(files)
 
 
 def start_validator(paths: list[Path]) -> subprocess.Popen:
@@ -46,21 +36,23 @@ def start_validator(paths: list[Path]) -> subprocess.Popen:
 
 
 @pytest.mark.slow
-def test_every_loadable_urdf_converts_validates_and_round_trips(tmp_path):
-    urdfs = example_robot_data_urdfs()
+def test_every_loadable_urdf_converts_validates_and_round_trips(tmp_path, example_robot_data):
+    urdfs = example_robot_data.urdfs
     assert len(urdfs) > 30, "example-robot-data ships more URDFs than found"
     written: dict[Path, Path] = {}
     models = {}
-    not_loaded: list[str] = []
+    not_loaded = [
+        f"{u.name}: {example_robot_data.refused[u][:120]}"
+        for u in urdfs
+        if u in example_robot_data.refused
+    ]
     for urdf in urdfs:
+        if urdf not in example_robot_data.models:
+            continue
+        model = example_robot_data.models[urdf]
+        out = tmp_path / f"{urdf.parent.parent.name}__{urdf.stem}.glb"
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            try:
-                model = load_urdf(urdf)
-            except ModelError as exc:
-                not_loaded.append(f"{urdf.name}: {str(exc)[:120]}")
-                continue
-            out = tmp_path / f"{urdf.parent.parent.name}__{urdf.stem}.glb"
             write_rdtf(model, out)
         written[urdf], models[urdf] = out, model
     validator = start_validator(list(written.values()))

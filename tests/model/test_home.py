@@ -18,6 +18,7 @@ from robotrial.app.server import MAX_WORLD_BYTES, create_app
 from robotrial.model import ModelError, load_robot, load_world
 from robotrial.model.mjcf import to_mjcf
 from robotrial.model.world import load_world_text
+from tests.conftest import LOCAL
 
 # What the editor writes for two 4 x 3 and 3 x 3 m rooms sharing the wall x = 4, with a
 # 0.6 m doorway at (4, 1.5), a table and a cup on it.
@@ -142,7 +143,7 @@ def test_a_world_sent_to_the_server_may_not_refer_to_files() -> None:
 
 @pytest.fixture
 def client(tmp_path: Path) -> Iterator[TestClient]:
-    with TestClient(create_app(warm=False, uploads_dir=tmp_path / "uploads")) as c:
+    with TestClient(create_app(warm=False, uploads_dir=tmp_path / "uploads"), base_url=LOCAL) as c:
         yield c
 
 

@@ -201,7 +201,7 @@ def test_mobile_manipulator_sensors_and_groups() -> None:
     assert np.rad2deg(p["horizontal_resolution"]) == pytest.approx(0.2)
     assert (p["range_min"], p["range_max"], p["noise"]) == (0.1, 100.0, 0.01)
     kinds = sorted(s.type for s in model.sensors)
-    assert kinds == ["camera", "camera", "depth_camera", "imu", "lidar"]
+    assert kinds == ["camera", "camera", "camera", "depth_camera", "depth_camera", "imu", "lidar"]
     poses = link_poses(model, np.zeros(len(model.joint_names)))
     lidar_z = poses["velodyne_link"][2, 3]
     assert 0.5 < lidar_z < 1.0, "the lidar's level ring must hit the 1.2 m room walls"

@@ -643,11 +643,12 @@ def _mujoco_js() -> Path | None:
     return None
 
 
-@pytest.mark.skipif(
-    _mujoco_js() is None or shutil.which("node") is None,
-    reason="npm mujoco-js is not installed (web/node_modules or ROBOTRIAL_MUJOCO_JS)",
-)
 def test_documents_load_and_step_in_mujoco_js(tmp_path) -> None:
+    if _mujoco_js() is None or shutil.which("node") is None:
+        pytest.fail(
+            "node and npm's mujoco-js are needed (web/node_modules, from `make setup`, or "
+            "ROBOTRIAL_MUJOCO_JS)"
+        )
     docs = {
         "toy": to_mjcf(toy_robot(), small_world(), base="planar", actuators="position"),
         "self": to_mjcf(toy_robot(), self_collision=True, actuators="velocity"),

@@ -145,6 +145,7 @@ FULL = (
   <robotrial>
     <tcp link="tcp"/>
     <group name="arm" joints="rev cont pris"/>
+    <pose name="tucked" joints="rev pris" values="1.5 0.01"/>
     <gripper joints="pris" open="0.02" closed="0.0" link="l_fix"/>
     <drive type="skid_steer" max_speed="1.0" max_accel="1.0" max_yaw_rate="2.0"
            wheel_separation="0.555" wheel_radius="0.165"/>
@@ -242,6 +243,7 @@ def test_robotrial_element(full_model) -> None:
     m = full_model
     assert m.tcp == "tcp" and m.end_effector == "tcp"
     assert m.metadata["groups"] == {"arm": ["rev", "cont", "pris"]}
+    assert m.metadata["poses"] == {"tucked": {"rev": 1.5, "pris": 0.01}}
     assert m.metadata["gripper"] == {
         "joints": ["pris"],
         "open": 0.02,
@@ -518,6 +520,8 @@ def test_robotrial_element_errors() -> None:
     refused(base.format('<sphere link="arm" center="0 0" radius="1"/>'), "center='0 0' has 2")
     refused(base.format("<teleport/>"), "unknown element <teleport> in <robotrial>")
     refused(base.format('<drive max_speed="1"/>'), "<drive> has no type")
+    refused(base.format('<pose name="p" joints="j" values="1 2"/>'), "values='1 2' has 2")
+    refused(base.format('<pose name="p" joints="nope" values="1"/>'), "joints ['nope'] do not")
 
 
 # --- xacro and packages -------------------------------------------------------------------

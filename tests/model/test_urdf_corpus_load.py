@@ -3,50 +3,14 @@ fails with a ModelError that says why; at least 95 % load, and their collision m
 
 from __future__ import annotations
 
-import warnings
-from functools import cache
-from importlib.metadata import PackageNotFoundError, distribution
-from pathlib import Path
-
-import pytest
-
 from robotrial.geometry import Mesh
 from robotrial.model.meshes import read_mesh_file
-from robotrial.model.robot import ModelError, RobotModel
-from robotrial.model.urdf import load_urdf
+from robotrial.model.robot import ModelError
 
 
-def corpus_root() -> Path:
-    """The robots folder the example-robot-data wheel installs (a cmeel prefix)."""
-    try:
-        dist = distribution("example-robot-data")
-    except PackageNotFoundError:
-        pytest.fail("example-robot-data is not installed (it is a dev dependency)")
-    root = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
-    assert root.is_dir(), f"example-robot-data has no robots folder at {root}"
-    return root
-
-
-@cache
-def load_corpus() -> tuple[dict[Path, RobotModel], dict[Path, str]]:
-    """Every *.urdf and *.xacro of the corpus: the models that load, the refusals."""
-    root = corpus_root()
-    files = sorted(root.rglob("*.urdf")) + sorted(root.rglob("*.xacro"))
-    loaded: dict[Path, RobotModel] = {}
-    refused: dict[Path, str] = {}
-    for path in files:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                loaded[path] = load_urdf(path)
-            except ModelError as exc:
-                refused[path] = str(exc)
-    return loaded, refused
-
-
-def test_example_robot_data_corpus_loads() -> None:
-    root = corpus_root()
-    loaded, refused = load_corpus()
+def test_example_robot_data_corpus_loads(example_robot_data) -> None:
+    root = example_robot_data.root
+    loaded, refused = example_robot_data.models, example_robot_data.refused
     total = len(loaded) + len(refused)
     assert total >= 60, f"only {total} description files under {root}"
     for path, msg in refused.items():
@@ -62,9 +26,9 @@ def test_example_robot_data_corpus_loads() -> None:
     assert share >= 0.95, "\n".join(refused.values())
 
 
-def test_example_robot_data_collision_meshes_read() -> None:
+def test_example_robot_data_collision_meshes_read(example_robot_data) -> None:
     """Every collision mesh (STL, DAE, OBJ) of the corpus robots reads into triangles."""
-    loaded, _ = load_corpus()
+    loaded = example_robot_data.models
     files = {
         c.geometry.filename
         for model in loaded.values()

@@ -3,11 +3,7 @@ a goal sent without its orientation, a planner per robot, and `robotrial rosbrid
 
 from __future__ import annotations
 
-import socket
-import subprocess
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +13,7 @@ from robotrial.model import load_robot, load_world
 from robotrial.msgs.robotrial_msgs import PlanTaskResponse
 from robotrial.ros.bus import Bus
 from robotrial.ros.planning_node import PLAN_TASK, PlanningNode, robot_service
-from tests.conftest import free_port
+from tests.conftest import LOCAL, free_port
 from tests.ros.conftest import start_server, stop_server
 
 START = [-0.785, 0.80, 1.57, 0.0, 0.76, 0.0]  # the hand near (0.15, -0.15, 0.02)
@@ -41,7 +37,12 @@ def _request(goal=(0.18, 0.2, 0.02), obstacles=(OBSTACLE_C,), **extra) -> dict:
 
 
 @pytest.fixture(scope="module")
-def served():
+def plan_port() -> int:
+    return free_port()
+
+
+@pytest.fixture(scope="module")
+def served(plan_port: int):
     """A standalone rosbridge server whose bus has the planning node for the desk arm
     (and, by name, any built-in robot), and a roslibpy client connected to it."""
     bus = Bus()
@@ -51,9 +52,8 @@ def served():
         load_world("desk"),
         robots=lambda name: (load_robot(name), None),
     )
-    port = free_port()
-    server = start_server(bus, port)
-    client = roslibpy.Ros(host="127.0.0.1", port=port)
+    server = start_server(bus, plan_port)
+    client = roslibpy.Ros(host="127.0.0.1", port=plan_port)
     client.run(timeout=10)
     yield client, node
     client.close()
@@ -122,7 +122,20 @@ def test_object_held_is_decided_by_the_server(served) -> None:
             "obstacles[0].size",
         ),
         ({"planner": "nonsense"}, PlanTaskResponse.INVALID_GOAL_CONSTRAINTS, "unknown planner"),
-        ({"planner": "rrt", "time_limit": 1e-6}, PlanTaskResponse.TIMED_OUT, "no path found"),
+        ({"planner": "rrt", "time_limit": 1e-6}, PlanTaskResponse.TIMED_OUT, "time limit"),
+        ({"time_limit": -1}, PlanTaskResponse.INVALID_GOAL_CONSTRAINTS, "time_limit must be"),
+        ({"time_limit": 3600}, PlanTaskResponse.INVALID_GOAL_CONSTRAINTS, "time_limit must be"),
+        (
+            {"obstacles": [{"id": "flat", "size": {"x": 0.0, "y": 0.0, "z": 0.0}}]},
+            PlanTaskResponse.INVALID_GOAL_CONSTRAINTS,
+            "obstacles[0].size has a zero edge",
+        ),
+        (
+            {"obstacles": [{"size": {"x": 0.1, "y": 0.1, "z": 0.1}}] * 501},
+            PlanTaskResponse.INVALID_GOAL_CONSTRAINTS,
+            "at most 500",
+        ),
+        ({"goal": (float("nan"), 0.2, 0.02)}, PlanTaskResponse.INVALID_GOAL_CONSTRAINTS, "(nan, "),
     ],
 )
 def test_each_failure_has_its_code(served, request_args, code, words) -> None:
@@ -133,6 +146,50 @@ def test_each_failure_has_its_code(served, request_args, code, words) -> None:
     assert not resp["success"]
     assert resp["error_code"] == code, resp["message"]
     assert words in resp["message"]
+
+
+def test_messages_quote_what_was_sent_short_and_plain(served) -> None:
+    client, _ = served
+    resp = _call(client, _request(planner="x" * 1_000_000))
+    assert resp["error_code"] == PlanTaskResponse.INVALID_GOAL_CONSTRAINTS
+    assert "unknown planner 'xxxx" in resp["message"] and len(resp["message"]) < 300
+    resp = _call(client, _request(goal=(float("inf"), 0.0, 0.0)))
+    assert "np.float64" not in resp["message"] and "inf" in resp["message"]
+
+
+def test_a_huge_request_does_not_hold_a_small_one(served, plan_port: int) -> None:
+    """100,000 boxes (under the frame limit) are refused, and a desk request sent after
+    them is answered first: the big one is read and refused off the event loop."""
+    import asyncio
+    import json
+
+    import websockets
+
+    url = f"ws://127.0.0.1:{plan_port}"
+    box = {"size": {"x": 0.01, "y": 0.01, "z": 0.01}, "pose": {"position": {"x": 2.0}}}
+    huge = {"op": "call_service", "id": "huge", "service": PLAN_TASK}
+    huge["args"] = _request(obstacles=[box] * 100_000)
+    small = {"op": "call_service", "id": "small", "service": PLAN_TASK, "args": _request()}
+
+    async def send_both() -> list[dict]:
+        answers: list[dict] = []
+
+        async def ask(op: dict) -> None:
+            async with websockets.connect(url, max_size=None) as ws:
+                await ws.send(json.dumps(op))
+                answers.append(json.loads(await asyncio.wait_for(ws.recv(), 120)))
+
+        first = asyncio.ensure_future(ask(huge))
+        await asyncio.sleep(0.05)  # the huge frame is on its way first
+        await asyncio.gather(first, ask(small))
+        return answers
+
+    answers = asyncio.run(send_both())
+    assert [a["id"] for a in answers] == ["small", "huge"]
+    assert answers[0]["values"]["success"], answers[0]["values"]["message"]
+    refused = answers[1]["values"]
+    assert refused["error_code"] == PlanTaskResponse.INVALID_GOAL_CONSTRAINTS
+    assert "100000 boxes" in refused["message"]
 
 
 def test_a_robot_that_cannot_be_loaded_is_a_planning_failure(served) -> None:
@@ -161,44 +218,13 @@ def test_a_planner_per_robot_built_on_first_use(served) -> None:
     assert "manipulator_h" in node._planners
 
 
-@pytest.mark.slow
-def test_robotrial_rosbridge_offers_plan_task() -> None:
-    port = free_port()
-    cmd = [str(Path(sys.executable).parent / "robotrial"), "rosbridge", "--port", str(port)]
-    proc = subprocess.Popen(
-        [*cmd, "--robot", "desk_arm", "--world", "desk"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    try:
-        deadline = time.monotonic() + 120
-        while True:
-            try:
-                socket.create_connection(("127.0.0.1", port), 0.5).close()
-                break
-            except OSError:
-                if time.monotonic() > deadline or proc.poll() is not None:
-                    raise AssertionError(f"no server: {proc.communicate()[0]}") from None
-                time.sleep(0.2)
-        client = roslibpy.Ros(host="127.0.0.1", port=port)
-        client.run(timeout=10)
-        assert client.get_service_type(PLAN_TASK) == "robotrial_msgs/srv/PlanTask"
-        resp = _call(client, _request())
-        assert resp["success"] and resp["error_code"] == 1, resp["message"]
-        client.close()
-    finally:
-        proc.terminate()
-        proc.wait(10)
-
-
 def test_server_says_while_the_planner_compiles_and_offers_every_arm() -> None:
     from fastapi.testclient import TestClient
 
     from robotrial.app.server import create_app
 
     app = create_app(bus=Bus(), planner=True, warm=True)
-    with TestClient(app) as client:
+    with TestClient(app, base_url=LOCAL) as client:
         body = client.get("/api/config").json()
         assert body["planner"] in ("compiling", "ready")
         deadline = time.monotonic() + 120
@@ -208,7 +234,10 @@ def test_server_says_while_the_planner_compiles_and_offers_every_arm() -> None:
         assert body["planner"] == "ready"
         assert body["plan_services"]["manipulator_h"] == "/robotrial/robots/manipulator_h/plan_task"
         assert "husky" not in body["plan_services"]  # a mobile base has no arm to plan for
-    assert TestClient(create_app(warm=False)).get("/api/config").json()["planner"] is None
+    assert (
+        TestClient(create_app(warm=False), base_url=LOCAL).get("/api/config").json()["planner"]
+        is None
+    )
 
 
 def test_warm_keeps_the_robot_model_for_a_fresh_process(tmp_path, monkeypatch) -> None:

@@ -19,6 +19,7 @@ from robotrial.app.server import create_app
 from robotrial.cli import main
 from robotrial.ros.bus import Bus
 from robotrial.ros.rosbridge.access import Access
+from tests.conftest import LOCAL
 
 from .conftest import start_server, stop_server
 
@@ -143,7 +144,7 @@ def test_roslibpy_authenticates_with_the_token(served, port):
 
 def test_uploads_follow_the_same_rule(tmp_path):
     urdf = b'<robot name="cube"><link name="base"/></robot>'
-    with TestClient(create_app(warm=False, uploads_dir=tmp_path / "a")) as client:
+    with TestClient(create_app(warm=False, uploads_dir=tmp_path / "a"), base_url=LOCAL) as client:
         r = client.post(
             "/api/robots/upload",
             files={"file": ("cube.urdf", urdf)},
@@ -153,7 +154,7 @@ def test_uploads_follow_the_same_rule(tmp_path):
         r = client.post("/api/robots/upload", files={"file": ("cube.urdf", urdf)})
         assert r.status_code == 201
     app = create_app(warm=False, uploads_dir=tmp_path / "b", access=Access.create(token=TOKEN))
-    with TestClient(app) as client:
+    with TestClient(app, base_url=LOCAL) as client:
         r = client.post("/api/robots/upload", files={"file": ("cube.urdf", urdf)})
         assert r.status_code == 401
         auth = {"Authorization": f"Bearer {TOKEN}"}

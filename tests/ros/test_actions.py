@@ -1,6 +1,6 @@
 """rosbridge actions with roslibpy's ROS 2 ActionClient: /navigate_to_pose on the navigation
 node and /arm_controller/follow_joint_trajectory on the simulator, both over the box
-room's MuJoCo simulation running faster than real time."""
+room's MuJoCo simulation paced at twice real time."""
 
 from __future__ import annotations
 
@@ -31,6 +31,7 @@ from .conftest import start_server, stop_server
 NAV = ("/navigate_to_pose", "nav2_msgs/action/NavigateToPose")
 ARM = ("/arm_controller/follow_joint_trajectory", "control_msgs/action/FollowJointTrajectory")
 START = (-1.5, 0.0, 0.0)
+PACE = 2.0  # the simulation's speed, times real time
 
 
 def _boxroom():
@@ -71,7 +72,9 @@ class Stack:
         self.cmd_vel: list = []
         self.bus.subscribe("/cmd_vel", self.cmd_vel.append, "geometry_msgs/msg/Twist")
         self.server = start_server(self.bus, port)
-        self.sim_node.start(realtime=None)
+        # paced at twice real time: a cancel sent while the robot moves must arrive
+        # before the goal is done, whatever the machine's load
+        self.sim_node.start(realtime=PACE)
         self.ros = roslibpy.Ros(host="127.0.0.1", port=port)
         self.ros.run(timeout=10)
 

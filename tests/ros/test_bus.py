@@ -12,7 +12,14 @@ from robotrial.msgs.geometry_msgs import Twist, Vector3
 from robotrial.msgs.robotrial_msgs import PlanTask
 from robotrial.msgs.std_msgs import String
 from robotrial.msgs.tf2_msgs import TFMessage
-from robotrial.ros.bus import Bus, BusError, Node, ServiceFailed, ServiceNotFound
+from robotrial.ros.bus import (
+    Bus,
+    BusError,
+    Node,
+    ServiceFailed,
+    ServiceNotFound,
+    current_call,
+)
 
 
 def test_publish_reaches_subscribers_with_typed_messages() -> None:
@@ -185,3 +192,30 @@ def test_a_failing_subscriber_does_not_stop_the_others(caplog) -> None:
     bus.publish("/chatter", String(data="x"))
     assert [m.data for m in got] == ["x"]
     assert "subscriber bug" in caplog.text
+
+
+def test_a_threaded_handler_learns_that_its_caller_has_gone() -> None:
+    """A caller that times out marks the call abandoned, so a long handler can stop;
+    the handler sees the call's deadline too."""
+    bus = Bus()
+    seen: dict = {}
+    done = threading.Event()
+
+    def slow(request):
+        call = current_call()
+        seen["deadline"] = call.remaining()
+        seen["abandoned"] = call.abandoned.wait(10)
+        done.set()
+        return {}
+
+    bus.advertise_service("/slow", "std_srvs/srv/Trigger", slow)
+
+    async def ask() -> None:
+        with pytest.raises(TimeoutError, match=r"did not answer within 0\.2 s"):
+            await bus.call_async("/slow", {}, timeout=0.2)
+
+    asyncio.run(ask())
+    assert done.wait(10)
+    assert seen["abandoned"] is True
+    assert 0 < seen["deadline"] <= 0.2
+    assert current_call() is None  # only inside a handler

@@ -64,8 +64,9 @@ def test_robotrial_rosbridge_command(port) -> None:
             assert resp["values"] == {"version": 1, "distro": "noetic"}
     finally:
         proc.terminate()
-        out, _ = proc.communicate(timeout=10)
+        out, err = proc.communicate(timeout=10)
     assert f"ws://127.0.0.1:{port}/" in out
+    assert proc.returncode == 128 + 15 and "Traceback" not in err, err  # SIGTERM: no trace
 
 
 def test_rosbridge_route_on_the_web_app(port) -> None:

@@ -73,6 +73,7 @@ def test_advertise_publish_subscribe_unsubscribe() -> None:
     async def main() -> None:
         bus = Bus()
         server = RosbridgeServer(bus)
+        own = bus.topics()  # the server's own (tf2_web_republisher's goal and cancel)
         a, b = Client(server), Client(server)
         await a.send(
             {"op": "subscribe", "id": "s1", "topic": "/chatter", "type": "std_msgs/msg/String"}
@@ -83,14 +84,14 @@ def test_advertise_publish_subscribe_unsubscribe() -> None:
         await b.send({"op": "publish", "topic": "/chatter", "msg": {"data": "hi"}})
         got = await a.recv_op("publish")
         assert got == {"op": "publish", "topic": "/chatter", "msg": {"data": "hi"}}
-        assert bus.topics() == {"/chatter": "std_msgs/msg/String"}
+        assert bus.topics() == {**own, "/chatter": "std_msgs/msg/String"}
         assert bus.publishers("/chatter") == [b.session.name]
 
         await a.send({"op": "unsubscribe", "id": "s1", "topic": "/chatter"})
         await b.send({"op": "publish", "topic": "/chatter", "msg": {"data": "again"}})
         assert await a.drain() == []
         await b.send({"op": "unadvertise", "topic": "/chatter"})
-        assert bus.topics() == {}
+        assert bus.topics() == own
         await a.close()
         await b.close()
         assert server.sessions == set()
@@ -103,6 +104,7 @@ def test_dialect_follows_the_type_spelling() -> None:
         bus = Bus()
         server = RosbridgeServer(bus)
         ros1, ros2, plain = Client(server), Client(server), Client(server)
+        bus.advertise("/joint_states", JointState)
         await ros1.send(
             {"op": "subscribe", "topic": "/joint_states", "type": "sensor_msgs/JointState"}
         )
@@ -128,6 +130,7 @@ def test_publish_from_another_thread_reaches_clients() -> None:
         bus = Bus()
         server = RosbridgeServer(bus)
         c = Client(server)
+        bus.advertise("/joint_states", JointState)
         await c.send({"op": "subscribe", "topic": "/joint_states", "queue_length": 200})
         thread = threading.Thread(
             target=lambda: [
@@ -389,7 +392,9 @@ def test_caller_vanishing_mid_call_is_cleaned_up() -> None:
         server = RosbridgeServer(bus)
         c = Client(server)
         await c.send({"op": "call_service", "id": "x", "service": "/slow"})
-        await c.send({"op": "subscribe", "topic": "/joint_states"})
+        await c.send(
+            {"op": "subscribe", "topic": "/joint_states", "type": "sensor_msgs/JointState"}
+        )
         await asyncio.sleep(0.05)
         assert len(c.session.calls) == 1
         await c.close()
@@ -408,6 +413,7 @@ def test_cbor_and_cbor_raw() -> None:
         bus = Bus()
         server = RosbridgeServer(bus)
         c, raw = Client(server), Client(server)
+        bus.advertise("/joint_states", JointState)
         await c.send({"op": "subscribe", "topic": "/joint_states", "compression": "cbor"})
         await raw.send({"op": "subscribe", "topic": "/joint_states", "compression": "cbor-raw"})
         msg = JointState(name=["a", "b"], position=[1.5, -2.0], effort=[float("inf"), 0.0])
@@ -496,6 +502,7 @@ def test_fragments_out_and_in() -> None:
         bus = Bus()
         server = RosbridgeServer(bus)
         c = Client(server)
+        bus.advertise("/joint_states", JointState)
         await c.send({"op": "subscribe", "id": "js", "topic": "/joint_states", "fragment_size": 40})
         bus.publish("/joint_states", JointState(name=[f"joint_{i}" for i in range(10)]))
         pieces = [await c.recv() for _ in range(2)]
@@ -533,7 +540,11 @@ def test_fragments_out_and_in() -> None:
     run(main)
 
 
-def test_throttle_and_queue_length() -> None:
+@pytest.mark.parametrize("queue_length", [0, 1])
+def test_throttle_sends_the_newest_message(queue_length: int) -> None:
+    """With a throttle, queue_length 0 (the default) and 1 both drop what arrives
+    between two sends: the next message is the newest, not one queued long ago."""
+
     async def main() -> None:
         bus = Bus()
         server = RosbridgeServer(bus)
@@ -544,7 +555,7 @@ def test_throttle_and_queue_length() -> None:
                 "topic": "/n",
                 "type": "std_msgs/Int32",
                 "throttle_rate": 200,
-                "queue_length": 1,
+                "queue_length": queue_length,
             }
         )
         bus.publish("/n", {"data": 0}, "std_msgs/msg/Int32")
@@ -553,7 +564,7 @@ def test_throttle_and_queue_length() -> None:
             bus.publish("/n", {"data": i}, "std_msgs/msg/Int32")
         second = await c.recv_op("publish", timeout=2.0)
         assert first["msg"]["data"] == 0
-        assert second["msg"]["data"] == 19  # the queue of 1 kept only the newest
+        assert second["msg"]["data"] == 19  # only the newest was kept
         assert await c.drain(0.05) == []
 
     run(main)
@@ -571,6 +582,7 @@ def test_slow_client_keeps_a_bounded_queue() -> None:
             got.append(json.loads(frame))
 
         session = server.open_session(send)
+        bus.advertise("/n", "std_msgs/msg/Int32")
         await session.receive(json.dumps({"op": "subscribe", "topic": "/n", "queue_length": 5}))
         await asyncio.sleep(0)
         for i in range(1000):

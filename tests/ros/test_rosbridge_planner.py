@@ -64,6 +64,6 @@ def test_standalone_rosbridge_plans_for_its_robot(tmp_path):
 
 def test_world_without_robot_is_refused(capsys):
     assert main(["rosbridge", "--world", "desk"]) == 2
-    assert "--world needs --robot" in " ".join(capsys.readouterr().err.split())
+    assert "--world and --tool need --robot" in " ".join(capsys.readouterr().err.split())
     assert main(["rosbridge", "--robot", "r2d2"]) == 2
     assert "unknown robot 'r2d2'" in " ".join(capsys.readouterr().err.split())

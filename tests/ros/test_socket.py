@@ -37,7 +37,13 @@ def test_fifty_clients_receive_every_message(live) -> None:
         async with websockets.connect(f"{live.url}/rosbridge", max_size=None) as ws:
             await ws.send(
                 json.dumps(
-                    {"op": "subscribe", "id": f"c{i}", "topic": "/bench", "queue_length": 100}
+                    {
+                        "op": "subscribe",
+                        "id": f"c{i}",
+                        "topic": "/bench",
+                        "type": "sensor_msgs/JointState",
+                        "queue_length": 100,
+                    }
                 )
             )
             await ws.send(
@@ -138,7 +144,11 @@ def test_clients_vanishing_mid_call_are_cleaned_up(live) -> None:
         await ws.send(
             json.dumps({"op": "advertise_service", "service": "/ghost", "type": "std_srvs/Trigger"})
         )
-        await ws.send(json.dumps({"op": "subscribe", "topic": "/joint_states"}))
+        await ws.send(
+            json.dumps(
+                {"op": "subscribe", "topic": "/joint_states", "type": "sensor_msgs/JointState"}
+            )
+        )
         await ws.send(json.dumps({"op": "call_service", "id": "w", "service": "/slow"}))
         await asyncio.sleep(0.2)
         ws.transport.abort()  # no close handshake: the client just disappears
@@ -163,3 +173,17 @@ def test_clients_vanishing_mid_call_are_cleaned_up(live) -> None:
     wait_for(lambda: not [n for n in live.bus.nodes() if n.startswith("/rosbridge_websocket")])
     assert live.bus.subscriber_count("/joint_states") == 0
     wait_for(lambda: answered)  # the slow handler finished; its answer went nowhere, quietly
+
+
+def test_untyped_subscribe_to_an_unknown_topic_is_an_error(live) -> None:
+    """As rosbridge_suite answers: the type cannot be inferred, nothing is subscribed."""
+
+    async def main() -> dict:
+        async with websockets.connect(f"{live.url}/rosbridge") as ws:
+            await ws.send(json.dumps({"op": "subscribe", "id": "s1", "topic": "/nobody"}))
+            return await recv_op(ws, "status")
+
+    status = asyncio.run(main())
+    assert status["level"] == "error" and status["id"] == "s1"
+    assert "cannot infer the type of /nobody" in status["msg"]
+    assert live.bus.subscriber_count("/nobody") == 0

@@ -1,4 +1,4 @@
-"""Arm tracking, base velocity control with limits, and the gripper carrying an object."""
+"""Arm tracking and base velocity control with limits (the gripper: test_gripper.py)."""
 
 from __future__ import annotations
 
@@ -63,24 +63,3 @@ def test_wall_stops_the_base_without_nan(boxroom):
     assert sim.world.is_finite()
     assert x == pytest.approx(boxroom.half_x - 0.4, abs=0.005)  # 0.8 m body stalls at the wall
     assert sim.world.data.ncon > 0
-
-
-def test_gripper_carries_and_releases_object(boxroom):
-    sim = boxroom.make_sim(spawn=Pose.from_xy_yaw(0.0, 0.0, 0.0))
-    w = sim.world
-    cube = w.body_id("object/cube")
-    hand = w.body_pose("hand")[:3, 3]
-    jadr = w.model.body_jntadr[cube]
-    w.data.qpos[w.model.jnt_qposadr[jadr] : w.model.jnt_qposadr[jadr] + 3] = hand - [0, 0, 0.06]
-    w.forward()
-    assert sim.grasp() == "object/cube"
-    sim.set_joint_targets({"j1": 1.2, "j2": -0.4})
-    sim.advance(1.5)
-    hand = w.body_pose("hand")[:3, 3]
-    assert np.linalg.norm(w.data.xpos[cube] - (hand - [0, 0, 0.06])) < 0.03
-    lifted = w.data.xpos[cube][2]
-    assert lifted > 0.5
-    sim.release()
-    sim.advance(1.5)
-    assert w.data.xpos[cube][2] == pytest.approx(0.05, abs=0.01)  # fell to the floor
-    assert sim.grasp() is None  # nothing within reach now

@@ -24,13 +24,41 @@ def robotrial(args: list[str], gl: str | None, timeout: float = 120) -> subproce
     )
 
 
+HELP_ALL = """
+import sys
+from robotrial.cli import main
+for command in sys.argv[1:]:
+    print("=== " + command, flush=True)
+    try:
+        main([*command.split(), "--help"])
+    except SystemExit as done:
+        print("=== exit", done.code, flush=True)
+"""
+
+
 @pytest.mark.parametrize("gl", [None, "no-such-backend"])
 def test_every_subcommand_help_works_whatever_the_gl(gl):
-    for command in [*COMMANDS, "bench sim", "bench nav", "trials run"]:
-        done = robotrial([*command.split(), "--help"], gl)
-        assert done.returncode == 0, (command, done.stderr)
-        assert "Traceback" not in done.stderr, (command, done.stderr)
-        assert "usage: robotrial" in done.stdout
+    """Each command's --help in one process per GL setting: it works, and shows the
+    options' defaults."""
+    commands = [*COMMANDS, "bench sim", "bench nav", "bench service", "trials run"]
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+    if gl is not None:
+        env["MUJOCO_GL"] = gl
+    done = subprocess.run(
+        [sys.executable, "-c", HELP_ALL, *commands],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert "Traceback" not in done.stderr, done.stderr
+    pages = done.stdout.split("=== ")[1:]
+    for command, (page, ended) in zip(
+        commands, zip(pages[::2], pages[1::2], strict=True), strict=True
+    ):
+        assert page.startswith(command) and "usage: robotrial" in page, page
+        assert ended.strip() == "exit 0", (command, ended)
+    assert "(default: 60.0)" in pages[2 * commands.index("bench service")]
 
 
 @pytest.mark.parametrize("gl", [None, "no-such-backend"])

@@ -16,7 +16,8 @@ import pytest
 @pytest.fixture(scope="module")
 def serve(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Callable[..., str]]:
     """Start `robotrial serve ARGS...` on a free loopback port and return the page's URL,
-    once the server prints that URL and answers /api/config; stopped at the module's end."""
+    once the server prints that URL and answers /api/config (401 with --token); stopped at
+    the module's end."""
     procs: list[subprocess.Popen] = []
 
     def start(*args: str, timeout: float = 30.0) -> str:
@@ -25,6 +26,8 @@ def serve(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Callable[..., st
             port = s.getsockname()[1]
         log = tmp_path_factory.mktemp("serve") / "serve.log"
         command = [Path(sys.executable).with_name("robotrial"), "serve", "--port", str(port)]
+        if "--foxglove-port" not in args:  # one port for every server: off unless asked
+            command += ["--foxglove-port", "0"]
         with log.open("w") as errors:
             proc = subprocess.Popen(
                 [*command, *args], stdout=subprocess.PIPE, stderr=errors, text=True
@@ -32,11 +35,15 @@ def serve(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Callable[..., st
         procs.append(proc)
         url = f"http://127.0.0.1:{port}/"
         line = proc.stdout.readline() if proc.stdout else ""
+        if "Foxglove is off" in line:  # a busy Foxglove port is said first
+            line = proc.stdout.readline()
         assert url in line, f"serve printed {line!r}; stderr: {log.read_text()}"
         deadline = time.monotonic() + timeout
         while True:
             try:
-                httpx.get(url + "api/config", timeout=1).raise_for_status()
+                answer = httpx.get(url + "api/config", timeout=1)
+                if answer.status_code != 401:
+                    answer.raise_for_status()
                 return url
             except httpx.HTTPError:
                 assert proc.poll() is None, f"serve exited: {log.read_text()}"

@@ -16,12 +16,14 @@ from robotrial.app import typescript as api_typescript
 from robotrial.app.server import create_app
 from robotrial.msgs import typescript as msgs_typescript
 
+from tests.conftest import LOCAL
+
 GENERATED = Path(__file__).resolve().parents[2] / "web" / "src" / "generated"
 
 
 @pytest.fixture(scope="module")
 def client() -> TestClient:
-    return TestClient(create_app(warm=False))
+    return TestClient(create_app(warm=False), base_url=LOCAL)
 
 
 @pytest.mark.parametrize(

@@ -11,10 +11,12 @@ from fastapi.testclient import TestClient
 
 from robotrial.app.server import create_app
 
+from tests.conftest import LOCAL
+
 
 @pytest.fixture(scope="module")
 def client() -> TestClient:
-    return TestClient(create_app(warm=False))
+    return TestClient(create_app(warm=False), base_url=LOCAL)
 
 
 def test_desk_arm_mjcf_compiles_with_servos_and_a_tcp_site(client: TestClient, tmp_path) -> None:

@@ -10,10 +10,12 @@ from robotrial.cli import main
 from robotrial.model.robot import ModelError
 from robotrial.ros.bus import Bus
 
+from tests.conftest import LOCAL
+
 
 @pytest.fixture(scope="module")
 def client() -> TestClient:
-    return TestClient(create_app(warm=False))
+    return TestClient(create_app(warm=False), base_url=LOCAL)
 
 
 def test_config_names_the_default_pair_and_rosbridge_path(client: TestClient) -> None:
@@ -103,7 +105,7 @@ def test_page_is_served_from_the_build(client: TestClient) -> None:
 
 
 def test_missing_build_says_how_to_build_and_is_served_once_built(tmp_path) -> None:
-    client = TestClient(create_app(static_dir=tmp_path, warm=False))
+    client = TestClient(create_app(static_dir=tmp_path, warm=False), base_url=LOCAL)
     response = client.get("/")
     assert response.status_code == 503
     assert "make web" in response.text
@@ -136,9 +138,9 @@ def test_rosbridge_is_mounted_when_a_bus_is_given() -> None:
     bus = Bus()
     heard: list = []
     bus.subscribe("/chatter", heard.append, "std_msgs/String")
-    client = TestClient(create_app(bus=bus, warm=False))
+    client = TestClient(create_app(bus=bus, warm=False), base_url=LOCAL)
     assert client.get("/api/config").json()["rosbridge_enabled"] is True
-    with client.websocket_connect("/rosbridge") as ws:
+    with client.websocket_connect("ws://127.0.0.1/rosbridge") as ws:
         ws.send_json({"op": "advertise", "topic": "/chatter", "type": "std_msgs/String"})
         ws.send_json({"op": "publish", "topic": "/chatter", "msg": {"data": "hello"}})
         # Ops run in order: once this answer arrives, the publish has been delivered.

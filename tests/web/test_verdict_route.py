@@ -13,7 +13,7 @@ import time
 import httpx
 import pytest
 
-pytestmark = [pytest.mark.timeout(120)]
+pytestmark = [pytest.mark.timeout(300)]
 
 
 def home(east_wall_to: float = 3.0) -> str:
@@ -46,7 +46,7 @@ def server(serve) -> str:
     return serve()
 
 
-def finish(client: httpx.Client, job: dict, timeout: float = 90.0) -> dict:
+def finish(client: httpx.Client, job: dict, timeout: float = 240.0) -> dict:
     """Poll a job until it is done or failed; the server answers other routes meanwhile."""
     deadline = time.monotonic() + timeout
     seen = [job["fraction"]]

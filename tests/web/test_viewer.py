@@ -144,3 +144,35 @@ def test_page_shows_moves_and_switches_robots(
     (artifacts / "web_timing.json").write_text(
         json.dumps({"page_ready_s": round(ready_s, 3), "switch_s": round(switch_s, 3)}) + "\n"
     )
+
+
+def test_with_a_token_the_page_opens_only_from_its_link(serve, browser, artifacts: Path) -> None:
+    """`serve --token`: the page opened from the printed link loads the robot (the link's
+    token comes back as a cookie for the page's own requests); without it the page says
+    what to do, and the API and rosbridge refuse a reader without the token."""
+    import httpx
+
+    token = "a-token-for-the-page"
+    url = serve("--token", token)
+    api = httpx.Client(base_url=url, timeout=30)
+    assert api.get("api/worlds").status_code == 401
+    assert api.get("openapi.json").status_code == 401
+    assert api.get("api/robots/desk_arm.glb").status_code == 401
+    assert api.get("api/worlds", headers={"Authorization": f"Bearer {token}"}).status_code == 200
+    assert api.get("api/config", headers={"Host": "evil.example"}).status_code == 400
+    assert api.get("", headers={"Host": "evil.example"}).status_code == 400
+
+    page = browser.new_page(viewport=VIEWPORT)
+    page.goto(f"{url}?token={token}")
+    wait_ready(page, "desk_arm", "desk")
+    page.wait_for_function(
+        "window.robotrial.state().connection.status === 'connected'", timeout=30_000
+    )
+    page.screenshot(path=artifacts / "viewer_token.png")
+    page.close()
+
+    page = browser.new_page(viewport=VIEWPORT)
+    page.goto(url)
+    page.wait_for_function("window.robotrial && window.robotrial.state().error", timeout=30_000)
+    assert "needs its token" in page.evaluate("window.robotrial.state().error")
+    page.close()

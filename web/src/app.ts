@@ -21,10 +21,10 @@ import { enableShadows, Viewer } from "./scene";
 import type { PhysicsSpeed, RobotrialState } from "./state";
 import { TaskPanel } from "./task/panel";
 import { TaskSession } from "./task/session";
-import { el, humanize } from "./ui/dom";
+import { el, humanize, robotTitle } from "./ui/dom";
 import { Panel } from "./ui/panel";
 import { HomeSection } from "./home/editor";
-import { UploadSection } from "./upload/upload";
+import { chooseTool, UploadSection } from "./upload/upload";
 import { loadWorld, placeAt } from "./world";
 
 const ORIGIN: SpawnPose = { xyz: [0, 0, 0], quat: [0, 0, 0, 1] };
@@ -54,6 +54,7 @@ export class RobotrialApp {
       pick: (robot, world) => void this.load(robot, world),
       moveJoint: (name, value) => this.setJoints({ [name]: value }),
       home: () => this.home(),
+      chooseTool: (link) => void this.chooseTool(link),
     });
     const taskPanel = new TaskPanel({
       setRobot: () => this.task.setRobot(),
@@ -123,6 +124,21 @@ export class RobotrialApp {
     this.panel.setCatalog(this.catalog.robots, this.catalog.worlds);
     await this.load(answer.robot.name, answer.robot.world);
     if (this.error) throw new Error(this.error);
+  }
+
+  /** Make `link` the tool of the (uploaded) robot on screen, and show it again with it. */
+  async chooseTool(link: string): Promise<void> {
+    const name = this.robotName;
+    try {
+      await chooseTool(name, link);
+      this.config = await getConfig();
+      this.catalog = await getCatalog();
+      this.panel.setCatalog(this.catalog.robots, this.catalog.worlds);
+      this.robotShown = ""; // its file changed: load it again
+      await this.load(name, this.worldName);
+    } catch (err) {
+      this.fail(err);
+    }
   }
 
   /** A world the server accepted (a home drawn in the page): list it and show a robot
@@ -197,7 +213,9 @@ export class RobotrialApp {
     this.robotName = robotName;
     this.worldName = worldName;
     this.panel.setSelection(robotName, worldName);
-    this.panel.setStatus(`Loading ${humanize(robotName)}…`, "loading");
+    const entry = this.catalog.robots.find((r) => r.name === robotName);
+    const title = entry ? robotTitle(entry) : robotName;
+    this.panel.setStatus(`Loading ${title}…`, "loading");
     const spawn = this.catalog.worlds.find((w) => w.name === worldName)?.spawn;
     try {
       const keep = this.robot && this.robotShown === robotName ? this.robot : null;
@@ -223,13 +241,14 @@ export class RobotrialApp {
       this.panel.describeEndEffector(
         robot.description.tcp,
         robot.joints.some((j) => j.group === "arm" || j.group === "gripper"),
+        entry?.uploaded ? entry.tools : [],
       );
       this.panel.setEndEffector(robot.endEffector());
       await this.viewer.rendered();
       if (load !== this.loads) return;
       this.ready = true;
       performance.measure(`robotrial:ready ${robotName} ${worldName}`, { start: started });
-      this.panel.setStatus(`${humanize(robotName)} · ${humanize(worldName)}`, "ready");
+      this.panel.setStatus(`${title} · ${humanize(worldName)}`, "ready");
       const query = new URLSearchParams(location.search);
       query.set("robot", robotName);
       query.set("world", worldName);
@@ -267,6 +286,7 @@ export class RobotrialApp {
         values: robot ? robot.jointValues() : [],
       },
       endEffector: robot ? robot.endEffector() : null,
+      tool: robot ? robot.description.tcp : "",
       ready: this.ready,
       error: this.error,
       connection: this.connection.state(),

@@ -12,6 +12,9 @@ export interface RobotrialState extends TaskState {
   joints: { names: string[]; values: number[] };
   /** The end effector (tcp) in the robot's base frame (m); null before a robot loads. */
   endEffector: Vec3 | null;
+  /** The link the end-effector read-out follows (the robot's tool link); "" before a
+   * robot loads. */
+  tool: string;
   /** True once the robot and world shown match `robot` and `world` and can be moved. */
   ready: boolean;
   /** Why the last load failed, or null. */

@@ -4,27 +4,30 @@ browser's physics), built once and cached. Layer 5: calls the description layer,
 nothing of HTTP.
 
 A name from a request is only ever compared with the built-in lists; it never becomes
-part of a file path.
+part of a file path. The server's own robot and world may be files (`serve --robot
+FILE --world FILE`): they join the lists under the names their descriptions give.
 """
 
 from __future__ import annotations
 
 import base64
 import hashlib
-import itertools
 import json
-import re
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
+from robotrial.app.uploads import unique_name
 from robotrial.geometry import Pose
-from robotrial.model import library
+from robotrial.model import ROBOT_SUFFIXES, library, load_robot, load_world
+from robotrial.model.anatomy import tool_choices, with_tool
 from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
 
 Kind = Literal["arm", "mobile"]
+WORLD_SUFFIXES = (".yaml", ".yml")
 
 # The world a robot of each kind opens in when none is asked for (if it exists).
 PREFERRED_WORLD: dict[Kind, str] = {"arm": "desk", "mobile": "room_a"}
@@ -67,13 +70,29 @@ class Catalog:
     """
 
     def __init__(self, robot: str = library.DEFAULT_ROBOT, world: str = library.DEFAULT_WORLD):
+        """`robot` and `world`: built-in names, or files (a robot description, a world
+        YAML), which join the lists. UnknownName for a name that is neither; ModelError
+        for a file that does not load."""
         self._lock = threading.Lock()
         self._building: dict[str, threading.Lock] = {}
         self._assets: dict[str, Asset] = {}
         self._uploaded: dict[str, RobotModel] = {}
         self._added_worlds: dict[str, World] = {}
-        self.default_robot = self.check_robot(robot)
-        self.default_world = self.check_world(world)
+        self.default_robot = self._robot_file(robot) if _is_file(robot, ROBOT_SUFFIXES) else robot
+        self.default_world = self._world_file(world) if _is_file(world, WORLD_SUFFIXES) else world
+        self.check_robot(self.default_robot)
+        self.check_world(self.default_world)
+
+    def _robot_file(self, path: str) -> str:
+        """Load a robot description file into the list; its name there."""
+        model = load_robot(path)
+        name = unique_name(model.name or Path(path).stem, set(library.robot_names()))
+        self.add_robot(name, model)
+        return name
+
+    def _world_file(self, path: str) -> str:
+        """Load a world YAML file into the list; its name there."""
+        return self.add_world(load_world(path))
 
     # --- names ---------------------------------------------------------------------
 
@@ -97,6 +116,24 @@ class Catalog:
         with self._lock:
             return name in self._uploaded
 
+    def set_tool(self, name: str, link: str) -> RobotModel:
+        """Make `link` the tool of the uploaded robot `name` (anatomy.with_tool): its
+        files are built again on the next request. ModelError for a link that cannot be
+        the tool; UnknownName for a robot that is not uploaded."""
+        with self._lock:
+            model = self._uploaded.get(name)
+        if model is None:
+            raise UnknownName(f"robot {name!r} is not one of the robots uploaded here")
+        changed = with_tool(model, link)
+        with self._lock:
+            self._uploaded[name] = changed
+            mine = [
+                k for k in self._assets if k == f"robot/{name}" or k.startswith(f"mjcf/{name}/")
+            ]
+            for key in mine:
+                del self._assets[key]
+        return changed
+
     def world_names(self) -> list[str]:
         """The built-in worlds, then the ones sent to the server."""
         with self._lock:
@@ -106,14 +143,9 @@ class Catalog:
     def add_world(self, world: World) -> str:
         """Offer a world sent to the server; returns its catalog name (the world's name,
         with a number added when that name is taken)."""
-        base = re.sub(r"[^a-z0-9_]+", "_", world.name.lower()).strip("_") or "home"
         with self._lock:
             taken = set(library.world_names()) | set(self._added_worlds)
-            name = base
-            for i in itertools.count(2):
-                if name not in taken:
-                    break
-                name = f"{base}_{i}"
+            name = unique_name(world.name or "home", taken)
             self._added_worlds[name] = world
         return name
 
@@ -164,10 +196,13 @@ class Catalog:
             out.append(
                 {
                     "name": name,
+                    "title": model.name or name,
                     "kind": kind,
                     "joints": len(model.actuated_joints),
                     "world": self.world_for(kind),
                     "uploaded": self.is_uploaded(name),
+                    "tool": model.end_effector,
+                    "tools": tool_choices(model) if kind == "arm" else [],
                 }
             )
         return out
@@ -239,6 +274,12 @@ class Catalog:
             with self._lock:
                 self._assets[key] = asset
             return asset
+
+
+def _is_file(text: str, suffixes: tuple[str, ...]) -> bool:
+    """Whether a robot or world option names a file (by its suffix, or because it is
+    one) rather than a built-in."""
+    return text.lower().endswith(suffixes) or Path(text).is_file()
 
 
 def _asset(data: bytes) -> Asset:

@@ -76,13 +76,26 @@ class RobotEntry(ApiModel):
     """A robot the server offers."""
 
     name: str
+    """Its name in the list and in URLs (lower case letters, digits, underscores)."""
+    title: str = ""
+    """Its name as its description writes it (the URDF's robot name), to show."""
     kind: Kind
     joints: int
     """How many joints it drives."""
     world: str
     """The world this robot opens in when picked."""
     uploaded: bool = False
-    """True for a robot a user uploaded to this server."""
+    """True for a robot a user uploaded to this server (or gave it as a file)."""
+    tool: str = ""
+    """The tool link: what the hand read-out shows and Move Robot!'s goal moves."""
+    tools: list[str] = []
+    """Links an arm's tool may be (POST /api/robots/{name}/tool); the tool first."""
+
+
+class ToolChoice(ApiModel):
+    """The link to make an uploaded robot's tool."""
+
+    link: str
 
 
 class UploadAnswer(ApiModel):
@@ -169,7 +182,7 @@ class RobotVerdict(ApiModel):
     chores: list[dict[str, Any]] = []
     """One per chore asked for: `chore`, `object`, `room`, `runs`, `successes`, `done`,
     `mean_time` (s, simulated, of the successful runs), `failed_phases`, `outcomes`
-    (per run: `seed`, `success`, `failed_phase`, `reason`, `sim_time`), `refused` (why the
+    (per run: `seed`, `success`, `failed_phase`, `cause`, `reason`, `sim_time`), `refused` (why the
     trial would not run it, or "") and `wall_time` (s)."""
     details: dict[str, Any] = {}
     """Whatever else the engine reports, by name."""
@@ -200,6 +213,7 @@ API_MODELS: tuple[type[ApiModel], ...] = (
     RobotList,
     WorldList,
     UploadAnswer,
+    ToolChoice,
     MjcfBundle,
     VerdictRequest,
     VerdictJob,

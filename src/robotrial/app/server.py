@@ -29,6 +29,7 @@ from starlette.exceptions import HTTPException
 from starlette.formparsers import MultiPartException
 
 from robotrial.app.catalog import Asset, Catalog, UnknownName, robot_kind
+from robotrial.app.guard import AccessGuard
 from robotrial.app.live import LivePlatform, runs_live
 from robotrial.app.models import (
     Config,
@@ -38,6 +39,7 @@ from robotrial.app.models import (
     RobotEntry,
     RobotList,
     SpawnPose,
+    ToolChoice,
     UploadAnswer,
     VerdictJob,
     VerdictRequest,
@@ -56,7 +58,7 @@ from robotrial.geometry import Pose
 from robotrial.model import library
 from robotrial.model.robot import ModelError
 from robotrial.model.world import load_world_text
-from robotrial.ros.rosbridge.access import Access
+from robotrial.ros.rosbridge.access import TOKEN_COOKIE, Access
 
 MAX_WORLD_BYTES = 1024 * 1024
 """The largest world YAML POST /api/worlds (and /api/verdict) takes."""
@@ -143,7 +145,9 @@ def create_app(
     that port (robotrial.ros.foxglove_bridge; 0: any free port; None: not at all), on the
     address `access` listens on; `app.state.foxglove` is the bridge once started (None if
     the port could not be opened; the reason is logged).
-    Raises ModelError if `robot` or `world` is not built in.
+    `robot` and `world` may be files (a robot description, a world YAML): they join the
+    lists under their own names. Raises ModelError if `robot` or `world` is neither a
+    built-in name nor a file that loads.
     """
     try:
         catalog = Catalog(robot, world)
@@ -168,23 +172,25 @@ def create_app(
 
     planning = None
     if planner and bus is not None:
-        arm = catalog.robot(catalog.default_robot)
-        if robot_kind(arm) == "arm":
-            from robotrial.ros.planning_node import PlanningNode
+        from robotrial.ros.planning_node import PlanningNode
 
-            planning = PlanningNode(
-                bus, arm, catalog.world(catalog.default_world), robots=lambda n: _arm(catalog, n)
-            )
-            for entry in catalog.robots():
-                if entry["kind"] == "arm":
-                    planning.add_robot(entry["name"])
+        default = catalog.robot(catalog.default_robot)
+        planning = PlanningNode(
+            bus,
+            default if robot_kind(default) == "arm" else None,
+            catalog.world(catalog.default_world),
+            robots=lambda n: _arm(catalog, n),
+        )
+        for entry in catalog.robots():
+            if entry["kind"] == "arm":
+                planning.add_robot(entry["name"])
     planner_state = {"status": None if planning is None else "compiling"}
     verdicts = VerdictJobs(catalog)
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
         if warm:
-            task = planning.planner if planning is not None else None
+            task = planning.planner if planning is not None else None  # None: not an arm
             threading.Thread(target=_warm, args=(catalog, task, planner_state), daemon=True).start()
         elif planning is not None:
             planner_state["status"] = "ready"
@@ -214,6 +220,9 @@ def create_app(
     app.state.catalog = catalog
     app.state.uploads = uploads
     app.state.foxglove = None
+    app.add_middleware(
+        AccessGuard, access=access, rosbridge_path=ROSBRIDGE_PATH if bus is not None else None
+    )
 
     @app.exception_handler(UnknownName)
     async def unknown_name(_: Request, exc: UnknownName) -> JSONResponse:
@@ -224,11 +233,17 @@ def create_app(
         return JSONResponse({"detail": f"could not build the file: {exc}"}, status_code=500)
 
     @app.get("/", response_class=HTMLResponse, include_in_schema=False)
-    def page() -> Response:
+    def page(request: Request) -> Response:
+        """The page shell; opened with the server's `?token=`, it also gets the token
+        as a cookie, so the page's own requests carry it."""
         index = static_dir / "index.html"
         if not index.is_file():
             return HTMLResponse(MISSING_BUILD_PAGE.format(static=static_dir), status_code=503)
-        return FileResponse(index, media_type="text/html", headers={"Cache-Control": "no-cache"})
+        answer = FileResponse(index, media_type="text/html", headers={"Cache-Control": "no-cache"})
+        given = request.query_params.get("token")
+        if access.token is not None and given is not None and access.token_ok(given):
+            answer.set_cookie(TOKEN_COOKIE, given, httponly=True, samesite="strict")
+        return answer
 
     @app.get("/api/config", response_model=Config, tags=["page"])
     def config() -> Config:
@@ -306,6 +321,45 @@ def create_app(
         return JSONResponse(answer.model_dump(), status_code=201)
 
     @app.post(
+        "/api/robots/{name}/tool",
+        response_model=RobotEntry,
+        tags=["robots"],
+        openapi_extra={
+            "requestBody": {
+                "required": True,
+                "content": {"application/json": {"schema": ToolChoice.model_json_schema()}},
+            }
+        },
+        responses={
+            401: {"description": "the server needs a token (Authorization: Bearer TOKEN)"},
+            403: {"description": "sent from a web page of another site"},
+            404: {"description": "no uploaded robot of that name"},
+            422: {"description": "the link cannot be the tool; detail names those that can"},
+        },
+    )
+    async def choose_tool(name: str, request: Request) -> Response:
+        """Make another link the tool of an uploaded arm (one of its entry's `tools`):
+        the hand read-out and Move Robot!'s goal then refer to it, and the arm is the
+        chain of joints that moves it. Answers the robot's new entry."""
+        refused = _refusal(access, request)
+        if refused is not None:
+            return refused
+        body = await _bounded_body(request, 4096)
+        try:
+            link = ToolChoice.model_validate_json(bytes(body or b"")).link
+        except ValidationError as exc:
+            return JSONResponse({"detail": _invalid(exc)}, status_code=422)
+        try:
+            model = await run_in_threadpool(catalog.set_tool, name, link)
+        except ModelError as exc:
+            return JSONResponse({"detail": str(exc)}, status_code=422)
+        if planning is not None and robot_kind(model) == "arm":
+            default = name == catalog.default_robot
+            await run_in_threadpool(planning.forget, name, default)
+        entry = next(r for r in catalog.robots() if r["name"] == name)
+        return JSONResponse(RobotEntry(**entry).model_dump())
+
+    @app.post(
         "/api/worlds",
         response_model=WorldEntry,
         status_code=201,
@@ -327,7 +381,8 @@ def create_app(
         if body is None:
             return _world_too_large()
         try:
-            world = load_world_text(body.decode("utf-8", errors="replace"), "world.yaml")
+            text = body.decode("utf-8", errors="replace")
+            world = await run_in_threadpool(load_world_text, text, "world.yaml")
         except ModelError as exc:
             return JSONResponse({"detail": str(exc)}, status_code=422)
         name = catalog.add_world(world)
@@ -518,15 +573,10 @@ def _arm(catalog: Catalog, name: str) -> tuple[RobotModel, World]:
 
 
 def _refusal(access: Access, request: Request) -> JSONResponse | None:
-    """The answer to a write from another site (403) or without the server's token (401);
-    None when the request may go on."""
+    """The answer to a write from a page of another site (403); None when the request
+    may go on (the token of every request is checked by AccessGuard)."""
     if not access.origin_allowed(request.headers):
         return JSONResponse({"detail": access.refusal(request.headers)}, status_code=403)
-    if not access.token_ok(access.request_token(request.headers, request.query_params)):
-        return JSONResponse(
-            {"detail": "this server needs a token: send Authorization: Bearer TOKEN"},
-            status_code=401,
-        )
     return None
 
 
@@ -543,4 +593,4 @@ def _warm(catalog: Catalog, task: TaskPlanner | None, planner: dict[str, str | N
             task.warm()
         except Exception as exc:  # the first request compiles then, and reports errors
             log.warning("could not warm the planner: %s", exc)
-        planner["status"] = "ready"
+    planner["status"] = "ready"

@@ -5,9 +5,11 @@ Every upload gets a folder of its own inside the server's uploads folder. Zip en
 are written only inside that folder: an entry whose name climbs out of it (`../x`, an
 absolute path, a drive letter) or that is a symbolic link is refused before anything is
 written. Sizes are bounded: the upload itself (`max_bytes`), and what a zip unpacks to
-(`max_unpacked_bytes`, `max_entries`), so a small zip cannot fill the disk. The robot is
-loaded confined to its folder: it cannot read the server's environment or files
-(model/xacro.py).
+(`max_unpacked_bytes`, `max_entries`), so a small zip cannot fill the disk; the triangles
+of its mesh files (`max_triangles`, counted from their headers before any is read), so a
+small zip cannot fill the memory. The robot is loaded confined to its folder: it cannot
+read the server's environment or files (model/xacro.py). A refused upload leaves
+nothing behind: its folder and its cached meshes go.
 """
 
 from __future__ import annotations
@@ -22,12 +24,14 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from robotrial.model import load_robot
+from robotrial.model.meshes import MESH_SUFFIXES, forget, triangle_count
 from robotrial.model.rdtf import write_rdtf
 from robotrial.model.robot import ModelError, RobotModel
 
 MAX_UPLOAD_BYTES = 50 * 1024 * 1024
 MAX_UNPACKED_BYTES = 200 * 1024 * 1024
 MAX_ZIP_ENTRIES = 2000
+MAX_TRIANGLES = 1_000_000  # of all mesh files in one upload; a corpus robot has at most 0.5 M
 ROBOT_FILE_SUFFIXES = (".urdf", ".xacro", ".glb")
 UPLOAD_SUFFIXES = (".zip", *ROBOT_FILE_SUFFIXES)
 
@@ -65,6 +69,18 @@ def safe_name(text: str) -> str:
     return name or "robot"
 
 
+def unique_name(text: str, taken: set[str]) -> str:
+    """A list name from free text (`safe_name`) that is not in `taken`: a number is
+    added when it is."""
+    base = safe_name(text)
+    name = base
+    for i in itertools.count(2):
+        if name not in taken:
+            break
+        name = f"{base}_{i}"
+    return name
+
+
 def stored_name(filename: str) -> str:
     """The name an upload is saved under in its folder: the sent file's base name with
     anything but letters, digits, dots, dashes and underscores replaced."""
@@ -90,12 +106,14 @@ class UploadStore:
         max_bytes: int = MAX_UPLOAD_BYTES,
         max_unpacked_bytes: int = MAX_UNPACKED_BYTES,
         max_entries: int = MAX_ZIP_ENTRIES,
+        max_triangles: int = MAX_TRIANGLES,
     ) -> None:
         self.root = Path(root)
         self.root.mkdir(parents=True, exist_ok=True)
         self.max_bytes = max_bytes
         self.max_unpacked_bytes = max_unpacked_bytes
         self.max_entries = max_entries
+        self.max_triangles = max_triangles
         self._lock = threading.Lock()
         self._counter = itertools.count(1)
 
@@ -125,6 +143,7 @@ class UploadStore:
                 robot_file = find_robot_file(filename, folder)
             else:
                 robot_file = data_path
+            self._check_triangles(filename, folder)
             try:
                 model = load_robot(robot_file, package_paths=[folder], confined=folder)
                 rdtf = write_rdtf(model)
@@ -134,16 +153,32 @@ class UploadStore:
                 where = _relative(str(robot_file), folder, filename)
                 raise ModelError(f"{where}: {_relative(str(exc), folder, filename)}") from None
         except BaseException:
+            forget(folder)
             shutil.rmtree(folder, ignore_errors=True)
             raise
-        name = safe_name(model.name or robot_stem(filename))
-        with self._lock:
-            unique = name
-            for i in itertools.count(2):
-                if unique not in taken:
-                    break
-                unique = f"{name}_{i}"
-        return UploadedRobot(unique, model, rdtf, folder, filename)
+        name = unique_name(model.name or robot_stem(filename), taken)
+        return UploadedRobot(name, model, rdtf, folder, filename)
+
+    def _check_triangles(self, filename: str, folder: Path) -> None:
+        """Refuse an upload whose mesh files hold more than `max_triangles` triangles,
+        naming the largest files and their counts."""
+        counts = sorted(
+            (
+                (triangle_count(p), str(p.relative_to(folder)))
+                for p in folder.rglob("*")
+                if p.suffix.lower() in MESH_SUFFIXES and p.is_file()
+            ),
+            reverse=True,
+        )
+        total = sum(n for n, _ in counts)
+        if total > self.max_triangles:
+            largest = ", ".join(f"{name} ({n:,} triangles)" for n, name in counts[:3] if n)
+            raise UploadRefused(
+                f"{filename}: its meshes hold {total:,} triangles; at most "
+                f"{self.max_triangles:,} are taken. Largest: {largest}. Simplify them "
+                "(e.g. Blender's Decimate) or leave out meshes the robot does not use",
+                status=413,
+            )
 
     def _unpack(self, filename: str, path: Path, folder: Path) -> None:
         try:
@@ -227,6 +262,7 @@ def find_robot_file(filename: str, folder: Path) -> Path:
 
 def _relative(text: str, folder: Path, filename: str) -> str:
     """`text` with the server's folder for this upload replaced by the upload's name."""
-    for base in {str(folder.resolve()), str(folder)}:
-        text = text.replace(base + "/", f"{filename}/" if filename.endswith(".zip") else "")
+    inside = f"{filename}/" if filename.endswith(".zip") else ""
+    for base in sorted({str(folder.resolve()), str(folder)}, key=len, reverse=True):
+        text = text.replace(base + "/", inside).replace(base, filename)
     return text

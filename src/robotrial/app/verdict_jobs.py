@@ -31,6 +31,7 @@ import numpy as np
 
 from robotrial.app.catalog import Catalog, UnknownName, robot_kind
 from robotrial.app.models import RobotVerdict, VerdictJob
+from robotrial.model.anatomy import has_wheels
 from robotrial.model.robot import ModelError, RobotModel
 from robotrial.model.world import World, load_world_text
 
@@ -184,7 +185,7 @@ def _mobile(catalog: Catalog, name: str) -> RobotModel:
         model = catalog.robot(name)
     except UnknownName as exc:
         raise VerdictRefused(str(exc.args[0])) from None
-    if robot_kind(model) != "mobile":
+    if robot_kind(model) != "mobile" and not has_wheels(model):
         mobile = [r["name"] for r in catalog.robots() if r["kind"] == "mobile"]
         raise VerdictRefused(
             f"robot {name!r} has no mobile base (it is an arm that stays where it is "

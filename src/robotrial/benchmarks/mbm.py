@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from robotrial.cache import cache_dir as shared_cache
 from robotrial.geometry import Box, Cylinder, Pose, Shape, Sphere
 
 VAMP_SDIST = "vamp-planner==0.6.4"
@@ -96,8 +97,8 @@ class MbmError(RuntimeError):
 
 
 def cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "robotrial" / "mbm"
+    """Where the MotionBenchMaker problems are kept once downloaded."""
+    return shared_cache("mbm")
 
 
 def fetch(cache: Path | None = None) -> Path:

@@ -47,8 +47,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "-o",
         "--output",
         type=Path,
-        default=Path("out/bench/rosbridge.json"),
-        help="JSON results file",
+        default=None,
+        help="write the results as JSON here",
     )
     parser.add_argument(
         "--rs-binary",
@@ -404,8 +404,9 @@ def run(args: argparse.Namespace) -> int:
                 )
         except RuntimeError as exc:
             results["rosbridge_server_rs"] = {"skipped": f"rosbridge-server-rs did not run: {exc}"}
-    args.output.parent.mkdir(parents=True, exist_ok=True)
-    args.output.write_text(json.dumps(results, indent=2))
+    if args.output is not None:
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        args.output.write_text(json.dumps(results, indent=2))
     if args.json:
         print_json(results)
         return 0

@@ -44,12 +44,42 @@ def _available() -> dict[str, object]:
     return mods
 
 
+class _DefaultsShown(argparse.HelpFormatter):
+    """Help that ends each option's text with its default, unless the text names it."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        quiet = (None, False, argparse.SUPPRESS, [])
+        if not action.option_strings or "default" in text or action.default in quiet:
+            return text
+        return f"{text} (default: %(default)s)"
+
+
+class _Parser(argparse.ArgumentParser):
+    """The command's parser; its subcommands' parsers are of this class too (argparse
+    makes them of the parent's class), so every --help shows the defaults."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        kwargs.setdefault("formatter_class", _DefaultsShown)
+        super().__init__(*args, **kwargs)
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("robotrial")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
+
+
 def build_parser(selected: str | None = None) -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="robotrial",
         description="Try a robot in simulation: web app, rosbridge, physics, SLAM, "
         "navigation and arm planning.",
     )
+    parser.add_argument("--version", action="version", version=f"robotrial {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     if selected in COMMANDS:
         mods = {selected: importlib.import_module(f"robotrial.cli.{COMMANDS[selected]}")}
@@ -78,7 +108,10 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "_run", None):
         parser.print_help()
         return 2
-    return int(args._run(args) or 0)
+    try:
+        return int(args._run(args) or 0)
+    except KeyboardInterrupt as stop:  # Ctrl+C or SIGTERM: the command has cleaned up
+        return 128 + (signal.SIGTERM if str(stop).startswith("signal") else signal.SIGINT)
 
 
 if __name__ == "__main__":

@@ -20,8 +20,9 @@ def add_access_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--token",
-        help="require this token: rosbridge clients send {op: auth, mac: TOKEN} or connect "
-        "with ?token=TOKEN; uploads send Authorization: Bearer TOKEN",
+        help="require this token for everything but the page itself: rosbridge clients send "
+        "{op: auth, mac: TOKEN} or connect with ?token=TOKEN, other requests send "
+        "Authorization: Bearer TOKEN; the page opened with ?token=TOKEN carries it",
     )
     parser.add_argument("--token-file", metavar="FILE", help="read the token from a file")
 

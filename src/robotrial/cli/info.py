@@ -17,13 +17,14 @@ from rich.console import Console
 
 from robotrial.cli.robot_source import add_robot_source_arguments, load_robot_from_args
 from robotrial.console import add_json_flag, print_json, print_table
+from robotrial.model.anatomy import tool_choices
 from robotrial.model.robot import ModelError, RobotModel
 
 HELP = "show a robot's links, joints, mass, DOF, end effector, sensors and loader repairs"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    add_robot_source_arguments(parser)
+    add_robot_source_arguments(parser, tool=True)
     add_json_flag(parser)
 
 
@@ -64,6 +65,7 @@ def summary(model: RobotModel) -> dict[str, Any]:
         "total_mass": model.total_mass,
         "end_effector": model.end_effector,
         "tcp": model.tcp,
+        "tool_links": tool_choices(model),
         "sensors": [
             {"name": s.name, "type": s.type, "link": s.link, "rate_hz": s.rate_hz}
             for s in model.sensors
@@ -130,6 +132,8 @@ def run(args: argparse.Namespace) -> int:
             ("sensor", "type", "link", "rate (Hz)"),
             [(s.name, s.type, s.link, s.rate_hz) for s in model.sensors],
         )
+    if info["tool_links"]:
+        out.print(f"tool links (--tool): {', '.join(info['tool_links'])}")
     for key, value in model.metadata.items():
         out.print(f"{key}: {value}")
     if model.repairs:

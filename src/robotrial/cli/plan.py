@@ -20,7 +20,7 @@ HELP = "plan an arm motion around obstacles to an end-effector goal (the PlanTas
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    add_robot_source_arguments(parser, default="desk_arm")
+    add_robot_source_arguments(parser, default="desk_arm", tool=True)
     parser.add_argument("--world", default="", help="built-in world name or YAML file (optional)")
     parser.add_argument(
         "--goal", nargs=3, type=float, metavar=("X", "Y", "Z"), help="end-effector position (m)"

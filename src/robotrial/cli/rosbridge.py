@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 
 from robotrial.cli.access import access_from, add_access_arguments
+from robotrial.cli.robot_source import add_tool_argument, with_tool_from_args
 
 HELP = "serve the rosbridge v2 protocol (WebSocket) without the web app"
 
@@ -29,25 +30,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--robot", help="offer /robotrial/plan_task for this robot (built-in name or file)"
     )
     parser.add_argument("--world", help="the world the robot stands in (with --robot)")
+    add_tool_argument(parser)
     add_access_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
+    from robotrial.cli.serving import run_server
     from robotrial.console import console
     from robotrial.model import ModelError, load_robot, load_world
     from robotrial.ros.bus import Bus
-    from robotrial.ros.rosbridge import serve
+    from robotrial.ros.rosbridge import standalone_app
 
     bus = Bus()
     try:
         access = access_from(args)
-        if args.world and not args.robot:
-            raise ValueError("--world needs --robot (the robot that stands in it)")
+        if (args.world or args.tool) and not args.robot:
+            raise ValueError("--world and --tool need --robot (the robot they are for)")
         if args.robot:
             from robotrial.ros.planning_node import PLAN_TASK, PlanningNode
 
             world = load_world(args.world) if args.world else None
-            node = PlanningNode(bus, load_robot(args.robot), world)
+            node = PlanningNode(bus, with_tool_from_args(load_robot(args.robot), args), world)
             console.print(
                 f"{PLAN_TASK} plans for {args.robot}"
                 + (f" in {args.world}" if world else "")
@@ -59,5 +62,5 @@ def run(args: argparse.Namespace) -> int:
         return 2
     dialect = "ros1" if args.ros_version == "1" else "ros2"
     print(f"rosbridge v2 on ws://{args.host}:{args.port}/ (also /rosbridge); Ctrl-C stops")
-    serve(args.host, args.port, bus, dialect=dialect, access=access)
+    run_server(standalone_app(bus, dialect=dialect, access=access), args.host, args.port)
     return 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from robotrial.cli.access import access_from, add_access_arguments
+from robotrial.cli.zenoh_options import add_zenoh_arguments, zenoh_bridge
 from robotrial.model.library import DEFAULT_ROBOT, DEFAULT_WORLD
 
 HELP = "serve the web page: a robot in a world, in the browser"
@@ -19,10 +20,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")
     parser.add_argument(
-        "--robot", default=DEFAULT_ROBOT, help=f"robot the page opens on (default {DEFAULT_ROBOT})"
+        "--robot",
+        default=DEFAULT_ROBOT,
+        help="robot the page opens on: a built-in name or a .urdf, .xacro or .glb file "
+        f"(default {DEFAULT_ROBOT})",
     )
     parser.add_argument(
-        "--world", default=DEFAULT_WORLD, help=f"world the page opens on (default {DEFAULT_WORLD})"
+        "--world",
+        default=DEFAULT_WORLD,
+        help=f"world the page opens on: a built-in name or a YAML file (default {DEFAULT_WORLD})",
     )
     parser.add_argument(
         "--foxglove-port",
@@ -33,30 +39,39 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "Lichtblick (default 8765, on --host; 0: off)",
     )
     add_access_arguments(parser)
+    add_zenoh_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
-    import uvicorn
-
     from robotrial.app.server import ROSBRIDGE_PATH, create_app
+    from robotrial.cli.serving import run_server
     from robotrial.console import console
     from robotrial.model.robot import ModelError
     from robotrial.ros.bus import Bus
 
+    bus = Bus()
     try:
         if not 0 <= args.foxglove_port <= 65535:
             raise ValueError(f"--foxglove-port must be 0 (off) to 65535, got {args.foxglove_port}")
+        if args.foxglove_port and not _port_free(args.host, args.foxglove_port):
+            print(
+                f"robotrial: Foxglove is off: port {args.foxglove_port} is in use (another "
+                "server?); choose another with --foxglove-port PORT, or 0 to turn it off",
+                flush=True,
+            )
+            args.foxglove_port = 0
         access = access_from(args)
         app = create_app(
             args.robot,
             args.world,
-            bus=Bus(),
+            bus=bus,
             live=True,
             planner=True,
             access=access,
             foxglove_port=args.foxglove_port or None,
         )
-    except (ModelError, ValueError) as exc:
+        zenoh = zenoh_bridge(args, bus)
+    except (ModelError, ValueError, OSError) as exc:
         console.print(f"[red]error:[/red] {exc}")
         return 2
     shown = "127.0.0.1" if args.host in ("0.0.0.0", "::") else args.host
@@ -68,5 +83,21 @@ def run(args: argparse.Namespace) -> int:
         f"rosbridge at ws://{host}:{args.port}{ROSBRIDGE_PATH}{foxglove}; Ctrl+C stops",
         flush=True,
     )
-    uvicorn.run(app, host=args.host, port=args.port, log_level="warning")
+    if zenoh is not None:
+        print(f"robotrial: ROS 2 (rmw_zenoh) on Zenoh, domain {zenoh.domain_id}", flush=True)
+    run_server(app, args.host, args.port, on_stop=zenoh.destroy if zenoh is not None else None)
     return 0
+
+
+def _port_free(host: str, port: int) -> bool:
+    """Whether a server could listen on host:port now."""
+    import socket
+
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind((host, port))
+        except OSError:
+            return False
+    return True

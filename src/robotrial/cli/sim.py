@@ -4,8 +4,7 @@
         --drive square --record run.mcap
 
 prints (or with --json emits) simulated time, wall time, real-time factor, messages per
-topic and the odometry drift, and writes a PNG of ground truth vs odometry next to the
-recording (or where --plot says).
+topic and the odometry drift; `--plot PNG` writes ground truth vs odometry.
 """
 
 from __future__ import annotations
@@ -17,6 +16,7 @@ import time
 from pathlib import Path
 
 from robotrial.cli.robot_source import add_robot_source_arguments, load_robot_from_args
+from robotrial.cli.zenoh_options import add_zenoh_arguments, zenoh_bridge
 from robotrial.console import add_json_flag, console, print_json, print_table, progress
 
 HELP = "simulate a robot in a world headless (LiDAR, scan, odometry, cameras), record a bag"
@@ -78,6 +78,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="127.0.0.1",
         help="address the Foxglove server listens on (default 127.0.0.1: this computer only)",
     )
+    add_zenoh_arguments(parser)
     add_json_flag(parser)
 
 
@@ -165,6 +166,22 @@ def plot_trajectories(path: Path, truth: list, odom: list, title: str) -> None:
     plt.close(fig)
 
 
+def _write_failure(path: Path, error: OSError, sim_time: float) -> str:
+    """One line: which file failed, why, and what of it can be read or rescued."""
+    from robotrial.ros.playback import contents
+
+    why = error.strerror or str(error)
+    head = f"robotrial sim: cannot write {path}: {why}; the run stopped at {sim_time:.2f} s"
+    try:
+        n = sum(count for _, count in contents(path).values())
+        return f"{head}; the {n} messages written before are readable"
+    except Exception:  # no index: the writer could not finish the file
+        return (
+            f"{head}; rescue what was written with: robotrial bag recover {path} "
+            f"-o FIXED{path.suffix} (on a disk with room)"
+        )
+
+
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import ModelError, load_world
     from robotrial.msgs.nav_msgs import Odometry
@@ -206,8 +223,7 @@ def run(args: argparse.Namespace) -> int:
     node = SimNode(bus, sim)
     topics = sorted({t for t, _ in node.topics.values()} | {"/tf", "/tf_static", ROBOT_DESCRIPTION})
     recorder = Recorder(args.record, args.compression) if args.record else None
-    if recorder is not None:
-        BusRecorder(bus, recorder, topics)
+    writer = BusRecorder(bus, recorder, topics) if recorder is not None else None
     x0, y0, yaw0 = spawn.xyz[0], spawn.xyz[1], spawn.yaw
     truth: list[tuple[float, float]] = []
     odom: list[tuple[float, float]] = []
@@ -242,9 +258,17 @@ def run(args: argparse.Namespace) -> int:
             return 2
         console.print(f"Foxglove and Lichtblick: open connection {foxglove.url}")
 
+    try:
+        zenoh = zenoh_bridge(args, bus)
+    except (ValueError, OSError) as exc:
+        console.print(f"[red]robotrial sim: {exc}")
+        if foxglove is not None:
+            foxglove.destroy()
+        sim.close()
+        return 2
     teleop = None
     realtime = args.realtime
-    if foxglove is not None and realtime is None:
+    if (foxglove is not None or zenoh is not None) and realtime is None:
         realtime = 1.0
     if args.drive == "keys":
         lim = sim.base.limits if sim.base else None
@@ -266,6 +290,8 @@ def run(args: argparse.Namespace) -> int:
         ) as advance:
 
             def on_step(t: float) -> None:
+                if writer is not None and writer.error is not None:
+                    node.stop()  # the recording cannot go on: neither does the run
                 if square is not None:
                     sim.drive(*square.command(t))
                 elif teleop is not None:
@@ -283,16 +309,26 @@ def run(args: argparse.Namespace) -> int:
             except KeyboardInterrupt:
                 interrupted = True
     finally:
+        if zenoh is not None:
+            zenoh.destroy()
         if foxglove is not None:
             foxglove.destroy()
         if teleop is not None:
             teleop.close()
         if recorder is not None:
-            recorder.close()
+            try:
+                recorder.close()
+            except OSError as exc:
+                writer.error = writer.error or exc
         sim.close()
     wall = time.perf_counter() - wall0
     cpu = time.process_time() - cpu0
     sim_time = sim.world.time
+    if writer is not None and writer.error is not None:
+        console.print(
+            f"[red]{_write_failure(Path(args.record), writer.error, sim_time)}", soft_wrap=True
+        )
+        return 1
     drift = math.dist(truth[-1], odom[-1]) if truth and odom else 0.0
     result = {
         "world": world.name,
@@ -309,8 +345,6 @@ def run(args: argparse.Namespace) -> int:
         "interrupted": interrupted,
     }
     png = Path(args.plot) if args.plot else None
-    if png is None and args.record:
-        png = Path(args.record).with_suffix(".png")
     if png is not None and truth:
         plot_trajectories(png, truth, odom, f"{robot.name} in {world.name}: {args.drive} drive")
         result["plot"] = str(png)

@@ -253,12 +253,14 @@ def _carry(args: argparse.Namespace) -> int:
     else:
         print_table(
             f"carry {args.object} to the {args.to}, seed {args.seed}: "
-            + ("success" if result.success else f"failed in {result.failed_phase}"),
+            + (
+                "success" if result.success else f"failed in {result.failed_phase} ({result.cause})"
+            ),
             ["phase", "start (s)", "time (s)", "wall (s)"],
             [[p["phase"], p["start"], p["time"], p["wall_time"]] for p in summary["phases"]],
         )
         if not result.success:
-            console.print(f"[red]{result.failed_phase}: {result.reason}[/red]")
+            console.print(f"[red]{result.failed_phase} ({result.cause}): {result.reason}[/red]")
         else:
             console.print(
                 f"placed {100 * (result.place_error or 0):.1f} cm from the place point, "
@@ -266,5 +268,6 @@ def _carry(args: argparse.Namespace) -> int:
                 f"{result.wall_time:.0f} s ({summary['real_time_factor']}x real time)"
             )
         console.print(f"grasp: {result.grasp or 'none'}")
+        console.print(f"oracles used: {', '.join(result.oracles) or 'none'}")
         console.print(f"wrote {out}/carry_{args.seed}.mcap, .json and .png")
     return 0 if result.success else 1

@@ -1,7 +1,7 @@
 """`robotrial warm`: do at set-up time what the planner would otherwise do on its first
 request (layer 5): compile its kernels into numba's cache and compute each built-in
 arm's spheres (both covers) and self-collision pairs into robotrial's cache
-(planning.task.cache_dir), so that the first Move Robot! after `make run` answers at once.
+(robotrial.cache), so that the first Move Robot! after `make run` answers at once.
 """
 
 from __future__ import annotations
@@ -23,9 +23,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from robotrial.app.catalog import robot_kind
+    from robotrial.cache import cache_dir
     from robotrial.console import console, progress
     from robotrial.model import library, load_robot, load_world
-    from robotrial.planning.task import TaskPlanner, cache_dir, robot_spheres
+    from robotrial.planning.task import TaskPlanner, robot_spheres
 
     names = args.robot or library.robot_names()
     done = []
@@ -34,6 +35,10 @@ def run(args: argparse.Namespace) -> int:
             t0 = time.perf_counter()
             robot = load_robot(name)
             if robot_kind(robot) != "arm":
+                # a mobile manipulator's arm: its covers (the carry trial plans with them)
+                if (robot.metadata.get("groups") or {}).get("arm"):
+                    robot_spheres(TaskPlanner(robot).kin, fine=True)
+                    done.append(f"{name} ({time.perf_counter() - t0:.1f} s)")
                 advance()
                 continue
             world = load_world(library.DEFAULT_WORLD) if name == library.DEFAULT_ROBOT else None

@@ -48,10 +48,12 @@ def qpos_map(kin: Kinematics, m) -> tuple[np.ndarray, ...]:
     )
 
 
-def link_contacts(kin: Kinematics, qs: np.ndarray, tolerance: float = 1e-6) -> set[tuple[str, str]]:
-    """Pairs of links (sorted names) whose real collision shapes MuJoCo finds
-    penetrating at any of the configurations `qs`: the exact counterpart of sampling
-    the spheres when deciding which link pairs can ever touch."""
+def link_contacts(
+    kin: Kinematics, qs: np.ndarray, tolerance: float = 1e-6
+) -> tuple[list[set[tuple[str, str]]], set[tuple[str, str]]]:
+    """Which pairs of links (sorted names) have their real collision shapes penetrating
+    at each configuration of `qs`, and the pairs MuJoCo's model leaves out because they
+    already touch at its zero configuration (they are never reported)."""
     import mujoco
 
     doc = to_mjcf(
@@ -67,7 +69,7 @@ def link_contacts(kin: Kinematics, qs: np.ndarray, tolerance: float = 1e-6) -> s
     qpos0, adr, src, mult, off = qpos_map(kin, m)
     names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, i) or "" for i in range(m.nbody)]
     body = np.asarray(m.geom_bodyid)
-    out: set[tuple[str, str]] = set()
+    out: list[set[tuple[str, str]]] = []
     for q in np.atleast_2d(qs):
         qpos = qpos0.copy()
         qpos[adr] = mult * q[src] + off
@@ -75,10 +77,10 @@ def link_contacts(kin: Kinematics, qs: np.ndarray, tolerance: float = 1e-6) -> s
         mujoco.mj_kinematics(m, data)
         mujoco.mj_collision(m, data)
         n = data.ncon
-        if n == 0:
-            continue
+        seen: set[tuple[str, str]] = set()
         hit = data.contact.dist[:n] < -tolerance
         for g1, g2 in data.contact.geom[:n][hit]:
             a, b = names[body[g1]], names[body[g2]]
-            out.add((min(a, b), max(a, b)))
-    return out
+            seen.add((min(a, b), max(a, b)))
+        out.append(seen)
+    return out, {(min(a, b), max(a, b)) for a, b in doc.excluded}

@@ -10,7 +10,7 @@ anything static. `path_valid` checks a path densely.
 from __future__ import annotations
 
 import weakref
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
@@ -33,6 +33,8 @@ class ExactChecker:
     """MuJoCo collision queries that mirror a `CollisionChecker`'s rules.
 
     `obstacles` are (name, shape, pose) added to `world` for this check only.
+    `robot_pairs`: the pairs of robot bodies whose contacts count (default: the pairs
+    the checker enables), for a stricter check than the planner's own.
     """
 
     def __init__(
@@ -42,6 +44,7 @@ class ExactChecker:
         obstacles: Sequence[tuple[str, Shape, Pose]] = (),
         held: tuple[Shape, Pose, str] | None = None,
         tolerance: float = 1e-6,
+        robot_pairs: Iterable[tuple[str, str]] | None = None,
     ) -> None:
         import mujoco
 
@@ -93,7 +96,11 @@ class ExactChecker:
         moving = {n for n, k in kin.link_index.items() if kin.moving[k]}
         self._moving = [r == OBJECT or r in moving for r in self._role]
         names = [b.name for b in checker.bodies]
-        self._enabled = {(names[i], names[j]) for i, j in checker.pairs}
+        self._enabled = (
+            {(names[i], names[j]) for i, j in checker.pairs}
+            if robot_pairs is None
+            else set(robot_pairs)
+        )
         self._enabled |= {(b, a) for a, b in self._enabled}
         # counts[b1, b2]: a contact between these MuJoCo bodies is a collision
         nb = m.nbody

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from robotrial.collision import kernels
-from robotrial.collision.contacts import link_contacts
+from robotrial.collision.self_pairs import rigid_groups, self_collision_pairs
 from robotrial.collision.spheres import link_fine_spheres, link_spheres, shape_spheres
 from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
 from robotrial.kinematics.chain import PRISMATIC, Kinematics
@@ -42,10 +42,8 @@ class Body:
 class RobotSpheres:
     """A robot's side of the collision model, computed once per robot and joint group.
 
-    Link pairs are disabled the way an SRDF does it: pairs that no planning joint
-    separates or that one planning joint joins (adjacent), pairs whose real collision
-    shapes (MuJoCo) are in contact at the zero configuration, and pairs that never touch
-    in `samples` random configurations (neither as spheres nor as real shapes).
+    Link pairs are disabled the way MoveIt's Setup Assistant does it, over `samples`
+    random configurations (collision/self_pairs.py): `reasons` says why for each.
 
     `spheres` cover the links (default `link_spheres`); `fine`, a tighter cover asked
     only where those touch an obstacle (default `link_fine_spheres` when `spheres` is
@@ -92,65 +90,17 @@ class RobotSpheres:
 
     def _rigid_group(self) -> np.ndarray:
         """Index of the rigid group of each link: links no planning joint separates."""
-        kin = self.kin
-        group = np.arange(len(kin.link_names))
-        for k in range(1, len(kin.link_names)):
-            if kin.src[k] < 0:
-                group[k] = group[kin.parent[k]]
-        return group
-
-    def _sample_contacts(self, qs: np.ndarray) -> np.ndarray:
-        """(N, B, B) bool: body i touches body j at each configuration."""
-        poses = self.kin.fk(qs)
-        n, nb = len(qs), len(self.bodies)
-        out = np.zeros((n, nb, nb), dtype=bool)
-        world = []
-        for b in self.bodies:
-            m = poses[:, self.kin.link_index[b.link]]
-            world.append(np.einsum("nij,sj->nsi", m[:, :3, :3], b.centres) + m[:, None, :3, 3])
-        for i in range(nb):
-            for j in range(i + 1, nb):
-                diff = world[i][:, :, None, :] - world[j][:, None, :, :]
-                dist = np.linalg.norm(diff, axis=-1)
-                lim = self.bodies[i].radii[:, None] + self.bodies[j].radii[None, :]
-                out[:, i, j] = out[:, j, i] = np.any(dist <= lim, axis=(1, 2))
-        return out
+        return rigid_groups(self.kin)
 
     def _disable_pairs(self, samples: int, seed: int) -> tuple[set[tuple[str, str]], dict]:
-        kin = self.kin
-        group = self._rigid_group()
-        names = [b.name for b in self.bodies]
-        gl = [group[kin.link_index[b.link]] for b in self.bodies]
-        reasons: dict[tuple[str, str], str] = {}
-        for i in range(len(names)):
-            for j in range(i + 1, len(names)):
-                gi, gj = gl[i], gl[j]
-                if gi == gj:
-                    reasons[(names[i], names[j])] = "rigid"
-                elif kin.parent[gj] >= 0 and group[kin.parent[gj]] == gi:
-                    reasons[(names[i], names[j])] = "adjacent"
-                elif kin.parent[gi] >= 0 and group[kin.parent[gi]] == gj:
-                    reasons[(names[i], names[j])] = "adjacent"
-
-        rng = np.random.default_rng(seed)
-        zero = np.clip(np.zeros(kin.d), kin.lower, kin.upper)[None]
-        qs = kin.random(rng, max(samples // 500, 1) * 500)
-        seen = np.zeros((len(names), len(names)), dtype=bool)
-        for chunk in np.split(qs, len(qs) // 500):
-            seen |= np.any(self._sample_contacts(chunk), axis=0)
-        # the real shapes decide, as a MoveIt setup does: the spheres bulge past them
-        touch_zero = link_contacts(kin, zero)
-        touching = link_contacts(kin, qs)
-        for i in range(len(names)):
-            for j in range(i + 1, len(names)):
-                key = (names[i], names[j])
-                if key in reasons:
-                    continue
-                links = (min(names[i], names[j]), max(names[i], names[j]))
-                if links in touch_zero:
-                    reasons[key] = "default"
-                elif not seen[i, j] or links not in touching:
-                    reasons[key] = "never"
+        """The self-collision matrix (collision/self_pairs.py): pairs left out, and why."""
+        reasons = self_collision_pairs(
+            self.kin,
+            [b.link for b in self.bodies],
+            [(b.centres, b.radii) for b in self.bodies],
+            samples,
+            seed,
+        )
         return set(reasons), reasons
 
     def _reach(self, poses: np.ndarray) -> None:

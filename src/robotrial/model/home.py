@@ -12,30 +12,39 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from robotrial.model.checked import floats, number
 from robotrial.model.robot import ModelError
 
 DOOR_TOLERANCE = 0.01
 """How far (m) beyond half the wall thickness a doorway's centre may sit from a wall."""
+MAX_HOME_ITEMS = {"rooms": 50, "doorways": 100, "furniture": 300}
+"""The most entries of each list of a home (docs/worlds.md, "Limits")."""
+MAX_CORNERS = 64
+"""The most corners of one room."""
 
 
 def _point(value: Any, what: str) -> tuple[float, float]:
-    try:
-        x, y = (float(v) for v in value)
-    except (TypeError, ValueError):
-        raise ModelError(f"{what}: expected [x, y] in metres, got {value!r}") from None
-    if not (math.isfinite(x) and math.isfinite(y)):
-        raise ModelError(f"{what}: expected finite numbers, got {value!r}")
+    x, y = floats(value, 2, what)
     return x, y
 
 
-def _number(value: Any, what: str, positive: bool = True) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ModelError(f"{what}: expected a number, got {value!r}") from None
-    if not math.isfinite(v) or (positive and v <= 0):
-        raise ModelError(f"{what}: expected a positive number, got {value!r}")
-    return v
+def _number(value: Any, what: str) -> float:
+    return number(value, what, above=0)
+
+
+def _home_list(home: dict, group: str) -> list[dict]:
+    """The list `group` of a home, each entry a mapping, at most MAX_HOME_ITEMS long."""
+    items = home.get(group) or []
+    if not isinstance(items, list):
+        raise ModelError(f"home.{group}: expected a list, got {type(items).__name__}")
+    if len(items) > MAX_HOME_ITEMS[group]:
+        raise ModelError(
+            f"home.{group}: {len(items)} entries; a home holds at most {MAX_HOME_ITEMS[group]}"
+        )
+    for i, item in enumerate(items):
+        if not isinstance(item, dict):
+            raise ModelError(f"home.{group}[{i}]: expected a mapping, got {type(item).__name__}")
+    return items
 
 
 def _label(items: Any, i: int, group: str) -> str:
@@ -120,14 +129,16 @@ def check_home(home: Any) -> None:
     if not isinstance(home, dict):
         raise ModelError(f"home: expected a mapping with rooms, got {home!r}")
     thickness = _number(home.get("thickness", 0.1), "home.thickness")
-    rooms = home.get("rooms") or []
-    if not isinstance(rooms, list) or not rooms:
+    rooms = _home_list(home, "rooms")
+    if not rooms:
         raise ModelError("home.rooms: a home needs at least one room")
     for i, room in enumerate(rooms):
         label = _label(rooms, i, "rooms")
-        corners = room.get("corners") if isinstance(room, dict) else None
+        corners = room.get("corners")
         if not isinstance(corners, list) or len(corners) < 3:
             raise ModelError(f"{label}: not closed; a room needs at least 3 corners")
+        if len(corners) > MAX_CORNERS:
+            raise ModelError(f"{label}: {len(corners)} corners; a room has at most {MAX_CORNERS}")
         pts = [_point(c, f"{label}.corners[{k}]") for k, c in enumerate(corners)]
         n = len(pts)
         for k in range(n):
@@ -140,11 +151,9 @@ def check_home(home: Any) -> None:
                 if _segments_cross(pts[k], pts[(k + 1) % n], pts[m], pts[(m + 1) % n]):
                     raise ModelError(f"{label}: edges {k + 1} and {m + 1} cross")
     edges = room_edges(home)
-    doorways = home.get("doorways") or []
+    doorways = _home_list(home, "doorways")
     for i, door in enumerate(doorways):
         label = _label(doorways, i, "doorways")
-        if not isinstance(door, dict):
-            raise ModelError(f"{label}: expected a mapping with at and width")
         at = _point(door.get("at"), f"{label}.at")
         width = _number(door.get("width"), f"{label}.width")
         gap, edge, a, b = min(
@@ -165,7 +174,7 @@ def check_home(home: Any) -> None:
             raise ModelError(
                 f"{label}: {width:.2f} m wide is wider than its wall ({edge}, {length:.2f} m)"
             )
-    furniture = home.get("furniture") or []
+    furniture = _home_list(home, "furniture")
     prints = [_footprint(f, _label(furniture, i, "furniture")) for i, f in enumerate(furniture)]
     for i in range(len(prints)):
         for j in range(i):

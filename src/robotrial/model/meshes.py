@@ -29,6 +29,52 @@ def mesh_format_supported(filename: str | Path) -> bool:
     return Path(str(filename)).suffix.lower() in MESH_SUFFIXES
 
 
+_DAE_COUNT = re.compile(
+    rb"<(triangles|polylist|polygons|tristrips|trifans)\b[^>]*?\bcount\s*=\s*[\"'](\d+)"
+)
+_PLY_FACES = re.compile(rb"^element\s+face\s+(\d+)", re.M)
+
+
+def triangle_count(path: str | Path) -> int:
+    """How many triangles a mesh file holds, read from its headers or counted in its
+    text without building the mesh (polygons count as one): what a server checks before
+    it spends memory on a file someone sent. 0 for a format it cannot tell."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    try:
+        size = p.stat().st_size
+        with open(p, "rb") as f:
+            if suffix == ".stl":
+                head = f.read(84)
+                n = int.from_bytes(head[80:84], "little") if len(head) == 84 else 0
+                if 84 + 50 * n == size:
+                    return n
+                return (head + f.read()).count(b"endfacet")
+            data = f.read()
+    except OSError:
+        return 0
+    if suffix == ".obj":
+        return data.count(b"\nf ") + data.startswith(b"f ")
+    if suffix == ".dae":
+        return sum(int(m.group(2)) for m in _DAE_COUNT.finditer(data))
+    if suffix == ".ply":
+        m = _PLY_FACES.search(data[:4096])
+        return int(m.group(1)) if m else 0
+    if suffix == ".off":
+        lines = [ln for ln in data[:4096].splitlines() if ln.strip() and not ln.startswith(b"#")]
+        parts = (lines[1] if lines and lines[0].strip() == b"OFF" else b"").split()
+        return int(parts[1]) if len(parts) > 1 and parts[1].isdigit() else 0
+    return 0
+
+
+def forget(folder: str | Path) -> None:
+    """Drop the cached triangles of every file under `folder` (an upload removed)."""
+    root = str(Path(folder).resolve())
+    with _lock:
+        for key in [k for k in _cache if k[0].startswith(root + "/")]:
+            del _cache[key]
+
+
 def read_mesh_file(path: str | Path) -> MeshData:
     """The triangles of a mesh file, in the file's own units and frame (cached per file).
 

@@ -10,7 +10,12 @@ finds them through search paths, in this order:
 
 A resolver `confined` to a folder (a description someone uploaded) searches only inside
 it and refuses (ResourceRefused) what would leave it: absolute and `file://` paths,
-`~`, relative paths that climb out, packages found outside.
+`~`, relative paths that climb out, packages found outside. When a `package://` file
+is not where the URI says, but the upload holds exactly one file whose path ends as the
+URI's does (the longest such ending wins), the URI's leading folders are mapped to where
+that file is (a zip packed one folder higher or lower than the URDF expects); the mapping
+is kept for the next URIs and told in `remaps`. Messages of a confined resolver name
+files as they are inside the upload, never the server's folders.
 
 In each search folder a package NAME is the folder itself, a sub-folder, or (up to
 `MAX_DEPTH` levels down) a descendant folder that is named NAME or holds a
@@ -104,6 +109,9 @@ class PackageResolver:
     use_environment: bool = True
     confined: Path | None = None
     _cache: dict[str, list[Path]] = field(default_factory=dict, compare=False, repr=False)
+    remaps: dict[tuple[str, ...], Path] = field(default_factory=dict, compare=False, repr=False)
+    """URI folders (package name first) mapped to folders of the upload, as found."""
+    _files: list[tuple[str, ...]] = field(default_factory=list, compare=False, repr=False)
 
     @staticmethod
     def create(
@@ -166,6 +174,11 @@ class PackageResolver:
                     if not self.within(path):
                         raise ResourceRefused(uri, "it leads outside the uploaded files")
                     return path.resolve()
+            if self.confined is not None:
+                found = self._remapped([name, *unquote(sub).split("/")])
+                if isinstance(found, Path):
+                    return found
+                raise ResourceNotFound(uri, [self._missing_in_upload(name, sub, candidates, found)])
             searched = [str(p / sub) for p in candidates]
             if not candidates:
                 searched = [
@@ -189,6 +202,65 @@ class PackageResolver:
         if path.is_file():
             return path.resolve()
         raise ResourceNotFound(uri, [str(path)])
+
+    def shown(self, path: Path) -> str:
+        """`path` as the user knows it: relative to the confining folder (else as is)."""
+        if self.confined is None:
+            return str(path)
+        try:
+            return str(path.resolve().relative_to(self.confined)) or "."
+        except ValueError:
+            return path.name
+
+    def _upload_files(self) -> list[tuple[str, ...]]:
+        """Every file of the confining folder, as path parts relative to it."""
+        if not self._files and self.confined is not None:
+            self._files.extend(
+                p.relative_to(self.confined).parts
+                for p in sorted(self.confined.rglob("*"))
+                if p.is_file() and not p.is_symlink()
+            )
+        return self._files
+
+    def _remapped(self, parts: list[str]) -> Path | list[tuple[str, ...]]:
+        """The upload's file for `package://` path `parts` found by the mapping of a
+        previous URI, else by the longest ending only one file of the upload has; else
+        the files that share the longest ending (none, or several: ambiguous)."""
+        assert self.confined is not None
+        for prefix, folder in self.remaps.items():
+            if tuple(parts[: len(prefix)]) == prefix:
+                path = folder.joinpath(*parts[len(prefix) :])
+                if path.is_file() and self.within(path):
+                    return path.resolve()
+        files = self._upload_files()
+        for k in range(len(parts)):
+            tail = tuple(parts[k:])
+            matches = [f for f in files if f[-len(tail) :] == tail]
+            if len(matches) > 1:
+                return matches
+            if matches:
+                folder = self.confined.joinpath(*matches[0][: -len(tail)])
+                path = folder.joinpath(*tail)
+                if not self.within(path):
+                    return []
+                self.remaps[tuple(parts[:k])] = folder
+                return path.resolve()
+        return []
+
+    def _missing_in_upload(
+        self, name: str, sub: str, candidates: list[Path], alike: list[tuple[str, ...]]
+    ) -> str:
+        """Why a confined `package://NAME/sub` was not found, in the upload's terms."""
+        if alike:
+            shown = ", ".join("/".join(f) for f in alike[:4])
+            return f"several files of the upload could be meant ({shown}); keep only one"
+        if candidates:
+            places = ", ".join(f"{self.shown(p)}/{sub}" for p in candidates)
+            return f"the upload has package {name!r} but no file {places}"
+        return (
+            f"the upload has no folder {name!r} (a package folder, or one with a "
+            f"package.xml naming it) and no file {sub.rsplit('/', 1)[-1]!r}"
+        )
 
     def _resolve_confined(self, uri: str) -> Path:
         """A relative path inside the confining folder, or ResourceRefused."""

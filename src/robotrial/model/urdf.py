@@ -3,7 +3,8 @@
 Layer 1. xacro files are expanded first (model/xacro.py), then the XML is parsed with
 lxml so every error can name the file, the element and its line. Every URDF field that
 RobotModel holds is mapped, plus the `<robotrial>` element (tcp, groups, gripper,
-drive, sensors, planner spheres; see docs/urdf.md).
+drive, sensors, planner spheres; see docs/urdf.md). A file without that element (any
+ROS robot) gets its tool link, arm group and gripper from its tree (model/anatomy.py).
 
 Real-world files are messy. What is safe to fix is fixed, recorded in
 `RobotModel.repairs` as a sentence, and announced with `warnings.warn` (category
@@ -25,6 +26,7 @@ import numpy as np
 from lxml import etree
 
 from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere, transform_points
+from robotrial.model.anatomy import completed
 from robotrial.model.meshes import mesh_bounds, mesh_format_supported
 from robotrial.model.packages import PackageResolver, ResourceNotFound, ResourceRefused
 from robotrial.model.robot import (
@@ -355,8 +357,16 @@ class _Reader:
         links = self.add_missing_masses([self.link(el) for el in link_els], joints)
         joints = self.check_mimics(joints, joint_els)
         ext = self.robotrial(root, {lk.name for lk in links}, {j.name for j in joints})
+        for prefix, folder in self.resolver.remaps.items():
+            shown = self.resolver.shown(folder)
+            where = "at its top level" if shown == "." else f"under {shown}/"
+            asked = "/".join(prefix) + "/" if prefix else ""
+            self.repair(
+                f"the URDF asks for package://{asked}... and the upload has those files "
+                f"{where}: read from there (fixed automatically)"
+            )
         try:
-            return RobotModel(
+            model = RobotModel(
                 name=name,
                 links=tuple(links),
                 joints=tuple(joints),
@@ -370,6 +380,7 @@ class _Reader:
             )
         except ModelError as exc:
             raise ModelError(f"{self.source}: {exc}") from exc
+        return model if _children(root, "robotrial") else completed(model)
 
     def check_tree(
         self,
@@ -610,23 +621,28 @@ class _Reader:
             if any(v == 0 for v in scale):
                 raise self.error(el, f"{what}: mesh scale {scale} has a zero")
         problem = ""
+        confined = self.resolver.confined is not None
         try:
             path = self.resolver.resolve(fn)
             if not mesh_format_supported(path):
-                problem = f"format {path.suffix!r} cannot be read (file {path})"
+                problem = (
+                    f"format {path.suffix!r} cannot be read (file {self.resolver.shown(path)})"
+                )
         except ResourceRefused as exc:
             raise self.error(el, f"{what}: mesh {exc}") from None
         except ResourceNotFound as exc:
-            problem = str(exc)
+            problem = "; ".join(exc.searched) if confined else str(exc)
         if problem:
             if kind == "visual":
                 self.repair(f"{what}: mesh {fn!r} dropped: {problem}")
                 return None
-            raise self.error(
-                el,
-                f"{what}: collision mesh {fn!r}: {problem}. Pass the folder that holds the "
-                "package with --package-path (or set ROS_PACKAGE_PATH)",
+            hint = (
+                "Put the package's folder with its meshes in the zip and upload it again"
+                if confined
+                else "Pass the folder that holds the package with --package-path "
+                "(or set ROS_PACKAGE_PATH)"
             )
+            raise self.error(el, f"{what}: collision mesh {fn!r}: {problem}. {hint}")
         return Mesh(str(path), scale)  # type: ignore[arg-type]
 
     # --- inertial ---------------------------------------------------------------------
@@ -855,6 +871,7 @@ class _Reader:
         sensors: list[Sensor] = []
         spheres: list[CollisionSphere] = []
         groups: dict[str, list[str]] = {}
+        poses: dict[str, dict[str, float]] = {}
         tcp = ""
         for el in ext:
             t = _tag(el)
@@ -887,6 +904,13 @@ class _Reader:
                     if k != "type":
                         d[k] = self.number(el, k)
                 metadata["drive"] = d
+            elif t == "pose":
+                pname = self.name(el, "<pose>")
+                if pname in poses:
+                    raise self.error(el, f"pose {pname!r} defined twice")
+                names = self.joint_refs(el, joints)
+                values = self.floats(el, "values", len(names))
+                poses[pname] = dict(zip(names, values, strict=True))
             elif t == "sensor":
                 sensors.append(self.sensor(el, links))
             elif t == "sphere":
@@ -899,7 +923,7 @@ class _Reader:
                 raise self.error(
                     el,
                     f"unknown element <{t}> in <robotrial> "
-                    "(tcp, group, gripper, drive, sensor, sphere)",
+                    "(tcp, group, pose, gripper, drive, sensor, sphere)",
                 )
         names = [s.name for s in sensors]
         for s in sensors:
@@ -907,6 +931,8 @@ class _Reader:
                 raise self.error(ext, f"sensor {s.name!r} is defined twice")
         if groups:
             metadata["groups"] = groups
+        if poses:
+            metadata["poses"] = poses
         out.update(sensors=tuple(sensors), spheres=tuple(spheres), tcp=tcp, metadata=metadata)
         return out
 

@@ -8,6 +8,7 @@ occupancy grid lives in other modules.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +18,7 @@ import numpy as np
 import yaml
 
 from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
+from robotrial.model.checked import floats, mapping, number, shown, text
 from robotrial.model.home import check_home
 from robotrial.model.robot import ModelError
 
@@ -120,19 +122,37 @@ class World:
 
 # --- YAML ---------------------------------------------------------------------------
 
+MAX_ITEMS = {
+    "walls": 2000,
+    "obstacles": 2000,
+    "objects": 500,
+    "lights": 32,
+    "rooms": 200,
+    "spawns": 100,
+}
+"""The most entries of each list a world may hold (docs/worlds.md, "Limits")."""
+MAX_YAML_NODES = 100_000
+"""The most YAML nodes (values, lists, mappings) in a world sent to the server."""
+MAX_YAML_DEPTH = 16
+"""The deepest nesting of lists and mappings in a world sent to the server."""
+MAX_TEXT = 4000
+"""The longest string value in a world sent to the server (characters)."""
+
 
 def _where(path: str, item: str) -> str:
     return f"{path}: {item}" if path else item
 
 
-def _floats(value: Any, n: int, what: str) -> tuple[float, ...]:
-    try:
-        arr = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise ModelError(f"{what}: expected {n} numbers, got {value!r}") from exc
-    if arr.size != n or not np.all(np.isfinite(arr)):
-        raise ModelError(f"{what}: expected {n} finite numbers, got {value!r}")
-    return tuple(float(v) for v in arr)
+def _items(d: dict, key: str) -> list:
+    """The list `key` of a world (empty when absent), refused past MAX_ITEMS."""
+    value = d.get(key)
+    if value is None:
+        return []
+    if not isinstance(value, list):
+        raise ModelError(f"{key}: expected a list, got {shown(value)}")
+    if len(value) > MAX_ITEMS[key]:
+        raise ModelError(f"{key}: {len(value)} entries; a world holds at most {MAX_ITEMS[key]}")
+    return value
 
 
 def _pose(d: Any, what: str) -> Pose:
@@ -141,59 +161,58 @@ def _pose(d: Any, what: str) -> Pose:
         return Pose()
     if isinstance(d, list | tuple):
         if len(d) == 3:
-            x, y, yaw = _floats(d, 3, what)
+            x, y, yaw = floats(d, 3, what)
             return Pose.from_xy_yaw(x, y, yaw)
-        raise ModelError(f"{what}: a pose list is [x, y, yaw], got {d!r}")
+        raise ModelError(f"{what}: a pose list is [x, y, yaw], got {shown(d)}")
     if not isinstance(d, dict):
-        raise ModelError(f"{what}: expected a mapping with xyz and rpy, got {d!r}")
-    xyz = _floats(d.get("xyz", (0, 0, 0)), 3, f"{what}.xyz")
+        raise ModelError(f"{what}: expected a mapping with xyz and rpy, got {shown(d)}")
+    xyz = floats(d.get("xyz", [0, 0, 0]), 3, f"{what}.xyz")
     if "quat" in d:
-        return Pose(xyz, _floats(d["quat"], 4, f"{what}.quat"))
-    return Pose.from_xyz_rpy(xyz, _floats(d.get("rpy", (0, 0, 0)), 3, f"{what}.rpy"))
+        quat = floats(d["quat"], 4, f"{what}.quat")
+        if np.linalg.norm(quat) < 1e-9:
+            raise ModelError(f"{what}.quat: a quaternion must not be all zeros")
+        return Pose(xyz, quat)
+    return Pose.from_xyz_rpy(xyz, floats(d.get("rpy", [0, 0, 0]), 3, f"{what}.rpy"))
 
 
 def _shape(d: dict, what: str, base: Path | None) -> Shape:
     kind = d.get("shape", "box")
     if kind == "box":
-        size = _floats(d.get("size"), 3, f"{what}.size")
+        size = floats(d.get("size"), 3, f"{what}.size")
         if min(size) <= 0:
-            raise ModelError(f"{what}.size: every edge must be positive, got {size}")
+            raise ModelError(f"{what}.size: every edge must be positive, got {list(size)}")
         return Box(size)
     if kind == "cylinder":
-        r, h = float(d.get("radius", 0)), float(d.get("length", d.get("height", 0)))
-        if r <= 0 or h <= 0:
-            raise ModelError(f"{what}: cylinder needs positive radius and length")
+        r = number(d.get("radius"), f"{what}.radius", above=0)
+        h = number(d.get("length", d.get("height")), f"{what}.length", above=0)
         return Cylinder(r, h)
     if kind == "sphere":
-        r = float(d.get("radius", 0))
-        if r <= 0:
-            raise ModelError(f"{what}: sphere needs a positive radius")
-        return Sphere(r)
+        return Sphere(number(d.get("radius"), f"{what}.radius", above=0))
     if kind == "mesh":
-        fn = str(d.get("file", ""))
+        fn = text(d.get("file"), f"{what}.file")
         if not fn:
             raise ModelError(f"{what}: mesh needs a file")
         p = Path(fn)
         if not p.is_absolute() and base is not None:
             p = base / p
-        return Mesh(str(p), _floats(d.get("scale", (1, 1, 1)), 3, f"{what}.scale"))
-    raise ModelError(f"{what}.shape: unknown shape {kind!r} (box, cylinder, sphere, mesh)")
+        return Mesh(str(p), floats(d.get("scale", [1, 1, 1]), 3, f"{what}.scale"))
+    raise ModelError(f"{what}.shape: unknown shape {shown(kind)} (box, cylinder, sphere, mesh)")
 
 
 def _body(d: Any, what: str, kind: str, base: Path | None) -> Obstacle:
     if not isinstance(d, dict):
-        raise ModelError(f"{what}: expected a mapping, got {d!r}")
-    rgba = _floats(d.get("rgba", DEFAULT_RGBA), 4, f"{what}.rgba")
-    mass = float(d.get("mass", 0.0))
+        raise ModelError(f"{what}: expected a mapping, got {shown(d)}")
+    rgba = floats(d.get("rgba", list(DEFAULT_RGBA)), 4, f"{what}.rgba")
+    mass = number(d.get("mass", 0.0), f"{what}.mass", least=0)
     if kind == "object" and mass <= 0:
         raise ModelError(f"{what}: a movable object needs a positive mass")
     return Obstacle(
-        name=str(d.get("name", what.rsplit(".", 1)[-1])),
+        name=text(d.get("name"), f"{what}.name", what.rsplit(".", 1)[-1]),
         geometry=_shape(d, what, base),
         pose=_pose(d.get("pose"), f"{what}.pose"),
         rgba=rgba,  # type: ignore[arg-type]
         mass=mass,
-        kind=str(d.get("kind", kind)),
+        kind=text(d.get("kind"), f"{what}.kind", kind),
     )
 
 
@@ -201,22 +220,37 @@ def _wall(d: Any, what: str, defaults: dict) -> Obstacle:
     """A wall from a segment: {from: [x, y], to: [x, y], thickness, height}."""
     if not isinstance(d, dict) or "from" not in d or "to" not in d:
         raise ModelError(f"{what}: a wall needs 'from' and 'to' points")
-    a = np.array(_floats(d["from"], 2, f"{what}.from"))
-    b = np.array(_floats(d["to"], 2, f"{what}.to"))
+    a = np.array(floats(d["from"], 2, f"{what}.from"))
+    b = np.array(floats(d["to"], 2, f"{what}.to"))
     length = float(np.linalg.norm(b - a))
     if length <= 0:
         raise ModelError(f"{what}: wall has zero length")
-    t = float(d.get("thickness", defaults.get("thickness", 0.1)))
-    h = float(d.get("height", defaults.get("height", 1.0)))
+    t = number(d.get("thickness", defaults.get("thickness", 0.1)), f"{what}.thickness", above=0)
+    h = number(d.get("height", defaults.get("height", 1.0)), f"{what}.height", above=0)
     mid = (a + b) / 2
     yaw = float(np.arctan2(b[1] - a[1], b[0] - a[0]))
-    rgba = _floats(d.get("rgba", defaults.get("rgba", DEFAULT_RGBA)), 4, f"{what}.rgba")
+    rgba = floats(d.get("rgba", defaults.get("rgba", list(DEFAULT_RGBA))), 4, f"{what}.rgba")
     return Obstacle(
-        name=str(d.get("name", what.rsplit(".", 1)[-1])),
+        name=text(d.get("name"), f"{what}.name", what.rsplit(".", 1)[-1]),
         geometry=Box((length, t, h)),
         pose=Pose.from_xy_yaw(mid[0], mid[1], yaw, h / 2),
         rgba=rgba,  # type: ignore[arg-type]
         kind="wall",
+    )
+
+
+def _light(d: Any, what: str) -> Light:
+    d = mapping(d, what)
+    kind = text(d.get("type"), f"{what}.type", "directional")
+    if kind not in ("directional", "point"):
+        raise ModelError(f"{what}.type: expected directional or point, got {shown(kind)}")
+    return Light(
+        name=text(d.get("name"), f"{what}.name", what.replace("lights[", "light").rstrip("]")),
+        type=kind,
+        pose=_pose(d.get("pose"), f"{what}.pose"),
+        direction=floats(d.get("direction", [0, 0, -1]), 3, f"{what}.direction"),  # type: ignore[arg-type]
+        intensity=number(d.get("intensity", 1.0), f"{what}.intensity", least=0),
+        color=floats(d.get("color", [1, 1, 1]), 3, f"{what}.color"),  # type: ignore[arg-type]
     )
 
 
@@ -225,59 +259,61 @@ def world_from_dict(d: Any, source: str = "", base: Path | None = None) -> World
     if not isinstance(d, dict):
         raise ModelError(_where(source, "a world file must be a mapping"))
     try:
-        fl = d.get("floor", {}) or {}
+        fl = mapping(d.get("floor"), "floor")
         floor = Floor(
-            size=_floats(fl.get("size", (10, 10)), 2, "floor.size"),  # type: ignore[arg-type]
-            center=_floats(fl.get("center", (0, 0)), 2, "floor.center"),  # type: ignore[arg-type]
-            height=float(fl.get("height", 0.0)),
-            rgba=_floats(fl.get("rgba", Floor.rgba), 4, "floor.rgba"),  # type: ignore[arg-type]
-            friction=float(fl.get("friction", 1.0)),
+            size=floats(fl.get("size", [10, 10]), 2, "floor.size"),  # type: ignore[arg-type]
+            center=floats(fl.get("center", [0, 0]), 2, "floor.center"),  # type: ignore[arg-type]
+            height=number(fl.get("height", 0.0), "floor.height"),
+            rgba=floats(fl.get("rgba", list(Floor.rgba)), 4, "floor.rgba"),  # type: ignore[arg-type]
+            friction=number(fl.get("friction", 1.0), "floor.friction", least=0),
         )
-        wall_defaults = d.get("wall_defaults", {}) or {}
+        if min(floor.size) <= 0:
+            raise ModelError(f"floor.size: both sides must be positive, got {list(floor.size)}")
+        wall_defaults = mapping(d.get("wall_defaults"), "wall_defaults")
         walls = tuple(
-            _wall(w, f"walls[{i}]", wall_defaults) for i, w in enumerate(d.get("walls", []) or [])
+            _wall(w, f"walls[{i}]", wall_defaults) for i, w in enumerate(_items(d, "walls"))
         )
         obstacles = tuple(
             _body(o, f"obstacles[{i}]", "obstacle", base)
-            for i, o in enumerate(d.get("obstacles", []) or [])
+            for i, o in enumerate(_items(d, "obstacles"))
         )
         objects = tuple(
-            _body(o, f"objects[{i}]", "object", base)
-            for i, o in enumerate(d.get("objects", []) or [])
+            _body(o, f"objects[{i}]", "object", base) for i, o in enumerate(_items(d, "objects"))
         )
-        lights = tuple(
-            Light(
-                name=str(li.get("name", f"light{i}")),
-                type=str(li.get("type", "directional")),
-                pose=_pose(li.get("pose"), f"lights[{i}].pose"),
-                direction=_floats(li.get("direction", (0, 0, -1)), 3, f"lights[{i}].direction"),  # type: ignore[arg-type]
-                intensity=float(li.get("intensity", 1.0)),
-                color=_floats(li.get("color", (1, 1, 1)), 3, f"lights[{i}].color"),  # type: ignore[arg-type]
-            )
-            for i, li in enumerate(d.get("lights", []) or [])
-        )
-        spawns = {str(k): _pose(v, f"spawns.{k}") for k, v in (d.get("spawns", {}) or {}).items()}
+        lights = tuple(_light(li, f"lights[{i}]") for i, li in enumerate(_items(d, "lights")))
+        spawns_in = mapping(d.get("spawns"), "spawns")
+        if len(spawns_in) > MAX_ITEMS["spawns"]:
+            raise ModelError(f"spawns: {len(spawns_in)} poses; a world holds at most 100")
+        spawns = {str(k): _pose(v, f"spawns.{k}") for k, v in spawns_in.items()}
         interior = None
         if d.get("interior") is not None:
-            lo = _floats(d["interior"][0], 2, "interior[0]")
-            hi = _floats(d["interior"][1], 2, "interior[1]")
-            interior = (lo, hi)
-        rooms = tuple(_room(r, f"rooms[{i}]") for i, r in enumerate(d.get("rooms", []) or []))
+            corners = d["interior"]
+            if not isinstance(corners, list) or len(corners) != 2:
+                raise ModelError(
+                    f"interior: expected [[xmin, ymin], [xmax, ymax]], got {shown(corners)}"
+                )
+            interior = (
+                floats(corners[0], 2, "interior[0]"),
+                floats(corners[1], 2, "interior[1]"),
+            )
+        rooms = tuple(_room(r, f"rooms[{i}]") for i, r in enumerate(_items(d, "rooms")))
         if d.get("home") is not None:
             check_home(d["home"])
+        name = text(d.get("name"), "name", Path(source).stem if source else "world")
+        description = text(d.get("description"), "description")
     except ModelError as exc:
         raise ModelError(_where(source, str(exc))) from None
-    names = [b.name for b in walls + obstacles + objects]
-    dup = sorted({n for n in names if names.count(n) > 1})
+    counts = Counter(b.name for b in walls + obstacles + objects)
+    dup = sorted(n for n, c in counts.items() if c > 1)
     if dup:
-        raise ModelError(_where(source, f"duplicate body names {dup}"))
+        raise ModelError(_where(source, f"duplicate body names {dup[:10]}"))
     for i, r in enumerate(rooms):
-        if r.place_on and r.place_on not in names:
+        if r.place_on and r.place_on not in counts:
             raise ModelError(
                 _where(source, f"rooms[{i}].place.surface: no body {r.place_on!r} in the world")
             )
     return World(
-        name=str(d.get("name", Path(source).stem if source else "world")),
+        name=name,
         floor=floor,
         walls=walls,
         obstacles=obstacles,
@@ -286,7 +322,7 @@ def world_from_dict(d: Any, source: str = "", base: Path | None = None) -> World
         spawns=spawns,
         interior=interior,  # type: ignore[arg-type]
         rooms=rooms,
-        description=str(d.get("description", "")),
+        description=description,
         source=source,
     )
 
@@ -294,17 +330,58 @@ def world_from_dict(d: Any, source: str = "", base: Path | None = None) -> World
 def _room(d: Any, what: str) -> Room:
     if not isinstance(d, dict) or "name" not in d:
         raise ModelError(f"{what}: a room is a mapping with a name, min and max")
-    lo = _floats(d.get("min"), 2, f"{what}.min")
-    hi = _floats(d.get("max"), 2, f"{what}.max")
+    name = text(d["name"], f"{what}.name")
+    lo = floats(d.get("min"), 2, f"{what}.min")
+    hi = floats(d.get("max"), 2, f"{what}.max")
     if not (lo[0] < hi[0] and lo[1] < hi[1]):
-        raise ModelError(f"{what}.min must be below and left of max, got {lo} and {hi}")
+        raise ModelError(f"{what}.min must be below and left of max, got {list(lo)} and {list(hi)}")
     place = d.get("place")
     if place is None:
-        return Room(str(d["name"]), (lo, hi))  # type: ignore[arg-type]
+        return Room(name, (lo, hi))  # type: ignore[arg-type]
     if not isinstance(place, dict) or "surface" not in place or "xy" not in place:
         raise ModelError(f"{what}.place: give surface (a furniture name) and xy")
-    xy = _floats(place["xy"], 2, f"{what}.place.xy")
-    return Room(str(d["name"]), (lo, hi), str(place["surface"]), xy)  # type: ignore[arg-type]
+    xy = floats(place["xy"], 2, f"{what}.place.xy")
+    return Room(name, (lo, hi), text(place["surface"], f"{what}.place.surface"), xy)  # type: ignore[arg-type]
+
+
+def _yaml_error(exc: yaml.YAMLError, source: str) -> ModelError:
+    mark = getattr(exc, "problem_mark", None)
+    line = f" line {mark.line + 1}" if mark is not None else ""
+    problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+    return ModelError(f"{source}:{line} is not valid YAML: {problem}")
+
+
+def _within_budget(text: str, source: str) -> None:
+    """Refuse YAML sent by someone else before building anything from it: aliases
+    (`*name`, which can make a few bytes into gigabytes), more than MAX_YAML_NODES
+    nodes, nesting deeper than MAX_YAML_DEPTH, strings longer than MAX_TEXT."""
+    depth = nodes = 0
+    for event in yaml.parse(text, Loader=_Loader):
+        line = f"line {event.start_mark.line + 1}" if event.start_mark else "somewhere"
+        if isinstance(event, yaml.AliasEvent):
+            raise ModelError(
+                f"{source}: {line}: YAML aliases (*{event.anchor}) are not taken in a world "
+                "sent to the server; write the values out"
+            )
+        if isinstance(event, yaml.MappingStartEvent | yaml.SequenceStartEvent):
+            depth += 1
+            nodes += 1
+            if depth > MAX_YAML_DEPTH:
+                raise ModelError(f"{source}: {line}: nested deeper than {MAX_YAML_DEPTH} levels")
+        elif isinstance(event, yaml.MappingEndEvent | yaml.SequenceEndEvent):
+            depth -= 1
+        elif isinstance(event, yaml.ScalarEvent):
+            nodes += 1
+            if len(event.value) > MAX_TEXT:
+                raise ModelError(
+                    f"{source}: {line}: a value of {len(event.value)} characters; "
+                    f"at most {MAX_TEXT}"
+                )
+        if nodes > MAX_YAML_NODES:
+            raise ModelError(f"{source}: more than {MAX_YAML_NODES} values; too large a world")
+
+
+_Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
 def load_world_file(path: str | Path) -> World:
@@ -312,29 +389,29 @@ def load_world_file(path: str | Path) -> World:
     p = Path(path)
     try:
         text = p.read_text()
-    except OSError as exc:
-        raise ModelError(f"{p}: cannot read world file ({exc.strerror})") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        why = getattr(exc, "strerror", None) or "not a text file"
+        raise ModelError(f"{p}: cannot read world file ({why})") from None
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=_Loader)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f" line {mark.line + 1}" if mark is not None else ""
-        raise ModelError(f"{p}:{line} is not valid YAML: {exc}") from None
+        raise _yaml_error(exc, str(p)) from None
     return world_from_dict(data, source=str(p), base=p.parent)
 
 
 def load_world_text(text: str, source: str = "world.yaml") -> World:
-    """A world from YAML text sent by someone else (the page's home editor): confined,
-    so a mesh that refers to a file is refused, and every mistake names its entry."""
+    """A world from YAML text sent by someone else (the page's home editor): within the
+    YAML budget (`_within_budget`), confined, so a mesh that refers to a file is
+    refused, and every mistake names its entry."""
     try:
-        data = yaml.safe_load(text)
+        _within_budget(text, source)
+        data = yaml.load(text, Loader=_Loader)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f" line {mark.line + 1}" if mark is not None else ""
-        raise ModelError(f"{source}:{line} is not valid YAML: {exc}") from None
+        raise _yaml_error(exc, source) from None
     if isinstance(data, dict):
         for group in ("obstacles", "objects"):
-            for i, body in enumerate(data.get(group) or []):
+            bodies = data.get(group)
+            for i, body in enumerate(bodies if isinstance(bodies, list) else []):
                 if isinstance(body, dict) and ("file" in body or body.get("shape") == "mesh"):
                     raise ModelError(
                         f"{source}: {group}[{i}]: a world sent to the server cannot refer to "

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import time as _time
-
-from robotrial.msgs.core import Message, Ros1Spelling, int32, message, uint32
+from robotrial.msgs.core import Message, Ros1Spelling, int32, message, now_ns, uint32
 
 _ROS1_TIME = {"sec": "secs", "nanosec": "nsecs"}
 
@@ -26,7 +24,8 @@ class Time(Message):
 
     @staticmethod
     def now() -> Time:
-        ns = _time.time_ns()
+        """The time of the clock in force (`core.use_clock`; wall time by default)."""
+        ns = now_ns()
         return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
     def to_sec(self) -> float:

@@ -1,4 +1,5 @@
-"""control_msgs: the FollowJointTrajectory action of ros2_control's trajectory controller.
+"""control_msgs: the FollowJointTrajectory action of ros2_control's trajectory controller,
+and the GripperCommand a parallel gripper takes.
 
 The multi-DOF trajectory and per-component tolerance fields are left out: the arms here
 have only single-DOF joints.
@@ -28,6 +29,15 @@ class JointTolerance(Message):
     position: float64
     velocity: float64
     acceleration: float64
+
+
+@message("control_msgs/msg/GripperCommand")
+class GripperCommand(Message):
+    """Move the fingers to `position` (the finger joint's value, m) pushing with at most
+    `max_effort` (N; 0 or less: the gripper's own limit)."""
+
+    position: float64
+    max_effort: float64
 
 
 @message("control_msgs/action/FollowJointTrajectory_Goal")

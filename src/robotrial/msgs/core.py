@@ -25,7 +25,9 @@ import inspect
 import math
 import re
 import time as _time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar, get_args, get_origin, get_type_hints
 
@@ -48,6 +50,26 @@ float64 = Annotated[float, "float64"]
 string = Annotated[str, "string"]
 # uint8[] travels as bytes (base64 in JSON, raw in CBOR), as in rosbridge.
 uint8_array = Annotated[bytes, "uint8[]"]
+
+# The clock that "now" (a time field's value in rosbridge JSON) and `Time.now()` read, in
+# nanoseconds: wall time unless a caller runs under `use_clock` (a simulation's time).
+_NOW_NS: ContextVar[Callable[[], int]] = ContextVar("now_ns", default=_time.time_ns)
+
+
+def now_ns() -> int:
+    """The current time (ns) of the clock in force (see `use_clock`)."""
+    return _NOW_NS.get()()
+
+
+@contextmanager
+def use_clock(clock_ns: Callable[[], int]) -> Iterator[None]:
+    """Within the block (this thread or task), "now" and `Time.now()` read `clock_ns`."""
+    token = _NOW_NS.set(clock_ns)
+    try:
+        yield
+    finally:
+        _NOW_NS.reset(token)
+
 
 Dialect = str  # "ros2" or "ros1"
 DIALECTS = ("ros2", "ros1")
@@ -500,7 +522,7 @@ def _decode(cls: type[Message], data: Any, path: str) -> Any:
     if isinstance(data, cls):
         return data
     if cls.__ros1__.primitive == "time" and data == "now":
-        ns = _time.time_ns()
+        ns = now_ns()
         return cls(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
     if not isinstance(data, Mapping):
         raise MessageError(

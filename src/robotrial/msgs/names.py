@@ -12,6 +12,7 @@ TOPICS: dict[str, str] = {
     "/scan": "sensor_msgs/msg/LaserScan",
     "/odom": "nav_msgs/msg/Odometry",
     "/cmd_vel": "geometry_msgs/msg/Twist",
+    "/gripper/command": "control_msgs/msg/GripperCommand",
     "/map": "nav_msgs/msg/OccupancyGrid",
     "/plan": "nav_msgs/msg/Path",
     "/move_base_simple/goal": "geometry_msgs/msg/PoseStamped",

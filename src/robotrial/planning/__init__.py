@@ -39,7 +39,8 @@ def planner_class(name: str) -> type[Planner]:
     compact = {k.replace("_", ""): k for k in PLANNERS}
     key = compact.get(key.replace("_", ""), key)
     if key not in PLANNERS:
-        raise ValueError(f"unknown planner {name!r}; choose one of {', '.join(PLANNERS)}")
+        shown = name if len(name) <= 40 else name[:40] + "..."
+        raise ValueError(f"unknown planner {shown!r}; choose one of {', '.join(PLANNERS)}")
     return PLANNERS[key]
 
 

@@ -14,11 +14,14 @@ path within the time limit.
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import pickle
+import threading
 import time
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -27,6 +30,7 @@ import numpy as np
 
 import robotrial.collision
 import robotrial.kinematics
+from robotrial.cache import cache_dir
 from robotrial.collision.exact import ExactChecker
 from robotrial.collision.sphere_model import (
     OBJECT,
@@ -41,17 +45,17 @@ from robotrial.kinematics.ik import solve_ik
 from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
 from robotrial.planning import planner_class
-from robotrial.planning.base import Problem, path_length
+from robotrial.planning.base import PlanResult, Problem, path_length
 from robotrial.planning.smoothing import densify, round_corners, shortcut
 from robotrial.planning.timing import Trajectory, time_parameterize
 
 DEFAULT_TIME_LIMIT = 2.0  # s
+MAX_TIME_LIMIT = 60.0  # s: the longest answer a request may ask for
 HOLD_DISTANCE = 0.05  # m: an object this close to the tcp is in the hand
 DEFAULT_ACCEL_RATIO = 2.0  # joint acceleration limit = ratio x velocity limit, per second
 FLOOR_THICKNESS = 0.1  # m
 SCENES_KEPT = 8  # collision checkers of this many recent scenes are kept
 REFERENCE_PERIOD = 0.1  # s between the trajectory's samples; trackers interpolate (Hermite)
-CACHE_ENV = "ROBOTRIAL_CACHE"  # folder for what is computed once per robot (default ~/.cache)
 
 Obstacles = list[tuple[str, Shape, Pose]]
 
@@ -70,13 +74,20 @@ class TaskError(ValueError):
     """A request that cannot be planned as given (names the field)."""
 
 
+class _OutOfTime(Exception):
+    """The request's time limit has passed, or its caller stopped waiting."""
+
+
 @dataclass
 class TaskRequest:
     """One Move Robot! request: from the joints `positions` (named by `joint_names`; none:
     the planning joints, or all of the robot's joints, by count) to the end effector at
     `goal_position` (m, base frame) with `goal_orientation` (quaternion x, y, z, w; None:
-    position only), around `obstacles`, carrying `object` (name, box, pose; None: nothing).
-    `planner` "" is the default; `time_limit` 0 s is the default."""
+    position only), or to the planning joints `goal_joints` (a joint-space goal, as
+    MoveIt's joint target; the goal pose is then not used), around `obstacles`, carrying
+    `object` (name, box, pose; None: nothing). `planner` "" is the default; `time_limit`
+    (s) bounds the whole answer, IK and smoothing included (0: the default,
+    DEFAULT_TIME_LIMIT for the planner)."""
 
     positions: np.ndarray
     goal_position: np.ndarray
@@ -86,6 +97,7 @@ class TaskRequest:
     object: tuple[str, Box, Pose] | None = None
     planner: str = ""
     time_limit: float = 0.0
+    goal_joints: np.ndarray | None = None
 
 
 @dataclass
@@ -136,15 +148,6 @@ def _scene_key(obstacles: Obstacles, held: HeldObject | None, start: np.ndarray)
     return tuple(parts)
 
 
-def cache_dir() -> Path:
-    """Where per-robot results are kept between processes: $ROBOTRIAL_CACHE, else
-    $XDG_CACHE_HOME/robotrial, else ~/.cache/robotrial."""
-    if os.environ.get(CACHE_ENV):
-        return Path(os.environ[CACHE_ENV])
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "robotrial"
-
-
 def _code_digest() -> bytes:
     """The source of the modules that compute a robot's spheres and pairs: a new version
     of them must not read an old answer."""
@@ -163,7 +166,7 @@ def robot_spheres(kin: Kinematics, fine: bool = False) -> RobotSpheres:
     key = hashlib.sha256(pickle.dumps((kin.model, kin.joint_names)) + _code_digest()).hexdigest()[
         :32
     ]
-    path = cache_dir() / "robot-spheres" / f"{key}.pickle"
+    path = cache_dir("robot-spheres") / f"{key}.pickle"
     spheres = None
     try:
         kept = pickle.loads(path.read_bytes())
@@ -191,6 +194,8 @@ class TaskPlanner:
 
     `joints`: the planning joints (default: the arm group, else the chain to the end
     effector). `padding` (m) keeps the robot's spheres that far from obstacles.
+    `checker`: the collision checker class built for each scene (a subclass of
+    `CollisionChecker` suited to the scenes at hand, e.g. `collision.voxels.VoxelChecker`).
     """
 
     def __init__(
@@ -200,8 +205,10 @@ class TaskPlanner:
         joints: list[str] | None = None,
         padding: float = 0.0,
         validate: bool = True,
+        checker: type[CollisionChecker] = CollisionChecker,
     ) -> None:
         self.robot = robot
+        self.checker_class = checker
         self.world = world
         self.joint_names = list(joints) if joints else default_planning_joints(robot)
         self.kin = Kinematics(robot, self.joint_names)
@@ -217,6 +224,8 @@ class TaskPlanner:
         )
         self.amax = DEFAULT_ACCEL_RATIO * self.vmax
         self._scenes: OrderedDict[tuple, _Scene] = OrderedDict()
+        self._deadline = 0.0
+        self._abandoned: threading.Event | None = None
         self.world_env = Environment()
         if world is not None:
             fl = world.floor
@@ -266,25 +275,71 @@ class TaskPlanner:
         compiles the kernels on their first use (half a minute after an install), and a
         server does this at start so that the first user does not wait. None when two
         free configurations did not turn up in `tries` samples."""
-        checker = CollisionChecker(self.spheres, self.world_env, self.padding)
+        checker = self.checker_class(self.spheres, self.world_env, self.padding)
         qs = np.random.default_rng(0).uniform(self.kin.lower, self.kin.upper, (tries, self.kin.d))
         free = qs[checker.valid(qs)]
         if len(free) < 2:
             return None
         hand = self.kin.link_pose(free[1])[:3, 3]
-        return self.plan(TaskRequest(free[0], hand, joint_names=list(self.joint_names)), seed=0)
+        return self.plan(TaskRequest(free[0], hand, joint_names=self.joint_names), seed=0)
 
-    def plan(self, request: TaskRequest, seed: int | None = None) -> TaskResult:
-        """Answer one request (never raises for a bad request: the result says why)."""
+    def plan(
+        self,
+        request: TaskRequest,
+        seed: int | None = None,
+        abandoned: threading.Event | None = None,
+    ) -> TaskResult:
+        """Answer one request (never raises for a bad request: the result says why).
+        The answer comes within the request's time limit; once `abandoned` is set (the
+        caller has gone) the work stops at the next stage."""
         t0 = time.perf_counter()
         result = TaskResult(joint_names=self.joint_names)
         try:
+            limit = time_limit(request.time_limit)
+            self._deadline = math.inf if limit is None else t0 + limit
+            self._abandoned = abandoned
             self._plan(request, seed, result)
         except TaskError as exc:
             self._fail(result, "bad_request", str(exc))
+        except _OutOfTime as exc:
+            self._fail(result, "timeout", str(exc))
+        finally:
+            self._abandoned = None
         result.planning_time = time.perf_counter() - t0
         result.stats["total_time"] = result.planning_time
         return result
+
+    def _solve(self, planner, problem: Problem, checker, free_ik: Callable | None) -> PlanResult:
+        """Plan to the nearest IK solution for half the time, then to it and to other IK
+        solutions for the rest: on arms whose joints turn twice around, the nearest
+        solution can sit in a pocket the start has no free motion into. A joint-space
+        goal (no `free_ik`) gets the whole time."""
+        if free_ik is None:
+            return planner.solve(problem, checker)
+        t0 = time.perf_counter()
+        half = replace(problem, time_limit=problem.time_limit / 2)
+        res = planner.solve(half, checker)
+        if res.success or res.status != "timeout":
+            return res
+        more = free_ik(accept=checker.valid, wanted=8, batch=8).solutions
+        left = problem.time_limit - (time.perf_counter() - t0)
+        if not more or left <= 0:
+            return res
+        goals = np.vstack([problem.goals, *more])
+        second = planner.solve(replace(problem, goals=goals, time_limit=left), checker)
+        for key in ("nodes", "planning_time"):
+            second.stats[key] = second.stats.get(key, 0) + res.stats.get(key, 0)
+        return second
+
+    def _remaining(self, stage: str) -> float:
+        """Seconds left for the request; _OutOfTime (naming `stage`) when none are, or
+        when the caller has gone."""
+        if self._abandoned is not None and self._abandoned.is_set():
+            raise _OutOfTime(f"stopped before {stage}: the caller no longer waits")
+        left = self._deadline - time.perf_counter()
+        if left <= 0:
+            raise _OutOfTime(f"the time limit ran out before {stage}")
+        return left
 
     def _scene(self, obstacles: Obstacles, held: HeldObject | None, start: np.ndarray) -> _Scene:
         """The checkers for these obstacles and this held object: kept from an earlier
@@ -302,7 +357,7 @@ class TaskPlanner:
         )
         for name, shape, pose in obstacles:
             env.add(name, shape, pose)
-        checker = CollisionChecker(self.spheres, env, self.padding, held, held_touch_at=start)
+        checker = self.checker_class(self.spheres, env, self.padding, held, held_touch_at=start)
         exact = None
         if self.validate:
             exact = ExactChecker(
@@ -340,6 +395,7 @@ class TaskPlanner:
         t = time.perf_counter()
         scene = self._scene(obstacles, held, start)
         stats["scene_time"] = time.perf_counter() - t
+        self._remaining("the collision checks")
         checker, exact = scene.checker, scene.exact
         result.checker, result.exact = checker, exact
 
@@ -355,7 +411,103 @@ class TaskPlanner:
                 return
             checker = finer
 
-        # --- the goal, by IK
+        # --- the goal: given in joint space, else by IK
+        if request.goal_joints is not None:
+            goal = np.asarray(request.goal_joints, dtype=float)
+            if goal.shape != (self.kin.d,) or not np.all(np.isfinite(goal)):
+                raise TaskError(f"goal_joints must be {self.kin.d} finite joint values")
+            if not checker.valid(goal[None])[0]:
+                touching = sorted(checker.contacts(goal))
+                self._fail(result, "goal_in_collision", "goal in collision: " + _describe(touching))
+                return
+            free_ik = None
+        else:
+            found = self._ik_goal(request, start, rng, checker, stats, result)
+            if found is None:
+                return
+            goal, checker, free_ik = found
+
+        # --- plan, shortcut, round, time, validate; retry finer if MuJoCo disagrees
+        try:
+            planner = planner_class(request.planner)()
+        except ValueError as exc:
+            raise TaskError(f"planner: {exc}") from None
+        limit = request.time_limit if request.time_limit > 0 else DEFAULT_TIME_LIMIT
+        for attempt in range(3):
+            left = min(limit, self._remaining("planning"))
+            if attempt:
+                checker = self.checker_class(
+                    self.spheres,
+                    scene.env,
+                    self.padding + 0.005 * attempt,
+                    held,
+                    held_touch_at=start,
+                    resolution_scale=0.5**attempt,
+                    fine=checker.fine,
+                )
+            res = self._solve(planner, Problem(start, goal[None], left, seed), checker, free_ik)
+            stats.update({f"planner_{k}": v for k, v in res.stats.items()})
+            stats["planner"] = planner.name
+            stats["attempts"] = attempt + 1
+            if not res.success and res.status == "timeout":
+                self._fail(
+                    result,
+                    "timeout",
+                    f"no path found by {planner.name} within its time limit of {limit:g} s "
+                    f"({res.stats.get('nodes', 0)} nodes explored)",
+                )
+                return
+            if not res.success:
+                self._fail(
+                    result,
+                    "planning_failed",
+                    f"{planner.name} stopped without a path ({res.status.replace('_', ' ')}, "
+                    f"attempt {attempt + 1} of 3 with a padding of "
+                    f"{1e3 * checker.padding:.0f} mm)",
+                )
+                return
+            self._remaining("smoothing")
+            t_post = time.perf_counter()
+            path = shortcut(res.path, checker, rng)
+            smooth = round_corners(path, checker)
+            stats["shortcut_time"] = stats.get("shortcut_time", 0.0) + time.perf_counter() - t_post
+            self._remaining("timing and validation")
+            traj = self._timed_and_checked(smooth, path, checker, exact, stats)
+            if traj is not None:
+                break
+        else:
+            self._fail(
+                result,
+                "invalid_path",
+                "every planned path failed the dense MuJoCo check (3 attempts, finer each time)",
+            )
+            return
+        result.path = path
+        result.trajectory = traj
+        result.checker = checker
+        stats["path_length"] = path_length(path)
+        stats["waypoints"] = len(path)
+        stats["duration"] = traj.duration
+        checked = ", validated with MuJoCo" if exact is not None else ""
+        result.success = True
+        result.message = (
+            f"planned with {planner.name} in {res.planning_time * 1e3:.1f} ms; "
+            f"{len(path)} waypoints, {traj.duration:.2f} s trajectory{checked}{held_note}"
+        )
+
+    def _ik_goal(
+        self,
+        request: TaskRequest,
+        start: np.ndarray,
+        rng: np.random.Generator,
+        checker: CollisionChecker,
+        stats: dict[str, Any],
+        result: TaskResult,
+    ) -> tuple[np.ndarray, CollisionChecker, Callable] | None:
+        """The goal joints for the request's goal pose (the nearest of the free IK
+        solutions), the checker they were found free with and the IK call that finds
+        more; None after failing `result` (out of reach, or every solution colliding)."""
+        self._remaining("inverse kinematics")
         target = np.asarray(request.goal_position, dtype=float)
         if target.shape != (3,) or not np.all(np.isfinite(target)):
             raise TaskError(f"ee_goal.position must be three finite numbers, got {target}")
@@ -391,83 +543,16 @@ class TaskPlanner:
                     f"{free.position_error:.3f} m to ({where}){turn}; the target is "
                     f"{np.linalg.norm(target - base):.3f} m from the robot's base",
                 )
-                return
+                return None
             touching = sorted((finer or checker).contacts(free.q))
             self._fail(
                 result,
                 "goal_in_collision",
                 "goal in collision: every IK solution found collides, e.g. " + _describe(touching),
             )
-            return
-        goal = ik.q
+            return None
         stats["ik_solutions"] = len(ik.solutions)
-
-        # --- plan, shortcut, round, time, validate; retry finer if MuJoCo disagrees
-        try:
-            planner = planner_class(request.planner)()
-        except ValueError as exc:
-            raise TaskError(f"planner: {exc}") from None
-        limit = request.time_limit if request.time_limit > 0 else DEFAULT_TIME_LIMIT
-        if not np.isfinite(limit):
-            raise TaskError(f"time_limit must be a finite number of seconds, got {limit}")
-        for attempt in range(3):
-            if attempt:
-                checker = CollisionChecker(
-                    self.spheres,
-                    scene.env,
-                    self.padding + 0.005 * attempt,
-                    held,
-                    held_touch_at=start,
-                    resolution_scale=0.5**attempt,
-                    fine=checker.fine,
-                )
-            res = planner.solve(Problem(start, goal[None], limit, seed), checker)
-            stats.update({f"planner_{k}": v for k, v in res.stats.items()})
-            stats["planner"] = planner.name
-            stats["attempts"] = attempt + 1
-            if not res.success and res.status == "timeout":
-                self._fail(
-                    result,
-                    "timeout",
-                    f"no path found by {planner.name} within {limit:g} s "
-                    f"({res.stats.get('nodes', 0)} nodes explored)",
-                )
-                return
-            if not res.success:
-                self._fail(
-                    result,
-                    "planning_failed",
-                    f"{planner.name} stopped without a path ({res.status.replace('_', ' ')}, "
-                    f"attempt {attempt + 1} of 3 with a padding of "
-                    f"{1e3 * checker.padding:.0f} mm)",
-                )
-                return
-            t_post = time.perf_counter()
-            path = shortcut(res.path, checker, rng)
-            smooth = round_corners(path, checker)
-            stats["shortcut_time"] = stats.get("shortcut_time", 0.0) + time.perf_counter() - t_post
-            traj = self._timed_and_checked(smooth, path, checker, exact, stats)
-            if traj is not None:
-                break
-        else:
-            self._fail(
-                result,
-                "invalid_path",
-                "every planned path failed the dense MuJoCo check (3 attempts, finer each time)",
-            )
-            return
-        result.path = path
-        result.trajectory = traj
-        result.checker = checker
-        stats["path_length"] = path_length(path)
-        stats["waypoints"] = len(path)
-        stats["duration"] = traj.duration
-        checked = ", validated with MuJoCo" if exact is not None else ""
-        result.success = True
-        result.message = (
-            f"planned with {planner.name} in {res.planning_time * 1e3:.1f} ms; "
-            f"{len(path)} waypoints, {traj.duration:.2f} s trajectory{checked}{held_note}"
-        )
+        return ik.q, checker, free_ik
 
     def _timed_and_checked(self, smooth, path, checker, exact, stats) -> Trajectory | None:
         """Time the rounded path, else the plain one with denser waypoints; keep the first
@@ -496,6 +581,18 @@ class TaskPlanner:
         result.success = False
         result.failure = failure
         result.message = message
+
+
+def time_limit(asked: float) -> float | None:
+    """The seconds a whole answer may take: `asked`, or None for 0 (the default: the
+    planner alone is held to DEFAULT_TIME_LIMIT, so that a first request that compiles
+    the kernels is answered); TaskError for a negative, non-finite or too long limit."""
+    if not np.isfinite(asked) or asked < 0 or asked > MAX_TIME_LIMIT:
+        raise TaskError(
+            f"time_limit must be 0 (the default: {DEFAULT_TIME_LIMIT:g} s of planning) to "
+            f"{MAX_TIME_LIMIT:g} s, got {float(asked):g}"
+        )
+    return float(asked) if asked > 0 else None
 
 
 def _describe(pairs: list[tuple[str, str]]) -> str:

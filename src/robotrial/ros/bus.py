@@ -12,8 +12,14 @@ Everything the platform runs (simulator, planners, SLAM, rosbridge clients) meet
 - Services have typed requests and responses (`robotrial.msgs` service types). A handler
   may be a plain function or a coroutine function; `call` works from any thread,
   `call_async` from a coroutine (plain handlers then run in a worker thread unless
-  advertised with `threaded=False`).
+  advertised with `threaded=False`; the request is converted there too, so a large
+  request never holds the event loop). A threaded handler may ask `current_call()` for
+  its call's deadline and whether the caller has gone (timed out, disconnected), so
+  that it can stop working for nobody.
 - Types unknown to `robotrial.msgs` (a rosbridge client's own types) travel as dicts.
+- One clock: `now()` is wall time until a node (the simulator) sets the bus's clock with
+  `set_clock`; from then on rosapi, rosbridge's "now" and the bridges read simulated time,
+  the time in the messages' headers.
 
 All methods are thread-safe.
 """
@@ -22,10 +28,12 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import contextvars
 import inspect
 import itertools
 import logging
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -91,6 +99,27 @@ def _coerce(cls: type[Message] | None, msg: Any, where: str) -> Any:
     if isinstance(msg, Message):
         raise MessageError(f"{where}: expected {cls.__ros_type__}, got {type(msg).__ros_type__}")
     return cls.from_dict(msg, where)
+
+
+@dataclass(frozen=True)
+class ServiceCall:
+    """One service call as its handler sees it: `deadline` (time.monotonic(); None: no
+    timeout) and `abandoned`, set once the caller no longer waits for the answer."""
+
+    deadline: float | None = None
+    abandoned: threading.Event = field(default_factory=threading.Event)
+
+    def remaining(self) -> float | None:
+        """Seconds left before the deadline (None: no deadline)."""
+        return None if self.deadline is None else self.deadline - time.monotonic()
+
+
+_CALL: contextvars.ContextVar[ServiceCall | None] = contextvars.ContextVar("call", default=None)
+
+
+def current_call() -> ServiceCall | None:
+    """The call a threaded service handler is answering (None outside one)."""
+    return _CALL.get()
 
 
 def _loop_or_none() -> asyncio.AbstractEventLoop | None:
@@ -205,6 +234,22 @@ class Bus:
         self._anonymous: dict[str, Publisher] = {}
         self.params: dict[str, Any] = {}
         self.actions: dict[str, Any] = {}  # name -> robotrial.ros.actions.ActionServer
+        self._clock: Callable[[], float] | None = None
+
+    # ------------------------------------------------------------ time
+
+    def set_clock(self, clock: Callable[[], float] | None) -> None:
+        """Make `clock()` (s, e.g. a simulation's time) the bus's time; None: wall time."""
+        self._clock = clock
+
+    def now(self) -> float:
+        """The bus's time (s): the clock set by `set_clock`, else wall time."""
+        clock = self._clock
+        return clock() if clock is not None else time.time()
+
+    def now_ns(self) -> int:
+        clock = self._clock
+        return round(clock() * 1e9) if clock is not None else time.time_ns()
 
     # ------------------------------------------------------------ topics
 
@@ -275,6 +320,13 @@ class Bus:
         with self._lock:
             t = self._topics.get(topic)
             return t.type_name if t else ""
+
+    def is_latched(self, topic: str) -> bool:
+        """Whether late subscribers of `topic` get its last messages (ROS 1 latched,
+        ROS 2 transient local)."""
+        with self._lock:
+            t = self._topics.get(topic)
+            return t.latched if t else topic in self._latched_names
 
     def topics(self) -> dict[str, str]:
         """Every topic with a publisher or a subscriber, and its type name."""
@@ -428,7 +480,12 @@ class Bus:
         return self._finish(server, resp)
 
     async def call_async(self, name: str, request: Any = None, timeout: float | None = None) -> Any:
-        """Call a service from a coroutine without blocking the event loop."""
+        """Call a service from a coroutine without blocking the event loop. A threaded
+        handler sees the call's deadline and, once the caller stops waiting (timeout or
+        cancellation), its `abandoned` event set (`current_call()`)."""
+        server = self.service(name)
+        if server is not None and server.threaded and not server.is_async:
+            return await self._call_threaded(server, request, timeout)
         server, req = self._prepare(name, request)
         loop = asyncio.get_running_loop()
         try:
@@ -440,10 +497,6 @@ class Bus:
                         asyncio.run_coroutine_threadsafe(server.handler(req), server.loop)  # type: ignore[arg-type]
                     )
                 resp = await asyncio.wait_for(coro, timeout)
-            elif server.threaded:
-                resp = await asyncio.wait_for(
-                    loop.run_in_executor(None, server.handler, req), timeout
-                )
             else:
                 resp = server.handler(req)
         except TimeoutError:
@@ -453,6 +506,32 @@ class Bus:
         except Exception as exc:
             raise ServiceFailed(f"service {name} failed: {exc}") from exc
         return self._finish(server, resp)
+
+    async def _call_threaded(
+        self, server: ServiceServer, request: Any, timeout: float | None
+    ) -> Any:
+        call = ServiceCall(None if timeout is None else time.monotonic() + timeout)
+
+        def answer() -> Any:
+            _CALL.set(call)
+            _, req = self._prepare(server.name, request)
+            try:
+                return self._finish(server, server.handler(req))
+            except (BusError, MessageError):
+                raise
+            except Exception as exc:
+                raise ServiceFailed(f"service {server.name} failed: {exc}") from exc
+
+        loop = asyncio.get_running_loop()
+        work = loop.run_in_executor(None, contextvars.copy_context().run, answer)
+        try:
+            return await asyncio.wait_for(work, timeout)
+        except TimeoutError:
+            call.abandoned.set()
+            raise TimeoutError(f"service {server.name} did not answer within {timeout} s") from None
+        except asyncio.CancelledError:
+            call.abandoned.set()
+            raise
 
     # ------------------------------------------------------------ nodes
 

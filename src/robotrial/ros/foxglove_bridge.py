@@ -68,6 +68,8 @@ MESSAGE_DATA = 0x01  # server: subscription id, receive time, payload; client: c
 SERVICE_CALL_REQUEST = 0x02  # client: service id, call id, encoding, payload
 SERVICE_CALL_RESPONSE = 0x03  # server: the same layout
 FETCH_ASSET_RESPONSE = 0x04
+TIME = 0x02  # server: the bus's time (ns), for clients of the "time" capability
+TIME_PERIOD = 0.1  # s between Time messages
 SERVICE_TIMEOUT = 120.0  # s a service call may take (planning can be slow)
 STATUS_INFO, STATUS_WARNING, STATUS_ERROR = 0, 1, 2
 QUEUE_LIMIT = 256  # frames waiting per client; a slow client misses data beyond it
@@ -253,6 +255,7 @@ class FoxgloveBridge(Node):
         self.create_timer(scan_period, self.advertise_new_topics)
         self.advertise_services()
         self.create_timer(scan_period, self.advertise_services)
+        self.create_timer(TIME_PERIOD, self.send_time)
 
     # --- the server's thread ------------------------------------------------------------
 
@@ -297,6 +300,10 @@ class FoxgloveBridge(Node):
 
     def _check_request(self, conn: ServerConnection, request: Request) -> Response | None:
         headers = {k.lower(): v for k, v in request.headers.raw_items()}
+        refusal = self.access.host_refusal(headers)
+        if refusal is not None:
+            log.warning("foxglove: %s", refusal)
+            return conn.respond(400, refusal + "\n")
         if not self.access.origin_allowed(headers):
             log.warning("foxglove: %s", self.access.refusal(headers))
             return conn.respond(403, self.access.refusal(headers) + "\n")
@@ -317,7 +324,7 @@ class FoxgloveBridge(Node):
                 {
                     "op": "serverInfo",
                     "name": "robotrial",
-                    "capabilities": ["clientPublish", "services", "assets"],
+                    "capabilities": ["clientPublish", "services", "assets", "time"],
                     "supportedEncodings": list(CLIENT_ENCODINGS),
                     "metadata": {},
                     "sessionId": self._session,
@@ -569,9 +576,21 @@ class FoxgloveBridge(Node):
         except MessageError as exc:
             log.warning("foxglove: %s: %s", ch.topic, exc)
             return
-        stamp = time.time_ns()
+        stamp = self.bus.now_ns()
         for client, sub_id in targets:
             frame = struct.pack("<BIQ", MESSAGE_DATA, sub_id, stamp) + payload
+            try:
+                self._loop.call_soon_threadsafe(client.put, frame, True)
+            except RuntimeError:  # the loop has closed: the server stopped
+                return
+
+    def send_time(self) -> None:
+        """Tell every client the bus's time (simulated while a simulator runs), as
+        foxglove_bridge does under `use_sim_time`; message timestamps use the same clock."""
+        frame = struct.pack("<BQ", TIME, self.bus.now_ns())
+        with self._lock:
+            clients = list(self._clients)
+        for client in clients:
             try:
                 self._loop.call_soon_threadsafe(client.put, frame, True)
             except RuntimeError:  # the loop has closed: the server stopped

@@ -18,10 +18,17 @@ sensor topics a Gazebo robot has):
 | `/NAME/depth/image_raw`, `/NAME/depth/camera_info` | Image 32FC1, CameraInfo | depth camera |
 | `/NAME/points` | sensor_msgs/PointCloud2 (x, y, z) | depth camera, from the image |
 
-It listens to `/cmd_vel` (geometry_msgs/Twist) and `/robotrial/joint_reference`
-(trajectory_msgs/JointTrajectory), and offers the arm's
-`/arm_controller/follow_joint_trajectory` action (`trajectory_action`). Other lidars
-publish on `/NAME/points`.
+The simulated time is the bus's clock (`Bus.set_clock`) while the node lives, and goes
+out on `/clock` (rosgraph_msgs/Clock) every control period while someone listens, as
+Gazebo publishes it for `use_sim_time` nodes.
+
+It listens to `/cmd_vel` (geometry_msgs/Twist), `/robotrial/joint_reference`
+(trajectory_msgs/JointTrajectory) and `/gripper/command` (control_msgs/GripperCommand:
+the fingers' opening and the most they may push), and offers the arm's
+`/arm_controller/follow_joint_trajectory` action (`trajectory_action`). Each camera also
+offers `/NAME/capture` (std_srvs/Trigger): one frame rendered now and published on its
+topics, for a robot that renders only when it looks (its stream switched off). Other
+lidars publish on `/NAME/points`.
 """
 
 from __future__ import annotations
@@ -34,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from robotrial.msgs.builtin_interfaces import Time
+from robotrial.msgs.control_msgs import GripperCommand
 from robotrial.msgs.geometry_msgs import (
     Point,
     Pose,
@@ -46,6 +54,7 @@ from robotrial.msgs.geometry_msgs import (
     Vector3,
 )
 from robotrial.msgs.nav_msgs import Odometry
+from robotrial.msgs.rosgraph_msgs import Clock
 from robotrial.msgs.sensor_msgs import (
     CameraInfo,
     Image,
@@ -56,6 +65,7 @@ from robotrial.msgs.sensor_msgs import (
     PointField,
 )
 from robotrial.msgs.std_msgs import Header, String
+from robotrial.msgs.std_srvs import Trigger, TriggerResponse
 from robotrial.msgs.tf2_msgs import TFMessage
 from robotrial.msgs.trajectory_msgs import JointTrajectory
 from robotrial.ros.bus import Bus, Node
@@ -313,8 +323,17 @@ class SimNode(Node):
         self._tf = self.create_publisher("/tf", TFMessage)
         self._tf_static = self.create_publisher("/tf_static", TFMessage, latched=True)
         self._description = self.create_publisher(ROBOT_DESCRIPTION, String, latched=True)
+        self._clock = self.create_publisher("/clock", Clock)
+        bus.set_clock(lambda: sim.world.time)
         self.create_subscription("/cmd_vel", Twist, self._on_cmd_vel)
         self.create_subscription("/robotrial/joint_reference", JointTrajectory, self._on_reference)
+        if sim.gripper is not None:
+            self.create_subscription("/gripper/command", GripperCommand, self._on_gripper)
+        for s in sim.robot.sensors:
+            if s.type in ("camera", "depth_camera"):
+                self.create_service(
+                    f"/{s.name}/capture", Trigger, lambda _req, name=s.name: self._capture(name)
+                )
         self._started = False
         self.rejected: list[str] = []
         self.trajectory_action = JointTrajectoryAction(self) if sim.joints is not None else None
@@ -336,6 +355,22 @@ class SimNode(Node):
         except ValueError as exc:
             self.rejected.append(str(exc))
             log.warning("%s: joint reference ignored: %s", self.name, exc)
+
+    def _on_gripper(self, msg: GripperCommand) -> None:
+        try:
+            with self._lock:
+                self.sim.grip(float(msg.position), float(msg.max_effort))
+        except ValueError as exc:
+            self.rejected.append(str(exc))
+            log.warning("%s: gripper command ignored: %s", self.name, exc)
+
+    def _capture(self, sensor: str) -> TriggerResponse:
+        """Render one frame of a camera now and publish it on the camera's topics."""
+        with self._lock:
+            readings = self.sim.capture(sensor)
+        for r in readings:
+            self.publish_reading(r)
+        return TriggerResponse(success=True, message=f"{sensor}: one frame published")
 
     # --- outputs --------------------------------------------------------------------
 
@@ -411,6 +446,8 @@ class SimNode(Node):
         """One control period of the simulation, its readings published."""
         with self._lock:
             readings = self.sim.control_step()
+        if self.bus.subscriber_count("/clock"):
+            self._clock.publish(Clock(clock=Time.from_sec(self.sim.world.time)))
         for r in readings:
             self.publish_reading(r)
 
@@ -459,4 +496,5 @@ class SimNode(Node):
 
     def destroy(self) -> None:
         self.stop()
+        self.bus.set_clock(None)
         super().destroy()

@@ -4,7 +4,7 @@ All three write generalized forces (MjData.qfrc_applied), so they work whatever 
 the MJCF holds: the arm by computed torque with gravity compensation (it tracks a
 joint trajectory), the base by a velocity loop on its planar joints (base_x, base_y,
 base_yaw) that follows a body twist under acceleration and speed limits, and the gripper
-by moving its fingers and carrying a grasped object with the hand.
+by pushing its fingers toward an opening with a bounded force.
 """
 
 from __future__ import annotations
@@ -245,105 +245,58 @@ class BaseController:
 
 
 class Gripper:
-    """Opens and closes finger joints (through a JointController) and carries an object.
+    """A parallel gripper as a real one is driven (control_msgs/GripperCommand): its
+    fingers go toward a `position` (the finger joint's value) pushing with at most
+    `max_effort` N, so closing on an object squeezes it with that force and stops there.
 
-    `grasp` takes the nearest movable object within `reach` of the hand: from then on the
-    object keeps its pose relative to the hand (its collisions are off while held);
-    `release` puts it back under physics, moving with the hand's velocity."""
+    The fingers are MuJoCo position actuators (sim/build.py makes them), so the servo and
+    its force limit act at every physics step. Nothing is attached: an object stays in the
+    hand only by the friction of the finger contacts (sim/build.py gives them elliptic
+    cones and torsional friction); a finger that mimics another follows it by MuJoCo's
+    joint equality, as the description says."""
 
     def __init__(
         self,
         model: mujoco.MjModel,
-        hand_body: str,
-        fingers: Sequence[str] = (),
-        open_value: float = 0.0,
-        closed_value: float = 0.0,
-        joints: JointController | None = None,
-        reach: float = 0.12,
+        fingers: Sequence[str],
+        open_value: float,
+        closed_value: float,
+        max_effort: float = 20.0,
     ) -> None:
+        if not fingers:
+            raise ValueError("gripper: no finger joints")
         self.model = model
-        hid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, hand_body)
-        if hid < 0:
-            raise ValueError(f"gripper: no body {hand_body!r} in the MuJoCo model")
-        self.hand = hid
         self.fingers = list(fingers)
         self.open_value, self.closed_value = float(open_value), float(closed_value)
-        self.joints = joints
-        self.reach = reach
-        self.held: int | None = None
-        self._rel = np.eye(4)
-        self._saved: dict[int, tuple[int, int]] = {}
-        self.objects = {}
-        for b in range(model.nbody):
-            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or ""
-            jadr = model.body_jntadr[b]
-            if jadr >= 0 and int(model.jnt_type[jadr]) == int(mujoco.mjtJoint.mjJNT_FREE):
-                if name.startswith("object/"):
-                    self.objects[name] = b
+        ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f) for f in self.fingers]
+        if min(ids) < 0:
+            raise ValueError(f"gripper: no actuator for the fingers {self.fingers} in the model")
+        self._act = np.array(ids, dtype=int)
+        self._q = np.array([joint_dof(model, f, "gripper")[0] for f in self.fingers], dtype=int)
+        self.effort_limit = float(np.max(np.abs(model.actuator_forcerange[self._act])))
+        if not self.effort_limit > 0:
+            self.effort_limit = np.inf
+        self.target = self.open_value
+        self.max_effort = self.effort_limit
+        self.command(self.open_value, max_effort)
 
-    def _pose(self, data: mujoco.MjData, body: int) -> np.ndarray:
-        m = np.eye(4)
-        m[:3, :3] = data.xmat[body].reshape(3, 3)
-        m[:3, 3] = data.xpos[body]
-        return m
+    def command(self, position: float, max_effort: float | None = None) -> None:
+        """Move every finger toward `position` with at most `max_effort` N (None: as
+        before; 0 or less: the joint's own limit)."""
+        if not np.isfinite(position):
+            raise ValueError(f"gripper: position must be finite, got {position}")
+        lo, hi = sorted((self.open_value, self.closed_value))
+        self.target = min(max(float(position), lo), hi)
+        if max_effort is not None:
+            e = float(max_effort)
+            self.max_effort = min(e, self.effort_limit) if e > 0 else self.effort_limit
+        self.model.actuator_forcelimited[self._act] = 1
+        self.model.actuator_forcerange[self._act] = (-self.max_effort, self.max_effort)
 
-    def open(self, data: mujoco.MjData) -> None:
-        """Open the fingers and let go of any held object."""
-        if self.joints is not None and self.fingers:
-            self.joints.set_targets({f: self.open_value for f in self.fingers})
-        self.release(data)
+    def opening(self, data: mujoco.MjData) -> float:
+        """The first finger joint's value (m for prismatic fingers)."""
+        return float(data.qpos[self._q[0]])
 
-    def close(self, data: mujoco.MjData) -> str | None:
-        """Close the fingers; grasp the nearest object in reach. Returns its name or None."""
-        if self.joints is not None and self.fingers:
-            self.joints.set_targets({f: self.closed_value for f in self.fingers})
-        return self.grasp(data)
-
-    def grasp(self, data: mujoco.MjData, name: str | None = None) -> str | None:
-        hand = data.xpos[self.hand]
-        best, best_d = None, self.reach
-        for n, b in self.objects.items():
-            if name is not None and n not in (name, f"object/{name}"):
-                continue
-            dist = float(np.linalg.norm(data.xpos[b] - hand))
-            if dist <= best_d:
-                best, best_d = n, dist
-        if best is None:
-            return None
-        b = self.objects[best]
-        self.held = b
-        self._rel = np.linalg.inv(self._pose(data, self.hand)) @ self._pose(data, b)
-        for g in range(
-            self.model.body_geomadr[b], self.model.body_geomadr[b] + self.model.body_geomnum[b]
-        ):
-            self._saved[g] = (int(self.model.geom_contype[g]), int(self.model.geom_conaffinity[g]))
-            self.model.geom_contype[g] = 0
-            self.model.geom_conaffinity[g] = 0
-        return best
-
-    def release(self, data: mujoco.MjData) -> None:
-        if self.held is None:
-            return
-        for g, (ct, ca) in self._saved.items():
-            self.model.geom_contype[g] = ct
-            self.model.geom_conaffinity[g] = ca
-        self._saved.clear()
-        dadr = self.model.jnt_dofadr[self.model.body_jntadr[self.held]]
-        vel = np.zeros(6)
-        mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, self.held, vel, 0)
-        data.qvel[dadr : dadr + 3] = vel[3:]
-        data.qvel[dadr + 3 : dadr + 6] = 0.0
-        self.held = None
-
-    def carry(self, data: mujoco.MjData) -> None:
-        """Put the held object where the hand has taken it (call after each physics step)."""
-        if self.held is None:
-            return
-        pose = self._pose(data, self.hand) @ self._rel
-        jadr = self.model.body_jntadr[self.held]
-        qadr, dadr = self.model.jnt_qposadr[jadr], self.model.jnt_dofadr[jadr]
-        data.qpos[qadr : qadr + 3] = pose[:3, 3]
-        quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, pose[:3, :3].reshape(-1))
-        data.qpos[qadr + 3 : qadr + 7] = quat
-        data.qvel[dadr : dadr + 6] = 0.0
+    def apply(self, data: mujoco.MjData) -> None:
+        """Set the finger actuators' targets (each control period)."""
+        data.ctrl[self._act] = self.target

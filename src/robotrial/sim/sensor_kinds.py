@@ -100,6 +100,11 @@ def _lidar(host: SensorHost, s: Sensor, params: dict, frame: str) -> Reader:
 def _camera(host: SensorHost, s: Sensor, params: dict, frame: str) -> Reader | None:
     if not host.options.cameras:
         return None
+    return camera_reader(host, s, params, frame)
+
+
+def camera_reader(host: SensorHost, s: Sensor, params: dict, frame: str) -> Reader:
+    """The reader of a camera or depth camera (its renderer made now)."""
     depth = s.type == "depth_camera"
     cam = Camera(
         host.world.model,

@@ -38,7 +38,7 @@ from robotrial.sim.controllers import (
 from robotrial.sim.lidar import RayScene, ScanConfig
 from robotrial.sim.odometry import OdometryNoise, WheelOdometry
 from robotrial.sim.scene import SimWorld
-from robotrial.sim.sensor_kinds import SENSOR_KINDS, Reader, ray_scene_of
+from robotrial.sim.sensor_kinds import SENSOR_KINDS, Reader, camera_reader, ray_scene_of
 from robotrial.sim.sensors import JointStates, OdometryReading, Reading
 from robotrial.sim.tf import TfTree, chain_to_root
 
@@ -47,18 +47,22 @@ DEFAULT_RATES = {"odom": 50.0, "ground_truth": 50.0, "joint_states": 50.0}
 
 @dataclass(frozen=True)
 class StreamSettings:
-    """Overrides for one stream: rate (Hz), TF frame, noise (the sensor's unit), or off."""
+    """Overrides for one stream: rate (Hz), TF frame, noise (the sensor's unit), a
+    camera's image size (width, height in pixels), or off."""
 
     rate_hz: float | None = None
     frame: str | None = None
     noise: float | None = None
     enabled: bool = True
+    size: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         if self.rate_hz is not None and not self.rate_hz > 0:
             raise ValueError(f"stream rate must be positive, got {self.rate_hz} Hz")
         if self.noise is not None and self.noise < 0:
             raise ValueError(f"stream noise must be >= 0, got {self.noise}")
+        if self.size is not None and (len(self.size) != 2 or min(self.size) < 1):
+            raise ValueError(f"stream size must be (width, height) >= 1, got {self.size}")
 
 
 @dataclass
@@ -120,7 +124,9 @@ class Simulation:
             )
         else:
             wheels = []
-        self.arm_joints = [j for j in actuated if j not in wheels]
+        grip = robot.metadata.get("gripper") or {}
+        fingers = [f for f in grip.get("joints", []) if f in actuated and f not in wheels]
+        self.arm_joints = [j for j in actuated if j not in wheels and j not in fingers]
         effort = [
             (robot.joint(j).limit.effort if robot.joint(j).limit else 0.0) for j in self.arm_joints
         ]
@@ -129,18 +135,18 @@ class Simulation:
         )
         if self.joints is not None:
             self.joints.hold(world.data)
-        grip = robot.metadata.get("gripper")
         self.gripper: Gripper | None = None
-        if grip:
-            hand = str(grip.get("link") or robot.end_effector)
+        if fingers:
             self.gripper = Gripper(
                 model,
-                hand,
-                fingers=[f for f in grip.get("joints", []) if f in self.arm_joints],
+                fingers,
                 open_value=float(grip.get("open", 0.0)),
                 closed_value=float(grip.get("closed", 0.0)),
-                joints=self.joints,
             )
+            for f in fingers:
+                qadr = model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f)]
+                world.data.qpos[qadr] = self.gripper.open_value
+            world.forward()
         self.state_reader = JointStates(model, actuated) if actuated else None
 
         known = self._stream_names()
@@ -157,6 +163,7 @@ class Simulation:
         self.odometry = WheelOdometry(opts.odometry_noise, seed=world.seed + 1)
         self.streams: list[_Stream] = []
         self.closers: list[Callable[[], None]] = []
+        self.closed = False
         self._build_streams()
         self.latest: dict[str, Reading] = {}
 
@@ -226,6 +233,7 @@ class Simulation:
         self._mobile = w.planar or (w.base_body >= 0 and w.model.body_jntadr[w.base_body] >= 0)
         self._scene: RayScene | None = None
         self._claimed: set[str] = set()
+        self._captures: dict[str, Reader] = {}
         if self.state_reader is not None:
             self._add(
                 "joint_states", "joint_states", DEFAULT_RATES["joint_states"], self._read_joints
@@ -238,12 +246,21 @@ class Simulation:
             if not st.enabled:
                 continue
             kind = SENSOR_KINDS[s.type]
-            params = dict(s.params)
-            if st.noise is not None:
-                params.update(dict.fromkeys(kind.noise_params, st.noise))
+            params = self._params(s.name)
             read = kind.build(self, s, params, self.tf.sensor_frames[s.name])
             if read is not None:
                 self._add(s.name, kind.reading, s.rate_hz, read)
+
+    def _params(self, sensor: str) -> dict:
+        """A sensor's parameters with its stream's overrides (noise, image size)."""
+        s = self.robot.sensor(sensor)
+        params = dict(s.params)
+        st = self.settings(sensor)
+        if st.noise is not None:
+            params.update(dict.fromkeys(SENSOR_KINDS[s.type].noise_params, st.noise))
+        if st.size is not None:
+            params["width"], params["height"] = st.size
+        return params
 
     def height_above_floor(self, site: str) -> float:
         """Height (m) of a sensor site above the floor geom (z = 0 without one)."""
@@ -295,16 +312,29 @@ class Simulation:
             raise ValueError(f"robot {self.robot.name!r} has no joints to control")
         self.joints.set_targets(dict(values))
 
-    def grasp(self) -> str | None:
-        """Close the gripper; returns the name of the object now held, if any."""
+    def grip(self, position: float, max_effort: float | None = None) -> None:
+        """Drive the gripper's fingers toward `position` (the finger joint's value) with
+        at most `max_effort` N, as control_msgs/GripperCommand asks."""
         if self.gripper is None:
             raise ValueError(f"robot {self.robot.name!r} has no gripper")
-        return self.gripper.close(self.world.data)
+        self.gripper.command(position, max_effort)
 
-    def release(self) -> None:
-        if self.gripper is None:
-            raise ValueError(f"robot {self.robot.name!r} has no gripper")
-        self.gripper.open(self.world.data)
+    def capture(self, sensor: str) -> list[Reading]:
+        """One frame of camera `sensor` now, whether or not its stream runs: a camera
+        renders only when the robot looks (the renderer is made on the first capture)."""
+        reader = self._captures.get(sensor)
+        if reader is None:
+            s = next((s for s in self.robot.sensors if s.name == sensor), None)
+            if s is None or not SENSOR_KINDS[s.type].optical_frame:
+                cams = [s.name for s in self.robot.sensors if SENSOR_KINDS[s.type].optical_frame]
+                raise ValueError(f"sim: no camera {sensor!r}; this robot has {cams}")
+            frame = self.tf.sensor_frames[s.name]
+            reader = camera_reader(self, s, self._params(s.name), frame)
+            self._captures[sensor] = reader
+        got = reader(self.world.time)
+        for r in got:
+            self.latest[r.stream] = r
+        return got
 
     # --- the loop ----------------------------------------------------------------------
 
@@ -316,16 +346,18 @@ class Simulation:
 
     def control_step(self) -> list[Reading]:
         """One control period: controllers, physics substeps, odometry, due sensors."""
+        if self.closed:
+            raise ValueError(f"the simulation of {self.robot.name!r} is closed")
         w = self.world
         data = w.data
         data.qfrc_applied[:] = 0.0
         if self.joints is not None:
             self.joints.apply(data, w.time, self.control_dt)
+        if self.gripper is not None:
+            self.gripper.apply(data)
         if self.base is not None:
             self.base.apply(data, self.control_dt)
         w.step(self.substeps)
-        if self.gripper is not None:
-            self.gripper.carry(data)
         t = w.time
         if self._mobile:
             x, y, yaw = w.base_pose2d()
@@ -409,6 +441,15 @@ class Simulation:
         return base @ chain_to_root(transforms, frame, self.robot.root)
 
     def close(self) -> None:
+        """Release the sensors' resources (renderers, threads); the simulation no longer
+        steps after this."""
+        self.closed = True
         for c in self.closers:
             c()
         self.closers.clear()
+
+    def __enter__(self) -> Simulation:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

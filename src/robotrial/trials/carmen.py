@@ -10,31 +10,42 @@ they are looked for in a cache folder (`cache_dir`), where a user puts them.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from robotrial.cache import cache_dir as shared_cache
 from robotrial.model.carmen import CarmenLog, read_carmen, read_relations
 from robotrial.slam.metrics import relation_metric
 from robotrial.trials.slam import Recording, ScanSample, SlamRun
 
 
 def recording_from_log(log: CarmenLog) -> Recording:
-    """What the SLAM runner takes, from a CARMEN log: its scans and odometry; no ground
-    truth (real logs have none), the laser 0.3 m above the floor (unused by SLAM)."""
+    """What the SLAM runner takes, from a CARMEN log: its scans in the log's order with
+    the odometry pose of each; no ground truth (real logs have none), the laser 0.3 m
+    above the floor (unused by SLAM)."""
     scans = [
         ScanSample(s.stamp, s.ranges, s.angle_min, s.angle_increment, 0.0, s.range_max)
         for s in log.scans
     ]
-    return Recording(scans, log.odom, np.zeros((0, 4)), log.laser_pose, 0.3, log.source)
+    return Recording(
+        scans,
+        log.odom,
+        np.zeros((0, 4)),
+        log.laser_pose,
+        0.3,
+        log.source,
+        log.scan_odometry(),
+    )
 
 
-def load_log(path: str | Path, strict: bool = False) -> tuple[Recording, CarmenLog]:
+def load_log(
+    path: str | Path, strict: bool = False, order: str = "file"
+) -> tuple[Recording, CarmenLog]:
     """A CARMEN log file as a Recording (and the log, for its counts of skipped lines)."""
-    log = read_carmen(path, strict)
+    log = read_carmen(path, strict, order)
     return recording_from_log(log), log
 
 
@@ -44,10 +55,8 @@ def relation_scores(run: SlamRun, relations_file: str | Path) -> dict[str, float
 
 
 def cache_dir() -> Path:
-    """Where real logs are kept: $XDG_CACHE_HOME/robotrial/slam-logs, else
-    ~/.cache/robotrial/slam-logs."""
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "robotrial" / "slam-logs"
+    """Where real logs are kept: the cache's slam-logs folder (robotrial.cache)."""
+    return shared_cache("slam-logs")
 
 
 @dataclass(frozen=True)

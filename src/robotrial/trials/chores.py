@@ -2,9 +2,10 @@
 (layer 5).
 
 A chore is an (object, destination room) pair, written `cup:bedroom`. Each runs as the
-carry trial (`trials/carry.py`: map, navigate, pick, carry, place) over a few seeds; the
-verdict keeps the success rate, the simulated time of the successful runs, and the phase
-each failure stopped in with its reason. What the carry trial needs from the world (a
+carry trial (`trials/carry.py`: map, search, navigate, pick, carry, place, with the
+robot side seeing only through its sensors) over a few seeds; the verdict keeps the
+success rate, the simulated time of the successful runs, and the phase each failure
+stopped in with its cause and reason. What the carry trial needs from the world (a
 movable object of that name, a room with a `place`; a mapping route, which it makes for
 a home without one) is checked by the trial itself; a chore it refuses is reported with
 the trial's reason, not raised.
@@ -160,6 +161,7 @@ def run_chores(
                     "seed": seed,
                     "success": r.success,
                     "failed_phase": r.failed_phase,
+                    "cause": r.cause,
                     "reason": r.reason,
                     "sim_time": round(r.sim_time, 2),
                 }

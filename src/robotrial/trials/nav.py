@@ -18,7 +18,7 @@ initial pose guess; start and goal stay the same.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -131,17 +131,20 @@ class RunResult:
         }
 
 
-def footprint_of(sim: Simulation) -> Footprint:
-    """The robot's footprint (sim/footprint.py) as the costmaps take it."""
-    return Footprint(*base_extent(sim))
+def footprint_of(sim: Simulation, links: Collection[str] | None = None) -> Footprint:
+    """The robot's footprint (sim/footprint.py) as the costmaps take it; with `links`,
+    of those links only."""
+    return Footprint(*base_extent(sim, links))
 
 
-def footprint_of_robot(robot: RobotModel | str, world: World | str = "room_a") -> Footprint:
+def footprint_of_robot(
+    robot: RobotModel | str, world: World | str = "room_a", links: Collection[str] | None = None
+) -> Footprint:
     """The footprint of a robot (a model, a built-in name or a file), taken in a
-    simulation of it."""
+    simulation of it; with `links`, of those links only (a base without its arm)."""
     sim = Simulation.create(world, robot, options=SimOptions(cameras=False))
     try:
-        return footprint_of(sim)
+        return footprint_of(sim, links)
     finally:
         sim.close()
 

@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from robotrial.model.anatomy import base_links, has_wheels
 from robotrial.model.gridmap import NavMap, world_map
 from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
@@ -194,8 +195,9 @@ class HomeVerdict:
 
 
 def has_base(robot: RobotModel) -> bool:
-    """Whether the robot drives about (its description gives a `drive`)."""
-    return bool((robot.metadata or {}).get("drive"))
+    """Whether the robot drives about: its description gives a `drive`, or its tree has
+    wheels (model/anatomy.py), as a base of the user's own does."""
+    return bool((robot.metadata or {}).get("drive")) or has_wheels(robot)
 
 
 def check_home(
@@ -231,15 +233,18 @@ def check_home(
     robot_name = robot_name if isinstance(robot_name, str) else robot.name
     if not has_base(robot):
         raise VerdictError(
-            f"robot {robot_name!r} has no mobile base (no `drive` in its description): it "
-            "stays where it is put, so it cannot be tried around a home; try "
-            "mobile_manipulator or husky"
+            f"robot {robot_name!r} has no mobile base (no `drive` in its description, no "
+            "wheels in its tree): it stays where it is put, so it cannot be tried around a "
+            "home; try mobile_manipulator or husky"
         )
     share = (0.05, 0.15, 0.25, 1.0) if not wanted else (0.02, 0.06, 0.1, 0.25)
     timings: dict[str, float] = {}
+    # a base of the user's own (wheels, no `drive`): its own links make the footprint,
+    # without the arm it may carry, and only the rooms part is judged
+    own = not (robot.metadata or {}).get("drive")
     tell(0.0, "footprint")
     t = time.perf_counter()
-    footprint = footprint_of_robot(robot, home)
+    footprint = footprint_of_robot(robot, home, base_links(robot) if own else None)
     timings["footprint"] = time.perf_counter() - t
     tell(share[0], "rooms")
     t = time.perf_counter()
@@ -247,7 +252,12 @@ def check_home(
     base = check_base(home, footprint, robot_name, grid)
     timings["base"] = time.perf_counter() - t
     reachable, stuck = None, ""
-    if arm_joints(robot):  # where the base can park matters only to an arm
+    if own and arm_joints(robot):
+        stuck = (
+            "reach not checked: a base whose description gives no drive is judged on its "
+            "rooms and passages only"
+        )
+    elif arm_joints(robot):  # where the base can park matters only to an arm
         tell(share[1], "parking poses")
         t = time.perf_counter()
         costmap = Costmap(grid.occupied, tuple(grid.origin), grid.resolution, footprint)

@@ -54,14 +54,21 @@ export interface Pair {
 
 /** A robot the server offers. */
 export interface RobotEntry {
+  /** Its name in the list and in URLs (lower case letters, digits, underscores). */
   name: string;
+  /** Its name as its description writes it (the URDF's robot name), to show. */
+  title: string;
   kind: "arm" | "mobile";
   /** How many joints it drives. */
   joints: number;
   /** The world this robot opens in when picked. */
   world: string;
-  /** True for a robot a user uploaded to this server. */
+  /** True for a robot a user uploaded to this server (or gave it as a file). */
   uploaded: boolean;
+  /** The tool link: what the hand read-out shows and Move Robot!'s goal moves. */
+  tool: string;
+  /** Links an arm's tool may be (POST /api/robots/{name}/tool); the tool first. */
+  tools: string[];
 }
 
 /** The robots the server offers, and its default robot and world. */
@@ -87,8 +94,8 @@ export interface RobotVerdict {
   turning_diameter: number | null;
   /** One per chore asked for: `chore`, `object`, `room`, `runs`, `successes`, `done`,
    * `mean_time` (s, simulated, of the successful runs), `failed_phases`, `outcomes`
-   * (per run: `seed`, `success`, `failed_phase`, `reason`, `sim_time`), `refused` (why
-   * the trial would not run it, or "") and `wall_time` (s). */
+   * (per run: `seed`, `success`, `failed_phase`, `cause`, `reason`, `sim_time`),
+   * `refused` (why the trial would not run it, or "") and `wall_time` (s). */
   chores: Record<string, unknown>[];
   /** Whatever else the engine reports, by name. */
   details: Record<string, unknown>;
@@ -100,6 +107,11 @@ export interface SpawnPose {
   xyz: [number, number, number];
   /** Orientation as a unit quaternion: x, y, z, w. */
   quat: [number, number, number, number];
+}
+
+/** The link to make an uploaded robot's tool. */
+export interface ToolChoice {
+  link: string;
 }
 
 /** A robot accepted from an upload: its catalog entry and what the loader repaired. */

@@ -2,6 +2,20 @@
 // Numbers are JSON numbers; non-finite floats arrive as null; uint8[] is base64
 // text in JSON and Uint8Array with CBOR (numeric arrays are typed arrays there).
 
+/** actionlib_msgs/msg/GoalID */
+export interface GoalID {
+  stamp: Time;
+  id: string;
+}
+
+/** actionlib_msgs/msg/GoalStatus */
+export interface GoalStatus {
+  goal_id: GoalID;
+  status: number;
+  text: string;
+}
+export const GoalStatus = { PENDING: 0, ACTIVE: 1, PREEMPTED: 2, SUCCEEDED: 3, ABORTED: 4, REJECTED: 5, PREEMPTING: 6, RECALLING: 7, RECALLED: 8, LOST: 9 } as const;
+
 /** builtin_interfaces/msg/Duration: A span of time; `nanosec` is always in [0, 1e9), negative spans have negative `sec`. */
 export interface Duration {
   sec: number;
@@ -35,6 +49,12 @@ export interface FollowJointTrajectoryGoal {
 export interface FollowJointTrajectoryResult {
   error_code: number;
   error_string: string;
+}
+
+/** control_msgs/msg/GripperCommand: Move the fingers to `position` (the finger joint's value, m) pushing with at most `max_effort` (N; 0 or less: the gripper's own limit). */
+export interface GripperCommand {
+  position: number;
+  max_effort: number;
 }
 
 /** control_msgs/msg/JointTolerance: Bounds on one joint's error; 0 means the controller's default, -1 no bound. */
@@ -518,6 +538,11 @@ export interface TopicsResponse {
   types: string[];
 }
 
+/** rosgraph_msgs/msg/Clock */
+export interface Clock {
+  clock: Time;
+}
+
 /** sensor_msgs/msg/CameraInfo */
 export interface CameraInfo {
   header: Header;
@@ -728,6 +753,72 @@ export interface TFMessage {
   transforms: TransformStamped[];
 }
 
+/** tf2_web_republisher/msg/TFSubscriptionActionFeedback */
+export interface TFSubscriptionActionFeedback {
+  header: Header;
+  status: GoalStatus;
+  feedback: Tf2WebRepublisherTFSubscriptionFeedback;
+}
+
+/** tf2_web_republisher/msg/TFSubscriptionActionGoal */
+export interface TFSubscriptionActionGoal {
+  header: Header;
+  goal_id: GoalID;
+  goal: Tf2WebRepublisherTFSubscriptionGoal;
+}
+
+/** tf2_web_republisher/msg/TFSubscriptionFeedback */
+export interface Tf2WebRepublisherTFSubscriptionFeedback {
+  transforms: TransformStamped[];
+}
+
+/** tf2_web_republisher/msg/TFSubscriptionGoal */
+export interface Tf2WebRepublisherTFSubscriptionGoal {
+  source_frames: string[];
+  target_frame: string;
+  angular_thres: number;
+  trans_thres: number;
+  rate: number;
+}
+
+/** tf2_web_republisher_interfaces/action/TFSubscription_Feedback */
+export interface Tf2WebRepublisherInterfacesTFSubscriptionFeedback {
+  transforms: TransformStamped[];
+}
+
+/** tf2_web_republisher_interfaces/action/TFSubscription_Goal */
+export interface Tf2WebRepublisherInterfacesTFSubscriptionGoal {
+  source_frames: string[];
+  target_frame: string;
+  angular_thres: number;
+  trans_thres: number;
+  rate: number;
+}
+
+/** tf2_web_republisher_interfaces/action/TFSubscription_Result */
+export interface TFSubscriptionResult {
+}
+
+/** tf2_web_republisher_interfaces/msg/TFArray */
+export interface TFArray {
+  transforms: TransformStamped[];
+}
+
+/** tf2_web_republisher_interfaces/srv/RepublishTFs_Request */
+export interface RepublishTFsRequest {
+  source_frames: string[];
+  target_frame: string;
+  angular_thres: number;
+  trans_thres: number;
+  rate: number;
+  timeout: Duration;
+}
+
+/** tf2_web_republisher_interfaces/srv/RepublishTFs_Response */
+export interface RepublishTFsResponse {
+  topic_name: string;
+}
+
 /** trajectory_msgs/msg/JointTrajectory */
 export interface JointTrajectory {
   header: Header;
@@ -787,11 +878,14 @@ export interface UVCoordinate {
 
 /** Every message type name (ROS 2 spelling) and its interface. */
 export interface MessageTypes {
+  "actionlib_msgs/msg/GoalID": GoalID;
+  "actionlib_msgs/msg/GoalStatus": GoalStatus;
   "builtin_interfaces/msg/Duration": Duration;
   "builtin_interfaces/msg/Time": Time;
   "control_msgs/action/FollowJointTrajectory_Feedback": FollowJointTrajectoryFeedback;
   "control_msgs/action/FollowJointTrajectory_Goal": FollowJointTrajectoryGoal;
   "control_msgs/action/FollowJointTrajectory_Result": FollowJointTrajectoryResult;
+  "control_msgs/msg/GripperCommand": GripperCommand;
   "control_msgs/msg/JointTolerance": JointTolerance;
   "geometry_msgs/msg/Accel": Accel;
   "geometry_msgs/msg/Point": Point;
@@ -874,6 +968,7 @@ export interface MessageTypes {
   "rosapi_msgs/srv/TopicsForType_Response": TopicsForTypeResponse;
   "rosapi_msgs/srv/Topics_Request": TopicsRequest;
   "rosapi_msgs/srv/Topics_Response": TopicsResponse;
+  "rosgraph_msgs/msg/Clock": Clock;
   "sensor_msgs/msg/CameraInfo": CameraInfo;
   "sensor_msgs/msg/CompressedImage": CompressedImage;
   "sensor_msgs/msg/Image": Image;
@@ -904,6 +999,16 @@ export interface MessageTypes {
   "std_srvs/srv/Trigger_Request": TriggerRequest;
   "std_srvs/srv/Trigger_Response": TriggerResponse;
   "tf2_msgs/msg/TFMessage": TFMessage;
+  "tf2_web_republisher/msg/TFSubscriptionActionFeedback": TFSubscriptionActionFeedback;
+  "tf2_web_republisher/msg/TFSubscriptionActionGoal": TFSubscriptionActionGoal;
+  "tf2_web_republisher/msg/TFSubscriptionFeedback": Tf2WebRepublisherTFSubscriptionFeedback;
+  "tf2_web_republisher/msg/TFSubscriptionGoal": Tf2WebRepublisherTFSubscriptionGoal;
+  "tf2_web_republisher_interfaces/action/TFSubscription_Feedback": Tf2WebRepublisherInterfacesTFSubscriptionFeedback;
+  "tf2_web_republisher_interfaces/action/TFSubscription_Goal": Tf2WebRepublisherInterfacesTFSubscriptionGoal;
+  "tf2_web_republisher_interfaces/action/TFSubscription_Result": TFSubscriptionResult;
+  "tf2_web_republisher_interfaces/msg/TFArray": TFArray;
+  "tf2_web_republisher_interfaces/srv/RepublishTFs_Request": RepublishTFsRequest;
+  "tf2_web_republisher_interfaces/srv/RepublishTFs_Response": RepublishTFsResponse;
   "trajectory_msgs/msg/JointTrajectory": JointTrajectory;
   "trajectory_msgs/msg/JointTrajectoryPoint": JointTrajectoryPoint;
   "visualization_msgs/msg/Marker": Marker;
@@ -943,6 +1048,7 @@ export interface ServiceTypes {
   "std_srvs/srv/Empty": { request: EmptyRequest; response: EmptyResponse };
   "std_srvs/srv/SetBool": { request: SetBoolRequest; response: SetBoolResponse };
   "std_srvs/srv/Trigger": { request: TriggerRequest; response: TriggerResponse };
+  "tf2_web_republisher_interfaces/srv/RepublishTFs": { request: RepublishTFsRequest; response: RepublishTFsResponse };
 }
 export type ServiceTypeName = keyof ServiceTypes;
 
@@ -956,6 +1062,7 @@ export const TOPICS = {
   "/scan": "sensor_msgs/msg/LaserScan",
   "/odom": "nav_msgs/msg/Odometry",
   "/cmd_vel": "geometry_msgs/msg/Twist",
+  "/gripper/command": "control_msgs/msg/GripperCommand",
   "/map": "nav_msgs/msg/OccupancyGrid",
   "/plan": "nav_msgs/msg/Path",
   "/move_base_simple/goal": "geometry_msgs/msg/PoseStamped",

@@ -24,3 +24,9 @@ export function humanize(identifier: string): string {
   const text = words.join(" ");
   return text.charAt(0).toUpperCase() + text.slice(1);
 }
+
+/** A robot's name for people: as its description writes it for a robot someone brought
+ * (an upload, a file), else the built-in's identifier made readable. */
+export function robotTitle(robot: { name: string; title?: string; uploaded?: boolean }): string {
+  return robot.uploaded && robot.title ? robot.title : humanize(robot.name);
+}

@@ -6,7 +6,7 @@
 import type { RobotEntry, WorldEntry } from "../api";
 import type { ActuatedJoint } from "../robot";
 import type { Vec3 } from "../types";
-import { el, humanize } from "./dom";
+import { el, humanize, robotTitle } from "./dom";
 
 export interface PanelActions {
   /** The user picked a robot (with the world it should open in) or a world. */
@@ -15,6 +15,8 @@ export interface PanelActions {
   moveJoint(name: string, value: number): void;
   /** The user asked for every joint back at its home value. */
   home(): void;
+  /** The user picked another link as the tool of the robot on screen. */
+  chooseTool(link: string): void;
 }
 
 export type Status = "loading" | "ready" | "error";
@@ -41,7 +43,14 @@ export class Panel {
   private readonly status = el("p", { class: "status", role: "status", "aria-live": "polite" });
   private readonly effector = el("dl", { class: "effector", id: "end-effector" });
   private readonly effectorTitle = el("h2", {}, "Hand position");
-  private readonly effectorHint = el("p", { class: "hint" }, "Tool tip, from the robot's base");
+  private readonly effectorHint = el("p", { class: "hint", id: "end-effector-link" });
+  private readonly toolPicker = el("select", { id: "tool-picker", "aria-label": "Tool link" });
+  private readonly toolRow = el(
+    "label",
+    { class: "tool-choice", hidden: "" },
+    el("span", {}, "Tool link"),
+    this.toolPicker,
+  );
   private readonly jointList = el("div", { class: "joints", id: "joints" });
   private readonly homeButton = el("button", { type: "button", class: "quiet" }, "Home position");
   private readonly rows = new Map<string, SliderRow>();
@@ -72,6 +81,7 @@ export class Panel {
         {},
         this.effectorTitle,
         this.effectorHint,
+        this.toolRow,
         this.effector,
       ),
       el(
@@ -89,6 +99,7 @@ export class Panel {
       this.actions.pick(this.robotPicker.value, this.worldPicker.value);
     });
     this.homeButton.addEventListener("click", () => this.actions.home());
+    this.toolPicker.addEventListener("change", () => this.actions.chooseTool(this.toolPicker.value));
     this.setEndEffector(null);
   }
 
@@ -117,7 +128,7 @@ export class Panel {
     this.robots = robots;
     this.worlds = worlds;
     this.robotPicker.replaceChildren(
-      ...robots.map((r) => el("option", { value: r.name }, humanize(r.name))),
+      ...robots.map((r) => el("option", { value: r.name }, robotTitle(r))),
     );
   }
 
@@ -164,13 +175,17 @@ export class Panel {
     }
   }
 
-  /** Name what the position read-out shows: a hand's tool tip, or for a robot without
-   * an arm, the link its description names as end effector. */
-  describeEndEffector(link: string, hand: boolean): void {
+  /** Name what the position read-out shows: the tool link (of a hand, or for a robot
+   * without an arm the link its description names), as the description spells it; with
+   * `tools`, the links the user may pick instead. */
+  describeEndEffector(link: string, hand: boolean, tools: string[] = []): void {
     this.effectorTitle.textContent = hand ? "Hand position" : "Position";
-    this.effectorHint.textContent = hand
-      ? "Tool tip, from the robot's base"
-      : `${humanize(link)}, from the robot's base`;
+    this.effectorHint.textContent = link
+      ? `of ${link}${hand ? " (the tool link)" : ""}, from the robot's base`
+      : "from the robot's base";
+    this.toolRow.hidden = tools.length < 2;
+    this.toolPicker.replaceChildren(...tools.map((t) => el("option", { value: t }, t)));
+    this.toolPicker.value = link;
   }
 
   /** The end-effector position (m) or null while nothing is loaded. */
@@ -187,6 +202,7 @@ export class Panel {
     this.status.dataset.status = status;
     this.robotPicker.disabled = status === "loading";
     this.worldPicker.disabled = status === "loading";
+    this.toolPicker.disabled = status === "loading";
   }
 
   private worldFor(robot: RobotEntry): string {

@@ -2,10 +2,10 @@
 // RDTF file to the server (POST /api/robots/upload) and, once accepted, opens the robot.
 // What the server refuses is shown in words: which file, which element, which line.
 
-import { errorText, type UploadAnswer } from "../api";
+import { errorText, type RobotEntry, type UploadAnswer } from "../api";
 import "./upload.css";
 import { pageToken } from "../ros/connection";
-import { el } from "../ui/dom";
+import { el, robotTitle } from "../ui/dom";
 
 export const UPLOAD_URL = "/api/robots/upload";
 const ACCEPT = ".zip,.urdf,.xacro,.glb";
@@ -28,6 +28,23 @@ export async function uploadRobot(file: File): Promise<UploadAnswer> {
     throw new Error(text.replace(`${UPLOAD_URL}: `, ""));
   }
   return (await response.json()) as UploadAnswer;
+}
+
+/** Make `link` the tool of the uploaded robot `robot` (POST /api/robots/{name}/tool):
+ * resolves with its new entry, rejects with the server's reason. */
+export async function chooseTool(robot: string, link: string): Promise<RobotEntry> {
+  const url = `/api/robots/${encodeURIComponent(robot)}/tool`;
+  const token = pageToken();
+  const response = await fetch(url, {
+    method: "POST",
+    body: JSON.stringify({ link }),
+    headers: {
+      "Content-Type": "application/json",
+      ...(token ? { Authorization: `Bearer ${token}` } : {}),
+    },
+  });
+  if (!response.ok) throw new Error((await errorText(url, response)).replace(`${url}: `, ""));
+  return (await response.json()) as RobotEntry;
 }
 
 export class UploadSection {
@@ -67,7 +84,8 @@ export class UploadSection {
       const answer = await uploadRobot(file);
       await this.accepted(answer);
       const fixed = answer.repairs.length ? ` Repaired: ${answer.repairs.join("; ")}` : "";
-      this.show(`${file.name} is now “${answer.robot.name}” in the robot list.${fixed}`, "ready");
+      const title = robotTitle(answer.robot);
+      this.show(`${file.name} is now “${title}” in the robot list.${fixed}`, "ready");
     } catch (err) {
       this.show(err instanceof Error ? err.message : String(err), "error");
     } finally {

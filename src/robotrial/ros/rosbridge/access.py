@@ -7,9 +7,14 @@ from the server itself (Origin equal to the Host they connect to, when that Host
 this machine or the address the server listens on, so a DNS name pointed at 127.0.0.1
 by another site does not count). `--allow-origin` adds origins (`*`: any).
 
+Every request must name this server in its Host header (`trusted_host`): a page whose
+DNS name was pointed at 127.0.0.1 by another site (DNS rebinding) is refused before it
+reads anything.
+
 With a token, nothing but the token opens the door: a rosbridge client sends
-`{"op": "auth", "mac": TOKEN}` first (or connects with `?token=TOKEN`), a REST write
-sends `Authorization: Bearer TOKEN` (or `?token=TOKEN`).
+`{"op": "auth", "mac": TOKEN}` first (or connects with `?token=TOKEN`), any other request
+sends `Authorization: Bearer TOKEN` (or `?token=TOKEN`); the page, opened once with
+`?token=`, carries it in the TOKEN_COOKIE cookie (HttpOnly, SameSite=Strict).
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ from urllib.parse import urlsplit
 log = logging.getLogger(__name__)
 
 LOOPBACK_NAMES = ("localhost", "127.0.0.1", "::1")
+TOKEN_COOKIE = "robotrial_token"
 
 
 def _host_name(netloc: str) -> str:
@@ -118,12 +124,28 @@ class Access:
             return True
         return given is not None and hmac.compare_digest(given.encode(), self.token.encode())
 
-    def request_token(self, headers: Mapping[str, str], query: Mapping[str, str]) -> str | None:
-        """The token a request carries: `Authorization: Bearer ...` or `?token=`."""
+    def request_token(
+        self,
+        headers: Mapping[str, str],
+        query: Mapping[str, str],
+        cookies: Mapping[str, str] | None = None,
+    ) -> str | None:
+        """The token a request carries: `Authorization: Bearer ...`, `?token=` or the
+        page's cookie."""
         auth = headers.get("authorization", "")
         if auth.lower().startswith("bearer "):
             return auth[7:].strip()
-        return query.get("token")
+        return query.get("token") or (cookies or {}).get(TOKEN_COOKIE)
+
+    def host_refusal(self, headers: Mapping[str, str]) -> str | None:
+        """Why a request's Host header is refused, or None when it names this server."""
+        host = headers.get("host", "")
+        if self.trusted_host(host):
+            return None
+        return (
+            f"Host {host[:60]!r} is not this server's name; it answers on localhost and "
+            f"127.0.0.1 (start it with --host to listen on a network address)"
+        )
 
     def refusal(self, headers: Mapping[str, str]) -> str:
         origin = headers.get("origin", "")

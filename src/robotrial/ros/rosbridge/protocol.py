@@ -7,39 +7,53 @@ drive the same code. Every failure of a client's operation becomes a `status` me
 a client sends ends the session, and `close()` removes everything the client created.
 
 Outgoing traffic goes through one writer task per session. Each subscription keeps a
-bounded queue (`queue_length`; 0 means the server's default bound), so a slow client
-loses its oldest messages instead of growing memory, and a message published to many
-clients is encoded once per encoding.
+bounded queue (`queue_length`; 0 means the server's default bound, or only the newest
+message when the subscription is throttled), so a slow client loses its oldest messages
+instead of growing memory, and a message published to many
+clients is encoded once per encoding. Large messages (point clouds, images, maps) are
+encoded in a worker thread, so the event loop that serves every client never waits on
+them; a client that has not taken a frame for `Limits.stall_timeout` seconds (it stopped
+reading) is disconnected with the reason, and its queues freed.
 """
 
 from __future__ import annotations
 
 import asyncio
 import collections
+import concurrent.futures
 import inspect
 import itertools
 import logging
 import math
 import threading
-import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from robotrial.msgs import DIALECTS, Dialect, Message, MessageError, lookup_action, type_dialect
-from robotrial.ros import actions
+from robotrial.msgs.core import use_clock
+from robotrial.ros import actions, tf_republisher
 from robotrial.ros.bus import Bus, BusError, Node, Publisher, ServiceServer, Subscription
 from robotrial.ros.rosbridge import encoding
 from robotrial.ros.rosbridge.access import Access
 from robotrial.ros.rosbridge.encoding import ProtocolError, Reassembly
 from robotrial.ros.rosbridge.rosapi import Rosapi
+from robotrial.ros.tf_republisher import TfRepublisher
 
 log = logging.getLogger(__name__)
 
 LEVELS = {"info": 0, "warning": 1, "error": 2, "none": 3}
 COMPRESSIONS = ("none", "cbor", "cbor-raw", "png")
 MAX_QUEUE_LENGTH = 10_000
+HEAVY_BYTES = 64 * 1024
+"""A message whose `data` is larger than this is encoded off the event loop."""
+CACHE_BYTES = 32 * 2**20
+"""At most this many bytes of encoded frames are kept for other clients to reuse."""
 Send = Callable[[str | bytes], Awaitable[None]]
+
+
+class ClientStalled(Exception):
+    """The client stopped reading: a frame waited longer than `Limits.stall_timeout`."""
 
 
 @dataclass(frozen=True)
@@ -52,6 +66,7 @@ class Limits:
     default_queue_length: int = 100  # a subscription's bound when queue_length is 0
     max_control_frames: int = 10_000  # queued responses and statuses per client
     service_timeout: float = 120.0  # s, when call_service names no timeout
+    stall_timeout: float = 5.0  # s a frame may wait for the client to read before it is dropped
 
 
 def _opt(op: dict, key: str, kind: type | tuple, default: Any = None) -> Any:
@@ -144,9 +159,16 @@ class RosbridgeServer:
         self.rosapi = (
             Rosapi(bus, dialect) if rosapi and bus.service("/rosapi/topics") is None else None
         )
+        # what roslibjs's TFClient and ROS2TFClient ask for, as a rosbridge host runs it
+        self.tf_republisher = (
+            TfRepublisher(bus) if rosapi and tf_republisher.SERVER not in bus.actions else None
+        )
         self._cache: collections.OrderedDict[tuple, tuple[Any, str | bytes]] = (
             collections.OrderedDict()
         )
+        self._cache_bytes = 0
+        self._cache_lock = threading.Lock()
+        self.encoder = concurrent.futures.ThreadPoolExecutor(1, "rosbridge-encode")
         self._counter = itertools.count(1)
         self._wake_lock = threading.Lock()
         self._to_wake: set[Session] = set()
@@ -159,31 +181,55 @@ class RosbridgeServer:
         return session
 
     def close(self) -> None:
-        """Withdraw the rosapi node (sessions close with their connections)."""
+        """Withdraw the rosapi and TF republisher nodes (sessions close with their
+        connections)."""
         if self.rosapi is not None:
             self.rosapi.destroy()
             self.rosapi = None
+        if self.tf_republisher is not None:
+            self.tf_republisher.destroy()
+            self.tf_republisher = None
+        self.encoder.shutdown(wait=False, cancel_futures=True)
 
     def encode_publish(
         self, topic: str, msg: Any, dialect: Dialect, compression: str
     ) -> str | bytes:
         """The publish frame of `msg` on `topic`, encoded once for all clients that want
-        the same dialect and compression."""
+        the same dialect and compression (any thread)."""
         key = (id(msg), topic, dialect, compression)
-        hit = self._cache.get(key)
+        with self._cache_lock:
+            hit = self._cache.get(key)
         if hit is not None and hit[0] is msg:
             return hit[1]
         frame = self._encode(topic, msg, dialect, compression)
-        self._cache[key] = (msg, frame)
-        if len(self._cache) > 256:
-            self._cache.popitem(last=False)
+        with self._cache_lock:
+            old = self._cache.pop(key, None)
+            if old is not None:
+                self._cache_bytes -= len(old[1])
+            self._cache[key] = (msg, frame)
+            self._cache_bytes += len(frame)
+            while len(self._cache) > 256 or self._cache_bytes > CACHE_BYTES:
+                _, (_, dropped) = self._cache.popitem(last=False)
+                self._cache_bytes -= len(dropped)
         return frame
+
+    async def encode_publish_async(
+        self, topic: str, msg: Any, dialect: Dialect, compression: str
+    ) -> str | bytes:
+        """encode_publish, in the encoder thread when `msg` is large."""
+        data = getattr(msg, "data", None)
+        if isinstance(data, bytes | bytearray | list | tuple) and len(data) > HEAVY_BYTES:
+            loop = asyncio.get_running_loop()
+            return await loop.run_in_executor(
+                self.encoder, self.encode_publish, topic, msg, dialect, compression
+            )
+        return self.encode_publish(topic, msg, dialect, compression)
 
     def _encode(self, topic: str, msg: Any, dialect: Dialect, compression: str) -> str | bytes:
         if compression == "cbor-raw":
             from robotrial.msgs import cdr
 
-            ns = time.time_ns()
+            ns = self.bus.now_ns()
             raw = {"secs": ns // 1_000_000_000, "nsecs": ns % 1_000_000_000}
             raw["bytes"] = cdr.serialize_ros1(msg) if dialect == "ros1" else cdr.serialize(msg)
             return encoding.encode_op({"op": "publish", "topic": topic, "msg": raw}, "cbor")
@@ -239,6 +285,8 @@ class Session:
         self.closed = False
         self.authenticated = server.access.token is None
         self.ended = asyncio.Event()  # set once closed, so the transport can drop the socket
+        self.close_reason = ""  # why the server ended the session, for the close frame
+        self.refused = False  # a wrong token was sent: nothing more is read
         self._control: collections.deque[str | bytes] = collections.deque()
         self._wake = asyncio.Event()
         self._timer: asyncio.Handle | None = None
@@ -271,7 +319,7 @@ class Session:
 
     async def receive(self, data: str | bytes, depth: int = 0) -> None:
         """Handle one frame from the client; errors go back as status messages."""
-        if self.closed:
+        if self.closed or self.refused:
             return
         if len(data) > self.limits.max_message_bytes:
             self.status(
@@ -321,7 +369,8 @@ class Session:
                     raise ProtocolError(f"{name} nested inside another {name}")
                 await handler(op, depth + 1)
             else:
-                result = handler(op)
+                with use_clock(self.bus.now_ns):  # "now" in a message is the bus's time
+                    result = handler(op)
                 if inspect.isawaitable(result):
                     await result
                 elif name == "publish":
@@ -335,12 +384,15 @@ class Session:
             self.status("error", f"{name}: internal error: {exc}", oid)
 
     def _auth(self, op: dict) -> None:
-        """rosbridge's auth op; the token goes in `mac`. A wrong token ends the session."""
+        """rosbridge's auth op; the token goes in `mac`. A wrong token ends the session at
+        once: nothing the client sends after it is read."""
         if self.authenticated:
             return
         if self.server.access.token_ok(op.get("mac") if isinstance(op.get("mac"), str) else None):
             self.authenticated = True
             return
+        self.refused = True
+        self.close_reason = "wrong token"
         self.status("error", "auth: wrong token; the connection is closed")
         self.loop.call_later(0.2, lambda: self.loop.create_task(self.close()))
 
@@ -388,9 +440,15 @@ class Session:
             raise ProtocolError(f"compression must be one of {', '.join(COMPRESSIONS)}")
         sid = _id_key(op.get("id"))
         dialect = type_dialect(type_name) or self.server.dialect
-        bound = queue_length or self.limits.default_queue_length
+        # queue_length 0 with a throttle keeps only the newest message: what arrives
+        # between two sends is dropped, as rosbridge_suite does
+        bound = queue_length or (1 if throttle_ms > 0 else self.limits.default_queue_length)
         sub = self.subscriptions.get(topic)
         if sub is None:
+            if not type_name and not self.bus.topic_type(topic):
+                raise ProtocolError(
+                    f"cannot infer the type of {topic}: it is not advertised yet; name it in 'type'"
+                )
             if len(self.subscriptions) >= self.limits.max_subscriptions:
                 raise ProtocolError(
                     f"this client already has {self.limits.max_subscriptions} subscriptions"
@@ -497,6 +555,10 @@ class Session:
                 service, args or {}, timeout or self.limits.service_timeout
             )
             out["values"] = resp.to_dict(dialect) if isinstance(resp, Message) else resp
+            if service == "/rosapi/get_time" and dialect == "ros2":
+                # roslibpy's get_time() reads secs/nsecs whatever the ROS version
+                t = out["values"]["time"]
+                t.update(secs=t["sec"], nsecs=t["nanosec"])
             out["result"] = True
         except asyncio.CancelledError:
             raise
@@ -714,15 +776,31 @@ class Session:
                 await self._flush()
         except asyncio.CancelledError:
             raise
+        except ClientStalled as exc:
+            log.warning("rosbridge client %s: %s", self.name, exc)
+            self.close_reason = str(exc)
+            self.loop.create_task(self.close())
         except Exception as exc:
             log.debug("rosbridge client %s: send failed (%s); closing", self.name, exc)
             self.loop.create_task(self.close())
+
+    async def _deliver(self, frame: str | bytes) -> None:
+        """Hand one frame to the transport; a client that does not take it within
+        `stall_timeout` seconds has stopped reading and is dropped."""
+        try:
+            async with asyncio.timeout(self.limits.stall_timeout):
+                await self._send(frame)
+        except TimeoutError:
+            raise ClientStalled(
+                f"the client did not read its messages for {self.limits.stall_timeout:g} s "
+                "(its backlog stayed full); disconnected"
+            ) from None
 
     async def _flush(self) -> None:
         while not self.closed:
             sent = False
             while self._control:
-                await self._send(self._control.popleft())
+                await self._deliver(self._control.popleft())
                 sent = True
             now = self.loop.time()
             for sub in list(self.subscriptions.values()):
@@ -736,7 +814,7 @@ class Session:
                 msg = sub.queue.popleft()
                 sub.last_sent = now
                 try:
-                    frame = self.server.encode_publish(
+                    frame = await self.server.encode_publish_async(
                         sub.wire_name, msg, sub.dialect, sub.compression
                     )
                 except Exception as exc:
@@ -748,9 +826,9 @@ class Session:
                 if isinstance(frame, str) and sub.fragment_size:
                     fid = f"publish:{sub.topic}:{self.server.next_id()}"
                     for piece in encoding.fragments(frame, sub.fragment_size, fid):
-                        await self._send(piece)
+                        await self._deliver(piece)
                 else:
-                    await self._send(frame)
+                    await self._deliver(frame)
                 sent = True
             if not sent:
                 return
@@ -781,7 +859,7 @@ class Session:
             srv.close()
         self.services.clear()
         self._fail_pending(None, f"the client {self.name} disconnected")
-        for handle in self.goals.values():
+        for handle in list(self.goals.values()):
             if handle.active:
                 handle.server.cancel_goal(handle.id)
         self.goals.clear()

@@ -230,7 +230,10 @@ class Rosapi(Node):
         return api.GetActionServers.Response(action_servers=sorted(self.bus.actions))
 
     def get_time(self, req: Any) -> Any:
-        return api.GetTime.Response(time=Time.now())
+        """The bus's time: simulated time while a simulator runs, as rosapi answers
+        under `use_sim_time`."""
+        ns = self.bus.now_ns()
+        return api.GetTime.Response(time=Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000))
 
     def get_ros_version(self, req: Any) -> Any:
         if self.dialect == "ros1":

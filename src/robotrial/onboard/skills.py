@@ -1,0 +1,951 @@
+"""The robot's skills: map, navigate, look, search, pick, place (layer 4).
+
+Each skill is a generator that yields once per control period (the world steps between
+yields) and ends with its result, or raises `SkillFailed` with a named cause:
+
+| cause | what happened |
+| --- | --- |
+| `not_seen` | the object was not in view where the robot looked |
+| `misclassified` | what was taken for the object from afar is something else up close |
+| `no_base_pose` | no free base pose on the map from which the arm reaches |
+| `navigation` | the navigator gave up (its reason follows) |
+| `no_grasp_pose` | no collision-free arm motion to the grasp, or the object is too wide |
+| `grasp_missed` | the fingers closed without the object between them |
+| `slipped` | the object slid out of the fingers after the grasp |
+| `place_not_seen` | no support surface was seen at the place point |
+| `arm_planning` | another arm motion found no path |
+
+What the skills know comes from the robot's sensors: the object from the head camera
+(`perception`), the arm's obstacles from the voxels the camera saw (`voxels`), the base's
+pose from SLAM, then AMCL on the built map and scans matched to it when docked; the
+object in the hand from the fingers' joint readings and where the grasp put the hand.
+The arm moves through `planning.task.TaskPlanner` with the voxels as its obstacles.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Generator, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial.transform import Rotation
+
+from robotrial.collision.voxels import VoxelChecker
+from robotrial.geometry import Box, Pose
+from robotrial.kinematics.reference import link_poses
+from robotrial.nav.amcl import compose, inverse
+from robotrial.nav.navigator import Status
+from robotrial.nav.tour import open_spot
+from robotrial.onboard.catalogue import Catalogue, ObjectKind
+from robotrial.onboard.drive import RouteDrive
+from robotrial.onboard.perception import (
+    MIN_SIDE_POINTS,
+    SIDE_BELOW_TOP,
+    Detection,
+    ObjectDetector,
+    Surface,
+    fit_circle,
+)
+from robotrial.onboard.robot import Robot
+from robotrial.onboard.voxels import Obstacles, RobotBody, VoxelMap, merge_runs
+from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult, robot_spheres
+from robotrial.ros.planning_node import joint_trajectory
+from robotrial.ros.slam_node import scan_to_beams
+from robotrial.slam.matcher import ScanMatcher
+from robotrial.slam.scan import wrap
+
+log = logging.getLogger(__name__)
+
+STANDOFF = 0.35  # m driven straight in to a work site and back out
+REACHES = (0.5, 0.45, 0.55)  # m, arm base to the object, in the plane, in this order
+GRASP_BACKOFF = 0.1  # m, pre-grasp distance along the approach
+GRASP_MARGIN = 0.003  # m kept between the object and the palm
+LIFT = 0.06  # m
+SETTLE = 0.3  # s after each arm motion
+MAPPING_SPEED = 0.3  # m/s, the top speed while the map is being built
+DOCK_SCANS = 5  # scans matched to the map for the pose at a work site
+HEADINGS = 6  # looks per turn on the spot while searching
+SEARCH_SPOTS = 3  # places in a room to search from
+NAV_TRIES = 3  # work sites the navigator may fail to reach before a skill gives up
+FAR_LOOK = 1  # pixel stride of a look from afar (every other pixel: none found past 2.2 m)
+NEAR_LOOK = 1  # pixel stride of a look at the object up close
+SAME_OBJECT = 0.15  # m: a detection this close to the expected place is the object
+GRIP_SETTLE = 0.25  # s the fingers must stand still to count as closed
+GRIP_SLACK = 0.012  # m: fingers closed this much narrower than the object missed it
+SLIP = 0.008  # m the fingers may close further once holding before it counts as slipping
+VIEW_RANGE = 4.0  # m, farther points are too coarse to classify
+HELD_SEARCH = 0.025  # m around where the held object's top should be
+HELD_CUT = 0.01  # m, the robot's body grown by this when the held object is measured
+TOP_FACE = 0.006  # m below the highest points that are still the top face
+FLOOR_THICKNESS = 0.1  # m
+COLUMN_HEIGHT = 2.0  # m, how tall what the LiDAR mapped is taken to be
+
+# The hand's orientation for a side grasp approaching along base +x: the gripper's
+# approach axis (z) forward, its x axis up, fingers closing sideways.
+SIDE_GRASP = Rotation.from_matrix([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])
+
+
+class SkillFailed(RuntimeError):
+    """A skill could not do its job: `cause` (one of the table above) and why."""
+
+    def __init__(self, cause: str, reason: str) -> None:
+        super().__init__(f"{cause}: {reason}")
+        self.cause = cause
+        self.reason = reason
+
+
+@dataclass
+class Sighting:
+    """An object seen: its kind, centre (m, map frame), the detection it came from."""
+
+    kind: ObjectKind
+    position: np.ndarray
+    detection: Detection
+
+
+@dataclass
+class Look:
+    """One look: where the base stood (map x, y, yaw), the surfaces (base frame) and the
+    objects seen (map frame)."""
+
+    base: np.ndarray
+    surfaces: list[Surface]
+    sightings: list[Sighting]
+    unknown: int = 0
+
+
+@dataclass
+class Held:
+    """What the hand holds: its kind and its centre in the tool frame (m)."""
+
+    kind: ObjectKind
+    in_hand: np.ndarray
+    width: float
+
+
+@dataclass
+class SkillLog:
+    """What the skills did, for the report: arm plans, looks, the grasp, the object's
+    centre as seen before the grasp."""
+
+    arm_plans: list[dict[str, Any]] = field(default_factory=list)
+    looks: list[dict[str, Any]] = field(default_factory=list)
+    grasp: str = ""
+    phase: str = ""
+    target: np.ndarray | None = None  # the object's centre (map) as seen before the grasp
+    held_correction: float | None = None  # m the head camera moved the object in the hand
+
+
+class Skills:
+    """The skills of one robot on the bus (`Robot`), knowing the objects of `catalogue`."""
+
+    def __init__(self, robot: Robot, catalogue: Catalogue) -> None:
+        self.robot = robot
+        self.model = robot.model
+        self.catalogue = catalogue
+        self.planner = TaskPlanner(self.model, checker=VoxelChecker)
+        self.feasible = TaskPlanner(self.model, validate=False, checker=VoxelChecker)
+        # both covers, from the disk when made before (`robotrial warm`): the fine one is
+        # asked where a goal grazes a table top, and making it costs seconds
+        spheres = robot_spheres(self.planner.kin, fine=True)
+        self.planner.spheres = self.feasible.spheres = spheres
+        self.arm_names = self.planner.joint_names
+        self.detector = ObjectDetector(catalogue)
+        self.voxels = VoxelMap()
+        self.body = RobotBody(self.model)
+        self.matcher = ScanMatcher()
+        self.log = SkillLog()
+        self.held: Held | None = None
+        poses = dict(self.model.metadata.get("poses") or {})
+        self.poses = {k: np.array([v[n] for n in self.arm_names]) for k, v in poses.items()}
+        grip = self.model.metadata.get("gripper") or {}
+        self.finger = str((grip.get("joints") or [""])[0])
+        self.finger_open = float(grip.get("open", 0.0))
+        self.finger_closed = float(grip.get("closed", 0.0))
+        zero = link_poses(self.model, {})
+        self.arm_offset = float(zero[self.model.joint(self.arm_names[0]).parent][0, 3])
+        self.shoulder, self.reach = arm_reach(self.planner)
+        self.palm = palm_depth(self.model, zero, self.model.end_effector)
+        self.footprint = robot.setup.footprint
+
+    # --- time and the base -------------------------------------------------------------
+
+    def wait(self, seconds: float) -> Iterator[None]:
+        end = self.robot.now + seconds
+        while self.robot.now < end:
+            yield
+
+    def explore(self, route: list[tuple[float, float]], speed: float) -> Iterator[None]:
+        """Drive the route (map frame), localized by SLAM as it builds the map."""
+        follow = RouteDrive(route, min(speed, MAPPING_SPEED))
+        while not follow.done:
+            v, w = follow.command(*self.robot.pose())
+            self.robot.drive(v, w)
+            yield
+        self.robot.drive(0.0, 0.0)
+        yield from self.wait(0.1)
+
+    def start_navigation(self) -> Iterator[None]:
+        """From mapping to navigating on the built map (AMCL from SLAM's last pose)."""
+        self.robot.start_navigation(xy_tolerance=0.08, yaw_tolerance=0.08)
+        yield from self.wait(0.05)  # the navigation node hears the odometry first
+        self.robot.publish_map()
+        grid = self.robot.grid
+        assert grid is not None
+        values = grid.ros_values()
+        self.map_blocked = (values == 100) | (values < 0)
+        self.map_walls = values == 100
+        self.map_origin, self.map_res = np.asarray(grid.origin, dtype=float), grid.resolution
+        self.clearance = ndimage.distance_transform_edt(~self.map_blocked) * self.map_res
+
+    def navigate(self, goal: np.ndarray) -> Generator[None, None, str]:
+        """Drive to `goal` (map x, y, yaw) with the navigator; its status or reason."""
+        nav = self.robot.nav_node
+        assert nav is not None and nav.navigator is not None
+        self.robot.send_goal(goal)
+        while nav.navigator.status is Status.ACTIVE:
+            yield
+        self.robot.drive(0.0, 0.0)
+        yield from self.wait(0.1)
+        st = nav.navigator
+        return st.status.value if st.status is Status.SUCCEEDED else st.message
+
+    def reach_stage(
+        self, stage: np.ndarray, why: str, failed: list[np.ndarray]
+    ) -> Generator[None, None, bool]:
+        """Navigate to a staging pose; when the navigator gives up, note the pose in
+        `failed` and say so (False), so the caller tries another work site; the
+        NAV_TRIES-th failure ends the skill (`navigation`)."""
+        status = yield from self.navigate(stage)
+        if status == "succeeded":
+            return True
+        failed.append(stage)
+        log.info("navigation to %s failed (%s); %d tries so far", why, status, len(failed))
+        if len(failed) >= NAV_TRIES:
+            raise SkillFailed("navigation", f"to {why}, {len(failed)} tries: {status}")
+        return False
+
+    def _near_failed(self, stage: np.ndarray, failed: list[np.ndarray]) -> bool:
+        return any(np.hypot(*(stage[:2] - f[:2])) < 0.3 for f in failed)
+
+    def straight(self, distance: float, speed: float = 0.12) -> Iterator[None]:
+        """Drive `distance` m straight ahead (negative: back), holding the heading."""
+        start = self.robot.pose()
+        heading = start[2]
+        direction = np.sign(distance)
+        while True:
+            p = self.robot.pose()
+            along = (p[0] - start[0]) * np.cos(heading) + (p[1] - start[1]) * np.sin(heading)
+            left = abs(distance) - direction * along
+            if left <= 0.005:
+                break
+            v = direction * min(speed, max(0.03, 1.5 * left))
+            self.robot.drive(v, 2.0 * wrap(heading - p[2]))
+            yield
+        self.robot.drive(0.0, 0.0)
+        yield from self.wait(0.1)
+
+    def drive_in(self, base: np.ndarray) -> Iterator[None]:
+        """From the staging pose, straight ahead to the work site `base` (as far as the
+        navigator's stop left it, not a fixed distance)."""
+        p = self.robot.pose()
+        ahead = (base[0] - p[0]) * np.cos(p[2]) + (base[1] - p[1]) * np.sin(p[2])
+        yield from self.straight(float(ahead))
+
+    def turn_to(self, yaw: float) -> Iterator[None]:
+        """Turn on the spot to heading `yaw` (map frame)."""
+        while True:
+            err = wrap(yaw - self.robot.pose()[2])
+            if abs(err) < 0.03:
+                break
+            self.robot.drive(0.0, float(np.clip(1.5 * err, -0.6, 0.6)))
+            yield
+        self.robot.drive(0.0, 0.0)
+        yield from self.wait(0.2)
+
+    def docked_pose(self) -> Generator[None, None, np.ndarray]:
+        """The pose at a work site from scans matched to the built map (AMCL's particles
+        settle a few cm off; standing still, the scans say better)."""
+        grid = self.robot.grid
+        assert grid is not None
+        poses = []
+        guess = self.robot.pose()
+        for _ in range(DOCK_SCANS):
+            seen = self.robot.scan
+            while self.robot.scan is seen:
+                yield
+            assert self.robot.scan is not None
+            b = scan_to_beams(self.robot.scan, self.robot.laser, 0.1, 12.0)
+            poses.append(self.matcher.match(grid, b.hits, guess).pose)
+        p = np.array(poses)
+        mean_yaw = float(np.arctan2(np.sin(p[:, 2]).mean(), np.cos(p[:, 2]).mean()))
+        return np.array([p[:, 0].mean(), p[:, 1].mean(), mean_yaw])
+
+    # --- looking -----------------------------------------------------------------------
+
+    def look(self, base: np.ndarray | None = None, stride: int = FAR_LOOK) -> Look:
+        """One RGB-D frame from the head: the robot's own body cut out, the voxel map
+        updated, surfaces and objects found (objects in the map frame)."""
+        base = self.robot.pose() if base is None else base
+        frame = self.robot.capture()
+        pts, colours = frame.points(stride)
+        near = np.linalg.norm(pts - frame.viewpoint, axis=1) <= VIEW_RANGE
+        held = self._held_shapes()
+        keep = near & ~self.body.mask(pts, self.robot.joints, held)
+        pts = pts[keep]
+        colours = colours[keep] if colours is not None else None
+        surfaces = self.detector.surfaces(pts)
+        self.voxels.integrate(frame, pts, base, surfaces)
+        self.voxels.clear_body(self.body, base, self.robot.joints, held)
+        found = self.detector.detect(pts, colours, frame.viewpoint, surfaces, stride / frame.k[0])
+        sightings = []
+        for d in found:
+            if d.kind:
+                p = compose(base, np.array([d.position[0], d.position[1], 0.0]))
+                xyz = np.array([p[0], p[1], d.position[2]])
+                sightings.append(Sighting(self.catalogue.kind(d.kind), xyz, d))
+        log.info(
+            "look at %.1f s from (%.2f, %.2f, %.2f): %s; %d unknown",
+            self.robot.now,
+            *base,
+            ", ".join(f"{s.kind.name} at {np.round(s.position, 3).tolist()}" for s in sightings),
+            len(found) - len(sightings),
+        )
+        self.log.looks.append(
+            {
+                "phase": self.log.phase,
+                "time": round(self.robot.now, 2),
+                "objects": [s.kind.name for s in sightings],
+                "unknown": len(found) - len(sightings),
+            }
+        )
+        return Look(base, surfaces, sightings, len(found) - len(sightings))
+
+    def search(
+        self, kind: ObjectKind, room: str, bounds: tuple[tuple[float, float], tuple[float, float]]
+    ) -> Generator[None, None, Sighting]:
+        """Find an object of `kind` in a room (bounds in the map frame): from a few open
+        spots of the room, turn on the spot and look around."""
+        yield from self.arm_to_pose("stow")
+        spots = self._spots(bounds)
+        looks = 0
+        failed: list[np.ndarray] = []
+        for spot in spots:
+            centre = np.mean(np.asarray(bounds), axis=0)
+            yaw = float(np.arctan2(centre[1] - spot[1], centre[0] - spot[0]))
+            if np.hypot(*(spot - centre)) < 0.3:
+                yaw = self.robot.pose()[2]
+            goal = np.array([spot[0], spot[1], yaw])
+            if not (
+                yield from self.reach_stage(goal, f"a place to look from in the {room}", failed)
+            ):
+                continue
+            for k in range(HEADINGS):
+                if k:
+                    yield from self.turn_to(yaw + 2 * np.pi * k / HEADINGS)
+                looks += 1
+                seen = [s for s in self.look().sightings if s.kind.name == kind.name]
+                if seen:
+                    return min(seen, key=lambda s: s.detection.error)
+        raise SkillFailed(
+            "not_seen",
+            f"the {kind.name} was not seen in {looks} looks from {len(spots)} places in the {room}",
+        )
+
+    def _spots(self, bounds) -> list[np.ndarray]:
+        """Places to search a room from: its most open spot, then those of its halves
+        (the more open first)."""
+        (x0, y0), (x1, y1) = bounds
+        rects = [bounds]
+        if x1 - x0 >= y1 - y0:
+            xm = (x0 + x1) / 2
+            rects += [((x0, y0), (xm, y1)), ((xm, y0), (x1, y1))]
+        else:
+            ym = (y0 + y1) / 2
+            rects += [((x0, y0), (x1, ym)), ((x0, ym), (x1, y1))]
+        out: list[np.ndarray] = []
+        for r in rects:
+            try:
+                p = np.array(open_spot(self.clearance, self.map_origin, self.map_res, r))
+            except ValueError:
+                continue
+            if self._clear_at(p) < self.footprint.circumscribed_radius + 0.1:
+                continue
+            if all(np.hypot(*(p - q)) > 0.8 for q in out):
+                out.append(p)
+        return out[:SEARCH_SPOTS]
+
+    def _clear_at(self, xy: np.ndarray) -> float:
+        col = int((xy[0] - self.map_origin[0]) / self.map_res)
+        row = int((xy[1] - self.map_origin[1]) / self.map_res)
+        rows, cols = self.clearance.shape
+        if not (0 <= row < rows and 0 <= col < cols):
+            return 0.0
+        return float(self.clearance[row, col])
+
+    # --- the arm -----------------------------------------------------------------------
+
+    def arm_q(self) -> np.ndarray:
+        return np.array([self.robot.joints.get(n, 0.0) for n in self.arm_names])
+
+    def opening(self) -> float:
+        return float(self.robot.joints.get(self.finger, self.finger_open))
+
+    def _obstacles(self, base: np.ndarray, keep_out=()) -> Obstacles:
+        """The floor and the voxels the arm (and what it holds) can reach, in the base
+        frame."""
+        floor = ("floor", Box((4.0, 4.0, FLOOR_THICKNESS)), Pose((0.0, 0.0, -FLOOR_THICKNESS / 2)))
+        reach = self.reach + (self.held.kind.width + self.held.kind.height if self.held else 0.0)
+        boxes = self.voxels.boxes(base, self.shoulder, reach + 0.05, keep_out=keep_out)
+        return [floor, *boxes]
+
+    def _held_pose(self, q: np.ndarray) -> np.ndarray:
+        """The held object's pose (4x4, base frame) with the arm at `q`: the tool's
+        orientation, its centre where it sits in the hand."""
+        assert self.held is not None
+        tcp = self.planner.kin.link_pose(q)
+        pose = tcp.copy()
+        pose[:3, 3] = tcp[:3, :3] @ self.held.in_hand + tcp[:3, 3]
+        return pose
+
+    def _held_shapes(self) -> list[tuple[Box, np.ndarray]]:
+        """The held object as a shape and its pose in the base frame (none: [])."""
+        if self.held is None:
+            return []
+        return [(Box(self.held.kind.size), self._held_pose(self.arm_q()))]
+
+    def _held_object(self, q: np.ndarray) -> tuple[str, Box, Pose] | None:
+        if self.held is None:
+            return None
+        pose = Pose.from_matrix(self._held_pose(q))
+        return self.held.kind.name, Box(self.held.kind.size), pose
+
+    def plan(
+        self,
+        start: np.ndarray,
+        obstacles: Obstacles,
+        local: np.ndarray | None = None,
+        orientation: Rotation | None = None,
+        joints: np.ndarray | None = None,
+        check_only: bool = False,
+    ) -> TaskResult:
+        """Plan the hand to `local` (base frame) with `orientation` (default: a side grasp
+        facing the point from the arm), or the arm to `joints`, holding what it holds."""
+        if joints is None:
+            assert local is not None
+            orientation = orientation or self.orientation(local)
+        request = TaskRequest(
+            positions=np.asarray(start, dtype=float),
+            joint_names=list(self.arm_names),
+            goal_position=np.zeros(3) if local is None else np.asarray(local, dtype=float),
+            goal_orientation=None if orientation is None else orientation.as_quat(),
+            goal_joints=joints,
+            obstacles=obstacles,
+            object=self._held_object(start),
+            planner=self.robot.setup.planner,
+            time_limit=0.0,  # the default: 2 s for the planner, set-up and checks unbounded
+        )
+        planner = self.feasible if check_only else self.planner
+        res = planner.plan(request, seed=self.robot.setup.seed)
+        log.info(
+            "arm plan%s to %s: %s (%d obstacles, %.2f s)",
+            " (check)" if check_only else "",
+            "joints" if joints is not None else np.round(local, 3).tolist(),
+            res.message[:90],
+            len(obstacles),
+            res.planning_time,
+        )
+        if not check_only:
+            self.log.arm_plans.append(
+                {
+                    "phase": self.log.phase,
+                    "success": res.success,
+                    "planning_time": round(res.planning_time, 4),
+                    "obstacles": len(obstacles),
+                    "message": res.message,
+                }
+            )
+        return res
+
+    def follow(self, res: TaskResult) -> Iterator[None]:
+        """Send a planned trajectory to the arm and wait for it to end."""
+        assert res.trajectory is not None
+        self.robot.ref_pub.publish(joint_trajectory(self.arm_names, res.trajectory))
+        yield from self.wait(res.trajectory.duration + SETTLE)
+
+    def move_arm(
+        self,
+        base: np.ndarray,
+        cause: str,
+        local: np.ndarray | None = None,
+        orientation: Rotation | None = None,
+        joints: np.ndarray | None = None,
+        keep_out=(),
+    ) -> Iterator[None]:
+        """Plan and follow an arm motion in the voxel scene, the robot standing at `base`;
+        `cause` names the failure."""
+        self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
+        res = self.plan(self.arm_q(), self._obstacles(base, keep_out), local, orientation, joints)
+        if not res.success:
+            raise SkillFailed(cause, f"arm planning: {res.message}")
+        yield from self.follow(res)
+
+    def arm_to_pose(self, name: str) -> Iterator[None]:
+        """Move the arm to one of the robot's named poses (stow, carry) unless there."""
+        if name not in self.poses:
+            raise SkillFailed("arm_planning", f"the robot's description names no {name!r} pose")
+        goal = self.poses[name]
+        if np.max(np.abs(self.arm_q() - goal)) < 0.02:
+            return
+        base = self.robot.pose()
+        self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
+        # folding the arm swings it beside the robot, where the camera may not have
+        # looked: what the LiDAR mapped there stands in as columns
+        obstacles = self._obstacles(base) + self._map_columns(base)
+        res = self.plan(self.arm_q(), obstacles, joints=goal)
+        if not res.success:
+            raise SkillFailed("arm_planning", f"arm planning: {res.message}")
+        yield from self.follow(res)
+
+    def _map_columns(self, base: np.ndarray) -> Obstacles:
+        """The occupied cells of the built map within the arm's reach, as columns from the
+        floor up to COLUMN_HEIGHT, in the base frame (merged rows of cells)."""
+        if not hasattr(self, "map_walls"):
+            return []
+        rows, cols = np.nonzero(self.map_walls)
+        xy = self.map_origin + (np.column_stack([cols, rows]) + 0.5) * self.map_res
+        c, s = np.cos(base[2]), np.sin(base[2])
+        d = xy - base[:2]
+        local = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+        near = np.hypot(*(local - self.shoulder[:2]).T) <= self.reach + 0.1
+        keys = np.column_stack([cols[near], rows[near], np.zeros(int(near.sum()), dtype=int)])
+        out: Obstacles = []
+        for lo, hi in merge_runs(keys) if len(keys) else []:
+            centre = self.map_origin + (lo[:2] + hi[:2] + 1) * self.map_res / 2
+            size = ((hi[0] - lo[0] + 1) * self.map_res, (hi[1] - lo[1] + 1) * self.map_res)
+            c = to_base(base, np.array([centre[0], centre[1], COLUMN_HEIGHT / 2]))
+            pose = Pose.from_xyz_rpy(tuple(float(v) for v in c), (0.0, 0.0, -float(base[2])))
+            out.append((f"map/{len(out)}", Box((*map(float, size), COLUMN_HEIGHT)), pose))
+        return out
+
+    def orientation(self, local: np.ndarray) -> Rotation:
+        """A side grasp facing the point `local` (base frame) from the arm's base."""
+        d = np.asarray(local[:2]) - np.array([self.arm_offset, 0.0])
+        return Rotation.from_euler("z", float(np.arctan2(d[1], d[0]))) * SIDE_GRASP
+
+    def _approach(self, local: np.ndarray, back: float) -> np.ndarray:
+        d = np.asarray(local[:2]) - np.array([self.arm_offset, 0.0])
+        d = d / max(float(np.linalg.norm(d)), 1e-9)
+        return np.array([local[0] - back * d[0], local[1] - back * d[1], local[2]])
+
+    # --- going to a work site ----------------------------------------------------------
+
+    def base_candidates(self, xy: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Base poses (and their staging poses STANDOFF behind) that face `xy` from the
+        arm's reach, free on the built map, the most clearance first."""
+        half_l, half_w = self.footprint.length / 2, self.footprint.width / 2
+        u = np.linspace(-1, 1, 9)
+        outline = np.concatenate(
+            [
+                np.column_stack([half_l * u, np.full_like(u, half_w)]),
+                np.column_stack([half_l * u, np.full_like(u, -half_w)]),
+                np.column_stack([np.full_like(u, half_l), half_w * u]),
+                np.column_stack([np.full_like(u, -half_l), half_w * u]),
+            ]
+        )
+
+        def clearance(pose: np.ndarray) -> float:
+            c, s = np.cos(pose[2]), np.sin(pose[2])
+            px = pose[0] + c * outline[:, 0] - s * outline[:, 1]
+            py = pose[1] + s * outline[:, 0] + c * outline[:, 1]
+            col = np.floor((px - self.map_origin[0]) / self.map_res).astype(int)
+            row = np.floor((py - self.map_origin[1]) / self.map_res).astype(int)
+            rows, cols = self.clearance.shape
+            inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
+            if not inside.all():
+                return -1.0
+            return float(self.clearance[row, col].min())
+
+        out = []
+        for reach in REACHES:
+            for th in np.deg2rad(np.arange(0, 360, 10)):
+                d = np.array([np.cos(th), np.sin(th)])
+                centre = xy - (self.arm_offset + reach) * d
+                base = np.array([centre[0], centre[1], th])
+                stage = np.array([*(centre - STANDOFF * d), th])
+                c1, c2 = clearance(base), clearance(stage)
+                turn = self.footprint.circumscribed_radius + 0.1  # room to turn at the stage
+                if c1 >= 0.04 and c2 >= 0.15 and self._clear_at(stage[:2]) >= turn:
+                    out.append((reach, -min(c1, 0.2) - 0.5 * min(c2, 0.5), base, stage))
+        out.sort(key=lambda r: (REACHES.index(r[0]), r[1]))
+        return [(b, s) for _, _, b, s in out]
+
+    def _reaches(self, base: np.ndarray, target: np.ndarray, kind: ObjectKind) -> bool:
+        """Whether the arm finds the way in at a work site with the base at `base`: to
+        grasp an object of `kind` centred at `target` (map frame), or, holding one, to
+        set it down there (through the point LIFT above), in the voxels seen so far."""
+        local = to_base(base, target)
+        if self.held is not None:
+            hand = local - self.orientation(local).apply(self.held.in_hand)
+            points = (hand + np.array([0.0, 0.0, LIFT]), hand)
+            obstacles = self._obstacles(base)
+        else:
+            points = self._grasp_points(local, kind)
+            obstacles = self._obstacles(base, self._keep_out(local, kind))
+        q = self.arm_q()
+        for point in points:
+            res = self.plan(q, obstacles, point, check_only=True)
+            if not res.success:
+                return False
+            q = res.trajectory.q[-1]
+        return True
+
+    def _grasp_points(self, local: np.ndarray, kind: ObjectKind) -> tuple[np.ndarray, np.ndarray]:
+        """The pre-grasp and grasp positions of the tool point for an object of `kind`
+        centred at `local` (base frame): the palm stops GRASP_MARGIN short of it."""
+        grasp = self._approach(local, kind.grip_width / 2 + self.palm + GRASP_MARGIN)
+        return self._approach(grasp, GRASP_BACKOFF), grasp
+
+    # --- pick --------------------------------------------------------------------------
+
+    def _keep_out(self, local: np.ndarray, kind: ObjectKind | None = None):
+        """The cylinder around the object to grasp (base frame) left out of the voxels."""
+        k = kind or (self.held.kind if self.held is not None else None)
+        r = (k.width / 2 if k is not None else 0.05) + 0.025
+        h = k.height if k is not None else 0.2
+        return [(local, r, local[2] - h / 2 + 0.008, local[2] + h / 2 + 0.03)]
+
+    def approach(self, target: Sighting) -> Generator[None, None, Sighting]:
+        """Drive to a work site from which the arm reaches the object, looking at it
+        again from the staging pose on the way; the sighting, refreshed."""
+        kind = target.kind
+        if kind.grip_width > 2 * abs(self.finger_open - self.finger_closed) - 0.005:
+            raise SkillFailed(
+                "no_grasp_pose",
+                f"the {kind.name} is {100 * kind.grip_width:.1f} cm across; the gripper "
+                f"opens {200 * abs(self.finger_open - self.finger_closed):.1f} cm",
+            )
+        candidates = self.base_candidates(target.position[:2])
+        if not candidates:
+            raise SkillFailed("no_base_pose", "no free base pose on the map within the arm's reach")
+        failed: list[np.ndarray] = []
+        reached = 0
+        for base, stage in candidates:
+            if self._near_failed(stage, failed) or not self._reaches(base, target.position, kind):
+                continue
+            reached += 1
+            if not (yield from self.reach_stage(stage, f"the pose before the {kind.name}", failed)):
+                continue
+            seen = self._find(self.look(), target)
+            if seen is not None:
+                target = seen
+            yield from self.drive_in(base)
+            return target
+        gave_up = f"; the navigator gave up on the way to {len(failed)}" if failed else ""
+        raise SkillFailed(
+            "no_base_pose",
+            f"the arm reaches the {kind.name} from {reached or 'none'} of the "
+            f"{len(candidates)} free base poses around it{gave_up}",
+        )
+
+    def _find(self, look: Look, target: Sighting) -> Sighting | None:
+        """The sighting of `target` in a new look: the same kind near where it was."""
+        near = [
+            s
+            for s in look.sightings
+            if np.hypot(*(s.position[:2] - target.position[:2])) < SAME_OBJECT
+        ]
+        same = [s for s in near if s.kind.name == target.kind.name]
+        if same:
+            return min(same, key=lambda s: np.hypot(*(s.position[:2] - target.position[:2])))
+        if near:
+            raise SkillFailed(
+                "misclassified",
+                f"what was taken for the {target.kind.name} from afar is a {near[0].kind.name} "
+                "up close",
+            )
+        return None
+
+    def pick(self, target: Sighting) -> Iterator[None]:
+        """Grasp the object from the work site, by friction, lift it, back out, and hold
+        it in the carry pose."""
+        for moves in range(len(REACHES) + 1):
+            base = yield from self.docked_pose()
+            seen = self._find(self.look(base, NEAR_LOOK), target)
+            if seen is None:
+                raise SkillFailed(
+                    "not_seen",
+                    f"the {target.kind.name} seen from the approach is not in view at the "
+                    "work site",
+                )
+            if moves == len(REACHES) or self._reaches(base, seen.position, seen.kind):
+                break
+            yield from self._reach(to_base(base, seen.position), base, seen.kind)
+            target = seen
+        kind = seen.kind
+        self.log.target = seen.position.copy()
+        local = to_base(base, seen.position)
+        keep_out = self._keep_out(local, kind)
+        pre, grasp = self._grasp_points(local, kind)
+        orientation = self.orientation(local)
+        self.robot.grip(self.finger_open, self.robot.setup.grip_force)
+        yield from self.move_arm(base, "no_grasp_pose", pre, orientation, keep_out=keep_out)
+        yield from self.move_arm(base, "no_grasp_pose", grasp, orientation, keep_out=keep_out)
+        width = yield from self.close()
+        if width < kind.grip_width - GRIP_SLACK:
+            raise SkillFailed(
+                "grasp_missed",
+                f"the fingers closed to {100 * width:.1f} cm; the {kind.name} is "
+                f"{100 * kind.grip_width:.1f} cm across",
+            )
+        # the object's centre in the hand: where the grasp put the hand around the seen
+        # centre, centred between the fingers (they close symmetrically)
+        tcp = self.planner.kin.link_pose(self.arm_q())
+        centre = np.linalg.inv(tcp) @ np.append(local, 1.0)
+        in_hand = centre[:3].copy()
+        in_hand[1] = 0.0
+        self.held = Held(kind, in_hand, width)
+        self.log.grasp = (
+            f"by friction: the fingers closed on the {kind.name} with "
+            f"{self.robot.setup.grip_force:g} N at {100 * width:.1f} cm; it sits "
+            f"{100 * in_hand[2]:.1f} cm beyond the tool point"
+        )
+        self.voxels.remove(seen.position, kind.width / 2 + 0.03, (-1.0, 5.0))
+        yield from self.move_arm(
+            base, "arm_planning", grasp + np.array([0.0, 0.0, LIFT]), orientation
+        )
+        self.check_grip("lifting")
+        yield from self.straight(-STANDOFF)
+        yield from self.arm_to_pose("carry")
+        self.check_grip("moving to the carry pose")
+
+    def close(self) -> Generator[None, None, float]:
+        """Close the fingers with the grip force until they stand still; the opening
+        between them (m)."""
+        self.robot.grip(self.finger_closed, self.robot.setup.grip_force)
+        last, still = self.opening(), 0.0
+        deadline = self.robot.now + 3.0
+        while self.robot.now < deadline and still < GRIP_SETTLE:
+            yield
+            now = self.opening()
+            still = still + 0.01 if abs(now - last) < 2e-4 else 0.0
+            last = now
+        return 2 * abs(self.opening() - self.finger_closed)
+
+    def check_grip(self, doing: str) -> None:
+        """Raise `slipped` when the fingers closed further than on the grasp (nothing
+        between them any more)."""
+        if self.held is None:
+            return
+        width = 2 * abs(self.opening() - self.finger_closed)
+        if width < self.held.width - SLIP:
+            kind = self.held.kind.name
+            self.held = None
+            raise SkillFailed(
+                "slipped",
+                f"the {kind} slipped out of the fingers while {doing} (they closed to "
+                f"{100 * width:.1f} cm)",
+            )
+
+    # --- place -------------------------------------------------------------------------
+
+    def carry_to(self, point: np.ndarray) -> Generator[None, None, float]:
+        """Drive to a work site from which the held object can be set down at `point`
+        (map x, y): look at the point from each staging pose to find the surface there
+        and drive in when the arm reaches; the surface's height."""
+        assert self.held is not None
+        kind = self.held.kind
+        candidates = self.base_candidates(point)
+        if not candidates:
+            raise SkillFailed("no_base_pose", "no free base pose on the map near the place")
+        height = None
+        tried = 0
+        failed: list[np.ndarray] = []
+        for base, stage in candidates:
+            if self._near_failed(stage, failed):
+                continue
+            if height is not None:
+                target = np.array([point[0], point[1], height + kind.height / 2])
+                if not self._reaches(base, target, kind):
+                    continue
+            tried += 1
+            if not (yield from self.reach_stage(stage, "the pose before the place", failed)):
+                continue
+            self.check_grip("carrying")
+            surface = self._surface_at(self.look(), point)
+            if surface is None:
+                if tried >= 3:
+                    break
+                continue
+            height = surface
+            target = np.array([point[0], point[1], height + kind.height / 2])
+            if self._reaches(base, target, kind):
+                yield from self.drive_in(base)
+                return height
+        if height is None:
+            raise SkillFailed("place_not_seen", "no surface was seen at the place point")
+        raise SkillFailed(
+            "no_base_pose",
+            f"the arm reaches the place from none of the {len(candidates)} free base poses",
+        )
+
+    def measure_held(self) -> bool:
+        """Where the held object's centre is in the hand, from the head camera: the
+        points of its top face (the robot's own body cut out close, 1 cm) around where
+        it should be; False (nothing changed) when too few are seen."""
+        held = self.held
+        if held is None:
+            return False
+        kind = held.kind
+        frame = self.robot.capture()
+        pts, _ = frame.points(1)
+        tcp = self.planner.kin.link_pose(self.arm_q())
+        expected = self._held_pose(self.arm_q())[:3, 3]
+        top = expected[2] + kind.height / 2
+        near = (np.hypot(*(pts[:, :2] - expected[:2]).T) < kind.width / 2 + HELD_SEARCH) & (
+            np.abs(pts[:, 2] - top) < HELD_SEARCH
+        )
+        pts = pts[near]
+        pts = pts[~self.body.mask(pts, self.robot.joints, padding=HELD_CUT)]
+        if len(pts) < 15:
+            log.info("held %s: %d points near where it should be", kind.name, len(pts))
+            return False
+        z = float(np.percentile(pts[:, 2], 95))
+        side = pts[:, 2] < z - SIDE_BELOW_TOP
+        if kind.shape == "cylinder" and side.sum() >= MIN_SIDE_POINTS:
+            view = expected[:2] - frame.viewpoint[:2]
+            c = fit_circle(pts[side, :2], kind.width / 2, view / max(np.linalg.norm(view), 1e-9))
+        else:
+            face = pts[pts[:, 2] > z - TOP_FACE]
+            if len(face) < 10:
+                return False
+            c = face[:, :2].mean(axis=0)
+        centre = np.array([c[0], c[1], z - kind.height / 2])
+        moved = float(np.linalg.norm(centre - expected))
+        if moved > kind.width / 2:
+            raise SkillFailed(
+                "slipped",
+                f"the {kind.name} moved {100 * moved:.1f} cm in the hand since the grasp "
+                "(seen by the head camera above the place)",
+            )
+        before = held.in_hand
+        held.in_hand = (np.linalg.inv(tcp) @ np.append(centre, 1.0))[:3]
+        log.info(
+            "held %s measured %.1f mm from where the grasp put it (in the hand: %s mm)",
+            kind.name,
+            1e3 * moved,
+            np.round(1e3 * (held.in_hand - before), 1).tolist(),
+        )
+        self.log.held_correction = moved
+        return True
+
+    def _surface_at(self, look: Look, point: np.ndarray) -> float | None:
+        """The height (m) of the highest surface of a look that covers `point` (map)."""
+        local = to_base(look.base, np.array([point[0], point[1], 0.0]))
+        under = [s for s in look.surfaces if s.covers(local[None, :2])[0] and s.height > 0.05]
+        if not under:
+            return None
+        return float(max(s.height_at(local[None, :2])[0] for s in under))
+
+    def place(self, point: np.ndarray, height: float) -> Iterator[None]:
+        """Set the held object down with its centre over `point` (map x, y) on the
+        surface at `height`, let go, and back out."""
+        held = self.held
+        assert held is not None
+        target = np.array([point[0], point[1], height + held.kind.height / 2])
+        for moves in range(len(REACHES) + 1):
+            base = yield from self.docked_pose()
+            local = to_base(base, target)
+            hand = local - self.orientation(local).apply(held.in_hand)
+            if moves == len(REACHES) or self._reaches(base, target, held.kind):
+                break
+            yield from self._reach(local, base, held.kind)
+        look = self.look(base)
+        seen = self._surface_at(look, point)
+        if seen is not None and abs(seen - height) < 0.03:
+            target[2] = seen + held.kind.height / 2
+            local = to_base(base, target)
+        orientation = self.orientation(local)
+        hand = local - orientation.apply(held.in_hand)
+        yield from self.move_arm(
+            base, "arm_planning", hand + np.array([0.0, 0.0, LIFT]), orientation
+        )
+        self.check_grip("lowering it")
+        # above the point, the head camera sees the object's top: where it truly sits in
+        # the hand, and so where the hand must go
+        if self.measure_held():
+            hand = local - orientation.apply(held.in_hand)
+        yield from self.move_arm(
+            base, "arm_planning", hand + np.array([0.0, 0.0, 0.005]), orientation
+        )
+        self.robot.grip(self.finger_open, self.robot.setup.grip_force)
+        yield from self.wait(0.6)
+        self.held = None
+        self.voxels.remove(target, held.kind.width / 2 + 0.03, (-1.0, 5.0))
+        back = self._approach(hand, GRASP_BACKOFF)
+        res = self.plan(
+            self.arm_q(), self._obstacles(base, self._keep_out(local, held.kind)), back, orientation
+        )
+        if not res.success:
+            res = self.plan(
+                self.arm_q(),
+                self._obstacles(base, self._keep_out(local, held.kind)),
+                hand + np.array([0.0, 0.0, LIFT]),
+                orientation,
+            )
+        if res.success:
+            yield from self.follow(res)
+        yield from self.straight(-STANDOFF)
+
+    def _reach(self, local: np.ndarray, base: np.ndarray, kind: ObjectKind) -> Iterator[None]:
+        """Drive straight so that the arm reaches `local` (base frame) at one of REACHES,
+        when the docking left it a little far or too close."""
+        ahead = float(np.hypot(local[0] - self.arm_offset, local[1]))
+        target = compose(base, np.array([local[0], local[1], 0.0]))
+        point = np.array([target[0], target[1], local[2]])
+        for shift in (ahead - r for r in REACHES):
+            if abs(shift) < 0.005:
+                continue
+            if self._reaches(compose(base, np.array([shift, 0.0, 0.0])), point, kind):
+                yield from self.straight(shift, speed=0.06)
+                return
+
+
+def arm_reach(planner: TaskPlanner) -> tuple[np.ndarray, float]:
+    """Where the arm reaches from (its second joint, the shoulder, in the base frame) and
+    how far (m): the tool point's farthest over random configurations, plus 5 cm of
+    fingers beyond it."""
+    kin = planner.kin
+    zero = link_poses(kin.model, {})
+    shoulder = zero[kin.model.joint(planner.joint_names[1]).child][:3, 3]
+    tips = kin.fk(kin.random(np.random.default_rng(0), 400))
+    tcp = tips[:, kin.link_index[kin.model.end_effector], :3, 3]
+    return shoulder, float(np.max(np.linalg.norm(tcp - shoulder, axis=1))) + 0.05
+
+
+def to_base(base: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """A map-frame point (x, y, z) in the base frame of a base pose (x, y, yaw)."""
+    d = compose(inverse(base), np.array([point[0], point[1], 0.0]))
+    return np.array([d[0], d[1], point[2]])
+
+
+def palm_depth(model, zero: dict[str, np.ndarray], tcp: str) -> float:
+    """How far (m) in front of the tool point the palm reaches along the approach axis
+    (negative: behind it): the hand link's collision shapes, the fingers excluded."""
+    grip = model.metadata.get("gripper") or {}
+    hand = str(grip.get("link") or "")
+    if not hand:
+        return 0.0
+    inv = np.linalg.inv(zero[tcp])
+    front = -np.inf
+    for c in model.link(hand).collisions:
+        m = inv @ zero[hand] @ c.origin.matrix()
+        shape = c.geometry
+        half = np.asarray(getattr(shape, "size", (0.0, 0.0, 0.0)), dtype=float) / 2
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        pts = (corners * half) @ m[:3, :3].T + m[:3, 3]
+        front = max(front, float(pts[:, 2].max()))
+    return front if np.isfinite(front) else 0.0

@@ -235,9 +235,9 @@ def test_the_navigator_drives_hybrid_plans_with_the_profile_within_its_top_speed
 
 
 def test_the_footprint_yardstick_counts_the_turns_the_rectangle_needs():
-    from robotrial.benchmarks.nav import footprint_time
     from robotrial.model.gridmap import NavMap
     from robotrial.sim.controllers import DriveLimits
+    from robotrial.trials.nav import footprint_time
 
     occ = _room()
     nav_map = NavMap(occ, np.zeros_like(occ), (0.0, 0.0), 0.05, "test")

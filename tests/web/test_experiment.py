@@ -145,7 +145,8 @@ def test_experiment_through_the_buttons(
         page.click("#move-robot")
         page.wait_for_function(FINISHED, timeout=90_000)
         state = page.evaluate("window.robotrial.state()")
-        assert state["planner"]["status"] == "planned", state["planner"]["message"]
+        planner = state["planner"]
+        assert planner["status"] == "planned", planner["message"]
         run = state["run"]
         # The hand ends within 1 cm of the goal, nothing touched obstacle C, and the
         # browser's hand followed the planned one.
@@ -178,12 +179,33 @@ def test_experiment_through_the_buttons(
         assert chart.shape[1] >= 1000
         assert (np.abs(chart - [255, 255, 255]).sum(axis=2) > 60).mean() > 0.02
 
-        # Reset Robot: back to the start, editable again.
+        # The chart is docked under the 3D view, never over it, and folds to its title.
+        canvas, card = page.locator("#view canvas"), page.locator("#path-plot")
+        view_box, card_box = canvas.bounding_box(), card.bounding_box()
+        assert card_box["y"] >= view_box["y"] + view_box["height"] - 1, (view_box, card_box)
+        page.click("#plot-fold")
+        assert not page.locator("#path-plot .chart").is_visible()
+        page.wait_for_function(
+            f"document.querySelector('#view canvas').clientHeight > {view_box['height'] + 50}"
+        )
+        page.click("#plot-fold")
+        assert page.locator("#path-plot .chart").is_visible()
+
+        # Reset Robot: back to the start, editable again, the chart gone.
         page.click("#reset-robot")
+        assert not card.is_visible()
         state = page.evaluate("window.robotrial.state()")
         assert state["phase"] == "editing"
         np.testing.assert_allclose(state["endEffector"], START, atol=1e-3)
         assert not page.locator('input[data-joint="joint1"]').is_disabled()
+
+        # A goal the planner refuses brings no chart back.
+        for axis, value in zip("xyz", (0.9, 0.0, 0.02), strict=True):
+            type_into(page, f"#goal-{axis}", round(value * 100, 1))
+        page.click("#move-robot")
+        page.wait_for_function(FINISHED, timeout=60_000)
+        assert page.evaluate("window.robotrial.state()")["planner"]["status"] == "refused"
+        assert not card.is_visible()
 
         speed = page.evaluate("window.robotrial.measurePhysics(1.5)")
         browser.close()
@@ -192,7 +214,7 @@ def test_experiment_through_the_buttons(
         "page_ready_s": round(timing["robotrial:ready"] / 1000, 3),
         "page_connected_s": round(timing["robotrial:connected"] / 1000, 3),
         "ready_and_connected_seen_by_test_s": round(seen_ready_s, 3),
-        "planning_time_s": round(state["planner"]["planningTime"], 3),
+        "planning_time_s": round(planner["planningTime"], 3),
         "final_error_m": run["finalError"],
         "rms_gap_m": run["rmsGap"],
         "max_gap_m": run["maxGap"],

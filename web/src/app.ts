@@ -91,7 +91,7 @@ export class RobotrialApp {
     );
     this.connection.onChange((state) => taskPanel.showConnection(state));
     this.live = new LiveView(this.viewer, this.connection, (v) => this.setJoints(v));
-    this.panel.mount(this.live.section);
+    this.panel.mount(this.live.section, "top");
     const home = new HomeSection((entry) => this.addWorld(entry));
     this.ar = new ArView(this.viewer, () => this.robot?.object.parent ?? null, (next) => home.edit(next));
     this.panel.mount(this.ar.section);
@@ -304,10 +304,13 @@ export class RobotrialApp {
   }
 }
 
-/** The card over the view that shows the hand's path after a run, with its exports. */
+/** The strip docked under the 3D view that shows the hand's path after a run, with its
+ * exports: the view gives up the strip's height instead of being covered; "Fold" keeps
+ * only its title. */
 function plotCard(view: HTMLElement, exportAs: (kind: "csv" | "png") => void): HTMLElement {
   const csv = el("button", { type: "button", class: "quiet", id: "export-csv" }, "CSV");
   const png = el("button", { type: "button", class: "quiet", id: "export-png" }, "PNG");
+  const fold = el("button", { type: "button", class: "quiet", id: "plot-fold", "aria-expanded": "true" }, "Fold");
   const close = el("button", { type: "button", class: "quiet", "aria-label": "Close" }, "×");
   const card = el(
     "section",
@@ -316,10 +319,15 @@ function plotCard(view: HTMLElement, exportAs: (kind: "csv" | "png") => void): H
       "div",
       { class: "section-head" },
       el("h2", {}, "Hand path: plan and browser"),
-      el("div", { class: "row" }, csv, png, close),
+      el("div", { class: "row" }, csv, png, fold, close),
     ),
     el("div", { class: "chart" }),
   );
+  fold.addEventListener("click", () => {
+    const folded = card.classList.toggle("folded");
+    fold.textContent = folded ? "Unfold" : "Fold";
+    fold.setAttribute("aria-expanded", String(!folded));
+  });
   csv.addEventListener("click", () => exportAs("csv"));
   png.addEventListener("click", () => exportAs("png"));
   close.addEventListener("click", () => (card.hidden = true));

@@ -46,7 +46,7 @@ export class Viewer {
   private frameRequested = false;
   private waiting: Array<() => void> = [];
 
-  constructor(private readonly container: HTMLElement) {
+  constructor(container: HTMLElement) {
     this.renderer = new WebGLRenderer({ antialias: true });
     this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
     this.renderer.shadowMap.enabled = true;
@@ -71,7 +71,9 @@ export class Viewer {
     this.controls.dampingFactor = 0.12;
     this.controls.addEventListener("change", () => this.requestRender());
 
-    new ResizeObserver(() => this.resize()).observe(container);
+    // the canvas, not the container: a card docked in the container (the hand's path)
+    // takes part of its height
+    new ResizeObserver(() => this.resize()).observe(this.renderer.domElement);
     this.resize();
   }
 
@@ -158,7 +160,7 @@ export class Viewer {
   }
 
   private resize(): void {
-    const { clientWidth: w, clientHeight: h } = this.container;
+    const { clientWidth: w, clientHeight: h } = this.renderer.domElement;
     if (w === 0 || h === 0) return;
     this.renderer.setSize(w, h, false);
     this.camera.aspect = w / h;

@@ -11,8 +11,10 @@ SLAM's map is for showing: it grows and changes every few seconds, and the navig
 node (move_base + AMCL, built for a fixed map) would start over on each one. So
 navigation runs on a bus of its own with the world's ground-truth map (the role of a
 map_server with a prior map), in the frame SLAM's map uses (both start at the spawn
-pose); scans, odometry and goals are relayed to it, its velocity commands and plans
-back.
+pose); scans, odometry, goals and pose estimates (`/initialpose`) are relayed to it,
+its velocity commands, plans (global and local), status line and footprint back. It is
+the default navigation stack (`robotrial.nav.DEFAULT_PLANNER`) at the robot's own
+speed limits.
 """
 
 from __future__ import annotations
@@ -109,13 +111,24 @@ class LivePlatform:
     def _start_navigation(self, sim) -> None:
         """NavNode on a private bus with the ground-truth map, relayed to `self.bus`."""
         from robotrial.model.gridmap import world_map
-        from robotrial.msgs.geometry_msgs import Point, Pose, PoseStamped, Quaternion, Twist
+        from robotrial.msgs.geometry_msgs import (
+            Point,
+            PolygonStamped,
+            Pose,
+            PoseStamped,
+            PoseWithCovarianceStamped,
+            Quaternion,
+            Twist,
+        )
         from robotrial.msgs.nav_msgs import MapMetaData, OccupancyGrid, Odometry, Path
+        from robotrial.msgs.robotrial_msgs import NavStatus
         from robotrial.msgs.sensor_msgs import LaserScan
         from robotrial.msgs.std_msgs import Header
         from robotrial.nav.costmap import Footprint
-        from robotrial.ros.nav_node import NavNode
+        from robotrial.ros.nav_node import FOOTPRINT, NAV_STATUS, NavNode
+        from robotrial.sim.controllers import DriveLimits
         from robotrial.sim.footprint import base_extent
+        from robotrial.trials.nav import navigator_config
 
         if abs(self.spawn.quat[2]) > 1e-9 or abs(self.spawn.quat[3]) < 1 - 1e-9:
             log.warning("live navigation needs a spawn pose without a turn; it is off")
@@ -129,7 +142,20 @@ class LivePlatform:
         grid = world_map(self.world)
         rows, cols = grid.occupied.shape
         private = Bus()
-        node = NavNode(private, Footprint(*base_extent(sim)), laser_pose=laser_pose)
+        limits = DriveLimits.from_metadata(self.robot.metadata.get("drive", {}) or {})
+        config = navigator_config(
+            limits.max_speed,
+            limits.max_yaw_rate,
+            limits.max_accel,
+            max_yaw_accel=limits.max_yaw_accel,
+        )
+        node = NavNode(
+            private,
+            Footprint(*base_extent(sim)),
+            config,
+            laser_pose=laser_pose,
+            base_frame=self.robot.root,
+        )
         self._nodes.append(node)
         private.publish(
             "/map",
@@ -154,11 +180,16 @@ class LivePlatform:
             (self.bus, private, "/odom", Odometry),
             (self.bus, private, "/scan", LaserScan),
             (self.bus, private, "/move_base_simple/goal", PoseStamped),
+            (self.bus, private, "/initialpose", PoseWithCovarianceStamped),
             (private, self.bus, "/cmd_vel", Twist),
             (private, self.bus, "/plan", Path),
+            (private, self.bus, "/local_plan", Path),
+            (private, self.bus, NAV_STATUS, NavStatus),
+            (private, self.bus, FOOTPRINT, PolygonStamped),
         ]
         for source, target, topic, cls in relays:
-            pub = target.advertise(topic, cls, node="/navigation_relay")
+            latched = topic in (NAV_STATUS, FOOTPRINT)
+            pub = target.advertise(topic, cls, latched=latched, node="/navigation_relay")
             self._relays.append(pub)
             self._relays.append(source.subscribe(topic, pub.publish, cls, node="/navigation_relay"))
         # its actions (/navigate_to_pose) answer on the server's bus as they are

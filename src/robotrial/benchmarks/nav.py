@@ -16,6 +16,15 @@ curves where the rectangle, 3 cm clear, takes one instead) and then turns on the
 to the goal's heading (`footprint_time`). Then each global planner's time per call
 (Dijkstra, A*, Hybrid-A*) on each map and the DWA's step time, measured on the maps
 apart from the trials.
+
+Then random goals (`robotrial.trials.nav_goals`): `--goals` reachable goals (position
+and heading, drawn in the free space, each called reachable by the footprint planner
+before driving) in the apartment and in `--homes` generated homes (seeds `--home-seed`
+on), each driven from the world's spawn at 1.0 m/s with the default stack, and the
+first `--baseline-goals` of each world also with the old default (Dijkstra + DWA) in
+the same run: reached within 0.15 m without contact, contacts, runs stuck after every
+recovery, the median time and the median of each goal's time over the footprint's least
+time along its plan; and how many drawn goals the planner refused (unreachable).
 """
 
 from __future__ import annotations
@@ -34,11 +43,12 @@ from robotrial.cli.nav import CONTROLLERS, PLANNERS, add_planner_argument
 from robotrial.console import add_json_flag, print_json, print_table, progress
 
 if TYPE_CHECKING:
-    from robotrial.model.gridmap import NavMap
-    from robotrial.nav.costmap import Footprint
-    from robotrial.sim.controllers import DriveLimits
+    pass
 
-HELP = "Table 1 of the platform paper (rooms A, B, C; apartment) at 0.3 and 1.0 m/s; planner times"
+HELP = (
+    "Table 1 of the platform paper (rooms A, B, C; apartment), planner times, and random "
+    "reachable goals in the apartment and in generated homes beside the old default stack"
+)
 
 ROOMS = {
     "room_a": ("default", (6.8, 6.6, 0.0)),
@@ -72,6 +82,39 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="in the apartment, drive from the living room to every other room",
     )
     parser.add_argument("--repeats", type=int, default=30, help="planner timing repetitions")
+    parser.add_argument(
+        "--no-table", action="store_true", help="leave out Table 1 (only the random goals)"
+    )
+    parser.add_argument(
+        "--goals",
+        type=int,
+        default=100,
+        help="random reachable goals per world, driven with the default stack (0: none) "
+        "(default: %(default)s)",
+    )
+    parser.add_argument(
+        "--homes", type=int, default=10, help="generated homes besides the apartment"
+    )
+    parser.add_argument(
+        "--home-seed",
+        type=int,
+        default=1000,
+        help="seed of the first generated home (the next ones follow) (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--no-apartment", action="store_true", help="random goals in generated homes only"
+    )
+    parser.add_argument("--goal-seed", type=int, default=0, help="seed of the goals drawn")
+    parser.add_argument(
+        "--baseline-goals",
+        type=int,
+        default=20,
+        help="how many of each world's goals the old default stack (dijkstra/dwa) drives too "
+        "(default: %(default)s)",
+    )
+    parser.add_argument(
+        "--jobs", type=int, default=1, help="processes driving random goals (default: 1)"
+    )
     parser.add_argument("-o", "--output", metavar="JSON", help="also write the results here")
     parser.add_argument("--plot", metavar="DIR", help="write a PNG of the paths per row here")
     add_json_flag(parser)
@@ -82,47 +125,6 @@ def _goal(world, goal) -> tuple[float, float, float]:
         p = world.spawn(goal)
         return float(p.xyz[0]), float(p.xyz[1]), float(p.yaw)
     return goal
-
-
-def footprint_time(
-    nav_map: NavMap,
-    footprint: Footprint,
-    start: tuple[float, float, float],
-    goal: tuple[float, float, float],
-    speed: float,
-    limits: DriveLimits,
-) -> tuple[float | None, float | None]:
-    """The footprint-aware yardstick (s): the least time in which a base with `limits`
-    (top speed capped at `speed`) follows a Hybrid-A* plan from `start` to `goal` from
-    rest to rest (the cheaper of the cheapest plan and the navigator's own, each with
-    curves where the rectangle takes them), and turns to the goal's heading; and the same
-    for the plans exactly as planned (every turn on the spot kept). None where
-    Hybrid-A* finds no way for the rectangle."""
-    from robotrial.nav.costmap import Costmap, coarsen
-    from robotrial.nav.hybrid import HybridAStar, HybridConfig
-    from robotrial.nav.planners import NoPath
-    from robotrial.nav.profile import ProfileConfig, minimum_time
-
-    occupied, unknown, res = coarsen(nav_map.occupied, nav_map.unknown, nav_map.resolution, 0.05)
-    cm = Costmap(occupied, nav_map.origin, res, footprint, unknown=unknown)
-    base = ProfileConfig(
-        max_speed=min(speed, limits.max_speed),
-        max_yaw_rate=limits.max_yaw_rate,
-        max_accel=limits.max_accel,
-        max_yaw_accel=limits.max_yaw_accel,
-    )
-    curves, planned = np.inf, np.inf
-    # the cheapest plan, and the navigator's own (heuristic weight 1.1)
-    for config in (HybridConfig(heuristic_weight=1.0), HybridConfig()):
-        try:
-            poses = HybridAStar(config).plan_poses(cm, start, goal[:2])
-        except NoPath:
-            continue
-        curves = min(curves, minimum_time(poses, base, goal[2], cm, config.margin))
-        planned = min(planned, minimum_time(poses, base, goal[2]))
-    if not np.isfinite(planned):
-        return None, None
-    return min(curves, planned), planned
 
 
 def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
@@ -157,27 +159,14 @@ def planner_times(nav_map, footprint, start, goal, repeats: int) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from robotrial.model import load_robot, load_world
-    from robotrial.model.gridmap import world_map
-    from robotrial.nav.navigator import default_controller
+    from robotrial.model import load_robot
+    from robotrial.nav import default_controller
     from robotrial.sim.controllers import DriveLimits
-    from robotrial.trials.nav import (
-        PAPER_TABLE1,
-        NavTrialSetup,
-        footprint_of_robot,
-        plot_paths,
-        run_once,
-        shortest_time,
-        start_pose,
-        summarize,
-    )
+    from robotrial.trials.nav import PAPER_TABLE1, footprint_of_robot
 
-    if args.runs < 1:
-        print("robotrial bench nav: --runs must be at least 1")
+    if args.runs < 1 or args.goals < 0 or args.homes < 0 or args.jobs < 1:
+        print("robotrial bench nav: --runs and --jobs must be at least 1, --goals and --homes >= 0")
         return 2
-    footprint = footprint_of_robot("mobile_manipulator")
-    drive = load_robot("mobile_manipulator").metadata.get("drive", {}) or {}
-    limits = DriveLimits.from_metadata(drive)
     methods = [
         m.split("/") if "/" in m else [m, default_controller(m)]
         for m in args.methods or [args.planner]
@@ -189,6 +178,53 @@ def run(args: argparse.Namespace) -> int:
                 f"{', '.join(PLANNERS)}; controllers {', '.join(CONTROLLERS)}"
             )
             return 2
+    footprint = footprint_of_robot("mobile_manipulator")
+    drive = load_robot("mobile_manipulator").metadata.get("drive", {}) or {}
+    limits = DriveLimits.from_metadata(drive)
+    result: dict = {
+        "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
+        "date": time.strftime("%Y-%m-%d"),
+        "load_average": list(os.getloadavg()),
+    }
+    if not args.no_table:
+        rows, timing = _table(args, methods, footprint, limits)
+        result.update(
+            runs_per_row=args.runs,
+            methods=[f"{p}/{c}" for p, c in methods],
+            rows=rows,
+            planning=timing,
+            paper=PAPER_TABLE1,
+        )
+    if args.goals:
+        result["goals"] = _random_goals(args)
+    result["load_average_after"] = list(os.getloadavg())
+    if args.output:
+        Path(args.output).write_text(json.dumps(result, indent=2, default=float))
+    if args.json:
+        print_json(result)
+        return 0
+    if "rows" in result:
+        _print_table(result["rows"], result["planning"])
+    if "goals" in result:
+        _print_goals(result["goals"])
+    return 0
+
+
+def _table(args, methods, footprint, limits) -> tuple[list[dict], dict]:
+    """Table 1 (rooms A-C, the apartment's routes): rows per route, speed and method,
+    and the planners' times per call."""
+    from robotrial.model import load_world
+    from robotrial.model.gridmap import world_map
+    from robotrial.trials.nav import (
+        NavTrialSetup,
+        footprint_time,
+        plot_paths,
+        run_once,
+        shortest_time,
+        start_pose,
+        summarize,
+    )
+
     routes = [(name, ROOMS[name][0], ROOMS[name][1]) for name in args.worlds]
     if args.apartment:
         routes = [r for r in routes if r[0] != "apartment"]
@@ -214,7 +250,7 @@ def run(args: argparse.Namespace) -> int:
                     controller=controller,
                 )
                 method = f"{planner}/{controller}"
-                length, best = shortest_time(setup, nav_map, footprint, world)
+                length, best = shortest_time(setup, nav_map, footprint, start)
                 fp_best, fp_planned = footprint_time(nav_map, footprint, start, goal, speed, limits)
                 results = []
                 for i in range(args.runs):
@@ -240,20 +276,12 @@ def run(args: argparse.Namespace) -> int:
                         goal,
                         title=f"{label}, {method}: {s['successes']}/{s['runs']} at {speed:g} m/s",
                     )
-    result = {
-        "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
-        "date": time.strftime("%Y-%m-%d"),
-        "runs_per_row": args.runs,
-        "methods": [f"{p}/{c}" for p, c in methods],
-        "rows": rows,
-        "planning": timing,
-        "paper": PAPER_TABLE1,
-    }
-    if args.output:
-        Path(args.output).write_text(json.dumps(result, indent=2, default=float))
-    if args.json:
-        print_json(result)
-        return 0
+    return rows, timing
+
+
+def _print_table(rows: list[dict], timing: dict) -> None:
+    from robotrial.trials.nav import PAPER_TABLE1
+
     fmt = lambda v, d=2: "-" if v is None else f"{v:.{d}f}"  # noqa: E731
     table = []
     for s in rows:
@@ -309,4 +337,128 @@ def run(args: argparse.Namespace) -> int:
             for w, t in timing.items()
         ],
     )
-    return 0
+
+
+def _drive_one(job: tuple) -> dict:
+    from robotrial.trials.nav_goals import drive_goal
+
+    return drive_goal(*job)
+
+
+def _random_goals(args) -> dict:
+    """Random reachable goals in the apartment and in generated homes, driven with the
+    default stack, and the first `--baseline-goals` of each world with the old one."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from robotrial.nav import DEFAULT_PLANNER, OLD_DEFAULT_PLANNER
+    from robotrial.trials.nav_goals import draw_goals, goal_table
+
+    worlds = ["apartment"] * (not args.no_apartment) + [
+        f"home:{s}" for s in range(args.home_seed, args.home_seed + args.homes)
+    ]
+    draws = [draw_goals(w, args.goals, args.goal_seed) for w in worlds]
+    jobs = []
+    for d in draws:
+        for i, g in enumerate(d.goals):
+            jobs.append((d.world, tuple(g), DEFAULT_PLANNER, args.goal_seed + i, 1.0))
+            if i < args.baseline_goals:
+                jobs.append((d.world, tuple(g), OLD_DEFAULT_PLANNER, args.goal_seed + i, 1.0))
+    rows: list[dict] = []
+    with progress("bench nav: random goals", total=len(jobs), enabled=not args.json) as advance:
+        if args.jobs == 1:
+            for job in jobs:
+                rows.append(_drive_one(job))
+                advance()
+        else:
+            with ProcessPoolExecutor(args.jobs) as pool:
+                for row in pool.map(_drive_one, jobs, chunksize=1):
+                    rows.append(row)
+                    advance()
+    if args.plot:
+        _plot_goals(Path(args.plot), rows)
+    return {
+        "goal_seed": args.goal_seed,
+        "worlds": worlds,
+        "refused": {
+            d.world: [{"goal": [round(v, 3) for v in g], "reason": r} for g, r in d.refused]
+            for d in draws
+        },
+        "table": goal_table(rows),
+        "rows": rows,
+    }
+
+
+def _plot_goals(folder: Path, rows: list[dict]) -> None:
+    """Per world: the map, each goal as an arrow (green reached, red not)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from robotrial.trials.nav_goals import goal_world
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for world in sorted({r["world"] for r in rows}):
+        w, m = goal_world(world)
+        for method in sorted({r["method"] for r in rows if r["world"] == world}):
+            mine = [r for r in rows if r["world"] == world and r["method"] == method]
+            h, wd = m.occupied.shape
+            ext = (
+                m.origin[0],
+                m.origin[0] + wd * m.resolution,
+                m.origin[1],
+                m.origin[1] + h * m.resolution,
+            )
+            fig, ax = plt.subplots(figsize=(7, 7 * h / max(wd, 1)))
+            ax.imshow(~m.occupied, origin="lower", extent=ext, cmap="gray", vmin=0, vmax=1)
+            s = w.spawn("default")
+            ax.plot(s.xyz[0], s.xyz[1], "bo")
+            for r in mine:
+                x, y, yaw = r["goal"]
+                ax.arrow(
+                    x,
+                    y,
+                    0.3 * np.cos(yaw),
+                    0.3 * np.sin(yaw),
+                    width=0.04,
+                    color="tab:green" if r["success"] else "tab:red",
+                )
+            ok = sum(r["success"] for r in mine)
+            ax.set_title(f"{world}, {method}: {ok}/{len(mine)} reached")
+            fig.tight_layout()
+            fig.savefig(
+                folder / f"goals_{world.replace(':', '_')}_{method.replace('/', '_')}.png", dpi=90
+            )
+            plt.close(fig)
+
+
+def _print_goals(goals: dict) -> None:
+    fmt = lambda v, d=2: "-" if v is None else f"{v:.{d}f}"  # noqa: E731
+    print_table(
+        "random reachable goals (from the spawn, 1.0 m/s; reached within 0.15 m without contact)",
+        [
+            "world",
+            "method",
+            "reached",
+            "contacts",
+            "stuck",
+            "median (s)",
+            "footprint (s)",
+            "median ratio",
+            "refused drawn",
+        ],
+        [
+            (
+                t["world"],
+                t["method"],
+                f"{t['reached']}/{t['goals']} ({100 * t['share']:.0f} %)",
+                t["contacts"],
+                t["stuck"],
+                fmt(t["median_time"]),
+                fmt(t["median_footprint_time"]),
+                fmt(t["median_ratio"]),
+                len(goals["refused"].get(t["world"], [])),
+            )
+            for t in goals["table"]
+        ],
+    )

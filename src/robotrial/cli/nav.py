@@ -6,7 +6,13 @@ Runs the mobile manipulator from the world's start to the goal `runs` times (see
 seed..seed+runs-1) with AMCL, the global planner (`--planner`), the local controller
 (`--controller`) and recoveries in the simulator;
 prints success and time per run and the mean, min and max time of the successes (or
-JSON with --json), and writes a PNG of the true paths over the map.
+JSON with --json), and with --plot a PNG of the true paths over the map.
+
+The goal is on the map: with `--map`, in the map's own frame. The robot's start on it
+comes from `--initial-pose`, else from the map's metadata (a map `robotrial slam`
+wrote says where its frame lies in the world), else AMCL localizes globally. A goal off
+the map, in an obstacle or too near one is refused before anything drives (exit 2), as
+is one the footprint planner cannot reach (exit 1).
 """
 
 from __future__ import annotations
@@ -24,12 +30,16 @@ CONTROLLERS = ("dwa", "pursuit", "profile")
 
 
 def add_planner_argument(parser: argparse.ArgumentParser) -> None:
-    """The --planner option (also `robotrial bench nav`'s)."""
+    """The --planner option (also `robotrial bench nav`'s); its default is the one
+    navigation default, `robotrial.nav.DEFAULT_PLANNER`."""
+    from robotrial.nav import DEFAULT_PLANNER
+
     parser.add_argument(
         "--planner",
         choices=PLANNERS,
-        default="dijkstra",
-        help="global planner (hybrid: Hybrid-A* with the footprint; auto: A*, hybrid where needed)",
+        default=DEFAULT_PLANNER,
+        help="global planner (hybrid: Hybrid-A* with the footprint; auto: A*, hybrid where "
+        "needed; dijkstra: the platform paper's navfn) (default: %(default)s)",
     )
 
 
@@ -40,10 +50,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         nargs=3,
         metavar=("X", "Y", "YAW"),
-        help="goal pose on the map (m, m, rad); default: the world's `goal` spawn",
+        help="goal pose on the map (m, m, rad; with --map in the map's frame); default: the "
+        "world's `goal` spawn",
     )
-    parser.add_argument("--start", default="default", help="spawn pose name in the world")
+    parser.add_argument(
+        "--start", default="default", help="spawn pose name in the world (where the robot stands)"
+    )
     parser.add_argument("--map", metavar="YAML", help="map_server map (default: ground truth)")
+    parser.add_argument(
+        "--initial-pose",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "YAW"),
+        help="where the robot starts on the map (RViz's 2D Pose Estimate); default: from the "
+        "map's metadata, else AMCL's global localization",
+    )
     parser.add_argument("--runs", type=int, default=1, help="how many runs (seeds differ)")
     parser.add_argument("--speed", type=float, default=0.3, help="top speed (m/s)")
     add_planner_argument(parser)
@@ -62,13 +83,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from robotrial.model import load_world
+    from robotrial.model import ModelError, load_world
     from robotrial.model.gridmap import file_map, world_map
-    from robotrial.nav.navigator import default_controller
+    from robotrial.nav import default_controller
     from robotrial.trials.nav import (
         NavTrialSetup,
         footprint_of_robot,
+        map_start,
         plot_paths,
+        refuse_goal,
         run_trials,
         shortest_time,
         start_pose,
@@ -88,14 +111,24 @@ def run(args: argparse.Namespace) -> int:
             planner=args.planner,
             controller=args.controller or default_controller(args.planner),
             time_limit=args.time_limit,
+            initial_pose=tuple(args.initial_pose) if args.initial_pose else None,
         )
         nav_map = file_map(args.map) if args.map else world_map(world)
-        start = start_pose(world, args.start)
-        length, best = shortest_time(setup, nav_map, footprint_of_robot(args.robot), world)
-    except (ValueError, KeyError, OSError) as err:
-        console.print(f"[red]robotrial nav: {err}[/red]")
+        start = map_start(nav_map, world, start_pose(world, args.start), setup.initial_pose)
+        footprint = footprint_of_robot(args.robot)
+        check = refuse_goal(setup, nav_map, start, footprint)
+    except (ValueError, KeyError, OSError, ModelError) as err:
+        console.print(f"[red]robotrial nav: {_words(err)}[/red]", highlight=False, soft_wrap=True)
         return 2
-
+    if not check.ok:
+        code = {"here": 0, "unreachable": 1}.get(check.kind, 2)
+        where = " (with --map, goals are in the map's frame)" if args.map else ""
+        hint = where if check.kind in ("off_map", "in_obstacle") else ""
+        console.print(f"robotrial nav: {check.reason}{hint}", highlight=False, soft_wrap=True)
+        return code
+    length, best = (None, None)
+    if start.pose is not None:
+        length, best = shortest_time(setup, nav_map, footprint, start.pose)
     results = []
     with progress(f"nav {world.name}", total=args.runs, enabled=not args.json) as advance:
 
@@ -106,14 +139,17 @@ def run(args: argparse.Namespace) -> int:
         try:
             run_trials(setup, args.runs, args.seed, on_run=on_run)
         except ValueError as err:
-            console.print(f"[red]robotrial nav: {err}[/red]")
+            console.print(
+                f"[red]robotrial nav: {_words(err)}[/red]", highlight=False, soft_wrap=True
+            )
             return 2
     summary = summarize(results, best)
     summary["shortest_length"] = length
     plot = None
     if args.plot:
         title = f"{world.name}: {summary['successes']}/{len(results)} at {args.speed} m/s"
-        plot = str(plot_paths(args.plot, nav_map, results, start, goal, title=title))
+        origin = start.pose or goal
+        plot = str(plot_paths(args.plot, nav_map, results, origin, goal, title=title))
     if args.json:
         print_json(
             {
@@ -121,6 +157,8 @@ def run(args: argparse.Namespace) -> int:
                 "goal": goal,
                 "speed": args.speed,
                 "map": nav_map.source,
+                "start": start.pose,
+                "start_from": start.how,
                 "planner": args.planner,
                 "controller": setup.controller,
                 "runs": [r.summary() for r in results],
@@ -160,6 +198,12 @@ def run(args: argparse.Namespace) -> int:
     )
     console.print(f"paths: {plot}" if plot else "paths: add --plot PNG to draw them on the map")
     return 0 if summary["successes"] == len(results) else 1
+
+
+def _words(err: BaseException) -> str:
+    """An error as one line (a KeyError's message comes quoted)."""
+    text = str(err.args[0]) if isinstance(err, KeyError) and err.args else str(err)
+    return " ".join(text.split())
 
 
 def _spawn_goal(world) -> tuple[float, float, float]:

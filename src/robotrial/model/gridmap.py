@@ -266,19 +266,29 @@ def _edge_normals(polygon: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class NavMap:
     """The map the robot navigates and localizes on: occupied and unknown cells (rows =
-    y), the origin (x, y) of cell (0, 0)'s corner and the resolution (m)."""
+    y), the origin (x, y) of cell (0, 0)'s corner and the resolution (m); where known,
+    the map frame's pose (x, y, yaw) in the world (a world's own grid: the world frame
+    itself; a map file: what its YAML says, see `robotrial.model.mapfile`)."""
 
     occupied: np.ndarray
     unknown: np.ndarray
     origin: tuple[float, float]
     resolution: float
     source: str
+    frame_in_world: tuple[float, float, float] | None = None
 
 
 def world_map(world: World, resolution: float = 0.05) -> NavMap:
     """The ground-truth grid of a world, cut at the scan's height band."""
     g = world_occupancy(world, resolution, z_band=(0.05, 1.5))
-    return NavMap(g.occupied, np.zeros_like(g.occupied), g.origin, g.resolution, "ground truth")
+    return NavMap(
+        g.occupied,
+        np.zeros_like(g.occupied),
+        g.origin,
+        g.resolution,
+        "ground truth",
+        (0.0, 0.0, 0.0),
+    )
 
 
 def file_map(path: str | Path) -> NavMap:
@@ -289,4 +299,11 @@ def file_map(path: str | Path) -> NavMap:
     if abs(m.origin[2]) > 1e-9:
         raise ValueError(f"map {path}: a rotated origin (yaw {m.origin[2]}) is not supported")
     data = np.asarray(m.data)
-    return NavMap(data >= 65, data < 0, (m.origin[0], m.origin[1]), m.resolution, str(path))
+    return NavMap(
+        data >= 65,
+        data < 0,
+        (m.origin[0], m.origin[1]),
+        m.resolution,
+        str(path),
+        m.frame_in_world,
+    )

@@ -7,6 +7,11 @@ The YAML holds `image` (path relative to the YAML), `resolution` (m/pixel), `ori
 map_server: a pixel's occupancy is p = (255 - value) / 255 (value / 255 with `negate`);
 in trinary mode p > occupied_thresh is 100, p < free_thresh is 0, else unknown (-1).
 Cells are int8 in ROS OccupancyGrid order: row 0 is the lowest y.
+
+A map made here may say where it lies: `robotrial: {world: NAME, frame_in_world: [x, y,
+yaw]}` (the map frame's pose in that world, known in simulation: the base's true pose
+when mapping began). map_server and Nav2's map server ignore keys they do not know; the
+navigation trial reads it to start the robot in the map's frame.
 """
 
 from __future__ import annotations
@@ -27,11 +32,14 @@ MODES = ("trinary", "scale", "raw")
 @dataclass(frozen=True)
 class OccupancyMap:
     """Cells (rows = y from the origin up, cols = x; -1 unknown, 0 free .. 100 occupied),
-    metres per cell and the origin pose (x, y, yaw) of cell (0, 0)'s lower-left corner."""
+    metres per cell and the origin pose (x, y, yaw) of cell (0, 0)'s lower-left corner;
+    where known, the world it maps and the map frame's pose (x, y, yaw) in that world."""
 
     data: np.ndarray
     resolution: float
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    world: str | None = None
+    frame_in_world: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         if self.data.ndim != 2:
@@ -88,6 +96,11 @@ def write_map(
         "occupied_thresh": float(occupied_thresh),
         "free_thresh": float(free_thresh),
     }
+    if grid.frame_in_world is not None:
+        meta["robotrial"] = {
+            "world": grid.world,
+            "frame_in_world": [round(float(v), 6) for v in grid.frame_in_world],
+        }
     yml.write_text(yaml.safe_dump(meta, sort_keys=False))
     return pgm, yml
 
@@ -136,4 +149,22 @@ def read_map(path: str | Path) -> OccupancyMap:
         if mode == "scale":
             mid = (p >= free_t) & (p <= occ_t)
             out[mid] = np.round(99 * (p[mid] - free_t) / (occ_t - free_t)).astype(np.int8)
-    return OccupancyMap(out[::-1].copy(), float(meta["resolution"]), tuple(map(float, origin)))
+    world, frame = _made_here(meta.get("robotrial"), yml)
+    return OccupancyMap(
+        out[::-1].copy(), float(meta["resolution"]), tuple(map(float, origin)), world, frame
+    )
+
+
+def _made_here(extra, yml: Path) -> tuple[str | None, tuple[float, float, float] | None]:
+    """The `robotrial` section of a map YAML: (world, frame_in_world), or Nones."""
+    if extra is None:
+        return None, None
+    frame = extra.get("frame_in_world") if isinstance(extra, dict) else None
+    try:
+        pose = tuple(float(v) for v in frame)
+    except (TypeError, ValueError):
+        pose = ()
+    if len(pose) != 3 or not all(np.isfinite(pose)):
+        raise ModelError(f"{yml}: robotrial.frame_in_world must be [x, y, yaw], got {frame!r}")
+    world = extra.get("world")
+    return (None if world is None else str(world)), pose  # type: ignore[return-value]

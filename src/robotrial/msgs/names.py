@@ -15,8 +15,12 @@ TOPICS: dict[str, str] = {
     "/gripper/command": "control_msgs/msg/GripperCommand",
     "/map": "nav_msgs/msg/OccupancyGrid",
     "/plan": "nav_msgs/msg/Path",
+    "/local_plan": "nav_msgs/msg/Path",
     "/move_base_simple/goal": "geometry_msgs/msg/PoseStamped",
+    "/initialpose": "geometry_msgs/msg/PoseWithCovarianceStamped",
     "/amcl_pose": "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "/move_base/local_costmap/footprint": "geometry_msgs/msg/PolygonStamped",
+    "/robotrial/nav_status": "robotrial_msgs/msg/NavStatus",
 }
 
 # service -> service type
@@ -26,4 +30,6 @@ SERVICES: dict[str, str] = {
 
 # Topics whose last message a late subscriber receives at once (ROS 1 latched,
 # ROS 2 transient-local durability).
-LATCHED_TOPICS: frozenset[str] = frozenset({"/tf_static", "/map"})
+LATCHED_TOPICS: frozenset[str] = frozenset(
+    {"/tf_static", "/map", "/robotrial/nav_status", "/move_base/local_costmap/footprint"}
+)

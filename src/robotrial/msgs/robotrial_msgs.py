@@ -1,11 +1,11 @@
-"""robotrial_msgs: the platform's own types, Box and the PlanTask service (docs/ros.md)."""
+"""robotrial_msgs: the platform's own types: Box, the PlanTask service, NavStatus (docs/ros.md)."""
 
 from __future__ import annotations
 
 from typing import Any, ClassVar
 
 from robotrial.msgs.core import Message, bool_, float64, int32, message, service, string
-from robotrial.msgs.geometry_msgs import Pose, Vector3
+from robotrial.msgs.geometry_msgs import Pose, PoseStamped, Vector3
 from robotrial.msgs.sensor_msgs import JointState
 from robotrial.msgs.trajectory_msgs import JointTrajectory
 
@@ -70,3 +70,18 @@ class PlanTaskResponse(Message):
 
 
 PlanTask = service("robotrial_msgs/srv/PlanTask", PlanTaskRequest, PlanTaskResponse)
+
+
+@message("robotrial_msgs/msg/NavStatus")
+class NavStatus(Message):
+    """What the navigation node is doing, for a status line (the live view's): `state`
+    one of idle, planning, driving, recovering, reached, failed, refused; `text` in
+    words (the recovery running, why it failed or refused a goal); `distance_remaining`
+    (m along the plan, -1 when unknown) and `elapsed` (s since the goal) while a goal
+    runs; `goal` the goal it answers."""
+
+    state: string
+    text: string
+    distance_remaining: float64
+    elapsed: float64
+    goal: PoseStamped

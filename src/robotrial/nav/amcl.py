@@ -173,6 +173,34 @@ class AMCL:
         self.weights = np.full(n, 1.0 / n)
         self._odom = None
 
+    def initialize_global(self, free: np.ndarray, count: int | None = None) -> None:
+        """Spread `count` particles (default: `max_particles`) uniformly over the cells
+        where `free` (a grid like the map's) is True, with uniform headings: amcl's
+        `global_localization`, for a robot that does not know where it stands. The
+        scans that follow, while it turns or drives, gather them on its pose."""
+        rows, cols = np.nonzero(np.asarray(free, dtype=bool))
+        if len(rows) == 0:
+            raise ValueError("AMCL: no free cell to spread the particles over")
+        n = int(count or self.config.max_particles)
+        k = self.rng.integers(0, len(rows), n)
+        res = self.resolution
+        p = np.column_stack(
+            [
+                self.origin[0] + (cols[k] + self.rng.random(n)) * res,
+                self.origin[1] + (rows[k] + self.rng.random(n)) * res,
+                self.rng.uniform(-np.pi, np.pi, n),
+            ]
+        )
+        self.particles = p
+        self.weights = np.full(n, 1.0 / n)
+        self._odom = None
+
+    def converged(self, xy_std: float = 0.1, yaw_std: float = 0.1) -> bool:
+        """Whether the particles have gathered on one pose: the estimate's standard
+        deviations under `xy_std` (m, each axis) and `yaw_std` (rad)."""
+        _, cov = self.estimate()
+        return bool(np.sqrt(max(cov[0, 0], cov[1, 1])) < xy_std and np.sqrt(cov[2, 2]) < yaw_std)
+
     def estimate(self) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean pose (x, y, yaw) and its 3x3 covariance."""
         if not self.count:

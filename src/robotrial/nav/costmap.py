@@ -5,7 +5,8 @@ obstacle, 253 inscribed: the robot's centre there means contact, 254 lethal, 255
 unknown) built from three layers:
 
 - the static layer: occupied and unknown cells of a map (map_server or ground truth);
-- the obstacle layer: cells marked by scan end points, and cleared along each beam;
+- the obstacle layer: cells marked by scan end points, and cleared along each beam
+  (which also makes the unknown cells a beam crosses known free);
 - the inflation layer: cost falling with the distance to the nearest lethal cell, 253
   within the footprint's inscribed radius, `252 * exp(-k (d - r_inscribed))` out to the
   inflation radius.
@@ -228,7 +229,8 @@ class Costmap:
     ) -> None:
         """Obstacle layer: clear the cells each beam crosses (up to `clear_range`), then
         mark the end points within `mark_range` of the sensor. `free_rays` are end points
-        of beams that saw nothing (they only clear)."""
+        of beams that saw nothing (they only clear). Unknown cells of the map that a beam
+        crosses become known free (a SLAM map's shadows behind furniture, once seen)."""
         s = np.asarray(sensor_xy, dtype=float)
         pts = np.asarray(points_xy, dtype=float).reshape(-1, 2)
         rays = pts if free_rays is None else np.vstack([pts, np.asarray(free_rays).reshape(-1, 2)])
@@ -241,6 +243,8 @@ class Costmap:
             src = self.world_to_cell(s)
             dst = self.world_to_cell(ends)
             _clear_rays(self.obstacles, int(src[0]), int(src[1]), dst)
+            if self.unknown.any():
+                _clear_rays(self.unknown, int(src[0]), int(src[1]), dst)
         if len(pts):
             near = np.hypot(*(pts - s).T) <= mark_range
             rc = self.world_to_cell(pts[near])

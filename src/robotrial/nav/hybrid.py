@@ -41,6 +41,7 @@ from robotrial.nav.planners import NoPath, StartBlocked, _heap_pop, _heap_push
 YAW_BINS = 72
 CHECK_BINS = 2 * YAW_BINS
 SUB = 4
+SHOT_NEAR = 0.6  # m: within this of the goal a straight shot needs only the margin
 
 
 @dataclass(frozen=True)
@@ -49,7 +50,13 @@ class HybridConfig:
     the rectangle keeps from lethal cells, `cost_weight` of the inflation cost,
     `rotation_cost` (m per rad turned on the spot), `arc_penalty` (factor on arcs),
     `reverse_penalty` (factor on backward steps; None: no backward motion),
-    `goal_tolerance` (m), `shot_range` (m), `max_expansions`, `wall_tolerance` (m:
+    `goal_tolerance` (m), `shot_range` (m), `reverse_shot` (a base that turns on the
+    spot may also end in a straight drive backwards to the goal, as into a spot whose
+    heading faces out of it), `tight_margin` (m) and `tight_penalty` (a step that
+    ends with the rectangle nearer than `tight_margin` to something costs that much
+    more, and a straight shot must keep it until near the goal: plans keep room for
+    localization and tracking errors where there is room), `max_expansions`,
+    `wall_tolerance` (m:
     obstacle-layer cells this near the static map's are not blocking),
     `heuristic_weight` (>= 1; above 1 the search trades the cheapest plan for far fewer
     poses expanded: 1.1 takes the apartment's study route from 4,340 poses to about
@@ -64,6 +71,9 @@ class HybridConfig:
     reverse_penalty: float | None = None
     goal_tolerance: float = 0.1
     shot_range: float = 3.0
+    reverse_shot: bool = True
+    tight_margin: float = 0.07
+    tight_penalty: float = 2.0
     max_expansions: int = 400_000
     allow_unknown: bool = False
     wall_tolerance: float = 0.1
@@ -245,12 +255,9 @@ def _motion_free(x, y, b, kind, turn, length, blocked, dist, free_dist, ox, oy, 
 
 
 @numba.njit(cache=True)
-def _shot(x, y, b, gx, gy, blocked, dist, free_dist, ox, oy, res, st, ce):
-    """Turn on the spot towards (gx, gy), then drive straight to it: whether it is clear."""
-    d = 0.5 * 2 * np.pi / YAW_BINS
-    heading = np.arctan2(gy - y, gx - x)
-    kt = int(np.round(heading / d)) % CHECK_BINS
-    k = 2 * b
+def _turn_free(x, y, k, kt, blocked, dist, free_dist, ox, oy, res, st, ce):
+    """Whether turning on the spot at (x, y) from check bin `k` to `kt` (the shorter
+    way) keeps the rectangle clear."""
     diff = (kt - k) % CHECK_BINS
     sgn = 1
     if diff > CHECK_BINS // 2:
@@ -261,6 +268,19 @@ def _shot(x, y, b, gx, gy, blocked, dist, free_dist, ox, oy, res, st, ce):
             x, y, (k + sgn * i) % CHECK_BINS, blocked, dist, free_dist, ox, oy, res, st, ce
         ):
             return False
+    return True
+
+
+@numba.njit(cache=True)
+def _shot(x, y, b, gx, gy, gk, reverse, blocked, dist, free_dist, ox, oy, res, st, ce):
+    """Turn on the spot towards (gx, gy) (away from it with `reverse`), drive straight to
+    it (backwards with `reverse`), then turn on the spot to check bin `gk` (-1: any
+    heading): whether all of it is clear."""
+    d = 0.5 * 2 * np.pi / YAW_BINS
+    heading = np.arctan2(gy - y, gx - x) + (np.pi if reverse else 0.0)
+    kt = int(np.round(heading / d)) % CHECK_BINS
+    if not _turn_free(x, y, 2 * b, kt, blocked, dist, free_dist, ox, oy, res, st, ce):
+        return False
     length = np.hypot(gx - x, gy - y)
     n = int(np.ceil(length / (0.5 * res)))
     for i in range(1, n + 1):
@@ -269,7 +289,7 @@ def _shot(x, y, b, gx, gy, blocked, dist, free_dist, ox, oy, res, st, ce):
             x + t * (gx - x), y + t * (gy - y), kt, blocked, dist, free_dist, ox, oy, res, st, ce
         ):
             return False
-    return True
+    return gk < 0 or _turn_free(gx, gy, kt, gk, blocked, dist, free_dist, ox, oy, res, st, ce)
 
 
 @numba.njit(cache=True)
@@ -279,6 +299,8 @@ def _search(
     sb,
     gx,
     gy,
+    gk,
+    reverse_shot,
     blocked,
     dist,
     free_dist,
@@ -290,6 +312,10 @@ def _search(
     cell,
     st,
     ce,
+    tight_dist,
+    st2,
+    ce2,
+    tight_penalty,
     prims,
     rot_cost,
     tol,
@@ -297,9 +323,14 @@ def _search(
     spin,
     max_exp,
 ):
-    """Hybrid-A* from (sx, sy, yaw bin sb) to within `tol` of (gx, gy). Returns the
-    states' (x, y, bin, parent) arrays, the index of the final state (-1: no path, -2:
-    expansion limit) and whether the final state ends in a straight shot to the goal."""
+    """Hybrid-A* from (sx, sy, yaw bin sb) to within `tol` of (gx, gy), from where a turn
+    on the spot at the goal to check bin `gk` is clear (-1: any heading will do). A step
+    that ends where the rectangle is clear but not by the tight margin (cells `st2`,
+    `ce2`) costs `tight_penalty` times more; a straight shot to the goal must keep the
+    tight margin too, unless it starts within SHOT_NEAR of the goal. Returns the states'
+    (x, y, bin, parent) arrays, the index of the final state (-1: no path, -2: expansion
+    limit) and how the final state ends: 0 at the goal, 1 in a straight shot to it, 2 in
+    a straight shot backwards (tried with `reverse_shot`)."""
     rows, cols = blocked.shape
     hr = int(np.ceil(rows * res / cell))
     hc = int(np.ceil(cols * res / cell))
@@ -329,13 +360,27 @@ def _search(
         closed[key] = True
         expansions += 1
         if expansions > max_exp:
-            return xs[:n], ys[:n], bs[:n], par[:n], -2, False
+            return xs[:n], ys[:n], bs[:n], par[:n], -2, 0
         dgoal = np.hypot(gx - x, gy - y)
-        if dgoal <= tol:
-            return xs[:n], ys[:n], bs[:n], par[:n], cur, False
+        if dgoal <= tol and (
+            gk < 0 or _turn_free(gx, gy, 2 * b, gk, blocked, dist, free_dist, ox, oy, res, st, ce)
+        ):
+            return xs[:n], ys[:n], bs[:n], par[:n], cur, 0
         if spin and dgoal <= shot_range and (expansions % 4 == 1 or dgoal < 1.0):
-            if _shot(x, y, b, gx, gy, blocked, dist, free_dist, ox, oy, res, st, ce):
-                return xs[:n], ys[:n], bs[:n], par[:n], cur, True
+            # far from the goal a shot keeps the tight margin: one that squeezes through
+            # a doorway at a slant would leave the base no room for error
+            near = dgoal < SHOT_NEAR
+            for rev in (False, True):
+                if rev and not reverse_shot:
+                    continue
+                if _shot(
+                    x, y, b, gx, gy, gk, rev, blocked, dist, tight_dist, ox, oy, res, st2, ce2
+                ):
+                    return xs[:n], ys[:n], bs[:n], par[:n], cur, 2 if rev else 1
+                if near and _shot(
+                    x, y, b, gx, gy, gk, rev, blocked, dist, free_dist, ox, oy, res, st, ce
+                ):
+                    return xs[:n], ys[:n], bs[:n], par[:n], cur, 2 if rev else 1
         for p in range(prims.shape[0]):
             kind = int(prims[p, 0])
             turn = int(prims[p, 1])
@@ -357,6 +402,10 @@ def _search(
                 step_cost = rot_cost * abs(turn) * 2 * np.pi / YAW_BINS
             else:
                 step_cost = length * prims[p, 3] * weight[r1, c1]
+            if tight_penalty > 1.0 and _collides(
+                x1, y1, 2 * b1, blocked, dist, tight_dist, ox, oy, res, st2, ce2
+            ):
+                step_cost *= tight_penalty
             g1 = gs[cur] + step_cost
             if g1 >= best[k1]:
                 continue
@@ -373,7 +422,7 @@ def _search(
                 vals = _grow(vals)
             size = _heap_push(keys, vals, size, g1 + hh * res, n)
             n += 1
-    return xs[:n], ys[:n], bs[:n], par[:n], -1, False
+    return xs[:n], ys[:n], bs[:n], par[:n], -1, 0
 
 
 @numba.njit(cache=True)
@@ -447,11 +496,14 @@ class HybridAStar:
     def plan_poses(
         self, costmap: Costmap, start: tuple[float, ...], goal: tuple[float, ...]
     ) -> np.ndarray:
-        """(N, 3) poses from the start to the goal (the final yaw is the last motion's)."""
+        """(N, 3) poses from the start to the goal. With a goal (x, y, yaw) the plan ends
+        turned to that heading, and only where that turn on the spot is clear; with (x, y)
+        the final yaw is the last motion's."""
         c = self.config
         res = costmap.resolution
         s = np.asarray(start, dtype=float)
-        g = np.asarray(goal, dtype=float)[:2]
+        g_full = np.asarray(goal, dtype=float)
+        g = g_full[:2]
         if len(s) < 3:
             s = np.array([s[0], s[1], np.arctan2(g[1] - s[1], g[0] - s[0])])
         for what, xy in (("start", s[:2]), ("goal", g)):
@@ -462,6 +514,13 @@ class HybridAStar:
         edge = footprint_cells(
             costmap.footprint, costmap.resolution, c.margin, 2 * costmap.resolution
         )
+        # the tight margin's edge band reaches past the margin: enough from a clear pose
+        tight = footprint_cells(
+            costmap.footprint,
+            costmap.resolution,
+            max(c.tight_margin, c.margin),
+            2 * costmap.resolution + max(c.tight_margin - c.margin, 0.0),
+        )
         blocked = self.blocked(costmap)
         fp = costmap.footprint
         free_dist = fp.circumscribed_radius + c.margin + 2 * res
@@ -470,8 +529,16 @@ class HybridAStar:
         args = (blocked, costmap.distance, free_dist, ox, oy, res, starts, cells)
         if _collides(s[0], s[1], 2 * sb, *args):
             raise StartBlocked(f"the footprint at the start {_fmt(s)} touches an obstacle")
-        # a goal pose is open if some yaw fits there
-        if all(_collides(g[0], g[1], k, *args) for k in range(0, CHECK_BINS, 2)):
+        gk = -1
+        if len(g_full) >= 3:
+            gk = int(np.round(g_full[2] / (np.pi / YAW_BINS))) % CHECK_BINS
+            if _collides(g[0], g[1], gk, *args):
+                raise NoPath(
+                    f"the goal {_fmt(g)}: the footprint facing {np.degrees(g_full[2]):.0f} deg "
+                    "touches an obstacle there"
+                )
+        # a goal position is open if some yaw fits there
+        elif all(_collides(g[0], g[1], k, *args) for k in range(0, CHECK_BINS, 2)):
             raise NoPath(
                 f"the goal {_fmt(g)}: the footprint touches an obstacle there in every heading"
             )
@@ -493,6 +560,8 @@ class HybridAStar:
             sb,
             g[0],
             g[1],
+            gk,
+            c.reverse_shot and c.turning_radius == 0,
             blocked,
             costmap.distance,
             free_dist,
@@ -504,6 +573,10 @@ class HybridAStar:
             2 * res,
             edge[0],
             edge[1],
+            fp.circumscribed_radius + max(c.tight_margin, c.margin) + 2 * res,
+            tight[0],
+            tight[1],
+            c.tight_penalty,
             motions(c),
             c.rotation_cost,
             c.goal_tolerance,
@@ -530,8 +603,11 @@ class HybridAStar:
         poses[0] = s
         if shot:
             heading = np.arctan2(g[1] - poses[-1, 1], g[0] - poses[-1, 0])
+            heading += np.pi if shot == 2 else 0.0
             poses = np.vstack([poses, [poses[-1, 0], poses[-1, 1], heading]])
         poses = np.vstack([poses, [g[0], g[1], poses[-1, 2]]])
+        if gk >= 0:
+            poses = np.vstack([poses, g_full[:3]])
         poses[:, 2] = (poses[:, 2] + np.pi) % (2 * np.pi) - np.pi
         return poses
 

@@ -25,6 +25,7 @@ from enum import Enum
 
 import numpy as np
 
+from robotrial.nav import DEFAULT_PLANNER, default_controller
 from robotrial.nav.costmap import Costmap, Footprint, Inflation, coarsen
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
 from robotrial.nav.hybrid import HybridAStar, HybridConfig, footprint_hits, resample
@@ -34,12 +35,6 @@ from robotrial.nav.pursuit import PursuitConfig, PursuitController
 
 GLOBAL_PLANNERS = (*PLANNERS, "hybrid", "auto")
 CONTROLLERS = ("dwa", "pursuit", "profile")
-
-
-def default_controller(planner: str) -> str:
-    """The local controller a global planner gets unless one is named: the speed profile
-    for Hybrid-A*'s footprint plans, the DWA for the others."""
-    return "profile" if planner == "hybrid" else "dwa"
 
 
 class Status(Enum):
@@ -55,10 +50,18 @@ class Recovery(Enum):
     BACK_UP = "back_up"
 
 
+RECOVERY_WORDS = {
+    Recovery.CLEAR_COSTMAPS.value: "clearing the costmaps",
+    Recovery.ROTATE.value: "rotating in place",
+    Recovery.BACK_UP.value: "backing up",
+}
+
+
 @dataclass(frozen=True)
 class NavigatorConfig:
     """Tolerances (m, rad), timing (s), local window size (m) and the sub-planners.
-    `planner`: 'dijkstra' or 'astar' (the grid, the centre keeping the inscribed radius),
+    `planner` (default `DEFAULT_PLANNER`): 'dijkstra' or 'astar' (the grid, the centre
+    keeping the inscribed radius),
     'hybrid' (Hybrid-A* over poses with the footprint), or 'auto' (A*, and Hybrid-A*
     where the footprint facing along A*'s path would touch something). `controller`:
     'dwa', 'pursuit' (regulated pure pursuit, for footprint plans), both within the
@@ -68,7 +71,7 @@ class NavigatorConfig:
     the goal's heading (None: the DWA's limits). `costmap_resolution` (m): the costmaps'
     cell size; a map at least twice as fine is coarsened to it (None: the map's)."""
 
-    planner: str = "dijkstra"
+    planner: str = DEFAULT_PLANNER
     hybrid: HybridConfig = field(default_factory=HybridConfig)
     controller: str | None = None
     pursuit: PursuitConfig = field(default_factory=PursuitConfig)
@@ -134,11 +137,17 @@ class Navigator:
         grid = "astar" if config.planner in ("hybrid", "auto") else config.planner
         self.planner = make_planner(grid)
         self.hybrid = HybridAStar(config.hybrid)
+        # from a start already within the margin (a doorway, localization a few cm off)
+        self.hybrid_tight = HybridAStar(replace(config.hybrid, margin=0.0))
         self.plans_by: list[str] = []
         kind = config.controller or default_controller(config.planner)
         if kind not in CONTROLLERS:
             raise ValueError(f"unknown controller {kind!r}; choose from {list(CONTROLLERS)}")
         self.controller_kind = kind
+        # once turning on the goal, how far (in tolerances) the turn may drift: a DWA
+        # stops up to twice the tolerance off (it cannot close a sideways gap); a
+        # footprint plan ends on the goal pose
+        self._near = 2.0 if kind == "dwa" else 1.3
         self.controller: DWAPlanner | PursuitController | ProfileController
         if kind == "dwa":
             self.controller = DWAPlanner(footprint, config.dwa)
@@ -195,6 +204,31 @@ class Navigator:
         if isinstance(self.controller, ProfileController):
             self.controller.reset()
 
+    def phase(self) -> tuple[str, str]:
+        """What the navigator is doing, for a status line: ('idle' | 'planning' |
+        'driving' | 'recovering' | 'reached' | 'failed', details in words: the recovery
+        running, the reason it failed)."""
+        if self.status is Status.SUCCEEDED:
+            return "reached", self.message
+        if self.status is Status.ABORTED:
+            return "failed", self.message
+        if self.status is Status.IDLE or self.goal is None:
+            return "idle", ""
+        if self._behaviour is not None:
+            return "recovering", RECOVERY_WORDS[self._behaviour.kind.value]
+        if self._rotating:
+            return "driving", "turning to the goal's heading"
+        if self.path is None:
+            return "planning", ""
+        return "driving", ""
+
+    def conclude(self, x: float, y: float, yaw: float, reached: bool, message: str) -> None:
+        """End a goal without driving: reached (the base already stands on it) or
+        refused (the message says why), as a goal judged before it starts."""
+        self.goal = np.array([x, y, yaw], dtype=float)
+        self.path = None
+        self._finish(Status.SUCCEEDED if reached else Status.ABORTED, message)
+
     def cancel(self, reason: str = "cancelled") -> None:
         self._finish(Status.ABORTED, reason)
 
@@ -239,7 +273,7 @@ class Navigator:
         if self._behaviour is not None:
             return self._recover(now, pose_a, velocity)
         if dist <= self.config.xy_tolerance or (
-            self._rotating and dist <= 2 * self.config.xy_tolerance
+            self._rotating and dist <= self._near * self.config.xy_tolerance
         ):
             self._rotating = True
             err = _wrap(goal[2] - pose_a[2])
@@ -275,12 +309,14 @@ class Navigator:
             return 0.0, 0.0
         self._blocked_since = None
         if (
-            dist <= 2 * self.config.xy_tolerance
+            self.controller_kind == "dwa"
+            and dist <= 2 * self.config.xy_tolerance
             and abs(res.v) < 0.05
             and abs(float(velocity[0])) < 0.05
         ):
             # stopped beside the goal: a skid-steer base cannot close a sideways gap
-            # without a detour, so finish with the turn to the goal's heading
+            # without a detour, so the DWA finishes with the turn to the goal's heading
+            # (a footprint plan ends on the goal pose itself, turns included)
             self._rotating = True
             return 0.0, self._turn_rate(_wrap(goal[2] - pose_a[2]), self._command[1])
         return res.v, res.w
@@ -340,14 +376,18 @@ class Navigator:
                 if not self.hybrid.collides(cm, along).any():
                     self.plans_by.append("grid")
                     return path
-            try:
-                self._poses = self.hybrid.plan_poses(cm, tuple(pose), goal)
-                self.plans_by.append("hybrid")
-                return resample(self._poses[:, :2], cm.resolution)
-            except StartBlocked:
-                # a base whose footprint already touches something (as mapped) plans
-                # its way out on the grid, where cells near the start stay open
-                pass
+            for planner in (self.hybrid, self.hybrid_tight):
+                try:
+                    self._poses = planner.plan_poses(cm, tuple(pose), tuple(self.goal))
+                    self.plans_by.append("hybrid")
+                    return resample(self._poses[:, :2], cm.resolution)
+                except StartBlocked:
+                    # a base within the margin of something (as mapped) plans with the
+                    # rectangle itself: a grid path has a turn on the spot at every
+                    # corner, which in a doorway would sweep the jambs
+                    continue
+            # a base whose footprint already touches something (as mapped) plans its way
+            # out on the grid, where cells near the start stay open
         self.plans_by.append("grid")
         return smooth(self.planner.plan(cm, tuple(pose[:2]), goal), cm)
 

@@ -199,8 +199,12 @@ def room_tour(
     the indices of the goals visited, in order (goals no motion of the footprint reaches
     are left out). Raises StartBlocked when the footprint does not fit at the dock.
     The default planner all but avoids arcs, so that its plans are already turns on the
-    spot and straight steps."""
-    planner = planner or HybridAStar(HybridConfig(arc_penalty=ARC_PENALTY))
+    spot and straight steps; it never ends in a drive backwards (the driver only drives
+    forwards) and does not pay extra near obstacles (the legs keep their own margin, and
+    detours for room would only add short arcs to steer)."""
+    planner = planner or HybridAStar(
+        HybridConfig(arc_penalty=ARC_PENALTY, reverse_shot=False, tight_penalty=1.0)
+    )
     start = np.asarray(dock, dtype=float)
     points = np.vstack([start[:2], np.asarray(goals, dtype=float).reshape(-1, 2)])
     order = [i - 1 for i in visit_order(travel_distances(costmap, points))]

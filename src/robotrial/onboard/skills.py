@@ -206,7 +206,7 @@ class Skills:
         nav = self.robot.nav_node
         assert nav is not None and nav.navigator is not None
         self.robot.send_goal(goal)
-        while nav.navigator.status is Status.ACTIVE:
+        while nav.goal_pending or nav.navigator.status is Status.ACTIVE:
             yield
         self.robot.drive(0.0, 0.0)
         yield from self.wait(0.1)

@@ -19,6 +19,18 @@ produce.
 | out | `/amcl_pose` | geometry_msgs/PoseWithCovarianceStamped |
 | out | `/particlecloud` | geometry_msgs/PoseArray |
 | out | `/move_base/status` | std_msgs/String (idle, active, succeeded or aborted: why) |
+| out | `/robotrial/nav_status` | robotrial_msgs/NavStatus (latched; see below) |
+| out | `/local_plan` | nav_msgs/Path (the controller's next moments, as rolled out) |
+| out | `/move_base/local_costmap/footprint` | geometry_msgs/PolygonStamped (latched) |
+
+NavStatus says what the navigator does (planning, driving, recovering and with which
+recovery, reached, failed or refused with the reason), the distance left along the plan
+and the time since the goal; the footprint is the base's rectangle in its own frame.
+
+A goal from either input is judged before the base moves
+(`robotrial.nav.goals.check_goal`): one off the map, in or too near an obstacle, or out
+of the footprint's reach is refused at once (NavStatus `refused`, the action aborted)
+with the reason in words; one the base already stands on is reached at once.
 
 A `/navigate_to_pose` goal reports the current pose, the distance left along the plan and
 the recoveries run so far as feedback, and ends SUCCEEDED at the goal, ABORTED with the
@@ -38,6 +50,9 @@ import numpy as np
 from robotrial.msgs import nav2_msgs
 from robotrial.msgs.builtin_interfaces import Duration, Time
 from robotrial.msgs.geometry_msgs import (
+    Point32,
+    Polygon,
+    PolygonStamped,
     Pose,
     PoseArray,
     PoseStamped,
@@ -48,16 +63,22 @@ from robotrial.msgs.geometry_msgs import (
     Vector3,
 )
 from robotrial.msgs.nav_msgs import MapMetaData, OccupancyGrid, Odometry, Path
+from robotrial.msgs.robotrial_msgs import NavStatus
 from robotrial.msgs.sensor_msgs import LaserScan
 from robotrial.msgs.std_msgs import Header, String
 from robotrial.nav.amcl import AMCL, AMCLConfig, compose, inverse
 from robotrial.nav.costmap import LETHAL, UNKNOWN, Costmap, Footprint
-from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
+from robotrial.nav.goals import check_goal
+from robotrial.nav.navigator import RECOVERY_WORDS, Navigator, NavigatorConfig, Status
 from robotrial.ros.actions import ActionServer, GoalHandle
 from robotrial.ros.bus import Bus, Node
 
 GLOBAL_COSTMAP = "/move_base/global_costmap/costmap"
 LOCAL_COSTMAP = "/move_base/local_costmap/costmap"
+NAV_STATUS = "/robotrial/nav_status"
+FOOTPRINT = "/move_base/local_costmap/footprint"
+STATUS_PERIOD = 0.5  # s between NavStatus messages while a goal runs
+LOCAL_PLAN_PERIOD = 0.2  # s between /local_plan messages
 
 
 def _yaw(q: Quaternion) -> float:
@@ -95,6 +116,7 @@ class NavNode(Node):
         laser_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
         name: str = "move_base",
         seed: int = 0,
+        base_frame: str = "base_link",
     ) -> None:
         super().__init__(bus, name)
         self.footprint = footprint
@@ -108,7 +130,9 @@ class NavNode(Node):
         self.odom = np.zeros(3)
         self.velocity = (0.0, 0.0)
         self._initial: tuple[np.ndarray, np.ndarray] | None = None
-        self._pending_goal: np.ndarray | None = None
+        # a goal waits here for the next control step: judging it plans with the
+        # footprint, which must not hold up whoever published it (rosbridge's loop)
+        self._incoming: PoseStamped | None = None
         self._next_control = -np.inf
         self._last_status = ""
         self._plans = 0
@@ -119,6 +143,24 @@ class NavNode(Node):
         self.pose_pub = self.create_publisher("/amcl_pose", PoseWithCovarianceStamped)
         self.cloud_pub = self.create_publisher("/particlecloud", PoseArray)
         self.status_pub = self.create_publisher("/move_base/status", String, latched=True)
+        self.nav_status_pub = self.create_publisher(NAV_STATUS, NavStatus, latched=True)
+        self.local_plan_pub = self.create_publisher("/local_plan", Path)
+        self.footprint_pub = self.create_publisher(FOOTPRINT, PolygonStamped, latched=True)
+        half_l, half_w = footprint.length / 2, footprint.width / 2
+        corners = [(half_l, half_w), (-half_l, half_w), (-half_l, -half_w), (half_l, -half_w)]
+        self.footprint_pub.publish(
+            PolygonStamped(
+                header=Header(frame_id=base_frame),
+                polygon=Polygon(points=[Point32(x=x, y=y, z=0.0) for x, y in corners]),
+            )
+        )
+        self._goal_msg: PoseStamped | None = None
+        self._stamp = 0.0
+        self._goal_since: float | None = None
+        self._said = ("", "")
+        self._said_at = -np.inf
+        self._recoveries_said = 0
+        self._local_at = -np.inf
         self.create_subscription("/map", OccupancyGrid, self._on_map)
         self.create_subscription("/initialpose", PoseWithCovarianceStamped, self._on_initial)
         self.create_subscription("/move_base_simple/goal", PoseStamped, self._on_goal)
@@ -159,9 +201,6 @@ class NavNode(Node):
         self.map_to_odom = compose(mean, inverse(self.odom))
         stamp = msg.header.stamp.to_sec()
         self.global_pub.publish(costmap_message(self.navigator.global_costmap, stamp))
-        if self._pending_goal is not None:
-            self.navigator.set_goal(*self._pending_goal)
-            self._pending_goal = None
 
     def _on_initial(self, msg: PoseWithCovarianceStamped) -> None:
         p = msg.pose.pose
@@ -173,19 +212,55 @@ class NavNode(Node):
             self.amcl.initialize(tuple(mean), tuple(std))
             self.map_to_odom = compose(mean, inverse(self.odom))
 
+    @property
+    def goal_pending(self) -> bool:
+        """Whether a goal came in that the next control step has yet to take up."""
+        return self._incoming is not None
+
     def _on_goal(self, msg: PoseStamped) -> None:
         with self._control:
             self._preempt()
-            self._set_goal(msg)
+            self._take(msg)
+
+    def _take(self, msg: PoseStamped) -> None:
+        """Hold a new goal for the next control step."""
+        self._incoming = msg
+        self._goal_msg = msg
+        if self.navigator is None:
+            self._say("planning", "waiting for the map", -1.0, 0.0)
 
     def _set_goal(self, msg: PoseStamped) -> None:
         p = msg.pose
         goal = np.array([p.position.x, p.position.y, _yaw(p.orientation)])
-        if self.navigator is None:
-            self._pending_goal = goal
+        self._goal_msg = msg
+        self._goal_since = None
+        nav = self.navigator
+        self._recoveries_said = len(nav.recoveries)
+        verdict = check_goal(
+            nav.global_costmap,
+            tuple(goal),
+            tuple(self.pose()),
+            nav.hybrid,
+            xy_tolerance=self.config.xy_tolerance,
+        )
+        if verdict.kind == "here":
+            nav.conclude(*goal, reached=True, message=verdict.reason)
+            self._say("reached", verdict.reason, 0.0, 0.0)
+            if self._goal is not None and self._goal.active:
+                self._goal.succeed(nav2_msgs.NavigateToPoseResult(), verdict.reason)
             return
-        self.navigator.set_goal(*goal, now=msg.header.stamp.to_sec())
+        if not verdict.ok:
+            nav.conclude(*goal, reached=False, message=verdict.reason)
+            self._say("refused", verdict.reason, -1.0, 0.0)
+            if self._goal is not None and self._goal.active:
+                result = nav2_msgs.NavigateToPoseResult(
+                    error_code=nav2_msgs.UNKNOWN, error_msg=verdict.reason
+                )
+                self._goal.abort(result, verdict.reason)
+            return
+        nav.set_goal(*goal, now=self._stamp)
         self._next_control = -np.inf
+        self._say("planning", "", float(np.hypot(*(goal[:2] - self.pose()[:2]))), 0.0)
 
     def _on_odom(self, msg: Odometry) -> None:
         with self._control:
@@ -196,7 +271,13 @@ class NavNode(Node):
         self.odom = np.array([p.position.x, p.position.y, _yaw(p.orientation)])
         self.velocity = (msg.twist.twist.linear.x, msg.twist.twist.angular.z)
         now = msg.header.stamp.to_sec()
-        if self.navigator is None or now < self._next_control:
+        self._stamp = now
+        if self.navigator is None:
+            return
+        if self._incoming is not None:
+            incoming, self._incoming = self._incoming, None
+            self._set_goal(incoming)
+        if now < self._next_control:
             return
         self._next_control = now + self.config.dwa.period
         nav = self.navigator
@@ -215,6 +296,12 @@ class NavNode(Node):
         if status != self._last_status:
             self._last_status = status
             self.status_pub.publish(String(data=status))
+        if active:
+            self._report_status(now)
+            res = nav.last_result
+            if res is not None and now - self._local_at >= LOCAL_PLAN_PERIOD:
+                self._local_at = now
+                self._publish_local(res.trajectory, now)
 
     def _on_scan(self, msg: LaserScan) -> None:
         if self.amcl is None or self.navigator is None:
@@ -247,7 +334,7 @@ class NavNode(Node):
         self._goal = handle
         self._goal_start = -1.0  # taken from the next /odom stamp
         self._goal_recoveries = len(self.navigator.recoveries) if self.navigator else 0
-        self._set_goal(handle.goal.pose)
+        self._take(handle.goal.pose)
 
     def _on_action_cancel(self, handle: GoalHandle) -> None:
         with self._control:
@@ -256,7 +343,7 @@ class NavNode(Node):
     def _cancel_action_goal(self, handle: GoalHandle) -> None:
         if self.navigator is not None and self.navigator.status is Status.ACTIVE:
             self.navigator.cancel("canceled by the action client")
-        self._pending_goal = None
+        self._incoming = None
         self.cmd_pub.publish(Twist())
         handle.canceled(nav2_msgs.NavigateToPoseResult(error_msg="canceled"))
 
@@ -310,7 +397,46 @@ class NavNode(Node):
         rest = np.vstack([pose[:2], path[i + 1 :] if i + 1 < len(path) else path[-1:]])
         return float(np.hypot(*np.diff(rest, axis=0).T).sum())
 
+    # --- the status line ---------------------------------------------------------------
+
+    def _report_status(self, now: float) -> None:
+        """NavStatus for the running goal: when what it does changes, and every
+        STATUS_PERIOD s while it runs (distance left, time so far)."""
+        nav = self.navigator
+        if self._goal_since is None:
+            self._goal_since = now
+        state, text = nav.phase()
+        if len(nav.recoveries) > self._recoveries_said and state not in ("reached", "failed"):
+            # a recovery that ends within the step (clearing the costmaps) is still said
+            self._recoveries_said = len(nav.recoveries)
+            state, text = "recovering", RECOVERY_WORDS[nav.recoveries[-1]]
+        if (state, text) == self._said and now - self._said_at < STATUS_PERIOD:
+            return
+        self._said_at = now
+        left = self._distance_remaining(self.pose()) if nav.goal is not None else -1.0
+        if state == "reached":
+            left = float(np.hypot(*(nav.goal[:2] - self.pose()[:2])))
+        self._say(state, text, left, now - self._goal_since)
+
+    def _say(self, state: str, text: str, left: float, elapsed: float) -> None:
+        self._said = (state, text)
+        goal = self._goal_msg or PoseStamped(header=Header(frame_id="map"))
+        self.nav_status_pub.publish(
+            NavStatus(
+                state=state,
+                text=text,
+                distance_remaining=float(left),
+                elapsed=float(max(elapsed, 0.0)),
+                goal=goal,
+            )
+        )
+
     # --- outputs -----------------------------------------------------------------------
+
+    def _publish_local(self, trajectory: np.ndarray, stamp: float) -> None:
+        head = Header(stamp=Time.from_sec(stamp), frame_id="map")
+        poses = [PoseStamped(header=head, pose=Pose.planar(*p)) for p in np.asarray(trajectory)]
+        self.local_plan_pub.publish(Path(header=head, poses=poses))
 
     def pose(self) -> np.ndarray:
         """The robot's pose on the map: map -> odom (AMCL) composed with odometry."""

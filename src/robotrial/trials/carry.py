@@ -55,6 +55,7 @@ from robotrial.msgs.builtin_interfaces import Time
 from robotrial.msgs.geometry_msgs import Quaternion, Transform, TransformStamped, Vector3
 from robotrial.msgs.std_msgs import Header
 from robotrial.msgs.tf2_msgs import TFMessage
+from robotrial.nav import DEFAULT_PLANNER
 from robotrial.nav.costmap import Costmap, Footprint
 from robotrial.onboard.catalogue import Catalogue, ObjectKind
 from robotrial.onboard.robot import Robot, RobotSetup
@@ -311,7 +312,7 @@ class CarryTrial(Node):
             footprint=footprint,
             slam=make_slam(setup.slam),
             navigator=navigator_config(
-                speed, limits.max_yaw_rate, limits.max_accel, "dijkstra", limits.max_yaw_accel
+                speed, limits.max_yaw_rate, limits.max_accel, DEFAULT_PLANNER, limits.max_yaw_accel
             ),
             planner=setup.planner,
             seed=seed,

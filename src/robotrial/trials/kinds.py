@@ -27,6 +27,8 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+from robotrial.nav import DEFAULT_PLANNER
+
 
 @dataclass(frozen=True)
 class Outcome:
@@ -166,7 +168,7 @@ KINDS: dict[str, TrialKind] = {
             "start": "default",
             "robot": "mobile_manipulator",
             "speed": 0.3,
-            "planner": "dijkstra",
+            "planner": DEFAULT_PLANNER,
             "time_limit": None,
         },
         "time",

@@ -61,7 +61,8 @@ def paper_specs(quick: bool = False, seed: int = 0) -> list[RunSpec]:
         for method in ("gmapping", "hector"):
             add("slam", {"world": room, "method": method, "duration": duration}, 1)
         for speed in (0.3, 1.0):
-            add("nav", {"world": room, "speed": speed}, nav_runs)
+            # the paper's move_base: navfn (Dijkstra) and the DWA
+            add("nav", {"world": room, "speed": speed, "planner": "dijkstra"}, nav_runs)
     for planner in PAPER_PLAN:
         limit = 1.0 if planner == "rrt_star" else 5.0
         config = {"robot": "manipulator_h", "scene": "obstacle", "planner": planner}

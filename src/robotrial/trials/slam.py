@@ -425,15 +425,26 @@ def record_drive(
 def write_outputs(
     run: SlamRun, rec: Recording, world: World | None, stem: str | Path
 ) -> dict[str, str]:
-    """STEM.pgm + STEM.yaml (map_server), STEM.tum (the trajectory, TUM format: stamp x
-    y z qx qy qz qw, what evo reads) and STEM.png (the map, the estimated trajectory and
-    the ground truth)."""
+    """STEM.pgm + STEM.yaml (map_server; where the recording holds the true poses, the
+    YAML also says where the map frame lies in the world), STEM.tum (the trajectory, TUM
+    format: stamp x y z qx qy qz qw, what evo reads) and STEM.png (the map, the estimated
+    trajectory and the ground truth)."""
     from robotrial.model.mapfile import OccupancyMap, write_map
 
     stem = Path(stem)
     g = run.grid
     values = g.ros_values()
-    pgm, yml = write_map(stem, OccupancyMap(values, g.resolution, (*g.origin, 0.0)))
+    frame = map_pose_in_world(rec)
+    pgm, yml = write_map(
+        stem,
+        OccupancyMap(
+            values,
+            g.resolution,
+            (*g.origin, 0.0),
+            world.name if world is not None else None,
+            None if frame is None else tuple(float(v) for v in frame),
+        ),
+    )
     tum = stem.with_name(stem.name + ".tum")
     with open(tum, "w") as f:
         for t, p in zip(run.stamps, run.poses, strict=True):

@@ -378,8 +378,8 @@ def compare(verdicts: Sequence[HomeVerdict]) -> dict[str, Any]:
 def drive_to_rooms(
     verdict: BaseVerdict, world: World, robot: str, seed: int = 0, speed: float = 0.5
 ) -> list[dict[str, Any]]:
-    """The verdict checked by driving: the navigation trial (AMCL in MuJoCo, Hybrid-A*
-    and its default controller, the speed profile) from the dock to each room's goal,
+    """The verdict checked by driving: the navigation trial (AMCL in MuJoCo, the default
+    stack: Hybrid-A* and the speed profile) from the dock to each room's goal,
     one run per room with `seed`. Each row: the room, what the verdict said, whether the
     robot got there, and how."""
     from robotrial.trials.nav import NavTrialSetup, run_once
@@ -398,7 +398,6 @@ def drive_to_rooms(
             start=verdict.dock,
             robot=robot,
             speed=speed,
-            planner="hybrid",
         )
         run = run_once(setup, seed, world=world)
         rows.append(

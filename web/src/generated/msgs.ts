@@ -261,6 +261,15 @@ export interface Box {
   pose: Pose;
 }
 
+/** robotrial_msgs/msg/NavStatus: What the navigation node is doing, for a status line (the live view's): `state` one of idle, planning, driving, recovering, reached, failed, refused; `text` in words (the recovery running, why it failed or refused a goal); `distance_remaining` (m along the plan, -1 when unknown) and `elapsed` (s since the goal) while a goal runs; `goal` the goal it answers. */
+export interface NavStatus {
+  state: string;
+  text: string;
+  distance_remaining: number;
+  elapsed: number;
+  goal: PoseStamped;
+}
+
 /** robotrial_msgs/srv/PlanTask_Request: Plan a carry: from `current_joints` to `ee_goal` around `obstacles` holding `object` (all sizes 0 = nothing held). `ee_goal` orientation all 0 = position only; `planner` "" = rrt_connect; `time_limit` 0 = the default (s). */
 export interface PlanTaskRequest {
   current_joints: JointState;
@@ -917,6 +926,7 @@ export interface MessageTypes {
   "nav_msgs/msg/Odometry": Odometry;
   "nav_msgs/msg/Path": Path;
   "robotrial_msgs/msg/Box": Box;
+  "robotrial_msgs/msg/NavStatus": NavStatus;
   "robotrial_msgs/srv/PlanTask_Request": PlanTaskRequest;
   "robotrial_msgs/srv/PlanTask_Response": PlanTaskResponse;
   "rosapi_msgs/msg/TypeDef": TypeDef;
@@ -1065,8 +1075,12 @@ export const TOPICS = {
   "/gripper/command": "control_msgs/msg/GripperCommand",
   "/map": "nav_msgs/msg/OccupancyGrid",
   "/plan": "nav_msgs/msg/Path",
+  "/local_plan": "nav_msgs/msg/Path",
   "/move_base_simple/goal": "geometry_msgs/msg/PoseStamped",
+  "/initialpose": "geometry_msgs/msg/PoseWithCovarianceStamped",
   "/amcl_pose": "geometry_msgs/msg/PoseWithCovarianceStamped",
+  "/move_base/local_costmap/footprint": "geometry_msgs/msg/PolygonStamped",
+  "/robotrial/nav_status": "robotrial_msgs/msg/NavStatus",
 } as const;
 
 /** The platform's services and their service types. */
@@ -1075,4 +1089,4 @@ export const SERVICES = {
 } as const;
 
 /** Topics a late subscriber still receives the last message of. */
-export const LATCHED_TOPICS = ["/map", "/tf_static"] as const;
+export const LATCHED_TOPICS = ["/map", "/move_base/local_costmap/footprint", "/robotrial/nav_status", "/tf_static"] as const;

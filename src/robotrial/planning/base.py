@@ -38,12 +38,11 @@ class Checker(Protocol):
 @runtime_checkable
 class CompiledChecker(Checker, Protocol):
     """A checker whose motion checks are compiled kernels: a planner whose loop is
-    compiled (RRTConnect) calls `collision.kernels.segment_clearance` and `config_valid`
-    with `kernel_args()` instead of calling back into Python."""
+    compiled (RRTConnect) calls `collision.kernels.motion_free` and `config_free` with
+    `kernel_args()` instead of calling back into Python."""
 
     def kernel_args(self) -> tuple:
-        """The kernels' arguments after the motion (`collision.kernels.MotionChecks`,
-        packed as plain tuples)."""
+        """The kernels' arguments after the motion (`collision.kernels.Packed`)."""
         ...
 
 

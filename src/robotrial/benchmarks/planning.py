@@ -446,15 +446,15 @@ def service_round_trips(calls: int, show: bool = True) -> dict[str, Any]:
     --robot desk_arm --world desk` in its own process (the first tenth not counted)."""
     import roslibpy
 
-    from robotrial.benchmarks.rosbridge import _free_port, _server
+    from robotrial.benchmarks.rosbridge import free_port, server_process
 
-    port = _free_port()
+    port = free_port()
     exe = Path(sys.executable).parent / "robotrial"
     # compiled and kept first, so that the server starts within _server's wait
     subprocess.run([str(exe), "warm", "--robot", "desk_arm"], check=True, capture_output=True)
     cmd = [str(exe), "rosbridge", "--port", str(port), "--robot", "desk_arm", "--world", "desk"]
     times, planning = [], []
-    with _server(cmd, port):
+    with server_process(cmd, port):
         client = roslibpy.Ros(host="127.0.0.1", port=port)
         client.run(timeout=10)
         service = roslibpy.Service(client, "/robotrial/plan_task", "robotrial_msgs/PlanTask")

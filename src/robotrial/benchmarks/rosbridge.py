@@ -79,7 +79,8 @@ def serve_for_bench(port: int) -> None:
     uvicorn.Server(uvicorn_config(standalone_app(bus), "127.0.0.1", port)).run()
 
 
-def _free_port() -> int:
+def free_port() -> int:
+    """A TCP port on the loopback that nothing listens on now."""
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
@@ -99,10 +100,12 @@ def _wait_port(port: int, proc: subprocess.Popen, timeout: float = 20.0) -> None
 
 
 @contextlib.contextmanager
-def _server(cmd: list[str], port: int, env: dict | None = None):
+def server_process(cmd: list[str], port: int, env: dict | None = None, timeout: float = 20.0):
+    """A server started by `cmd`, once it listens on `port`; stopped (terminated, then
+    killed) on leaving."""
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
     try:
-        _wait_port(port, proc)
+        _wait_port(port, proc, timeout)
         yield proc
     finally:
         proc.terminate()
@@ -375,7 +378,7 @@ def rosbridge_rs_status(binary: str | None = None) -> tuple[str | None, str]:
 
 def run(args: argparse.Namespace) -> int:
     steps = 3 + len([c for c in args.clients.split(",") if c.strip()])
-    port = _free_port()
+    port = free_port()
     cmd = [
         sys.executable,
         "-c",
@@ -388,7 +391,7 @@ def run(args: argparse.Namespace) -> int:
         "queue_length": args.queue_length,
     }
     with progress("rosbridge bench", steps, enabled=not args.json) as advance:
-        with _server(cmd, port) as proc:
+        with server_process(cmd, port) as proc:
             results["robotrial"] = asyncio.run(
                 _measure(f"ws://127.0.0.1:{port}/", args, True, advance, proc.pid)
             )
@@ -396,9 +399,9 @@ def run(args: argparse.Namespace) -> int:
     if rs_cmd is None:
         results["rosbridge_server_rs"] = {"skipped": why}
     else:
-        rs_port = _free_port()
+        rs_port = free_port()
         try:
-            with _server([rs_cmd, "--port", str(rs_port)], rs_port) as proc:
+            with server_process([rs_cmd, "--port", str(rs_port)], rs_port) as proc:
                 results["rosbridge_server_rs"] = asyncio.run(
                     _measure(f"ws://127.0.0.1:{rs_port}/", args, False, lambda: None, proc.pid)
                 )

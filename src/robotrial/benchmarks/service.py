@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from robotrial.benchmarks.rosbridge import free_port, server_process
 from robotrial.console import add_json_flag, print_json, print_table, progress
 
 HELP = "the server under load: /points to compressing and stalled clients, page and plan timed"
@@ -66,12 +67,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-o", "--output", type=Path, default=None, help="write the JSON here")
     parser.add_argument("--plot", type=Path, default=None, help="latency and memory over time")
     add_json_flag(parser)
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _rss_mb(pid: int) -> float | None:
@@ -300,21 +295,13 @@ def _plot(measured: dict, path: Path) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    port = _free_port()
+    port = free_port()
     cmd = [sys.executable, "-c", "import robotrial.cli as c; raise SystemExit(c.main())"]
     cmd += ["serve", "--port", str(port)]
     cmd += ["--robot", args.robot, "--world", args.world, "--foxglove-port", "0"]
     cmd += args.server_arg
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    try:
+    with server_process(cmd, port, timeout=120.0) as proc:
         measured = asyncio.run(_measure(args, port, proc))
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
     result = summarize(measured, args)
     if args.output is not None:
         args.output.parent.mkdir(parents=True, exist_ok=True)

@@ -117,7 +117,8 @@ def test_the_published_set(panda) -> None:
 def test_a_finger_grazing_a_box_between_check_points_is_refused(panda) -> None:
     """table_pick's third problem: a motion whose right finger passes through the box
     over 2 % of its length, between two points a resolution step apart that are both
-    free. The motion check refuses it, as dense sampling and MuJoCo do."""
+    free. The motion check refuses it, as dense sampling of the same spheres does (MuJoCo's
+    hulls of the finger meshes graze it or not depending on how the meshes were read)."""
     prob = mbm.problems(mbm.fetch(), "table_pick", 3, panda)[2]
     checker = prob.checker()
     a = np.array(
@@ -129,5 +130,4 @@ def test_a_finger_grazing_a_box_between_check_points_is_refused(panda) -> None:
     t = np.linspace(0.0, 1.0, 1001)[:, None]
     assert checker.valid(a[None])[0] and checker.valid(b[None])[0]
     assert not checker.valid(a + t * (b - a)).all()
-    assert not prob.exact(checker).path_valid(np.array([a, b]))[0]
     assert not checker.motion_valid(a, b)

@@ -28,27 +28,14 @@ from typing import Any
 
 import numpy as np
 
+from robotrial.benchmarks.planning import DESK_REQUEST
 from robotrial.benchmarks.rosbridge import free_port, server_process
 from robotrial.console import add_json_flag, print_json, print_table, progress
+from robotrial.ros.planning_node import robot_service
 
 HELP = "the server under load: /points to compressing and stalled clients, page and plan timed"
 PROBE_TIMEOUT_S = 30.0
-PLAN_ROBOT = "desk_arm"
-PLAN_SERVICE = "/robotrial/robots/desk_arm/plan_task"
-PLAN_REQUEST = {
-    "current_joints": {
-        "name": ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6"],
-        "position": [-0.785, 0.80, 1.57, 0.0, 0.76, 0.0],
-    },
-    "obstacles": [
-        {
-            "id": "C",
-            "size": {"x": 0.1, "y": 0.1, "z": 0.2},
-            "pose": {"position": {"x": 0.2, "y": 0.0, "z": 0.15}, "orientation": {"w": 1.0}},
-        }
-    ],
-    "ee_goal": {"position": {"x": 0.18, "y": 0.2, "z": 0.02}},
-}
+PLAN_SERVICE = robot_service("desk_arm")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -149,7 +136,7 @@ async def _probe_config(client: Any, url: str) -> float:
 
 
 async def _probe_plan(ws: Any, n: int) -> tuple[float, bool]:
-    op = {"op": "call_service", "id": f"plan{n}", "service": PLAN_SERVICE, "args": PLAN_REQUEST}
+    op = {"op": "call_service", "id": f"plan{n}", "service": PLAN_SERVICE, "args": DESK_REQUEST}
     t0 = time.perf_counter()
     await ws.send(json.dumps(op))
     try:

@@ -99,7 +99,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--home-seed",
         type=int,
         default=1000,
-        help="seed of the first generated home (the next ones follow) (default: %(default)s)",
+        help="seed of the first generated home (the next ones follow)",
     )
     parser.add_argument(
         "--no-apartment", action="store_true", help="random goals in generated homes only"
@@ -112,9 +112,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="how many of each world's goals the old default stack (dijkstra/dwa) drives too "
         "(default: %(default)s)",
     )
-    parser.add_argument(
-        "--jobs", type=int, default=1, help="processes driving random goals (default: 1)"
-    )
+    parser.add_argument("--jobs", type=int, default=1, help="processes driving random goals")
     parser.add_argument("-o", "--output", metavar="JSON", help="also write the results here")
     parser.add_argument("--plot", metavar="DIR", help="write a PNG of the paths per row here")
     add_json_flag(parser)

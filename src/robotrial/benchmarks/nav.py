@@ -401,14 +401,8 @@ def _plot_goals(folder: Path, rows: list[dict]) -> None:
         for method in sorted({r["method"] for r in rows if r["world"] == world}):
             mine = [r for r in rows if r["world"] == world and r["method"] == method]
             h, wd = m.occupied.shape
-            ext = (
-                m.origin[0],
-                m.origin[0] + wd * m.resolution,
-                m.origin[1],
-                m.origin[1] + h * m.resolution,
-            )
             fig, ax = plt.subplots(figsize=(7, 7 * h / max(wd, 1)))
-            ax.imshow(~m.occupied, origin="lower", extent=ext, cmap="gray", vmin=0, vmax=1)
+            ax.imshow(~m.occupied, origin="lower", extent=m.extent, cmap="gray", vmin=0, vmax=1)
             s = w.spawn("default")
             ax.plot(s.xyz[0], s.xyz[1], "bo")
             for r in mine:

@@ -277,6 +277,14 @@ class NavMap:
     source: str
     frame_in_world: tuple[float, float, float] | None = None
 
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """(left, right, bottom, top) of the map in its frame (m), as matplotlib's
+        `imshow(extent=...)` takes it."""
+        rows, cols = self.occupied.shape
+        x0, y0 = self.origin
+        return (x0, x0 + cols * self.resolution, y0, y0 + rows * self.resolution)
+
 
 def world_map(world: World, resolution: float = 0.05) -> NavMap:
     """The ground-truth grid of a world, cut at the scan's height band."""

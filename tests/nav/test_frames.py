@@ -1,6 +1,6 @@
 """One frame from SLAM to navigation: a map `robotrial slam` made from a `robotrial sim`
 recording is navigated as it is, with the goal in the map's own frame, in rooms A, B, C
-and the apartment. The robot's start on the map comes from the map's metadata; the test
+and the apartment, and a map that says nothing of its frame (AMCL localizes globally). The robot's start on the map comes from the map's metadata; the test
 puts the goal in the world itself (the recording began at the world's spawn, where the
 map frame lies) and checks where the simulated robot truly stops. A map whose frame the
 navigation took for the world's would stop it a metre or more away."""
@@ -11,6 +11,7 @@ import json
 
 import numpy as np
 import pytest
+import yaml
 
 from robotrial.cli import main
 from robotrial.model import load_world
@@ -41,6 +42,33 @@ def test_a_map_made_by_slam_is_navigated_in_its_own_frame(world, tmp_path, capsy
     run = out["runs"][0]
     assert out["start_from"] == "the map's metadata"
     assert np.allclose(out["start"], (0.0, 0.0, 0.0), atol=1e-6)
+    spawn = load_world(world).spawn("default")
+    target = compose(np.array([*spawn.xyz[:2], spawn.yaw]), np.array(goal))
+    off = float(np.hypot(*(np.array(run["end"][:2]) - target[:2])))
+    assert code == 0 and run["success"], run
+    assert off <= 0.15, f"stopped {off:.2f} m from the goal in the world: {run}"
+
+
+def test_a_map_with_no_frame_is_navigated_after_global_localization(tmp_path, capsys):
+    """A map_server map that says nothing of where it lies: AMCL spreads its particles over
+    the whole free space, gathers them while the robot turns, and the goal in the map's
+    frame is reached."""
+    world, bag, stem = "room_b", tmp_path / "run.mcap", tmp_path / "plain"
+    assert (
+        main(["sim", "--world", world, "--duration", "2", "--drive", "none", "--record", str(bag)])
+        == 0
+    )
+    assert main(["slam", "--method", "gmapping", "--bag", str(bag), "-o", str(stem), "--json"]) == 0
+    meta = yaml.safe_load((tmp_path / "plain.yaml").read_text())
+    meta.pop("robotrial", None)
+    (tmp_path / "plain.yaml").write_text(yaml.safe_dump(meta))
+    capsys.readouterr()
+    goal = GOALS[world]
+    argv = ["nav", "--world", world, "--map", f"{stem}.yaml", "--speed", "1.0", "--json"]
+    code = main([*argv, "--goal", *map(str, goal)])
+    out = json.loads(capsys.readouterr().out)
+    run = out["runs"][0]
+    assert out["start_from"] == "global localization"
     spawn = load_world(world).spawn("default")
     target = compose(np.array([*spawn.xyz[:2], spawn.yaw]), np.array(goal))
     off = float(np.hypot(*(np.array(run["end"][:2]) - target[:2])))

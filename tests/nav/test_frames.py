@@ -1,9 +1,10 @@
 """One frame from SLAM to navigation: a map `robotrial slam` made from a `robotrial sim`
 recording is navigated as it is, with the goal in the map's own frame, in rooms A, B, C
-and the apartment, and a map that says nothing of its frame (AMCL localizes globally). The robot's start on the map comes from the map's metadata; the test
-puts the goal in the world itself (the recording began at the world's spawn, where the
-map frame lies) and checks where the simulated robot truly stops. A map whose frame the
-navigation took for the world's would stop it a metre or more away."""
+and the apartment. The robot's start on the map comes from the map's metadata, or, on a
+map that says nothing of its frame, from AMCL's global localization. The test puts the
+goal in the world itself (the recording began at the world's spawn, where the map frame
+lies) and checks where the simulated robot truly stops. A map whose frame the navigation
+took for the world's would stop it a metre or more away."""
 
 from __future__ import annotations
 

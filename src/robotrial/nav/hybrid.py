@@ -55,7 +55,10 @@ class HybridConfig:
     heading faces out of it), `tight_margin` (m) and `tight_penalty` (a step that
     ends with the rectangle nearer than `tight_margin` to something costs that much
     more, and a straight shot must keep it until near the goal: plans keep room for
-    localization and tracking errors where there is room), `max_expansions`,
+    localization and tracking errors where there is room), `snug_margin` (m) and
+    `snug_penalty` (one nearer than that costs that much more again: where every pose
+    is tight, as in a doorway 10-15 cm wider than the base, the plan crosses it
+    centred and square rather than at a slant), `max_expansions`,
     `wall_tolerance` (m:
     obstacle-layer cells this near the static map's are not blocking),
     `heuristic_weight` (>= 1; above 1 the search trades the cheapest plan for far fewer
@@ -74,6 +77,8 @@ class HybridConfig:
     reverse_shot: bool = True
     tight_margin: float = 0.07
     tight_penalty: float = 2.0
+    snug_margin: float = 0.05
+    snug_penalty: float = 3.0
     max_expansions: int = 400_000
     allow_unknown: bool = False
     wall_tolerance: float = 0.1
@@ -316,6 +321,10 @@ def _search(
     st2,
     ce2,
     tight_penalty,
+    snug_dist,
+    st3,
+    ce3,
+    snug_penalty,
     prims,
     rot_cost,
     tol,
@@ -326,11 +335,12 @@ def _search(
     """Hybrid-A* from (sx, sy, yaw bin sb) to within `tol` of (gx, gy), from where a turn
     on the spot at the goal to check bin `gk` is clear (-1: any heading will do). A step
     that ends where the rectangle is clear but not by the tight margin (cells `st2`,
-    `ce2`) costs `tight_penalty` times more; a straight shot to the goal must keep the
-    tight margin too, unless it starts within SHOT_NEAR of the goal. Returns the states'
-    (x, y, bin, parent) arrays, the index of the final state (-1: no path, -2: expansion
-    limit) and how the final state ends: 0 at the goal, 1 in a straight shot to it, 2 in
-    a straight shot backwards (tried with `reverse_shot`)."""
+    `ce2`) costs `tight_penalty` times more, and `snug_penalty` times more again where
+    it is not clear by the snug margin (cells `st3`, `ce3`); a straight shot to the goal
+    must keep the tight margin too, unless it starts within SHOT_NEAR of the goal.
+    Returns the states' (x, y, bin, parent) arrays, the index of the final state (-1: no
+    path, -2: expansion limit) and how the final state ends: 0 at the goal, 1 in a
+    straight shot to it, 2 in a straight shot backwards (tried with `reverse_shot`)."""
     rows, cols = blocked.shape
     hr = int(np.ceil(rows * res / cell))
     hc = int(np.ceil(cols * res / cell))
@@ -406,6 +416,10 @@ def _search(
                 x1, y1, 2 * b1, blocked, dist, tight_dist, ox, oy, res, st2, ce2
             ):
                 step_cost *= tight_penalty
+                if snug_penalty > 1.0 and _collides(
+                    x1, y1, 2 * b1, blocked, dist, snug_dist, ox, oy, res, st3, ce3
+                ):
+                    step_cost *= snug_penalty
             g1 = gs[cur] + step_cost
             if g1 >= best[k1]:
                 continue
@@ -514,12 +528,16 @@ class HybridAStar:
         edge = footprint_cells(
             costmap.footprint, costmap.resolution, c.margin, 2 * costmap.resolution
         )
-        # the tight margin's edge band reaches past the margin: enough from a clear pose
-        tight = footprint_cells(
-            costmap.footprint,
-            costmap.resolution,
-            max(c.tight_margin, c.margin),
-            2 * costmap.resolution + max(c.tight_margin - c.margin, 0.0),
+        # the tight and snug margins' edge bands reach past the margin: enough from a
+        # clear pose
+        tight, snug = (
+            footprint_cells(
+                costmap.footprint,
+                costmap.resolution,
+                max(m, c.margin),
+                2 * costmap.resolution + max(m - c.margin, 0.0),
+            )
+            for m in (c.tight_margin, c.snug_margin)
         )
         blocked = self.blocked(costmap)
         fp = costmap.footprint
@@ -577,6 +595,10 @@ class HybridAStar:
             tight[0],
             tight[1],
             c.tight_penalty,
+            fp.circumscribed_radius + max(c.snug_margin, c.margin) + 2 * res,
+            snug[0],
+            snug[1],
+            c.snug_penalty,
             motions(c),
             c.rotation_cost,
             c.goal_tolerance,

@@ -733,7 +733,11 @@ class ProfileController:
         v = float(np.clip(np.clip(v, v0 - dv, v0 + dv), -c.max_speed, c.max_speed))
         w = float(np.clip(np.clip(w, w0 - dw, w0 + dw), -c.max_yaw_rate, c.max_yaw_rate))
         # the command's next moments must leave the rectangle clear
-        candidates = [(v, w), (max(0.0, v0 - dv) if v0 > 0 else min(0.0, v0 + dv), w)]
+        slower = max(0.0, v0 - dv) if v0 > 0 else min(0.0, v0 + dv)
+        # slowing down keeps the arc's curvature: the same turn rate at a lower speed
+        # would turn the base off the plan (into a doorway's jamb) while it brakes
+        bend = w * slower / v if v * slower > 1e-9 else w
+        candidates = [(v, w), (slower, float(np.clip(bend, w0 - dw, w0 + dw)))]
         candidates.append((candidates[-1][0], float(np.clip(0.0, w0 - dw, w0 + dw))))
         if abs(v) < 0.1 and stop_at is None:
             # where a turn on the spot is blocked (the base stopped a little off the

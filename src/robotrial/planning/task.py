@@ -46,8 +46,8 @@ from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
 from robotrial.planning import planner_class
 from robotrial.planning.base import PlanResult, Problem, path_length
-from robotrial.planning.smoothing import densify, round_corners, shortcut
-from robotrial.planning.timing import Trajectory, time_parameterize
+from robotrial.planning.smoothing import densify, round_corners, shortcut, shortcut_and_round
+from robotrial.planning.timing import Trajectory, time_parameterize, time_parameterize_reference
 
 DEFAULT_TIME_LIMIT = 2.0  # s
 MAX_TIME_LIMIT = 60.0  # s: the longest answer a request may ask for
@@ -56,6 +56,7 @@ DEFAULT_ACCEL_RATIO = 2.0  # joint acceleration limit = ratio x velocity limit, 
 FLOOR_THICKNESS = 0.1  # m
 SCENES_KEPT = 8  # collision checkers of this many recent scenes are kept
 REFERENCE_PERIOD = 0.1  # s between the trajectory's samples; trackers interpolate (Hermite)
+NEAR = 0.002  # m: the validation's sphere screen pads the robot by this much more
 
 Obstacles = list[tuple[str, Shape, Pose]]
 
@@ -134,6 +135,7 @@ class _Scene:
     held: HeldObject | None
     checker: CollisionChecker
     exact: ExactChecker | None
+    screen: CollisionChecker | None
 
 
 def _scene_key(obstacles: Obstacles, held: HeldObject | None, start: np.ndarray) -> tuple:
@@ -196,6 +198,9 @@ class TaskPlanner:
     effector). `padding` (m) keeps the robot's spheres that far from obstacles.
     `checker`: the collision checker class built for each scene (a subclass of
     `CollisionChecker` suited to the scenes at hand, e.g. `collision.voxels.VoxelChecker`).
+    With `reference`, each answer is post-processed as before the compiled path (NumPy
+    shortcuts, scipy's spline, every validation sample through MuJoCo): the baseline of
+    `robotrial bench planning --service`.
     """
 
     def __init__(
@@ -206,8 +211,10 @@ class TaskPlanner:
         padding: float = 0.0,
         validate: bool = True,
         checker: type[CollisionChecker] = CollisionChecker,
+        reference: bool = False,
     ) -> None:
         self.robot = robot
+        self.reference = reference
         self.checker_class = checker
         self.world = world
         self.joint_names = list(joints) if joints else default_planning_joints(robot)
@@ -358,15 +365,19 @@ class TaskPlanner:
         for name, shape, pose in obstacles:
             env.add(name, shape, pose)
         checker = self.checker_class(self.spheres, env, self.padding, held, held_touch_at=start)
-        exact = None
+        exact = screen = None
         if self.validate:
+            if not self.reference:
+                screen = self.checker_class(
+                    self.spheres, env, self.padding + NEAR, held, held_touch_at=start
+                )
             exact = ExactChecker(
                 checker,
                 self.world,
                 obstacles,
                 held=(held.shape, Pose.from_matrix(held.pose_in_link), held.link) if held else None,
             )
-        scene = _Scene(env, obstacles, held, checker, exact)
+        scene = _Scene(env, obstacles, held, checker, exact, screen)
         self._scenes[key] = scene
         while len(self._scenes) > SCENES_KEPT:
             self._scenes.popitem(last=False)
@@ -468,11 +479,14 @@ class TaskPlanner:
                 return
             self._remaining("smoothing")
             t_post = time.perf_counter()
-            path = shortcut(res.path, checker, rng)
-            smooth = round_corners(path, checker)
+            if self.reference:
+                path = shortcut(res.path, checker, rng)
+                smooth = round_corners(path, checker)
+            else:
+                path, smooth = shortcut_and_round(res.path, checker, rng)
             stats["shortcut_time"] = stats.get("shortcut_time", 0.0) + time.perf_counter() - t_post
             self._remaining("timing and validation")
-            traj = self._timed_and_checked(smooth, path, checker, exact, stats)
+            traj = self._timed_and_checked(smooth, path, checker, exact, scene.screen, stats)
             if traj is not None:
                 break
         else:
@@ -554,20 +568,20 @@ class TaskPlanner:
         stats["ik_solutions"] = len(ik.solutions)
         return ik.q, checker, free_ik
 
-    def _timed_and_checked(self, smooth, path, checker, exact, stats) -> Trajectory | None:
+    def _timed_and_checked(self, smooth, path, checker, exact, screen, stats) -> Trajectory | None:
         """Time the rounded path, else the plain one with denser waypoints; keep the first
         whose motion as a tracker follows it (Hermite between the samples) passes the
-        dense check (MuJoCo when validating, else the spheres)."""
+        dense check (MuJoCo when validating, on the samples the padded spheres of
+        `screen` do not clear; else the spheres)."""
+        timed = time_parameterize_reference if self.reference else time_parameterize
         for candidate, gap in ((smooth, 0.05), (path, 0.01)):
             t = time.perf_counter()
-            traj = time_parameterize(
-                candidate, self.vmax, self.amax, period=REFERENCE_PERIOD, max_gap=gap
-            )
+            traj = timed(candidate, self.vmax, self.amax, period=REFERENCE_PERIOD, max_gap=gap)
             tracked = traj.tracked(REFERENCE_PERIOD / 2)
             stats["timing_time"] = stats.get("timing_time", 0.0) + time.perf_counter() - t
             t = time.perf_counter()
             if exact is not None:
-                ok, _ = exact.path_valid(tracked)
+                ok, _ = exact.path_valid(tracked, screen=screen)
             else:
                 dense = densify(tracked, float(np.min(checker.resolution)) / 2)
                 ok = bool(np.all(checker.valid(dense)))

@@ -144,7 +144,7 @@ def _point(path, cum, s, out):
     return k
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, inline="always")
 def _shortcut(path, draws, floats, ints, work, work_ints):
     """`shortcut`, compiled, with its uniform draws given: (batches, BATCH, 2) in [0, 1).
     The pairs of a batch are tried in order of gain, so the first free one is the best."""
@@ -192,7 +192,7 @@ def _shortcut(path, draws, floats, ints, work, work_ints):
     return _reduce(path, floats, ints, work, work_ints)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(cache=True, inline="always")
 def _round(path, fraction, floats, ints, work, work_ints):
     """`round_corners`, compiled."""
     n, d = path.shape
@@ -219,6 +219,13 @@ def _round(path, fraction, floats, ints, work, work_ints):
     return out[: m + 1].copy()
 
 
+@nb.njit(cache=True, nogil=True)
+def _post(path, draws, fraction, floats, ints, work, work_ints):
+    """Shortcut, then round: one compiled function, one load from numba's cache."""
+    short = _shortcut(path, draws, floats, ints, work, work_ints)
+    return short, _round(short, fraction, floats, ints, work, work_ints)
+
+
 def shortcut_and_round(
     path: np.ndarray,
     checker: CompiledChecker,
@@ -228,7 +235,6 @@ def shortcut_and_round(
 ) -> tuple[np.ndarray, np.ndarray]:
     """`shortcut` then `round_corners` in one compiled call over a checker's kernels:
     the same paths from the same random draws. Returns (shortcut path, rounded path)."""
-    checks = tuple(checker.kernel_args())
     draws = rng.random((-(-attempts // BATCH), BATCH, 2))
-    short = _shortcut(np.ascontiguousarray(path, dtype=float), draws, *checks)
-    return short, _round(short, fraction, *checks)
+    path = np.ascontiguousarray(path, dtype=float)
+    return _post(path, draws, float(fraction), *checker.kernel_args())

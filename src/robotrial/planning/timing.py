@@ -166,7 +166,10 @@ def _excess(coef, knots, grid, x, u, vmax, amax) -> float:
     points inside every grid interval (1 when never): the largest of |qd| / vmax and
     sqrt(|qdd| / amax), with qd and qdd from the cubic pieces `coef` (4, m, d) between
     `knots` (the spline's own; every knot is a grid point, so one piece per interval)."""
-    worst = 1.0
+    d = coef.shape[2]
+    inv_v = 1.0 / vmax
+    inv_a = 1.0 / amax
+    worst2 = 1.0  # the largest of (|qd| / vmax)^2 and |qdd| / amax: one square root at the end
     piece = 0
     for i in range(len(grid) - 1):
         while piece < len(knots) - 2 and knots[piece + 1] <= grid[i]:
@@ -174,16 +177,16 @@ def _excess(coef, knots, grid, x, u, vmax, amax) -> float:
         step = grid[i + 1] - grid[i]
         for f in range(9):
             t = f / 8.0
-            xs = x[i] + t * (x[i + 1] - x[i])  # x is linear in s on an interval
-            v = np.sqrt(max(xs, 0.0))
+            xs = max(x[i] + t * (x[i + 1] - x[i]), 0.0)  # x is linear in s on an interval
+            v = np.sqrt(xs)
             h = grid[i] + t * step - knots[piece]
-            for j in range(coef.shape[2]):
-                d1 = (3.0 * coef[0, piece, j] * h + 2.0 * coef[1, piece, j]) * h + coef[2, piece, j]
-                d2 = 6.0 * coef[0, piece, j] * h + 2.0 * coef[1, piece, j]
-                worst = max(
-                    worst, abs(d1) * v / vmax[j], np.sqrt(abs(d2 * xs + d1 * u[i]) / amax[j])
-                )
-    return worst
+            for j in range(d):
+                c0, c1 = coef[0, piece, j], coef[1, piece, j]
+                d1 = (3.0 * c0 * h + 2.0 * c1) * h + coef[2, piece, j]
+                d2 = 6.0 * c0 * h + 2.0 * c1
+                speed = d1 * v * inv_v[j]
+                worst2 = max(worst2, speed * speed, abs(d2 * xs + d1 * u[i]) * inv_a[j])
+    return np.sqrt(worst2)
 
 
 STALL = 10.0  # an interval slower than this many rest-to-rest times is a stalled profile

@@ -4,7 +4,8 @@ Layer 3, over arrays and geometry (the ROS messages are converted in
 `robotrial.ros.planning_node`). `TaskPlanner` holds what a robot contributes once
 (kinematics, link spheres and self-collision pairs); each request adds its obstacles and
 the carried object, solves IK for the end-effector goal, plans, shortcuts and rounds the
-path, times it, and validates the timed trajectory densely with MuJoCo before answering.
+path, times it (both compiled), and validates the timed trajectory densely before
+answering: the padded spheres clear what they can, MuJoCo decides the samples near a contact.
 The collision checkers of the last few scenes are kept, so a request in a scene already
 seen (the same obstacles, the same object) builds nothing. Failures are explicit: a goal
 out of reach (by how much), a start or goal in collision (which links touch what), no

@@ -106,6 +106,19 @@ def round_corners(path: np.ndarray, checker: Checker, fraction: float = 0.25) ->
 BATCH = 16  # shortcut pairs drawn at once, as `shortcut` draws them
 
 
+@nb.njit(cache=True, inline="always")
+def arc_lengths(path):
+    """(n,) joint-space length of the path (n, d) up to each waypoint, from 0."""
+    n, d = path.shape
+    cum = np.zeros(n)
+    for i in range(n - 1):
+        s2 = 0.0
+        for j in range(d):
+            s2 += (path[i + 1, j] - path[i, j]) ** 2
+        cum[i + 1] = cum[i] + np.sqrt(s2)
+    return cum
+
+
 @nb.njit(cache=True, nogil=True)
 def _reduce(path, floats, ints, work, work_ints):
     """`reduce_vertices`, compiled: from each kept waypoint, the farthest later one
@@ -159,12 +172,7 @@ def _shortcut(path, draws, floats, ints, work, work_ints):
         n = path.shape[0]
         if n <= 2:
             break
-        cum = np.zeros(n)
-        for i in range(n - 1):
-            s2 = 0.0
-            for j in range(d):
-                s2 += (path[i + 1, j] - path[i, j]) ** 2
-            cum[i + 1] = cum[i] + np.sqrt(s2)
+        cum = arc_lengths(path)
         if cum[-1] <= 0:
             break
         for p in range(BATCH):

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from robotrial.planning.smoothing import densify
+from robotrial.planning.smoothing import arc_lengths, densify
 
 ACCEL_MARGIN = 0.97  # the limits hold at grid points; the rest is scaled out below
 
@@ -303,12 +303,7 @@ def _timed(path, vmax, amax, period, max_gap):
     """The whole of `time_parameterize` for a path of at least two distinct points."""
     way = _densify(path, max_gap)
     n, d = way.shape
-    knots = np.zeros(n)
-    for i in range(n - 1):
-        s2 = 0.0
-        for j in range(d):
-            s2 += (way[i + 1, j] - way[i, j]) ** 2
-        knots[i + 1] = knots[i] + np.sqrt(s2)
+    knots = arc_lengths(way)
     knots /= knots[-1]
     c = _clamped_spline(knots, way)
     # the spline's knots are grid points too: between two grid points the path is then

@@ -372,7 +372,7 @@ def time_parameterize(
     compiled call: densify, spline, profile, samples)."""
     path = np.ascontiguousarray(path, dtype=float)
     d = path.shape[1]
-    if len(path) < 2 or (np.allclose(path[0], path[-1]) and len(path) == 2):
+    if len(path) < 2 or (len(path) == 2 and np.allclose(path[0], path[-1])):
         return Trajectory(np.zeros(1), path[:1].copy(), np.zeros((1, d)), np.zeros((1, d)))
     vmax = np.ascontiguousarray(vmax, dtype=float)
     amax = np.ascontiguousarray(amax, dtype=float)
@@ -394,7 +394,7 @@ def time_parameterize_reference(
     vmax = np.asarray(vmax, dtype=float)
     amax = np.asarray(amax, dtype=float)
     d = path.shape[1]
-    if len(path) < 2 or (np.allclose(path[0], path[-1]) and len(path) == 2):
+    if len(path) < 2 or (len(path) == 2 and np.allclose(path[0], path[-1])):
         q = path[:1]
         return Trajectory(np.zeros(1), q.copy(), np.zeros((1, d)), np.zeros((1, d)))
     way = densify(path, max_gap)

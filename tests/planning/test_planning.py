@@ -23,7 +23,7 @@ from robotrial.msgs.sensor_msgs import JointState
 from robotrial.planning import PLANNERS, Problem, planner_class
 from robotrial.planning.problems import desk_task
 from robotrial.planning.smoothing import round_corners, shortcut, shortcut_and_round
-from robotrial.planning.task import NEAR, TaskPlanner
+from robotrial.planning.task import TaskPlanner
 from robotrial.planning.timing import time_parameterize, time_parameterize_reference
 from robotrial.ros.planning_node import answer
 
@@ -181,14 +181,13 @@ def test_compiled_timing_equals_the_reference_and_ends_where_the_profile_stalls(
 def test_validation_hands_the_samples_near_a_contact_to_mujoco(desk) -> None:
     checker = desk.checker()
     exact = desk.exact(checker)
-    screen = CollisionChecker(desk.spheres, checker.env, NEAR)
     rng = np.random.default_rng(0)
     qs = desk.kin.random(rng, 400)
     free = qs[checker.valid(qs)]
     through = 0
     for a, b in zip(free[:40:2], free[1:40:2], strict=True):
         path = np.array([a, b])
-        screened = exact.path_valid(path, screen=screen)
+        screened = exact.path_valid(path, screen=checker)
         # the same verdict and the same first colliding sample as MuJoCo on every sample
         assert screened == exact.path_valid(path)
         through += not screened[0]

@@ -161,9 +161,10 @@ class ExactChecker:
         """Check a path densely (every `step` rad; default: the sphere model's resolution
         halved). Returns (valid, index of the first colliding sample or -1).
 
-        With `screen` (the sphere checker, padded: its covers hold the shapes, so a
-        sample it calls free is free for MuJoCo too), only the samples it does not
-        clear go to MuJoCo: those near a contact."""
+        With `screen` (a sphere checker of the same scene: its covers hold the real
+        shapes and its contacts count from 10 um, so a sample it calls free is free for
+        MuJoCo too), only the samples it does not clear go to MuJoCo: those near a
+        contact."""
         import mujoco
 
         path = np.atleast_2d(np.asarray(path, dtype=float))

@@ -5,7 +5,7 @@ Layer 3, over arrays and geometry (the ROS messages are converted in
 (kinematics, link spheres and self-collision pairs); each request adds its obstacles and
 the carried object, solves IK for the end-effector goal, plans, shortcuts and rounds the
 path, times it (both compiled), and validates the timed trajectory densely before
-answering: the padded spheres clear what they can, MuJoCo decides the samples near a contact.
+answering: the spheres clear what they can, MuJoCo decides the samples near a contact.
 The collision checkers of the last few scenes are kept, so a request in a scene already
 seen (the same obstacles, the same object) builds nothing. Failures are explicit: a goal
 out of reach (by how much), a start or goal in collision (which links touch what), no
@@ -57,7 +57,6 @@ DEFAULT_ACCEL_RATIO = 2.0  # joint acceleration limit = ratio x velocity limit, 
 FLOOR_THICKNESS = 0.1  # m
 SCENES_KEPT = 8  # collision checkers of this many recent scenes are kept
 REFERENCE_PERIOD = 0.1  # s between the trajectory's samples; trackers interpolate (Hermite)
-NEAR = 0.002  # m: the validation's sphere screen pads the robot by this much more
 
 Obstacles = list[tuple[str, Shape, Pose]]
 
@@ -136,7 +135,6 @@ class _Scene:
     held: HeldObject | None
     checker: CollisionChecker
     exact: ExactChecker | None
-    screen: CollisionChecker | None
 
 
 def _scene_key(obstacles: Obstacles, held: HeldObject | None, start: np.ndarray) -> tuple:
@@ -366,19 +364,15 @@ class TaskPlanner:
         for name, shape, pose in obstacles:
             env.add(name, shape, pose)
         checker = self.checker_class(self.spheres, env, self.padding, held, held_touch_at=start)
-        exact = screen = None
+        exact = None
         if self.validate:
-            if not self.reference:
-                screen = self.checker_class(
-                    self.spheres, env, self.padding + NEAR, held, held_touch_at=start
-                )
             exact = ExactChecker(
                 checker,
                 self.world,
                 obstacles,
                 held=(held.shape, Pose.from_matrix(held.pose_in_link), held.link) if held else None,
             )
-        scene = _Scene(env, obstacles, held, checker, exact, screen)
+        scene = _Scene(env, obstacles, held, checker, exact)
         self._scenes[key] = scene
         while len(self._scenes) > SCENES_KEPT:
             self._scenes.popitem(last=False)
@@ -487,7 +481,7 @@ class TaskPlanner:
                 path, smooth = shortcut_and_round(res.path, checker, rng)
             stats["shortcut_time"] = stats.get("shortcut_time", 0.0) + time.perf_counter() - t_post
             self._remaining("timing and validation")
-            traj = self._timed_and_checked(smooth, path, checker, exact, scene.screen, stats)
+            traj = self._timed_and_checked(smooth, path, checker, exact, stats)
             if traj is not None:
                 break
         else:
@@ -569,11 +563,11 @@ class TaskPlanner:
         stats["ik_solutions"] = len(ik.solutions)
         return ik.q, checker, free_ik
 
-    def _timed_and_checked(self, smooth, path, checker, exact, screen, stats) -> Trajectory | None:
+    def _timed_and_checked(self, smooth, path, checker, exact, stats) -> Trajectory | None:
         """Time the rounded path, else the plain one with denser waypoints; keep the first
         whose motion as a tracker follows it (Hermite between the samples) passes the
-        dense check (MuJoCo when validating, on the samples the padded spheres of
-        `screen` do not clear; else the spheres)."""
+        dense check (MuJoCo when validating, on the samples the planning checker's
+        spheres do not clear; else the spheres)."""
         timed = time_parameterize_reference if self.reference else time_parameterize
         for candidate, gap in ((smooth, 0.05), (path, 0.01)):
             t = time.perf_counter()
@@ -582,6 +576,7 @@ class TaskPlanner:
             stats["timing_time"] = stats.get("timing_time", 0.0) + time.perf_counter() - t
             t = time.perf_counter()
             if exact is not None:
+                screen = None if self.reference else checker
                 ok, _ = exact.path_valid(tracked, screen=screen)
             else:
                 dense = densify(tracked, float(np.min(checker.resolution)) / 2)

@@ -1,7 +1,9 @@
 """Poses, rigid transforms and primitive shapes: the vocabulary every layer shares.
 
 Layer 0: imports nothing from robotrial. Quaternions are (x, y, z, w), the ROS and
-scipy order; angles are radians, lengths metres.
+scipy order; angles are radians, lengths metres. A pose's matrix and the URDF's roll,
+pitch and yaw are computed here; scipy's Rotation (whose import takes a third of a
+second) only where a matrix or angles are read back.
 """
 
 from __future__ import annotations
@@ -9,7 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -45,27 +46,52 @@ class Pose:
     @staticmethod
     def from_xyz_rpy(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> Pose:
         """The URDF convention: fixed-axis roll, pitch, yaw (rotate about x, then y, then z)."""
-        return Pose(xyz, Rotation.from_euler("xyz", rpy).as_quat())
+        r, p, y = (0.5 * float(a) for a in np.asarray(rpy, dtype=float).reshape(3))
+        cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+        return Pose(
+            xyz,
+            (
+                sr * cp * cy - cr * sp * sy,
+                cr * sp * cy + sr * cp * sy,
+                cr * cp * sy - sr * sp * cy,
+                cr * cp * cy + sr * sp * sy,
+            ),
+        )
 
     @staticmethod
     def from_matrix(m: np.ndarray) -> Pose:
+        from scipy.spatial.transform import Rotation
+
         m = np.asarray(m, dtype=float)
         return Pose(m[:3, 3], Rotation.from_matrix(m[:3, :3]).as_quat())
 
     @staticmethod
     def from_xy_yaw(x: float, y: float, yaw: float, z: float = 0.0) -> Pose:
-        return Pose((x, y, z), Rotation.from_euler("z", yaw).as_quat())
+        return Pose((x, y, z), (0.0, 0.0, np.sin(0.5 * yaw), np.cos(0.5 * yaw)))
 
     @property
     def rpy(self) -> Vec3:
+        from scipy.spatial.transform import Rotation
+
         return _vec3(Rotation.from_quat(self.quat).as_euler("xyz"))
 
     @property
     def yaw(self) -> float:
+        from scipy.spatial.transform import Rotation
+
         return float(Rotation.from_quat(self.quat).as_euler("xyz")[2])
 
     def rotation(self) -> np.ndarray:
-        return Rotation.from_quat(self.quat).as_matrix()
+        x, y, z, w = self.quat
+        x2, y2, z2, w2 = x * x, y * y, z * z, w * w
+        xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
+        return np.array(
+            [
+                [x2 - y2 - z2 + w2, 2 * (xy - zw), 2 * (xz + yw)],
+                [2 * (xy + zw), -x2 + y2 - z2 + w2, 2 * (yz - xw)],
+                [2 * (xz - yw), 2 * (yz + xw), -x2 - y2 + z2 + w2],
+            ]
+        )
 
     def matrix(self) -> np.ndarray:
         """The 4x4 homogeneous matrix."""
@@ -82,6 +108,24 @@ class Pose:
 
     def is_identity(self, tol: float = 1e-12) -> bool:
         return bool(np.allclose(self.matrix(), np.eye(4), atol=tol))
+
+
+def quat_from_rotation(r: np.ndarray) -> Quat:
+    """The unit quaternion (x, y, z, w) of a rotation matrix that is orthonormal to
+    rounding (eigenvectors, products of rotations), from its largest diagonal term
+    (Shepperd's method); `Pose.from_matrix` takes any matrix near a rotation."""
+    r = np.asarray(r, dtype=float)
+    tr = r[0, 0] + r[1, 1] + r[2, 2]
+    k = int(np.argmax([r[0, 0], r[1, 1], r[2, 2], tr]))
+    if k == 3:
+        q = [r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1], 1.0 + tr]
+    else:
+        i, j, m = k, (k + 1) % 3, (k + 2) % 3
+        q = [0.0, 0.0, 0.0, r[m, j] - r[j, m]]
+        q[i] = 1.0 - tr + 2.0 * r[i, i]
+        q[j] = r[j, i] + r[i, j]
+        q[m] = r[m, i] + r[i, m]
+    return _quat(q)
 
 
 def transform_points(m: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -22,9 +22,9 @@ from robotrial.msgs.robotrial_msgs import PlanTaskRequest, PlanTaskResponse
 from robotrial.msgs.sensor_msgs import JointState
 from robotrial.planning import PLANNERS, Problem, planner_class
 from robotrial.planning.problems import desk_task
-from robotrial.planning.smoothing import shortcut
+from robotrial.planning.smoothing import round_corners, shortcut, shortcut_and_round
 from robotrial.planning.task import TaskPlanner
-from robotrial.planning.timing import time_parameterize
+from robotrial.planning.timing import time_parameterize, time_parameterize_reference
 from robotrial.ros.planning_node import answer
 
 START = [-0.785, 0.80, 1.57, 0.0, 0.76, 0.0]  # the hand near (0.15, -0.15, 0.02)
@@ -135,6 +135,63 @@ def test_shortcut_keeps_validity_and_shortens(desk) -> None:
     short = shortcut(res.path, checker, np.random.default_rng(0))
     assert res.stats["path_length"] >= np.sum(np.linalg.norm(np.diff(short, axis=0), axis=1)) - 1e-9
     assert bool(np.all(checker.motions_valid(short[:-1], short[1:])))
+
+
+def test_compiled_shortcut_and_rounding_equal_the_numpy_ones(desk) -> None:
+    checker = desk.checker()
+    for seed in range(3):
+        res = PLANNERS["rrt"]().solve(Problem(desk.start, desk.goal[None], 5.0, seed), checker)
+        short = shortcut(res.path, checker, np.random.default_rng(seed))
+        rounded = round_corners(short, checker)
+        fast_short, fast_rounded = shortcut_and_round(
+            res.path, checker, np.random.default_rng(seed)
+        )
+        np.testing.assert_allclose(fast_short, short, atol=1e-12)
+        np.testing.assert_allclose(fast_rounded, rounded, atol=1e-12)
+
+
+# a desk path whose profile came to rest one grid point before the end: the last
+# interval then took 2e12 s
+STALLING = [
+    [-0.785, 0.8, 1.57, 0.0, 0.76, 0.0],
+    [-0.66434563, 0.55144892, 0.90104886, 0.77740836, 1.02055083, 0.2127185],
+    [-0.37310116, 0.44079338, 0.69879893, 1.0522512, 1.06893685, 0.25746029],
+    [0.37997787, 0.35737781, 0.76100027, 1.09937139, 0.95354409, 0.17896716],
+    [0.59007733, 0.79253003, 1.15763506, 0.9265254, 0.76417619, 0.05310235],
+    [0.66026567, 0.94978049, 1.29996725, 0.86396313, 0.6968411, 0.00836056],
+    [0.66073122, 0.98637964, 1.33032901, 0.84912232, 0.68420374, 0.0],
+]
+
+
+def test_compiled_timing_equals_the_reference_and_ends_where_the_profile_stalls() -> None:
+    vmax = np.array([3.0, 3.0, 3.0, 4.0, 4.0, 5.0])
+    amax = 2 * vmax
+    rng = np.random.default_rng(4)
+    for path in [np.array(STALLING), *(np.cumsum(rng.normal(0, 0.4, (5, 6)), 0) for _ in range(3))]:
+        fast = time_parameterize(path, vmax, amax, period=0.1)
+        ref = time_parameterize_reference(path, vmax, amax, period=0.1)
+        assert fast.duration < 10.0
+        np.testing.assert_allclose(fast.t, ref.t, atol=1e-9)
+        np.testing.assert_allclose(fast.q, ref.q, atol=1e-9)
+        np.testing.assert_allclose(fast.qd, ref.qd, atol=1e-9)
+        assert np.all(np.abs(fast.qd) <= vmax * (1 + 1e-9))
+        assert np.all(np.abs(fast.qdd) <= amax * (1 + 1e-9))
+
+
+def test_validation_hands_the_samples_near_a_contact_to_mujoco(desk) -> None:
+    checker = desk.checker()
+    exact = desk.exact(checker)
+    rng = np.random.default_rng(0)
+    qs = desk.kin.random(rng, 400)
+    free = qs[checker.valid(qs)]
+    through = 0
+    for a, b in zip(free[:40:2], free[1:40:2], strict=True):
+        path = np.array([a, b])
+        screened = exact.path_valid(path, screen=checker)
+        # the same verdict and the same first colliding sample as MuJoCo on every sample
+        assert screened == exact.path_valid(path)
+        through += not screened[0]
+    assert through > 0  # some of these motions pass through the desk or obstacle C
 
 
 def test_time_parameterization_respects_limits() -> None:

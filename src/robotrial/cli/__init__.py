@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import signal
 import sys
 import threading
@@ -31,6 +32,9 @@ COMMANDS: dict[str, str] = {
     "trials": "trials",
     "bench": "bench",
 }
+NO_CAMERAS = {"plan", "warm"}
+"""Commands that use MuJoCo for collisions only: its OpenGL is not loaded for them (a
+third of a second of `robotrial plan`), unless MUJOCO_GL asks for one."""
 
 
 def _available() -> dict[str, object]:
@@ -98,11 +102,13 @@ def _stop(signum: int, _frame: object) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    first = next((a for a in argv if not a.startswith("-")), None)
+    if first in NO_CAMERAS and "mujoco" not in sys.modules:
+        os.environ.setdefault("MUJOCO_GL", "disable")
     choose_gl_backend()
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _stop)
-    argv = sys.argv[1:] if argv is None else argv
-    first = next((a for a in argv if not a.startswith("-")), None)
     parser = build_parser(first)
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):

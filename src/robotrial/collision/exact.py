@@ -152,9 +152,19 @@ class ExactChecker:
         self._set(np.asarray(q, dtype=float))
         return len(self._hits()) == 0
 
-    def path_valid(self, path: np.ndarray, step: float | None = None) -> tuple[bool, int]:
+    def path_valid(
+        self,
+        path: np.ndarray,
+        step: float | None = None,
+        screen: CollisionChecker | None = None,
+    ) -> tuple[bool, int]:
         """Check a path densely (every `step` rad; default: the sphere model's resolution
-        halved). Returns (valid, index of the first colliding sample or -1)."""
+        halved). Returns (valid, index of the first colliding sample or -1).
+
+        With `screen` (a sphere checker of the same scene: its covers hold the real
+        shapes and its contacts count from 10 um, so a sample it calls free is free for
+        MuJoCo too), only the samples it does not clear go to MuJoCo: those near a
+        contact."""
         import mujoco
 
         path = np.atleast_2d(np.asarray(path, dtype=float))
@@ -166,13 +176,16 @@ class ExactChecker:
         seg = np.repeat(np.arange(len(delta)), n)
         frac = (np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n)) / n[seg]
         qs = np.vstack([path[seg] + frac[:, None] * delta[seg], path[-1:]])
-        qpos = np.tile(self._qpos0, (len(qs), 1))
-        qpos[:, self._adr] = self._mult * qs[:, self._src] + self._off
+        near = np.arange(len(qs)) if screen is None else np.nonzero(~screen.valid(qs))[0]
+        if not len(near):
+            return True, -1
+        qpos = np.tile(self._qpos0, (len(near), 1))
+        qpos[:, self._adr] = self._mult * qs[near][:, self._src] + self._off
         model, data = self.model, self.data
-        for k, row in enumerate(qpos):
+        for k, row in zip(near, qpos, strict=True):
             data.qpos[:] = row
             mujoco.mj_kinematics(model, data)
             mujoco.mj_collision(model, data)
             if data.ncon and len(self._hits()):
-                return False, k
+                return False, int(k)
         return True, -1

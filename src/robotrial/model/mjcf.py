@@ -18,9 +18,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from robotrial.geometry import Box, Cylinder, Mesh, MeshData, Pose, Shape, Sphere
+from robotrial.geometry import (
+    Box,
+    Cylinder,
+    Mesh,
+    MeshData,
+    Pose,
+    Shape,
+    Sphere,
+    quat_from_rotation,
+)
 from robotrial.model.meshes import load_mesh
 from robotrial.model.robot import Inertial, Joint, ModelError, RobotModel, Sensor
 from robotrial.model.world import Light, Obstacle, World
@@ -314,7 +322,7 @@ def _inertial_element(inertial: Inertial | None, where: str, notes: list[str]) -
             f"{where}: principal moments {np.round(moments, 12).tolist()} raised to "
             f"{np.round(fixed, 12).tolist()} (positive, triangle inequality)"
         )
-    quat = Rotation.from_matrix(axes).as_quat()
+    quat = quat_from_rotation(axes)
     el = ET.Element("inertial", pos=_nums(inertial.origin.xyz), mass=_num(inertial.mass))
     el.set("quat", _nums(_wxyz(quat)))
     el.set("diaginertia", _nums(fixed))
@@ -612,6 +620,8 @@ class _Writer:
         # camera looks along -z with y up.
         to_cam = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
         rot = s.origin.rotation() @ to_cam
+        from scipy.spatial.transform import Rotation
+
         cam = ET.SubElement(body, "camera", name=s.name, pos=_nums(s.origin.xyz))
         cam.set("quat", _nums(_wxyz(Rotation.from_matrix(rot).as_quat())))
         fov = float(s.params.get("fov", np.deg2rad(45.0)))

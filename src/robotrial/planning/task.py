@@ -4,7 +4,8 @@ Layer 3, over arrays and geometry (the ROS messages are converted in
 `robotrial.ros.planning_node`). `TaskPlanner` holds what a robot contributes once
 (kinematics, link spheres and self-collision pairs); each request adds its obstacles and
 the carried object, solves IK for the end-effector goal, plans, shortcuts and rounds the
-path, times it, and validates the timed trajectory densely with MuJoCo before answering.
+path, times it (both compiled), and validates the timed trajectory densely before
+answering: the spheres clear what they can, MuJoCo decides the samples near a contact.
 The collision checkers of the last few scenes are kept, so a request in a scene already
 seen (the same obstacles, the same object) builds nothing. Failures are explicit: a goal
 out of reach (by how much), a start or goal in collision (which links touch what), no
@@ -46,8 +47,8 @@ from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
 from robotrial.planning import planner_class
 from robotrial.planning.base import PlanResult, Problem, path_length
-from robotrial.planning.smoothing import densify, round_corners, shortcut
-from robotrial.planning.timing import Trajectory, time_parameterize
+from robotrial.planning.smoothing import densify, round_corners, shortcut, shortcut_and_round
+from robotrial.planning.timing import Trajectory, time_parameterize, time_parameterize_reference
 
 DEFAULT_TIME_LIMIT = 2.0  # s
 MAX_TIME_LIMIT = 60.0  # s: the longest answer a request may ask for
@@ -196,6 +197,9 @@ class TaskPlanner:
     effector). `padding` (m) keeps the robot's spheres that far from obstacles.
     `checker`: the collision checker class built for each scene (a subclass of
     `CollisionChecker` suited to the scenes at hand, e.g. `collision.voxels.VoxelChecker`).
+    With `reference`, each answer is post-processed as before the compiled path (NumPy
+    shortcuts, scipy's spline, every validation sample through MuJoCo): the baseline of
+    `robotrial bench planning --service`.
     """
 
     def __init__(
@@ -206,8 +210,10 @@ class TaskPlanner:
         padding: float = 0.0,
         validate: bool = True,
         checker: type[CollisionChecker] = CollisionChecker,
+        reference: bool = False,
     ) -> None:
         self.robot = robot
+        self.reference = reference
         self.checker_class = checker
         self.world = world
         self.joint_names = list(joints) if joints else default_planning_joints(robot)
@@ -468,8 +474,11 @@ class TaskPlanner:
                 return
             self._remaining("smoothing")
             t_post = time.perf_counter()
-            path = shortcut(res.path, checker, rng)
-            smooth = round_corners(path, checker)
+            if self.reference:
+                path = shortcut(res.path, checker, rng)
+                smooth = round_corners(path, checker)
+            else:
+                path, smooth = shortcut_and_round(res.path, checker, rng)
             stats["shortcut_time"] = stats.get("shortcut_time", 0.0) + time.perf_counter() - t_post
             self._remaining("timing and validation")
             traj = self._timed_and_checked(smooth, path, checker, exact, stats)
@@ -557,17 +566,18 @@ class TaskPlanner:
     def _timed_and_checked(self, smooth, path, checker, exact, stats) -> Trajectory | None:
         """Time the rounded path, else the plain one with denser waypoints; keep the first
         whose motion as a tracker follows it (Hermite between the samples) passes the
-        dense check (MuJoCo when validating, else the spheres)."""
+        dense check (MuJoCo when validating, on the samples the planning checker's
+        spheres do not clear; else the spheres)."""
+        timed = time_parameterize_reference if self.reference else time_parameterize
         for candidate, gap in ((smooth, 0.05), (path, 0.01)):
             t = time.perf_counter()
-            traj = time_parameterize(
-                candidate, self.vmax, self.amax, period=REFERENCE_PERIOD, max_gap=gap
-            )
+            traj = timed(candidate, self.vmax, self.amax, period=REFERENCE_PERIOD, max_gap=gap)
             tracked = traj.tracked(REFERENCE_PERIOD / 2)
             stats["timing_time"] = stats.get("timing_time", 0.0) + time.perf_counter() - t
             t = time.perf_counter()
             if exact is not None:
-                ok, _ = exact.path_valid(tracked)
+                screen = None if self.reference else checker
+                ok, _ = exact.path_valid(tracked, screen=screen)
             else:
                 dense = densify(tracked, float(np.min(checker.resolution)) / 2)
                 ok = bool(np.all(checker.valid(dense)))

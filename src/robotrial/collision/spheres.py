@@ -21,6 +21,7 @@ link share one tolerance and one budget.
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Collection
 from functools import lru_cache
 from typing import NamedTuple
 
@@ -494,18 +495,22 @@ def link_spheres(model: RobotModel, max_per_shape: int = 12) -> list[CollisionSp
     return _link_covers(model, max_per_shape, COARSE)
 
 
-def link_fine_spheres(model: RobotModel) -> list[CollisionSphere]:
+def link_fine_spheres(
+    model: RobotModel, links: Collection[str] | None = None
+) -> list[CollisionSphere]:
     """A tighter cover of every link (within `FINE_BULGE` of its shapes where
     `FINE_SPHERES` suffice): many more spheres than `link_spheres`, asked only where
     the coarse cover touches something, so that a link passing a board a centimetre
-    away is not called colliding."""
-    return _link_covers(model, FINE_SPHERES, FINE)
+    away is not called colliding. Only of `links` when given."""
+    return _link_covers(model, FINE_SPHERES, FINE, links)
 
 
-def _link_covers(model: RobotModel, budget: int, grid: _Grid) -> list[CollisionSphere]:
+def _link_covers(
+    model: RobotModel, budget: int, grid: _Grid, links: Collection[str] | None = None
+) -> list[CollisionSphere]:
     out: list[CollisionSphere] = []
     for link in model.links:
-        if not link.collisions:
+        if not link.collisions or (links is not None and link.name not in links):
             continue
         try:
             covers = _spheres_of([c.geometry for c in link.collisions], budget, grid)

@@ -296,7 +296,7 @@ def test_start_in_collision_names_what_touches(planner) -> None:
 
 def test_a_start_just_above_a_board_is_planned_from() -> None:
     """The Panda's forearm 8 mm above a board: the first sphere cover calls the start
-    touching, the fine covers (asked then) do not, as MuJoCo; the request is planned and
+    touching, the fine covers (asked there) do not, as MuJoCo; the request is planned and
     validated instead of being refused as a start in collision."""
     import trimesh
 
@@ -314,12 +314,13 @@ def test_a_start_just_above_a_board_is_planned_from() -> None:
     board = ("board", Box((0.06, 0.06, 0.02)), GeoPose((x, y, z - 0.018)))
     env = Environment()
     env.add(*board)
-    assert not CollisionChecker(planner.spheres, env, fine=False).valid(start)[0]
+    first = CollisionChecker(planner.spheres, env, fine=False)
+    assert first.contacts(start, fine=False) == {("panda_link5", "board")}
     names = list(planner.joint_names)
     request = TaskRequest(start, kin.link_pose(goal)[:3, 3], joint_names=names, obstacles=[board])
     res = planner.plan(request, seed=0)
     assert res.success, res.message
-    assert res.checker is not None and res.checker.fine
+    assert res.checker is not None and "panda_link5" in res.checker.fine_bodies
     assert res.exact is not None and res.exact.path_valid(res.path)[0]
 
 

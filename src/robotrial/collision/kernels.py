@@ -622,15 +622,27 @@ def _near_bound(bounds, b, x, y, z, r, reach, lane) -> bool:
 
 
 @nb.njit(cache=True, inline="always")
-def _pair_gaps(m, poses, a, b, reach, bounds, pose, centres, point, listed, d2, gap) -> None:
-    """gap[0, lane] = the smallest surface gap between the coarse spheres of bodies a and
-    b, or more than reach[0, lane] when that is all it comes to. Only spheres that come
-    within reach of the other body's bounding sphere in some lane are compared."""
+def _run(m, b, fine) -> tuple[int, int]:
+    """Body b's spheres [start, end): its fine run when `fine` and it has one that fits
+    the checks' room, else its coarse run."""
+    s0, s1 = max(m.fine_start[b], 0), m.fine_end[b]
+    if fine and 0 < s1 - s0 <= BODY_SPHERES:
+        return s0, s1
+    return max(m.start[b], 0), m.end[b]
+
+
+@nb.njit(cache=True, inline="always")
+def _pair_gaps(m, poses, a, b, reach, bounds, pose, centres, point, listed, d2, gap, fine) -> None:
+    """gap[0, lane] = the smallest surface gap between the spheres of bodies a and b
+    (coarse, or with `fine` the fine runs of those that have one), or more than
+    reach[0, lane] when that is all it comes to. Only spheres that come within reach of
+    the other body's bounding sphere in some lane are compared."""
     for lane in range(LANES):
         gap[0, lane] = _FAR
     _node_pose(poses, m.node[b], pose)
     n_b = 0
-    for s in range(max(m.start[b], 0), m.end[b]):
+    b0, b1 = _run(m, b, fine)
+    for s in range(b0, b1):
         lx, ly, lz, r = (
             m.sphere_local[0, s],
             m.sphere_local[1, s],
@@ -648,7 +660,8 @@ def _pair_gaps(m, poses, a, b, reach, bounds, pose, centres, point, listed, d2, 
     if n_b == 0:
         return
     _node_pose(poses, m.node[a], pose)
-    for s in range(max(m.start[a], 0), m.end[a]):
+    a0, a1 = _run(m, a, fine)
+    for s in range(a0, a1):
         lx, ly, lz, ra = (
             m.sphere_local[0, s],
             m.sphere_local[1, s],
@@ -718,6 +731,7 @@ def _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_r
     best = _stack(1, LANES)
     gap = _stack(1, LANES)
     fine = _stack(1, LANES)
+    coarse = _stack(1, LANES)
     gap2 = _stack(1, LANES)
     reach = _stack(1, LANES)
     centres = _stack3(BODY_SPHERES, 3, LANES)
@@ -785,7 +799,23 @@ def _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_r
         v = np.float32(work[n_bodies + p])
         for lane in range(LANES):
             reach[0, lane] = max(best[0, lane], _F0) * v + _EPS
-        _pair_gaps(m, poses, a, b, reach, bounds, pose, centres, point, listed, gap2, gap)
+        # where the coarse spheres touch, the fine runs decide (both covers hold the
+        # links, so the larger gap is still no more than theirs); one call site
+        refined = m.fine_end[a] > m.fine_start[a] or m.fine_end[b] > m.fine_start[b]
+        for level in range(2):
+            if level == 1:
+                touch = False
+                for lane in range(LANES):
+                    touch |= gap[0, lane] <= _EPS
+                    coarse[0, lane] = gap[0, lane]
+                if not (touch and refined):
+                    break
+            _pair_gaps(
+                m, poses, a, b, reach, bounds, pose, centres, point, listed, gap2, gap, level == 1
+            )
+            if level == 1:
+                for lane in range(LANES):
+                    gap[0, lane] = max(gap[0, lane], coarse[0, lane])
         hit = False
         for lane in range(LANES):
             g = gap[0, lane] - _EPS

@@ -11,6 +11,11 @@ A pair is left out of the checks, with its reason, when
   sampled configurations: the model could never tell such a pair apart;
 - `never`: their real shapes touch in none of the sampled configurations.
 
+Of the pairs left in, those whose spheres touch where their real shapes do not in at
+least CLOSE of the samples are *close* pairs (a forearm passing a wrist 1-2 cm away):
+the coarse spheres would refuse a share of the free space there, so the checks ask the
+links' fine covers where the coarse ones touch (`RobotSpheres`).
+
 Samples are uniform in the planning joints' limits, the other joints held where the
 kinematics holds them. The spheres are asked first (cheap, compiled); MuJoCo's exact
 check (`collision/contacts.py`) decides `default` and `never`. The matrix is a part of
@@ -28,6 +33,7 @@ from robotrial.collision.contacts import link_contacts
 from robotrial.kinematics.chain import Kinematics
 
 ALWAYS = 0.95  # the share of samples in contact that makes a pair "always" touching
+CLOSE = 0.002  # the share of samples the spheres misjudge that makes a pair "close"
 SAMPLES = 3000  # configurations sampled per robot and joint group
 CHUNK = 500  # configurations whose sphere positions are held in memory at once
 REASONS = ("rigid", "adjacent", "default", "always", "never")
@@ -75,14 +81,14 @@ def _pair_hits(
     return out
 
 
-def sphere_contact_counts(
+def sphere_contacts(
     kin: Kinematics,
     links: Sequence[str],
     spheres: Sequence[tuple[np.ndarray, np.ndarray]],
     pairs: np.ndarray,
     qs: np.ndarray,
 ) -> np.ndarray:
-    """(P,) in how many configurations of `qs` each body pair (indices into `links`,
+    """(N, P) where in the configurations of `qs` each body pair (indices into `links`,
     whose spheres are (centres in the link's frame, radii)) touches."""
     starts = np.cumsum([0] + [len(r) for _, r in spheres])
     radii = np.concatenate([r for _, r in spheres])
@@ -90,12 +96,12 @@ def sphere_contact_counts(
         [kin.link_index[name] for name, (_, r) in zip(links, spheres, strict=True) for _ in r]
     )
     local = np.vstack([c for c, _ in spheres])
-    counts = np.zeros(len(pairs), dtype=np.int64)
+    out = np.zeros((len(qs), len(pairs)), dtype=bool)
     for first in range(0, len(qs), CHUNK):
         poses = kin.fk(qs[first : first + CHUNK])[:, index]
         world = np.einsum("nsij,sj->nsi", poses[:, :, :3, :3], local) + poses[:, :, :3, 3]
-        counts += _pair_hits(world, radii, starts[:-1], starts[1:], pairs).sum(axis=0)
-    return counts
+        out[first : first + CHUNK] = _pair_hits(world, radii, starts[:-1], starts[1:], pairs)
+    return out
 
 
 def _structural(kin: Kinematics, links: Sequence[str]) -> dict[tuple[int, int], str]:
@@ -128,10 +134,11 @@ def self_collision_pairs(
     spheres: Sequence[tuple[np.ndarray, np.ndarray]],
     samples: int = SAMPLES,
     seed: int = 0,
-) -> dict[tuple[str, str], str]:
-    """The pairs of bodies to leave out of self-collision checks, each with its reason
-    (see the module doc). `links[i]` is the link of body i and `spheres[i]` its
-    spheres (centres in the link's frame, radii); keys are (links[i], links[j]), i < j."""
+) -> tuple[dict[tuple[str, str], str], set[tuple[str, str]]]:
+    """The pairs of bodies to leave out of self-collision checks, each with its reason,
+    and the close pairs among the others (see the module doc). `links[i]` is the link
+    of body i and `spheres[i]` its spheres (centres in the link's frame, radii); keys
+    are (links[i], links[j]), i < j."""
     reasons = _structural(kin, links)
     n = len(links)
     open_pairs = np.array(
@@ -140,19 +147,25 @@ def self_collision_pairs(
     ).reshape(-1, 2)
     zero = np.clip(np.zeros(kin.d), kin.lower, kin.upper)[None]
     qs = kin.random(np.random.default_rng(seed), max(int(samples), 1))
-    touched = sphere_contact_counts(kin, links, spheres, open_pairs, qs)
+    touched = sphere_contacts(kin, links, spheres, open_pairs, qs)
     rows, excluded = link_contacts(kin, np.vstack([zero, qs]))
     at_zero = rows[0] | excluded
     real = set().union(*rows[1:])
-    for (i, j), count in zip(map(tuple, open_pairs), touched, strict=True):
+    close = set()
+    for p, (i, j) in enumerate(map(tuple, open_pairs)):
         names = (min(links[i], links[j]), max(links[i], links[j]))
+        count = int(touched[:, p].sum())
         if names in at_zero:
             reasons[(i, j)] = "default"
         elif count >= ALWAYS * len(qs):
             reasons[(i, j)] = "always"
         elif count == 0 or names not in real:
             reasons[(i, j)] = "never"
-    return {(links[i], links[j]): why for (i, j), why in reasons.items()}
+        else:
+            wrong = sum(names not in rows[1 + n] for n in np.flatnonzero(touched[:, p]))
+            if wrong >= CLOSE * len(qs):
+                close.add((links[i], links[j]))
+    return {(links[i], links[j]): why for (i, j), why in reasons.items()}, close
 
 
-__all__ = ["ALWAYS", "REASONS", "SAMPLES", "rigid_groups", "self_collision_pairs"]
+__all__ = ["ALWAYS", "CLOSE", "REASONS", "SAMPLES", "rigid_groups", "self_collision_pairs"]

@@ -48,6 +48,9 @@ class RobotSpheres:
     `spheres` cover the links (default `link_spheres`); `fine`, a tighter cover asked
     only where those touch an obstacle (default `link_fine_spheres` when `spheres` is
     not given, else none), made on first use by `refine()` (seconds for a robot).
+    The links of close pairs (`self_pairs.CLOSE`: pairs whose spheres touch where the
+    links do not, as a forearm passing a wrist) get theirs at once, in `fine_self`:
+    every check asks them where their coarse spheres touch another link's.
     """
 
     def __init__(
@@ -71,7 +74,11 @@ class RobotSpheres:
         # what every checker of this robot computes alike, by (what, body, padding):
         # a request builds a checker, and these took half its time
         self._memo: dict[tuple[str, str, float], Any] = {}
-        self.disabled, self.reasons = self._disable_pairs(samples, seed)
+        self.disabled, self.reasons, self.close = self._disable_pairs(samples, seed)
+        self.fine_self: set[str] = set()
+        if self.has_fine:
+            self.fine_self = {link for pair in self.close for link in pair}
+            self._add_fine(self.fine_self)
         self.step = float(step)
         self.resolution = self._resolution(step, seed)
 
@@ -79,29 +86,38 @@ class RobotSpheres:
         """Give each body its fine cover (made here unless given), once."""
         if self.refined or not self.has_fine:
             return
-        fine = self._fine if self._fine is not None else link_fine_spheres(self.kin.model)
+        self._add_fine({b.link for b in self.bodies if b.fine_centres is None})
+        self.refined = True
+
+    def _add_fine(self, links: set[str]) -> None:
+        """Give the bodies of `links` their fine covers."""
+        if not links:
+            return
+        fine = self._fine if self._fine is not None else link_fine_spheres(self.kin.model, links)
         by_link = _by_link(fine)
         self.bodies = [
-            replace(b, fine_centres=centres, fine_radii=radii)
+            replace(b, fine_centres=centres, fine_radii=radii) if b.link in links else b
             for b in self.bodies
             for centres, radii in [_arrays(by_link.get(b.link))]
         ]
-        self.refined = True
 
     def _rigid_group(self) -> np.ndarray:
         """Index of the rigid group of each link: links no planning joint separates."""
         return rigid_groups(self.kin)
 
-    def _disable_pairs(self, samples: int, seed: int) -> tuple[set[tuple[str, str]], dict]:
-        """The self-collision matrix (collision/self_pairs.py): pairs left out, and why."""
-        reasons = self_collision_pairs(
+    def _disable_pairs(
+        self, samples: int, seed: int
+    ) -> tuple[set[tuple[str, str]], dict, set[tuple[str, str]]]:
+        """The self-collision matrix (collision/self_pairs.py): pairs left out, why, and
+        the close pairs."""
+        reasons, close = self_collision_pairs(
             self.kin,
             [b.link for b in self.bodies],
             [(b.centres, b.radii) for b in self.bodies],
             samples,
             seed,
         )
-        return set(reasons), reasons
+        return set(reasons), reasons, close
 
     def _reach(self, poses: np.ndarray) -> None:
         """`origin`: the root's position; `reach`: how far from it any moving sphere
@@ -283,7 +299,8 @@ class CollisionChecker:
     `padding` (m) inflates the robot's spheres against the environment. `held` is an
     object carried by the hand; the links it touches at `held_touch_at` may touch it.
     With `fine` (default: when the robot's fine covers are made), each link's fine cover
-    is asked where its first cover touches an obstacle; `finer()` gives that checker.
+    is asked where its first cover touches an obstacle or another link; `finer()` gives
+    that checker. The links of the robot's `fine_self` have theirs asked always.
     """
 
     def __init__(
@@ -435,15 +452,22 @@ class CollisionChecker:
             body_link.append(node[li])
             bound_local.append(m[:3, :3] @ c + m[:3, 3])
             bound_r.append(float(np.max(np.linalg.norm(b.centres - c, axis=1) + b.radii)))
-        # the fine runs after all the coarse ones; empty unless asked
+        # the fine runs after all the coarse ones; empty unless asked; a body's bounding
+        # sphere holds its fine spheres too
         fine_starts, fine_ends = [], []
-        for b in self.bodies:
+        self.fine_bodies = set()
+        for k, b in enumerate(self.bodies):
             m = rel[link_index[b.link]]
             fine_starts.append(n)
-            if self.fine and b.fine_centres is not None and b.fine_radii is not None:
+            asked = self.fine or b.name in self.robot.fine_self
+            if asked and b.fine_centres is not None and b.fine_radii is not None:
+                self.fine_bodies.add(b.name)
                 n += len(b.fine_radii)
                 local.append(b.fine_centres @ m[:3, :3].T + m[:3, 3])
                 radius.append(b.fine_radii)
+                c = 0.5 * (b.centres.min(axis=0) + b.centres.max(axis=0))
+                far = np.linalg.norm(b.fine_centres - c, axis=1) + b.fine_radii
+                bound_r[k] = max(bound_r[k], float(np.max(far)))
             fine_ends.append(n)
         self._bodies = {
             "node": np.array(body_link, dtype=np.int64),
@@ -539,11 +563,12 @@ class CollisionChecker:
         """Which bodies touch which (robot link, other link or obstacle name) at `q`.
 
         With `pairs`, only those robot pairs are tested (and no obstacles); otherwise
-        every enabled self pair and every obstacle. Used to explain a failure. Obstacles
-        count as touched where the first cover reaches them and, with `fine` (default:
-        as this checker decides), the fine cover too.
+        every enabled self pair and every obstacle. Used to explain a failure. Two
+        links touch where their first covers do and, as the checks ask them, their
+        fine covers too. Obstacles count as touched where the first cover reaches them
+        and the fine cover too: as the checks ask it (`fine` None), for every link
+        (True) or for none (False).
         """
-        fine = self.fine if fine is None else fine
         poses = self.kin.fk(np.asarray(q, dtype=float))
         world = {}
         for b in self.bodies:
@@ -555,14 +580,23 @@ class CollisionChecker:
             pair_list = [(names[i], names[j]) for i, j in self.pairs]
         else:
             pair_list = [p for p in pairs if p[0] in world and p[1] in world]
+        bodies = {b.name: b for b in self.bodies}
+
+        def cover(name: str) -> tuple[np.ndarray, np.ndarray]:
+            body = bodies[name]
+            if name not in self.fine_bodies:
+                return world[name][:2]
+            m = poses[self.kin.link_index[body.link]]
+            return body.fine_centres @ m[:3, :3].T + m[:3, 3], body.fine_radii
+
         for a, b in pair_list:
-            ca, ra, _ = world[a]
-            cb, rb, _ = world[b]
-            dist = np.linalg.norm(ca[:, None] - cb[None], axis=-1)
-            if np.any(dist <= ra[:, None] + rb[None]):
+            if _spheres_touch(*world[a][:2], *world[b][:2]) and (
+                not {a, b} & self.fine_bodies or _spheres_touch(*cover(a), *cover(b))
+            ):
                 out.add((a, b))
         if pairs is not None:
             return out
+        asked = self.fine_bodies if fine is None else set(bodies) if fine else set()
         if fine:
             self.robot.refine()
         own = {b.name: b for b in self.robot.bodies}
@@ -570,7 +604,7 @@ class CollisionChecker:
             body = own.get(self.bodies[i].name, self.bodies[i])
             c, r, _ = world[body.name]
             refined = None
-            if fine and body.fine_centres is not None:
+            if body.name in asked and body.fine_centres is not None:
                 m = poses[self.kin.link_index[body.link]]
                 refined = (body.fine_centres @ m[:3, :3].T + m[:3, 3], body.fine_radii)
             for k, kind in enumerate(self.env.kinds):
@@ -596,6 +630,12 @@ def _by_link(spheres: Iterable[CollisionSphere]) -> dict[str, list[CollisionSphe
     for s in spheres:
         out.setdefault(s.link, []).append(s)
     return out
+
+
+def _spheres_touch(ca: np.ndarray, ra: np.ndarray, cb: np.ndarray, rb: np.ndarray) -> bool:
+    """Does a sphere of one set (centres, radii) overlap one of the other?"""
+    dist = np.linalg.norm(ca[:, None] - cb[None], axis=-1)
+    return bool(np.any(dist <= ra[:, None] + rb[None]))
 
 
 def _local_gaps(local: np.ndarray, kind: str, dims: np.ndarray) -> np.ndarray:

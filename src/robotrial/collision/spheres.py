@@ -21,6 +21,7 @@ link share one tolerance and one budget.
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Collection
 from functools import lru_cache
 from typing import NamedTuple
 
@@ -135,11 +136,29 @@ def _split(tris: np.ndarray, edge: float) -> np.ndarray:
 
 def _polyhedron_depth(normals: np.ndarray, offsets: np.ndarray):
     """Depth function of the convex polyhedron {x : normals @ x <= offsets}."""
+    normals = np.ascontiguousarray(normals, dtype=np.float64)
+    offsets = np.ascontiguousarray(offsets, dtype=np.float64)
 
     def depth(p: np.ndarray) -> np.ndarray:
-        return np.min(offsets[None, :] - p @ normals.T, axis=1)
+        out = np.empty(len(p))
+        _plane_depth(normals, offsets, np.ascontiguousarray(p, dtype=np.float64), out)
+        return out
 
     return depth
+
+
+@nb.njit(cache=True)
+def _plane_depth(normals, offsets, points, out) -> None:
+    """out[i] = min over planes of offsets - normals . points[i], without the (points,
+    planes) matrix (a hull has thousands of faces, a grid thousands of points)."""
+    for i in range(points.shape[0]):
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        best = np.inf
+        for f in range(offsets.shape[0]):
+            best = min(
+                best, offsets[f] - (normals[f, 0] * x + normals[f, 1] * y + normals[f, 2] * z)
+            )
+        out[i] = best
 
 
 def _group_need(centres, points, start, margin, dtype=np.float64) -> np.ndarray:
@@ -154,16 +173,19 @@ def _group_need(centres, points, start, margin, dtype=np.float64) -> np.ndarray:
 
 @nb.njit(cache=True)
 def _group_need_into(centres, points, start, margin, out) -> None:
+    # the candidates innermost, one axis per array: the loop compiles to vector code
     n, g = len(centres), len(start) - 1
+    cx, cy, cz = centres[:, 0].copy(), centres[:, 1].copy(), centres[:, 2].copy()
+    far = np.empty(n)
     for k in range(g):
+        far[:] = 0.0
+        for j in range(start[k], start[k + 1]):
+            px, py, pz = points[j, 0], points[j, 1], points[j, 2]
+            for i in range(n):
+                dx, dy, dz = px - cx[i], py - cy[i], pz - cz[i]
+                far[i] = max(far[i], dx * dx + dy * dy + dz * dz)
         for i in range(n):
-            far = 0.0
-            for j in range(start[k], start[k + 1]):
-                dx = points[j, 0] - centres[i, 0]
-                dy = points[j, 1] - centres[i, 1]
-                dz = points[j, 2] - centres[i, 2]
-                far = max(far, dx * dx + dy * dy + dz * dz)
-            out[k, i] = np.sqrt(far) + margin[k]
+            out[k, i] = np.sqrt(far[i]) + margin[k]
 
 
 @nb.njit(cache=True)
@@ -494,18 +516,22 @@ def link_spheres(model: RobotModel, max_per_shape: int = 12) -> list[CollisionSp
     return _link_covers(model, max_per_shape, COARSE)
 
 
-def link_fine_spheres(model: RobotModel) -> list[CollisionSphere]:
+def link_fine_spheres(
+    model: RobotModel, links: Collection[str] | None = None
+) -> list[CollisionSphere]:
     """A tighter cover of every link (within `FINE_BULGE` of its shapes where
     `FINE_SPHERES` suffice): many more spheres than `link_spheres`, asked only where
     the coarse cover touches something, so that a link passing a board a centimetre
-    away is not called colliding."""
-    return _link_covers(model, FINE_SPHERES, FINE)
+    away is not called colliding. Only of `links` when given."""
+    return _link_covers(model, FINE_SPHERES, FINE, links)
 
 
-def _link_covers(model: RobotModel, budget: int, grid: _Grid) -> list[CollisionSphere]:
+def _link_covers(
+    model: RobotModel, budget: int, grid: _Grid, links: Collection[str] | None = None
+) -> list[CollisionSphere]:
     out: list[CollisionSphere] = []
     for link in model.links:
-        if not link.collisions:
+        if not link.collisions or (links is not None and link.name not in links):
             continue
         try:
             covers = _spheres_of([c.geometry for c in link.collisions], budget, grid)

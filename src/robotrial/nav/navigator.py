@@ -123,13 +123,7 @@ class Navigator:
     ) -> None:
         self.config = config
         self.footprint = footprint
-        if config.costmap_resolution is not None:
-            occupied, unknown, resolution = coarsen(
-                occupied, unknown, resolution, config.costmap_resolution
-            )
-        self.global_costmap = Costmap(
-            occupied, origin, resolution, footprint, config.inflation, unknown
-        )
+        self.set_map(occupied, origin, resolution, unknown)
         if config.planner not in GLOBAL_PLANNERS:
             raise ValueError(
                 f"unknown global planner {config.planner!r}; choose from {list(GLOBAL_PLANNERS)}"
@@ -182,6 +176,25 @@ class Navigator:
         self._dirty = False
         self._blocked_since: float | None = None
         self._command = (0.0, 0.0)
+
+    def set_map(
+        self,
+        occupied: np.ndarray,
+        origin: tuple[float, float],
+        resolution: float,
+        unknown: np.ndarray | None = None,
+    ) -> None:
+        """Take a newer map (one SLAM has grown while the robot drives): the global
+        costmap is built again from it, the goal stays, and the next step plans anew."""
+        if self.config.costmap_resolution is not None:
+            occupied, unknown, resolution = coarsen(
+                occupied, unknown, resolution, self.config.costmap_resolution
+            )
+        self.global_costmap = Costmap(
+            occupied, origin, resolution, self.footprint, self.config.inflation, unknown
+        )
+        self._dirty = False
+        self._last_plan = -np.inf
 
     # --- goals -------------------------------------------------------------------------
 

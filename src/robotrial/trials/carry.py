@@ -540,6 +540,26 @@ def write_outputs(trial: CarryTrial, result: CarryResult, out: Path) -> None:
     plot_carry(out / f"carry_{result.seed}.png", result, trial.world, trial.setup)
 
 
+def draw_map(
+    ax: Any,
+    values: np.ndarray,
+    origin: tuple[float, float],
+    resolution: float,
+    frame: tuple[float, float, float],
+) -> None:
+    """A built map (ROS values: 100 occupied, 0 free, -1 unknown) drawn in the world
+    frame on matplotlib axes, its frame lying at `frame` (x, y, yaw) in the world."""
+    sx, sy, syaw = frame
+    h, w = values.shape
+    img = np.where(values == 100, 0.0, np.where(values < 0, 0.7, 1.0))
+    ys, xs = np.mgrid[0:h, 0:w]
+    mx = origin[0] + (xs + 0.5) * resolution
+    my = origin[1] + (ys + 0.5) * resolution
+    wx = sx + np.cos(syaw) * mx - np.sin(syaw) * my
+    wy = sy + np.sin(syaw) * mx + np.cos(syaw) * my
+    ax.pcolormesh(wx, wy, img, cmap="gray", vmin=0, vmax=1, shading="auto")
+
+
 def plot_carry(png: Path, r: CarryResult, world: World, setup: CarrySetup) -> Path:
     """The built map with the true and estimated paths, the arm's joint curves and a
     timeline of the phases."""
@@ -554,15 +574,7 @@ def plot_carry(png: Path, r: CarryResult, world: World, setup: CarrySetup) -> Pa
     ax_t = fig.add_subplot(2, 2, 4)
     sx, sy, syaw = r.map_in_world
     if r.map_image is not None:
-        h, w = r.map_image.shape
-        img = np.where(r.map_image == 100, 0.0, np.where(r.map_image < 0, 0.7, 1.0))
-        # the map is drawn in the world frame: rotate its cell centres by the spawn
-        ys, xs = np.mgrid[0:h, 0:w]
-        mx = r.map_origin[0] + (xs + 0.5) * r.map_resolution
-        my = r.map_origin[1] + (ys + 0.5) * r.map_resolution
-        wx = sx + np.cos(syaw) * mx - np.sin(syaw) * my
-        wy = sy + np.sin(syaw) * mx + np.cos(syaw) * my
-        ax_map.pcolormesh(wx, wy, img, cmap="gray", vmin=0, vmax=1, shading="auto")
+        draw_map(ax_map, r.map_image, r.map_origin, r.map_resolution, r.map_in_world)
     if len(r.truth):
         ax_map.plot(r.truth[:, 1], r.truth[:, 2], "g-", lw=1.2, label="driven (truth)")
     if len(r.estimate):

@@ -2,7 +2,7 @@
 generated homes (layer 5).
 
 A world is named `apartment` (any built-in or file) or `home:SEED` (the home
-`robotrial.model.homegen.generate_home(SEED)`). `draw_goals` draws poses in the free
+`robotrial.model.homegen.generate_home(SEED)`; `home:SEED:ROOMS` with that many rooms). `draw_goals` draws poses in the free
 space of the world's interior (`robotrial.nav.goals.sample_goals`: the rectangle keeps
 10 cm from everything) and asks the footprint planner, from the world's `default`
 spawn, whether each is reachable; it keeps the first `count` reachable ones and the
@@ -40,14 +40,27 @@ ROBOT = "mobile_manipulator"
 
 @cache
 def goal_world(name: str) -> tuple[World, NavMap]:
-    """The world `name` (a built-in, a file, or `home:SEED`) and its ground-truth map."""
-    if name.startswith("home:"):
-        from robotrial.model.homegen import generate_home
+    """The world `name` (a built-in, a file, `home:SEED` or `home:SEED:ROOMS`) and its
+    ground-truth map."""
+    return named_world(name), world_map(named_world(name))
 
-        world = generate_home(int(name.split(":", 1)[1]))
-    else:
-        world = load_world(name)
-    return world, world_map(world)
+
+@cache
+def named_world(name: str) -> World:
+    """The world `name`: a built-in, a file, or a generated home `home:SEED` (`home:SEED:
+    ROOMS` with that many rooms). Raises ValueError for a malformed home name."""
+    if not name.startswith("home:"):
+        return load_world(name)
+    from robotrial.model.homegen import generate_home
+
+    parts = name.split(":")[1:]
+    try:
+        numbers = [int(p) for p in parts]
+    except ValueError:
+        numbers = []
+    if len(numbers) not in (1, 2):
+        raise ValueError(f"world {name!r}: a generated home is home:SEED or home:SEED:ROOMS")
+    return generate_home(numbers[0], numbers[1] if len(numbers) == 2 else None)
 
 
 @cache

@@ -26,6 +26,7 @@ COMMANDS: dict[str, str] = {
     "rosbridge": "rosbridge",
     "slam": "slam",
     "nav": "nav",
+    "explore": "explore",
     "verdict": "verdict",
     "bag": "bag",
     "trials": "trials",

@@ -41,11 +41,11 @@ FOUR = ndimage.generate_binary_structure(2, 1)
 @dataclass(frozen=True)
 class FrontierConfig:
     """Frontier groups shorter than `min_size` (m) are dropped; a goal stands `near` to
-    `far` m from its frontier and is worth a drive when a sensor of `view_range` m
-    (`rays` rays) would see at least `min_gain` m2 of unknown there; `travel_weight`
-    (1/m) discounts the gain by the way there; `candidates` poses are tried a group and
-the `per_group` best kept;
-    `blacklist_radius` (m) around a failed place keeps goals away."""
+        `far` m from its frontier and is worth a drive when a sensor of `view_range` m
+        (`rays` rays) would see at least `min_gain` m2 of unknown there; `travel_weight`
+        (1/m) discounts the gain by the way there; `candidates` poses are tried a group and
+    the `per_group` best kept;
+        `blacklist_radius` (m) around a failed place keeps goals away."""
 
     min_size: float = 0.3
     near: float = 0.3
@@ -97,7 +97,7 @@ def find_frontiers(
 ) -> list[Frontier]:
     """The frontier groups of a grid (rows = y), 8-connected, each at least `min_size` m
     long (counted as cells times the resolution), largest first."""
-    labels, n = ndimage.label(frontier_mask(free, unknown), EIGHT)
+    labels, _ = ndimage.label(frontier_mask(free, unknown), EIGHT)
     out = []
     for k, sl in enumerate(ndimage.find_objects(labels), start=1):
         if sl is None:

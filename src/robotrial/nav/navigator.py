@@ -217,6 +217,13 @@ class Navigator:
         if isinstance(self.controller, ProfileController):
             self.controller.reset()
 
+    def back_out(self, now: float, pose: tuple[float, float, float]) -> None:
+        """Begin the goal set last by backing up, as a plan that may also reverse does: a
+        base that drove forwards into a pocket it cannot turn in gets out this way."""
+        self.recoveries.append(Recovery.BACK_UP.value)
+        self._planned = True
+        self._back_up(now, np.asarray(pose, dtype=float))
+
     def phase(self) -> tuple[str, str]:
         """What the navigator is doing, for a status line: ('idle' | 'planning' |
         'driving' | 'recovering' | 'reached' | 'failed', details in words: the recovery

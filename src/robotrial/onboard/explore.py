@@ -38,9 +38,12 @@ MAX_GOALS = 60
 SCAN_RANGE = 8.0  # m of each scan the navigator's obstacle layer takes
 GOAL_YAW_TOLERANCE = 0.6  # rad: the heading at a frontier goal matters little
 SPECKLE = 3
+OCCUPIED = 0.55  # probability from which the explorer takes a cell as occupied
+FREE = 0.35  # and up to which as free (as the map's own threshold)
 MARGIN = 0.01  # m the rectangle keeps from what SLAM mapped
 PLAN_TRIES = 5  # goals (twice) the footprint planner is asked about before exploring stops
 CHECK_EXPANSIONS = 60_000
+REVERSE_PENALTY = 3.0  # cost factor on backward steps when backing out of a pocket
 ARRIVED_LOOK = 0.8  # s of scans at a reached goal before its frontier is judged
 
 
@@ -70,7 +73,9 @@ class Explorer:
     def __init__(self, robot: Robot, speed: float, config: FrontierConfig | None = None) -> None:
         setup = robot.setup
         if setup.navigator is None or setup.footprint is None or robot.slam_node is None:
-            raise ValueError("explorer: exploring needs SLAM, the navigator's settings and a footprint")
+            raise ValueError(
+                "explorer: exploring needs SLAM, the navigator's settings and a footprint"
+            )
         self.robot = robot
         nav = setup.navigator
         self.nav_config = replace(
@@ -93,17 +98,20 @@ class Explorer:
         # is a goal reachable now? (bounded searches; a start within the margin too)
         hybrid = replace(self.nav_config.hybrid, max_expansions=CHECK_EXPANSIONS)
         self._checks = (HybridAStar(hybrid), HybridAStar(replace(hybrid, margin=0.0)))
+        self._reverse = HybridAStar(replace(hybrid, reverse_penalty=REVERSE_PENALTY))
         self.navigator: Navigator | None = None
         self._scan_seen: object = None
 
     def _map(self) -> tuple[np.ndarray, np.ndarray, tuple[float, float], float]:
         """SLAM's map as it stands: occupied and free cells, origin, resolution."""
         grid = self.robot.slam_node.slam.grid  # type: ignore[union-attr]
-        values = grid.ros_values()
-        occupied = values == 100
-        # cells between beams far off stay unknown in a fine map: gaps under SPECKLE
-        # cells wide count as free
-        unknown = ndimage.binary_opening(values < 0, np.ones((SPECKLE, SPECKLE), dtype=bool))
+        p = grid.probability()
+        # what the scans saw as often as not (a low table top that beams at some
+        # distances pass over) is an obstacle; cells between beams far off that no beam
+        # crossed count as free where the gap is under SPECKLE cells wide
+        occupied = p >= OCCUPIED
+        never = ndimage.binary_opening(p == 0.5, np.ones((SPECKLE, SPECKLE), dtype=bool))
+        unknown = never | ((p > FREE) & ~occupied & (p != 0.5))
         return occupied, ~(occupied | unknown), grid.origin, grid.resolution
 
     def _gain_at(self, xy: np.ndarray) -> float:
@@ -127,13 +135,16 @@ class Explorer:
                 self.log.stopped = "no reachable frontier left"
                 break
             nav = self._navigator(occupied, free, origin, res)
-            target = self._first_reachable(nav, choices, pose)
+            target, backwards = self._first_reachable(nav, choices, pose)
             if target is None:
                 self.log.stopped = "no frontier the footprint planner reaches"
                 break
             assert target.goal is not None
             nav.set_goal(*target.goal, now=robot.now)
+            if backwards:
+                nav.back_out(robot.now, tuple(pose))
             entry = self._entry(target)
+            entry["backs_out"] = backwards
             entry["end"] = yield from self._drive(nav, target.goal)
             if entry["end"] == "unreachable":
                 entry["why"] = nav.message
@@ -158,23 +169,32 @@ class Explorer:
 
     def _first_reachable(
         self, nav: Navigator, choices: list[Frontier], pose: np.ndarray
-    ) -> Frontier | None:
+    ) -> tuple[Frontier | None, bool]:
         """The first the footprint planner finds a way to from `pose` of the
         `PLAN_TRIES` best choices, then of the `PLAN_TRIES` nearest (nearer ones show
-        more of the way to the others; the map may open it later)."""
+        more of the way to the others; the map may open it later); failing that, the
+        first a plan that may also reverse reaches (then True: the base backs out
+        first, from a pocket it drove into and cannot turn in)."""
         near = sorted(choices, key=lambda c: c.travel)
-        for target in [*choices[:PLAN_TRIES], *near[:PLAN_TRIES]]:
+        tries = [*choices[:PLAN_TRIES], *near[:PLAN_TRIES]]
+        for target in tries:
             assert target.goal is not None
             for check in self._checks:
                 try:
                     check.plan_poses(nav.global_costmap, tuple(pose), tuple(target.goal))
-                    return target
+                    return target, False
                 except StartBlocked:
                     if check is self._checks[-1]:
-                        return target  # the navigator plans its way out on the grid
+                        return target, False  # the navigator plans its way out on the grid
                 except NoPath:
                     break
-        return None
+        for target in tries:
+            try:
+                self._reverse.plan_poses(nav.global_costmap, tuple(pose), tuple(target.goal))
+                return target, True
+            except NoPath:
+                continue
+        return None, False
 
     def _navigator(self, occupied, free, origin, res) -> Navigator:
         unknown = ~(occupied | free)

@@ -87,6 +87,7 @@ class ExploreResult:
     path_length: float = 0.0
     contacts: int = 0
     touched: str = ""
+    contact_at: list[tuple[float, float, float]] = field(default_factory=list)  # t, x, y
     coverage: float = 0.0
     reachable_area: float = 0.0
     ate: float = 0.0
@@ -115,6 +116,7 @@ class ExploreResult:
             "path_length": round(self.path_length, 2),
             "contacts": self.contacts,
             "touched": self.touched,
+            "contact_at": self.contact_at[:5],
             "goals": len(self.goals),
             "blacklisted": self.blacklisted,
         }
@@ -179,6 +181,8 @@ def run_explore(
             if hit is not None and not touching:
                 result.contacts += 1
                 result.touched = result.touched or hit
+                x, y, _ = sim.world.base_pose2d()
+                result.contact_at.append((round(sim.world.time, 2), round(x, 2), round(y, 2)))
             touching = hit is not None
             t = sim.world.time
             if n % 5 == 0:
@@ -276,7 +280,9 @@ def plot_explore(png: Path, results: list[ExploreResult]) -> Path:
             ax.plot(r.truth[:, 1], r.truth[:, 2], "g-", lw=1.2, label="driven (truth)")
             ax.plot(r.estimate[:, 1], r.estimate[:, 2], "b--", lw=0.8, label="estimated")
         if r.goals:
-            g = np.array([compose(np.asarray(r.map_in_world), np.array(x["goal"])) for x in r.goals])
+            g = np.array(
+                [compose(np.asarray(r.map_in_world), np.array(x["goal"])) for x in r.goals]
+            )
             ax.plot(g[:, 0], g[:, 1], "mo", ms=4, label="frontier goals")
         ax.plot(r.map_in_world[0], r.map_in_world[1], "k*", ms=10, label="start")
         ax.set_aspect("equal")

@@ -2,15 +2,16 @@
 generated homes (layer 5).
 
 A world is named `apartment` (any built-in or file) or `home:SEED` (the home
-`robotrial.model.homegen.generate_home(SEED)`; `home:SEED:ROOMS` with that many rooms). `draw_goals` draws poses in the free
-space of the world's interior (`robotrial.nav.goals.sample_goals`: the rectangle keeps
-10 cm from everything) and asks the footprint planner, from the world's `default`
-spawn, whether each is reachable; it keeps the first `count` reachable ones and the
-refusals with their reasons. `drive_goal` runs the navigation trial to one goal with
-one stack and times the footprint's least time along its plan beside it
-(`footprint_time`). `goal_table` sums rows up per world and stack: reached within the
-trial's 0.15 m, contacts, the median time and the median of each goal's time over its
-yardstick, and the runs that ended "stuck" on a goal the planner called reachable.
+`robotrial.model.homegen.generate_home(SEED)`; `home:SEED:ROOMS` with that many rooms).
+`draw_goals` draws poses in the free space of the world's interior
+(`robotrial.nav.goals.sample_goals`: the rectangle keeps 10 cm from everything) and asks
+the footprint planner, from the world's `default` spawn, whether each is reachable; it
+keeps the first `count` reachable ones and the refusals with their reasons.
+`drive_goal` runs the navigation trial to one goal with one stack and times the
+footprint's least time along its plan beside it (`footprint_time`). `goal_table` sums
+rows up per world and stack: reached within the trial's 0.15 m, contacts, the median
+time and the median of each goal's time over its yardstick, and the runs that ended
+"stuck" on a goal the planner called reachable.
 """
 
 from __future__ import annotations

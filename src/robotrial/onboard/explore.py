@@ -9,7 +9,7 @@ stack: Hybrid-A* for the footprint, the speed profile), localized by SLAM. Every
 seen meanwhile, or whose pose the map now shows blocked, is given up for the next best.
 A goal the navigator cannot reach, or one reached with its frontier still unseen, is
 blacklisted. It stops when no frontier with a reachable goal is left (or after
-`MAX_GOALS` goals).
+`MAX_GOALS` goals), and with `return_home` drives back to where it started.
 
 `follow_route` drives a route given in advance (a teleoperated mapping run), as the
 carry trial did before the robot could explore.
@@ -60,23 +60,32 @@ def follow_route(robot: Robot, route: list[tuple[float, float]], speed: float) -
 @dataclass
 class ExploreLog:
     """What exploring did: each goal (pose, gain m2, travel m, how it ended), why it
-    stopped, and the goals blacklisted."""
+    stopped, the goals blacklisted, and whether it drove back to where it started."""
 
     goals: list[dict[str, Any]] = field(default_factory=list)
     stopped: str = ""
     blacklisted: int = 0
+    returned: bool = False
 
 
 class Explorer:
     """Frontier exploration for the robot on the bus (see the module docstring)."""
 
-    def __init__(self, robot: Robot, speed: float, config: FrontierConfig | None = None) -> None:
+    def __init__(
+        self,
+        robot: Robot,
+        speed: float,
+        config: FrontierConfig | None = None,
+        return_home: bool = False,
+    ) -> None:
         setup = robot.setup
         if setup.navigator is None or setup.footprint is None or robot.slam_node is None:
             raise ValueError(
                 "explorer: exploring needs SLAM, the navigator's settings and a footprint"
             )
         self.robot = robot
+        self.return_home = return_home
+        self.home = robot.pose().copy()
         nav = setup.navigator
         self.nav_config = replace(
             nav,
@@ -136,10 +145,7 @@ class Explorer:
                 break
             nav = self._navigator(occupied, free, origin, res)
             target, backwards = self._first_reachable(nav, choices, pose)
-            if target is None:
-                self.log.stopped = "no frontier the footprint planner reaches"
-                break
-            assert target.goal is not None
+            assert target is not None and target.goal is not None
             nav.set_goal(*target.goal, now=robot.now)
             if backwards:
                 nav.back_out(robot.now, tuple(pose))
@@ -153,6 +159,11 @@ class Explorer:
                 self.log.blacklisted += 1
         else:
             self.log.stopped = f"{MAX_GOALS} goals driven"
+        if self.return_home and self.navigator is not None:
+            occupied, free, origin, res = self._map()
+            nav = self._navigator(occupied, free, origin, res)
+            nav.set_goal(*self.home, now=robot.now)
+            self.log.returned = (yield from self._drive(nav, self.home, False)) == "reached"
         robot.drive(0.0, 0.0)
         yield
 
@@ -169,12 +180,12 @@ class Explorer:
 
     def _first_reachable(
         self, nav: Navigator, choices: list[Frontier], pose: np.ndarray
-    ) -> tuple[Frontier | None, bool]:
+    ) -> tuple[Frontier, bool]:
         """The first the footprint planner finds a way to from `pose` of the
         `PLAN_TRIES` best choices, then of the `PLAN_TRIES` nearest (nearer ones show
         more of the way to the others; the map may open it later); failing that, the
-        first a plan that may also reverse reaches (then True: the base backs out
-        first, from a pocket it drove into and cannot turn in)."""
+        first a plan that may also reverse reaches, else the best (then True: the base
+        backs out first, from a pocket it drove into and cannot turn in)."""
         near = sorted(choices, key=lambda c: c.travel)
         tries = [*choices[:PLAN_TRIES], *near[:PLAN_TRIES]]
         for target in tries:
@@ -188,13 +199,15 @@ class Explorer:
                         return target, False  # the navigator plans its way out on the grid
                 except NoPath:
                     break
-        for target in tries:
+        for target in tries[:PLAN_TRIES]:
             try:
                 self._reverse.plan_poses(nav.global_costmap, tuple(pose), tuple(target.goal))
                 return target, True
             except NoPath:
                 continue
-        return None, False
+        # the bounded searches found none: the navigator tries the best with its full
+        # search, backing out first; if it gives up, the goal is blacklisted
+        return choices[0], True
 
     def _navigator(self, occupied, free, origin, res) -> Navigator:
         unknown = ~(occupied | free)
@@ -206,11 +219,11 @@ class Explorer:
             self.navigator.set_map(occupied, origin, res, unknown)
         return self.navigator
 
-    def _drive(self, nav: Navigator, goal: np.ndarray) -> Iterator[None]:
-        """Drive towards a goal until it is reached, given up or no longer worth it;
-        returns how it ended: 'reached', 'unseen' (reached, frontier still unseen),
-        'seen' (seen on the way), 'blocked' (the map now shows it blocked),
-        'unreachable' (the navigator gave up)."""
+    def _drive(self, nav: Navigator, goal: np.ndarray, frontier: bool = True) -> Iterator[None]:
+        """Drive towards a goal until it is reached, given up or (a `frontier` goal) no
+        longer worth it; returns how it ended: 'reached', 'unseen' (reached, frontier
+        still unseen), 'seen' (seen on the way), 'blocked' (the map now shows it
+        blocked), 'unreachable' (the navigator gave up)."""
         robot, cfg = self.robot, self.frontiers.config
         check = robot.now + RECHECK
         next_control = -np.inf
@@ -220,7 +233,7 @@ class Explorer:
                 next_control = robot.now + self.nav_config.dwa.period
                 v, w = nav.step(robot.now, tuple(robot.pose()), robot.velocity)
                 robot.drive(v, w)
-            if robot.now >= check and nav.status is Status.ACTIVE:
+            if frontier and robot.now >= check and nav.status is Status.ACTIVE:
                 check = robot.now + RECHECK
                 occupied, free, origin, res = self._map()
                 unknown = ~(occupied | free)
@@ -236,6 +249,8 @@ class Explorer:
         robot.drive(0.0, 0.0)
         if nav.status is not Status.SUCCEEDED:
             return "unreachable"
+        if not frontier:
+            return "reached"
         end = robot.now + ARRIVED_LOOK
         while robot.now < end:
             yield

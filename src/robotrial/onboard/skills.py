@@ -186,7 +186,8 @@ class Skills:
         if route:
             yield from follow_route(self.robot, route, min(speed, MAPPING_SPEED))
         else:
-            explorer = Explorer(self.robot, min(speed, MAPPING_SPEED))
+            # back to the start: the rest of the task begins where the route would end it
+            explorer = Explorer(self.robot, min(speed, MAPPING_SPEED), return_home=True)
             yield from explorer.run()
             self.log.exploration = explorer.log.goals
         yield from self.wait(0.1)

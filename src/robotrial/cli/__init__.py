@@ -27,6 +27,7 @@ COMMANDS: dict[str, str] = {
     "rosbridge": "rosbridge",
     "slam": "slam",
     "nav": "nav",
+    "explore": "explore",
     "verdict": "verdict",
     "bag": "bag",
     "trials": "trials",

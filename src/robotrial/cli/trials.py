@@ -50,6 +50,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     carry.add_argument("--slam", default="graph", choices=["graph", "hector", "gmapping"])
     carry.add_argument("--speed", type=float, default=0.5, help="top speed (m/s)")
     carry.add_argument("--seed", type=int, default=0)
+    carry.add_argument(
+        "--mapping",
+        choices=["route", "frontier"],
+        default="route",
+        help="map along the given route, or explore by frontiers on its own",
+    )
     carry.add_argument("-o", "--output", default="carry", help="folder for the MCAP, JSON and plot")
     add_json_flag(carry)
     rep = sub.add_parser("report", help="turn a trial database into an HTML page")
@@ -231,7 +237,12 @@ def _carry(args: argparse.Namespace) -> int:
 
     try:
         setup = CarrySetup(
-            world=args.world, object=args.object, to=args.to, slam=args.slam, speed=args.speed
+            world=args.world,
+            object=args.object,
+            to=args.to,
+            slam=args.slam,
+            speed=args.speed,
+            mapping=args.mapping,
         )
         out = Path(args.output)
         with progress(

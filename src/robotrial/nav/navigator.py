@@ -123,13 +123,7 @@ class Navigator:
     ) -> None:
         self.config = config
         self.footprint = footprint
-        if config.costmap_resolution is not None:
-            occupied, unknown, resolution = coarsen(
-                occupied, unknown, resolution, config.costmap_resolution
-            )
-        self.global_costmap = Costmap(
-            occupied, origin, resolution, footprint, config.inflation, unknown
-        )
+        self.set_map(occupied, origin, resolution, unknown)
         if config.planner not in GLOBAL_PLANNERS:
             raise ValueError(
                 f"unknown global planner {config.planner!r}; choose from {list(GLOBAL_PLANNERS)}"
@@ -183,6 +177,25 @@ class Navigator:
         self._blocked_since: float | None = None
         self._command = (0.0, 0.0)
 
+    def set_map(
+        self,
+        occupied: np.ndarray,
+        origin: tuple[float, float],
+        resolution: float,
+        unknown: np.ndarray | None = None,
+    ) -> None:
+        """Take a newer map (one SLAM has grown while the robot drives): the global
+        costmap is built again from it, the goal stays, and the next step plans anew."""
+        if self.config.costmap_resolution is not None:
+            occupied, unknown, resolution = coarsen(
+                occupied, unknown, resolution, self.config.costmap_resolution
+            )
+        self.global_costmap = Costmap(
+            occupied, origin, resolution, self.footprint, self.config.inflation, unknown
+        )
+        self._dirty = False
+        self._last_plan = -np.inf
+
     # --- goals -------------------------------------------------------------------------
 
     def set_goal(self, x: float, y: float, yaw: float, now: float = 0.0) -> None:
@@ -203,6 +216,13 @@ class Navigator:
         self._blocked_since = None
         if isinstance(self.controller, ProfileController):
             self.controller.reset()
+
+    def back_out(self, now: float, pose: tuple[float, float, float]) -> None:
+        """Begin the goal set last by backing up, as a plan that may also reverse does: a
+        base that drove forwards into a pocket it cannot turn in gets out this way."""
+        self.recoveries.append(Recovery.BACK_UP.value)
+        self._planned = True
+        self._back_up(now, np.asarray(pose, dtype=float))
 
     def phase(self) -> tuple[str, str]:
         """What the navigator is doing, for a status line: ('idle' | 'planning' |

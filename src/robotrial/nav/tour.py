@@ -17,7 +17,7 @@ from __future__ import annotations
 from itertools import pairwise, permutations
 
 import numpy as np
-from scipy.sparse import coo_matrix
+from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from robotrial.nav.costmap import Costmap
@@ -47,14 +47,12 @@ def open_spot(clearance: np.ndarray, origin: np.ndarray, res: float, bounds) -> 
     return origin[0] + (c0 + c + 0.5) * res, origin[1] + (r0 + r + 0.5) * res
 
 
-def travel_distances(costmap: Costmap, points: np.ndarray) -> np.ndarray:
-    """(K, K) lengths (m) of the shortest 8-connected ways between world points through
-    the cells at least the footprint's inscribed radius from any obstacle (inf: none)."""
-    free = costmap.distance >= costmap.footprint.inscribed_radius
+def free_graph(free: np.ndarray, resolution: float) -> tuple[csr_matrix, np.ndarray]:
+    """The 8-connected graph of the `free` cells (edge weights in m) and each cell's node
+    index (-1: not free)."""
     rows, cols = free.shape
     index = np.full(free.shape, -1, dtype=np.int64)
     index[free] = np.arange(int(free.sum()))
-    res = costmap.resolution
     src, dst, w = [], [], []
     for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
         a = free[max(0, -dr) : rows - max(0, dr), max(0, -dc) : cols - max(0, dc)]
@@ -64,11 +62,20 @@ def travel_distances(costmap: Costmap, points: np.ndarray) -> np.ndarray:
         both = a & b
         src.append(ia[both])
         dst.append(ib[both])
-        w.append(np.full(int(both.sum()), res * np.hypot(dr, dc)))
+        w.append(np.full(int(both.sum()), resolution * np.hypot(dr, dc)))
     n = int(free.sum())
     graph = coo_matrix(
         (np.concatenate(w), (np.concatenate(src), np.concatenate(dst))), shape=(n, n)
     ).tocsr()
+    return graph, index
+
+
+def travel_distances(costmap: Costmap, points: np.ndarray) -> np.ndarray:
+    """(K, K) lengths (m) of the shortest 8-connected ways between world points through
+    the cells at least the footprint's inscribed radius from any obstacle (inf: none)."""
+    free = costmap.distance >= costmap.footprint.inscribed_radius
+    rows, cols = free.shape
+    graph, index = free_graph(free, costmap.resolution)
     rc = costmap.world_to_cell(np.asarray(points, dtype=float).reshape(-1, 2))
     k = len(rc)
     out = np.full((k, k), np.inf)

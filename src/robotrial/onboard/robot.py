@@ -92,6 +92,7 @@ class Robot(Node):
             )
         self.now = 0.0
         self.odom = np.zeros(3)
+        self.velocity = (0.0, 0.0)  # m/s, rad/s, as odometry measures them
         self.map_to_odom = np.zeros(3)
         self.scan: LaserScan | None = None
         self.joints: dict[str, float] = {}
@@ -110,6 +111,7 @@ class Robot(Node):
         self._stamp(msg.header)
         p = msg.pose.pose
         self.odom = np.array([p.position.x, p.position.y, yaw_of(p.orientation)])
+        self.velocity = (float(msg.twist.twist.linear.x), float(msg.twist.twist.angular.z))
 
     def _on_tf(self, msg: TFMessage) -> None:
         for tr in msg.transforms:

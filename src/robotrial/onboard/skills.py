@@ -40,7 +40,7 @@ from robotrial.nav.amcl import compose, inverse
 from robotrial.nav.navigator import Status
 from robotrial.nav.tour import open_spot
 from robotrial.onboard.catalogue import Catalogue, ObjectKind
-from robotrial.onboard.drive import RouteDrive
+from robotrial.onboard.explore import Explorer, follow_route
 from robotrial.onboard.perception import (
     MIN_SIDE_POINTS,
     SIDE_BELOW_TOP,
@@ -137,6 +137,7 @@ class SkillLog:
     phase: str = ""
     target: np.ndarray | None = None  # the object's centre (map) as seen before the grasp
     held_correction: float | None = None  # m the head camera moved the object in the hand
+    exploration: list[dict[str, Any]] = field(default_factory=list)  # frontier goals driven
 
 
 class Skills:
@@ -179,13 +180,16 @@ class Skills:
             yield
 
     def explore(self, route: list[tuple[float, float]], speed: float) -> Iterator[None]:
-        """Drive the route (map frame), localized by SLAM as it builds the map."""
-        follow = RouteDrive(route, min(speed, MAPPING_SPEED))
-        while not follow.done:
-            v, w = follow.command(*self.robot.pose())
-            self.robot.drive(v, w)
-            yield
-        self.robot.drive(0.0, 0.0)
+        """Map the home: along the route (map frame) when one is given, else by
+        frontiers until nothing reachable is left to see; localized by SLAM as it builds
+        the map."""
+        if route:
+            yield from follow_route(self.robot, route, min(speed, MAPPING_SPEED))
+        else:
+            # back to the start: the rest of the task begins where the route would end it
+            explorer = Explorer(self.robot, min(speed, MAPPING_SPEED), return_home=True)
+            yield from explorer.run()
+            self.log.exploration = explorer.log.goals
         yield from self.wait(0.1)
 
     def start_navigation(self) -> Iterator[None]:

@@ -2,9 +2,10 @@
 (layer 4).
 
 What the robot is told is a plan of the home and an order in words: where it starts on
-the plan, the rooms as rectangles of the plan, a route to map the home along (`Plan`),
-and "bring the cup from the living room to the bedroom, here" (`CarryOrder`: the object's
-kind, the room it is in, the room to take it to and the point there to set it down).
+the plan, the rooms as rectangles of the plan, a route to map the home along or none, to
+explore it on its own (`Plan`), and "bring the cup from the living room to the bedroom,
+here" (`CarryOrder`: the object's kind, the room it is in, the room to take it to and the
+point there to set it down).
 Nothing in either says where an object or a piece of furniture stands. The plan's frame
 is the home's; the robot's map starts where it starts, so the plan's points enter the
 map frame through the start pose.
@@ -34,7 +35,7 @@ Rect = tuple[tuple[float, float], tuple[float, float]]
 class Plan:
     """What the robot knows of the home before it starts: its start pose on the plan
     (x, y, yaw), the rooms (name -> ((xmin, ymin), (xmax, ymax)) on the plan) and the
-    route to map the home along (plan x, y)."""
+    route to map the home along (plan x, y; empty: the robot explores on its own)."""
 
     start: tuple[float, float, float]
     rooms: dict[str, Rect]

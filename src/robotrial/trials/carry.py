@@ -7,9 +7,11 @@ robot asks for a frame), starts the robot side (`robotrial.onboard`: its own SLA
 navigation nodes, its skills and the task that strings them), steps the world, watches
 for contacts and scores the end against the truth. The robot side is told only:
 
-- the plan of the home: its start pose, the rooms as rectangles, the mapping route
-  (`ROUTES`, waypoints given in advance, as a teleoperated mapping run would; for a world
-  without one, a tour of its rooms made from its plan, `exploration_route`);
+- the plan of the home: its start pose, the rooms as rectangles, and with
+  `mapping='route'` the mapping route (`ROUTES`, waypoints given in advance, as a
+  teleoperated mapping run would; for a world without one, a tour of its rooms made from
+  its plan, `exploration_route`); with `mapping='frontier'` no route: the robot explores
+  on its own (`onboard.explore`);
 - the order: the object's kind, the room it is in, the room to take it to and the point
   there to set it down (the room's `place`);
 - the catalogue of object kinds (shape, size, colour; no poses).
@@ -71,6 +73,7 @@ from robotrial.trials.slam import make_slam
 
 __all__ = ["PHASES", "ROUTES", "CarryResult", "CarrySetup", "exploration_route", "run_carry"]
 
+MAPPINGS = ("route", "frontier")
 PLACE_TOLERANCE = 0.03  # m, object centre to the place point, in the plane
 UPRIGHT = np.deg2rad(10.0)  # largest tilt of an object that stood upright
 OBJECTS_TOPIC = "/ground_truth/objects"  # the objects' true poses, for scoring and plots
@@ -190,10 +193,15 @@ class CarrySetup:
     robot: str = "mobile_manipulator"
     planner: str = "rrt_connect"
     time_limit: float = 600.0  # s, simulated
+    mapping: str = "route"  # 'route': the given route; 'frontier': it explores on its own
 
     def __post_init__(self) -> None:
         if not self.speed > 0:
             raise ValueError(f"carry trial: speed must be positive, got {self.speed} m/s")
+        if self.mapping not in MAPPINGS:
+            raise ValueError(
+                f"carry trial: no mapping {self.mapping!r}; choose from {', '.join(MAPPINGS)}"
+            )
 
 
 @dataclass
@@ -297,7 +305,9 @@ class CarryTrial(Node):
         limits = DriveLimits.from_metadata(robot.metadata.get("drive", {}) or {})
         speed = min(setup.speed, limits.max_speed)
         footprint = footprint_of(self.sim)
-        if isinstance(setup.world, str) and setup.world in ROUTES:
+        if setup.mapping == "frontier":
+            route: list[tuple[float, float]] = []
+        elif isinstance(setup.world, str) and setup.world in ROUTES:
             route = list(ROUTES[setup.world])
         else:
             route = exploration_route(world, footprint)
@@ -540,6 +550,26 @@ def write_outputs(trial: CarryTrial, result: CarryResult, out: Path) -> None:
     plot_carry(out / f"carry_{result.seed}.png", result, trial.world, trial.setup)
 
 
+def draw_map(
+    ax: Any,
+    values: np.ndarray,
+    origin: tuple[float, float],
+    resolution: float,
+    frame: tuple[float, float, float],
+) -> None:
+    """A built map (ROS values: 100 occupied, 0 free, -1 unknown) drawn in the world
+    frame on matplotlib axes, its frame lying at `frame` (x, y, yaw) in the world."""
+    sx, sy, syaw = frame
+    h, w = values.shape
+    img = np.where(values == 100, 0.0, np.where(values < 0, 0.7, 1.0))
+    ys, xs = np.mgrid[0:h, 0:w]
+    mx = origin[0] + (xs + 0.5) * resolution
+    my = origin[1] + (ys + 0.5) * resolution
+    wx = sx + np.cos(syaw) * mx - np.sin(syaw) * my
+    wy = sy + np.sin(syaw) * mx + np.cos(syaw) * my
+    ax.pcolormesh(wx, wy, img, cmap="gray", vmin=0, vmax=1, shading="auto")
+
+
 def plot_carry(png: Path, r: CarryResult, world: World, setup: CarrySetup) -> Path:
     """The built map with the true and estimated paths, the arm's joint curves and a
     timeline of the phases."""
@@ -554,15 +584,7 @@ def plot_carry(png: Path, r: CarryResult, world: World, setup: CarrySetup) -> Pa
     ax_t = fig.add_subplot(2, 2, 4)
     sx, sy, syaw = r.map_in_world
     if r.map_image is not None:
-        h, w = r.map_image.shape
-        img = np.where(r.map_image == 100, 0.0, np.where(r.map_image < 0, 0.7, 1.0))
-        # the map is drawn in the world frame: rotate its cell centres by the spawn
-        ys, xs = np.mgrid[0:h, 0:w]
-        mx = r.map_origin[0] + (xs + 0.5) * r.map_resolution
-        my = r.map_origin[1] + (ys + 0.5) * r.map_resolution
-        wx = sx + np.cos(syaw) * mx - np.sin(syaw) * my
-        wy = sy + np.sin(syaw) * mx + np.cos(syaw) * my
-        ax_map.pcolormesh(wx, wy, img, cmap="gray", vmin=0, vmax=1, shading="auto")
+        draw_map(ax_map, r.map_image, r.map_origin, r.map_resolution, r.map_in_world)
     if len(r.truth):
         ax_map.plot(r.truth[:, 1], r.truth[:, 2], "g-", lw=1.2, label="driven (truth)")
     if len(r.estimate):

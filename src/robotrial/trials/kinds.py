@@ -183,7 +183,14 @@ KINDS: dict[str, TrialKind] = {
     "g2r": TrialKind("g2r", {"obstacle": True, "planner": "rrt_connect"}, "ee_deviation", _g2r),
     "carry": TrialKind(
         "carry",
-        {"world": "apartment", "object": "cup", "to": "bedroom", "slam": "graph", "speed": 0.5},
+        {
+            "world": "apartment",
+            "object": "cup",
+            "to": "bedroom",
+            "slam": "graph",
+            "speed": 0.5,
+            "mapping": "route",
+        },
         "sim_time",
         _carry,
     ),

@@ -2,15 +2,16 @@
 generated homes (layer 5).
 
 A world is named `apartment` (any built-in or file) or `home:SEED` (the home
-`robotrial.model.homegen.generate_home(SEED)`). `draw_goals` draws poses in the free
-space of the world's interior (`robotrial.nav.goals.sample_goals`: the rectangle keeps
-10 cm from everything) and asks the footprint planner, from the world's `default`
-spawn, whether each is reachable; it keeps the first `count` reachable ones and the
-refusals with their reasons. `drive_goal` runs the navigation trial to one goal with
-one stack and times the footprint's least time along its plan beside it
-(`footprint_time`). `goal_table` sums rows up per world and stack: reached within the
-trial's 0.15 m, contacts, the median time and the median of each goal's time over its
-yardstick, and the runs that ended "stuck" on a goal the planner called reachable.
+`robotrial.model.homegen.generate_home(SEED)`; `home:SEED:ROOMS` with that many rooms).
+`draw_goals` draws poses in the free space of the world's interior
+(`robotrial.nav.goals.sample_goals`: the rectangle keeps 10 cm from everything) and asks
+the footprint planner, from the world's `default` spawn, whether each is reachable; it
+keeps the first `count` reachable ones and the refusals with their reasons.
+`drive_goal` runs the navigation trial to one goal with one stack and times the
+footprint's least time along its plan beside it (`footprint_time`). `goal_table` sums
+rows up per world and stack: reached within the trial's 0.15 m, contacts, the median
+time and the median of each goal's time over its yardstick, and the runs that ended
+"stuck" on a goal the planner called reachable.
 """
 
 from __future__ import annotations
@@ -40,14 +41,27 @@ ROBOT = "mobile_manipulator"
 
 @cache
 def goal_world(name: str) -> tuple[World, NavMap]:
-    """The world `name` (a built-in, a file, or `home:SEED`) and its ground-truth map."""
-    if name.startswith("home:"):
-        from robotrial.model.homegen import generate_home
+    """The world `name` (a built-in, a file, `home:SEED` or `home:SEED:ROOMS`) and its
+    ground-truth map."""
+    return named_world(name), world_map(named_world(name))
 
-        world = generate_home(int(name.split(":", 1)[1]))
-    else:
-        world = load_world(name)
-    return world, world_map(world)
+
+@cache
+def named_world(name: str) -> World:
+    """The world `name`: a built-in, a file, or a generated home `home:SEED` (`home:SEED:
+    ROOMS` with that many rooms). Raises ValueError for a malformed home name."""
+    if not name.startswith("home:"):
+        return load_world(name)
+    from robotrial.model.homegen import generate_home
+
+    parts = name.split(":")[1:]
+    try:
+        numbers = [int(p) for p in parts]
+    except ValueError:
+        numbers = []
+    if len(numbers) not in (1, 2):
+        raise ValueError(f"world {name!r}: a generated home is home:SEED or home:SEED:ROOMS")
+    return generate_home(numbers[0], numbers[1] if len(numbers) == 2 else None)
 
 
 @cache

@@ -118,6 +118,46 @@ def _room_scan(pose: np.ndarray, n: int = 720) -> np.ndarray:
     return np.stack([t * np.cos(local), t * np.sin(local)], axis=1)
 
 
+def test_loop_closures_in_a_room_measure_the_true_motion():
+    """Twice around a loop in the L-shaped room with exact scans and odometry, the map
+    frame placed so that the walls lie a quarter of a loop-search cell off its cell
+    edges: every loop closure states the true motion between its nodes within a cm,
+    with no bias common to them (a fit on the search's 5 cm field put them 1-2 cm off,
+    all the same way, and the graph followed them to 2.4 cm off)."""
+    from robotrial.slam.scan import beams
+
+    start = np.array([1.0125, 0.7625, 0.0])
+    corners = [(1.0125, 0.7625), (4.9625, 0.7625), (4.9625, 1.8125), (1.0125, 1.8125)]
+    path = []
+    for _ in range(2):
+        for (x0, y0), (x1, y1) in zip(corners, corners[1:] + corners[:1], strict=True):
+            yaw = np.arctan2(y1 - y0, x1 - x0)
+            steps = int(np.ceil(np.hypot(x1 - x0, y1 - y0) / 0.1))
+            fs = np.arange(steps) / steps
+            path += [(x0 + (x1 - x0) * f, y0 + (y1 - y0) * f, yaw) for f in fs]
+    slam = make_slam("graph", {"background": False})
+    n = 720
+    for i, q in enumerate(np.array(path)):
+        ranges = np.hypot(*_room_scan(q, n).T)
+        scan = beams(ranges, -np.pi, 2 * np.pi / n, 0.1, 30.0)
+        slam.process(scan, 0.1 * i, relative(start, q))
+    slam.settle()
+    truth = np.array([relative(start, np.array(path[k])) for k in _node_scans(slam)])
+    loops = [e for e in slam.edges if e.loop]
+    assert len(loops) >= 4
+    errors = np.array([e.z - relative(truth[e.i], truth[e.j]) for e in loops])
+    turns = (errors[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    assert np.hypot(*errors[:, :2].T).max() < 0.01 and np.abs(turns).max() < 0.002
+    assert np.hypot(*errors[:, :2].mean(axis=0)) < 0.003  # no bias common to them
+    assert np.hypot(*(np.array(slam.nodes) - truth)[:, :2].T).max() < 0.015
+
+
+def _node_scans(slam: PoseGraphSlam) -> list[int]:
+    """The index of the scan each node was made from."""
+    anchors = np.asarray(slam._anchors)
+    return [int(np.argmax(anchors == k)) for k in range(len(slam.nodes))]
+
+
 def test_correlative_search_finds_a_known_offset_and_scores_a_wrong_place_low():
     from robotrial.slam.posegraph import point_field, search
     from robotrial.slam.scan import transform_points

@@ -16,7 +16,8 @@ whose estimate lies within reach are candidates; the reach grows with the graph 
 between the two nodes (the path length along the constraints, a loop closure as short
 as it is certain), since the estimates drift apart with it. The scan is matched correlatively
 against a likelihood field of the candidate's neighbouring scans, coarse to fine, over a
-window as wide as that reach, and refined by Gauss-Newton on the same field. The match's
+window as wide as that reach, and refined by Gauss-Newton on an occupancy map of the
+candidate's neighbouring scans at the map's resolution (as the front end). The match's
 covariance is the spread of the poses that score nearly as well (Karto's: long along a
 corridor, where the closure then holds only across it) plus the refinement's. A match is
 verified before it enters the graph: its response must be high, the refinement must stay
@@ -942,9 +943,13 @@ class PoseGraphSlam:
         )  # fmt: skip
         if found.response < p.loop_match_minimum_response:
             return None
-        # Gauss-Newton on the same field, read as occupancy 0.5 + 0.5 f.
-        smooth = LogOddsGrid(res, origin, field.shape)
-        smooth.logodds = (field / (1.0001 - field)).astype(np.float32)
+        # Refined by Gauss-Newton on an occupancy map of the candidate's scans at the
+        # map's resolution, as the front end matches. (On the search's field, cells as
+        # wide as its peaks, the bilinear fit pulls each wall onto a cell centre: up to
+        # half a cell off, the same way for every closure over the same walls, and the
+        # graph follows it.)
+        ids = list(range(lo, hi + 1))
+        smooth = self._local_map(ids, [nodes[n] for n in ids])
         refined = self.matcher.match(smooth, hits, found.pose)
         # Consistency: the Gauss-Newton refinement stays by the search's peak.
         shift = relative(found.pose, refined.pose)

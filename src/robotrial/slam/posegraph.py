@@ -17,8 +17,9 @@ between the two nodes (the path length along the constraints, a loop closure as 
 as it is certain), since the estimates drift apart with it. The scan is matched correlatively
 against a likelihood field of the candidate's neighbouring scans, coarse to fine, over a
 window as wide as that reach, and refined by Gauss-Newton on the same field, then
-once more on it sampled at the map's resolution (on the field's own cells the fit pulls
-walls onto cell centres, the same way for every closure over them). The match's
+once more on an occupancy map of those scans at the map's resolution, as the front end
+matches (on the field's own cells the fit pulls walls onto cell centres, the same way
+for every closure over them). The match's
 covariance is the spread of the poses that score nearly as well (Karto's: long along a
 corridor, where the closure then holds only across it) plus the refinement's. A match is
 verified before it enters the graph: its response must be high, the refinement must stay
@@ -953,7 +954,7 @@ class PoseGraphSlam:
         if np.hypot(shift[0], shift[1]) > 2 * res or abs(shift[2]) > 0.02:
             self.rejected += 1
             return None
-        where = self._sub_cell(refined.pose, hits, old_hits, box)
+        where = self._sub_cell(refined.pose, hits, list(range(lo, hi + 1)), nodes)
         anchor = nodes[cand]
         # As uncertain as the wider of the search's spread and the refinement's fit.
         cov = coarse.cov + found.cov + self._match_cov(refined.hessian, refined.residual)
@@ -963,38 +964,20 @@ class PoseGraphSlam:
         return _Closure(edge, k, where, np.linalg.inv(world))
 
     def _sub_cell(
-        self,
-        pose: np.ndarray,
-        hits: np.ndarray,
-        old_hits: np.ndarray,
-        box: tuple[float, float, float, float],
+        self, pose: np.ndarray, hits: np.ndarray, ids: list[int], nodes: np.ndarray
     ) -> np.ndarray:
         """A loop closure's pose refined below the search field's cells: Gauss-Newton
-        from `pose` (fine level only) on the same field sampled at the map's resolution,
-        over where the
-        scan `hits` lie. On the field's own cells, as wide as its peaks, the bilinear fit
-        pulls each wall onto a cell centre: up to half a cell off, the same way for every
-        closure over the same walls, and the graph follows. The result is kept within
-        a field cell and 0.01 rad of `pose` (else `pose`): the closure is still the
-        one verified."""
+        from `pose` on an occupancy map of the candidate's scans (nodes `ids`) at the
+        map's resolution, as the front end matches. On the field's own cells, as wide as
+        its peaks, the bilinear fit pulls each wall onto a cell centre: up to half a cell
+        off, the same way for every closure over the same walls, and the graph follows.
+        The result is kept within a field cell and 0.01 rad of `pose` (else `pose`): the
+        closure is still the one verified."""
         p = self.params
-        res = p.loop_resolution
-        near = transform_points(pose, hits)
-        pad = 3.0 * res
-        crop = (
-            max(box[0], near[:, 0].min() - pad),
-            max(box[1], near[:, 1].min() - pad),
-            min(box[2], near[:, 0].max() + pad),
-            min(box[3], near[:, 1].max() + pad),
-        )
-        if crop[2] <= crop[0] or crop[3] <= crop[1]:
-            return pose
-        fine, origin = point_field(old_hits, p.resolution, res, crop)
-        grid = LogOddsGrid(p.resolution, origin, fine.shape)
-        grid.logodds = (fine / (1.0001 - fine)).astype(np.float32)
-        out = ScanMatcher(1, p.iterations).match(grid, hits, pose).pose
+        grid = self._local_map(ids, [nodes[n] for n in ids])
+        out = ScanMatcher(2, p.iterations).match(grid, hits, pose).pose
         shift = relative(pose, out)
-        if np.hypot(shift[0], shift[1]) > res or abs(shift[2]) > 0.01:
+        if np.hypot(shift[0], shift[1]) > p.loop_resolution or abs(shift[2]) > 0.01:
             return pose
         return out
 

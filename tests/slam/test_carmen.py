@@ -22,9 +22,9 @@ from robotrial.model.carmen import (
     write_relations,
 )
 from robotrial.slam.metrics import relation_metric
-from robotrial.slam.scan import relative
+from robotrial.slam.scan import beams, relative
 from robotrial.trials.carmen import recording_from_log
-from robotrial.trials.slam import map_accuracy, map_pose_in_world, run_slam, true_poses
+from robotrial.trials.slam import make_slam, map_accuracy, map_pose_in_world, run_slam, true_poses
 
 
 @pytest.fixture(scope="module")
@@ -160,15 +160,16 @@ def test_cli_maps_a_log_and_prints_time_per_scan_and_relation_error(room_b_log, 
 
 
 def test_bench_real_runs_what_it_finds_and_skips_the_rest(room_b_log, tmp_path, capsys):
-    """A log named like the Intel one runs and is scored; ACES, FR079 and Killian (no
-    fetching) are reported as skipped, naming the folder, and the run still succeeds."""
+    """A log named like the Intel one runs and is scored, the odometry alone beside it;
+    ACES, FR079 and Killian (no fetching) are reported as skipped, naming the folder, and
+    the run still succeeds."""
     logs = tmp_path / "logs"
     logs.mkdir()
     (logs / "intel.clf").write_bytes(room_b_log[0].read_bytes())
     (logs / "intel.relations").write_bytes(room_b_log[1].read_bytes())
     out = tmp_path / "bench" / "slam.json"
-    argv = ["bench", "slam", "--real", "--log-dir", str(logs), "--no-fetch"]
-    assert main([*argv, "--particles", "5", "-o", str(out)]) == 0
+    argv = ["bench", "slam_real", "--log-dir", str(logs), "--no-fetch", "--methods", "hector"]
+    assert main([*argv, "-o", str(out)]) == 0
     captured = capsys.readouterr()
     printed = " ".join((captured.out + captured.err).split())
     assert f"ACES building: skipped, no log in {logs}" in printed
@@ -176,5 +177,64 @@ def test_bench_real_runs_what_it_finds_and_skips_the_rest(room_b_log, tmp_path, 
     result = json.loads(out.with_name("slam_real.json").read_text())
     intel = result["sets"]["intel"]
     assert intel["hector"]["relations"]["trans_mean"] < 0.01
-    assert intel["gmapping"]["relations"]["used"] > 100
+    assert intel["hector"]["peak_mb"] > 0 and intel["hector"]["time_per_scan_ms"] > 0
+    # Times on a shared machine come with the load they were taken at.
+    assert len(intel["hector"]["load"]) == 2 and result["load_end"] >= 0
+    assert "load average (1 min)" in printed
+    # The simulated odometry (heading scale off by a few per cent) scores far worse.
+    assert (
+        intel["odometry"]["relations"]["rot_deg_mean"]
+        > 5 * intel["hector"]["relations"]["rot_deg_mean"]
+    )
     assert result["sets"]["aces"] == {"skipped": True}
+
+
+def _flaser(stamp: float, x: float, readings: list[float]) -> str:
+    r = " ".join(f"{v:g}" for v in readings)
+    return f"FLASER {len(readings)} {r} {x} 0 0 {x} 0 0 {stamp} host {stamp}"
+
+
+def test_no_return_and_no_measurement_as_each_log_format_writes_them():
+    # Old style: past 80 m is the SICK's "no return" code (81.83 here), 0 no measurement.
+    s = parse_carmen([_flaser(5.0, 0.0, [0.0] + [3.0] * 178 + [81.83, 79.5])]).scans[0]
+    assert math.isnan(s.ranges[0]) and s.ranges[1] == 3.0
+    assert math.isinf(s.ranges[179]) and s.ranges[180] == 79.5
+    # A log whose largest reading recurs as no distance does: its code, below 80 m.
+    lines = [_flaser(t, 0.0, [5.6] * 100 + [2.0 + 0.01 * t] * 81) for t in (1.0, 2.0)]
+    s = parse_carmen(lines).scans[0]
+    assert np.isinf(s.ranges[:100]).all() and np.isfinite(s.ranges[100:]).all()
+    assert s.range_max == 5.6
+    # New style: the line's own maximum range (50 m; this scanner writes 51.06 past it).
+    ranges = " ".join(["51.06", "12.5", "0"])
+    line = f"ROBOTLASER1 0 -1.5 3.1 0.01 50.0 0.1 0 3 {ranges} 0 0 0 0 0 0 0 0 0 0 0 0 0 7.0 h 7.0"
+    r = parse_carmen([line]).scans[0].ranges
+    assert math.isinf(r[0]) and r[1] == 12.5 and math.isnan(r[2])
+
+
+def test_scans_keep_the_file_order_and_their_own_odometry():
+    """Stamps that step back (as some loggers wrote them) do not reorder the scans; each
+    scan keeps the odometry pose of its own line."""
+    lines = [_flaser(t, x, [2.0] * 181) for t, x in ((10.0, 0.0), (10.2, 0.1), (9.6, 0.2))]
+    log = parse_carmen(lines)
+    assert [s.stamp for s in log.scans] == [10.0, 10.2, 9.6]
+    rec = recording_from_log(log)
+    assert rec.scan_odom is not None and rec.scan_odom[:, 0].tolist() == [0.0, 0.1, 0.2]
+    assert [s.stamp for s in parse_carmen(lines, order="time").scans] == [9.6, 10.0, 10.2]
+    with pytest.raises(ValueError, match="order 'random'"):
+        parse_carmen(lines, order="random")
+
+
+def test_range_limits_leave_no_return_out_and_cut_long_beams():
+    """GMapping's two limits: past maxRange a beam is left out (so "no return" clears
+    nothing), between maxUrange and maxRange it frees space up to maxUrange."""
+    r = np.array([2.0, np.inf, 45.0, np.nan])
+    b = beams(r, 0.0, 0.1, 0.0, 30.0, max_range=40.0)
+    assert b.ends.shape[0] == 1 and b.hit.all()
+    b = beams(r, 0.0, 0.1, 0.0, 30.0, max_range=50.0)
+    assert b.hit.tolist() == [True, False] and np.hypot(*b.ends[1]) == pytest.approx(30.0)
+    # slam_gmapping: maxRange unset is range_max - 0.01, maxUrange unset is maxRange.
+    assert make_slam("gmapping").range_limits(50.0) == pytest.approx((0.0, 49.99, 49.99))
+    limits = make_slam("gmapping", {"maxUrange": 30}).range_limits(50.0)
+    assert limits == pytest.approx((0.0, 49.99, 30.0))
+    # Hector leaves out everything past laser_max_dist.
+    assert make_slam("hector").range_limits(80.0) == pytest.approx((0.4, 30.0, 30.0))

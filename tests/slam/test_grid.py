@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robotrial.slam.grid import LogOddsGrid, LogOddsModel, integrate_many
-from robotrial.slam.scan import transform_points
+from robotrial.slam.grid import LogOddsGrid, LogOddsModel
 
 M = LogOddsModel(free=-0.4, occupied=0.85, clamp_min=-2.0, clamp_max=3.5)
 
@@ -94,22 +93,3 @@ def test_thinned_fan_marks_the_same_walls_and_frees_the_same_room():
     # Near the sensor hundreds of beams cross each cell: both clamp it.
     r, c = int((0.53 - full.origin[1]) / 0.05), int((0.02 - full.origin[0]) / 0.05)
     assert full.logodds[r, c] == pytest.approx(-2.0) and thin.logodds[r, c] == pytest.approx(-2.0)
-
-
-def test_integrate_many_writes_each_grid_at_its_pose():
-    ends, step = fan(720, 2.0)
-    hit = np.ones(len(ends), bool)
-    poses = np.array([[0.0, 0.0, 0.0], [1.0, -0.5, 0.3]])
-    grids = [LogOddsGrid(0.05, model=M), LogOddsGrid(0.05, model=M)]
-    integrate_many(grids, poses, (0.02, 0.03), ends, hit, step)
-    for g, pose in zip(grids, poses, strict=True):
-        one = LogOddsGrid(0.05, model=M)
-        one.integrate(
-            transform_points(pose, np.array([[0.02, 0.03]]))[0],
-            transform_points(pose, ends),
-            hit,
-            step,
-        )
-        assert one.origin == g.origin and np.allclose(one.logodds, g.logodds)
-    with pytest.raises(ValueError, match="appears twice"):
-        integrate_many([grids[0], grids[0]], poses, (0.0, 0.0), ends, hit, step)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from robotrial.slam.grid import LogOddsGrid
-from robotrial.slam.matcher import ScanMatcher, likelihood, match_particles
-from robotrial.slam.scan import Beams, transform_points
+from robotrial.slam.matcher import ScanMatcher, likelihood
+from robotrial.slam.scan import transform_points
 
 # A 4 x 3 m room with a 0.6 m square pillar. Its faces run through cell centres of the
 # 5 cm map: a face on a cell edge would put the map's wall half a cell off, whatever the
@@ -88,39 +88,3 @@ def test_likelihood_peaks_at_the_true_pose(room_map):
     s1, l1, n1 = likelihood(room_map, scan, true + np.array([0.08, 0.0, 0.0]))
     assert s0 > s1 and l0 > l1 and n0 >= n1
     assert n0 > 0.9 * len(scan)
-
-
-def test_all_particles_matched_at_once_recover_their_offsets(room_map):
-    true = np.array([-0.3, 0.2, 0.1])
-    scan = cast(true, 720)
-    offsets = np.array([(0.10, -0.08, 0.05), (-0.15, 0.05, -0.08), (0.05, 0.05, 0.12)])
-    maps = [room_map.copy() for _ in offsets]
-    coarse = room_map.pyramid(3)[1:]
-    poses, loglik = match_particles(
-        maps, coarse, room_map.origin, scan, scan, true + offsets, (1.0, 1.0, 1.0), 10
-    )
-    assert np.all(np.hypot(*(poses[:, :2] - true[:2]).T) < 0.015)
-    assert np.all(np.abs(poses[:, 2] - true[2]) < 0.01)
-    # The weights are the likelihood of each matched pose on its own map.
-    for pose, ll in zip(poses, loglik, strict=True):
-        assert ll == pytest.approx(likelihood(room_map, scan, pose)[1])
-
-
-def test_particles_write_the_scan_and_maps_grow_to_hold_it(room_map):
-    true = np.array([-0.3, 0.2, 0.1])
-    n = 720
-    scan = cast(true, n)
-    beams = Beams((0.0, 0.0), scan, np.ones(n, bool), 2 * np.pi / n)
-    small = LogOddsGrid(0.05)
-    small.integrate((0.0, 0.0), np.array([[0.5, 0.0]]), np.array([True]))
-    maps = [room_map.copy(), small]
-    guesses = np.array([true, true])
-    poses, _ = match_particles(
-        maps, [], room_map.origin, scan, scan, guesses, (1.0, 1.0, 1.0), scan=beams
-    )
-    for g, pose in zip(maps, poses, strict=True):
-        ends = transform_points(pose, scan)
-        r = np.floor((ends[:, 1] - g.origin[1]) / 0.05).astype(int)
-        c = np.floor((ends[:, 0] - g.origin[0]) / 0.05).astype(int)
-        assert np.all((r >= 0) & (r < g.shape[0]) & (c >= 0) & (c < g.shape[1]))
-        assert np.mean(g.logodds[r, c] > 0) > 0.95

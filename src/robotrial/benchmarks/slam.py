@@ -9,7 +9,8 @@ the map built from the true poses with the same grid, which shows what the senso
 the grid alone cost (the floor no SLAM method can beat on room dimensions). The paper's
 finding (Hector fails in the large empty room A, GMapping holds) is checked twice: with
 the LiDAR's full range, and with the usable range cut to `--short-range` metres (what a
-large room looks like to a short-range laser); the corridor is the textbook case.
+large room looks like to a short-range laser); the corridor is the textbook case. With
+`--real` the real-robot logs follow in the same run (benchmarks/slam_real.py).
 """
 
 from __future__ import annotations
@@ -66,9 +67,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "-o", "--output", help="write the results as JSON here (--real: slam_real.json beside it)"
     )
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--real", action="store_true", help="public real-robot CARMEN logs")
-    parser.add_argument("--log-dir", help="--real: folder of the logs (default: the cache)")
+    parser.add_argument(
+        "--real", action="store_true", help="also real-robot CARMEN logs (after the worlds)"
+    )
+    parser.add_argument("--log-dir", help="--real: folder of the logs (default: cache, data)")
     parser.add_argument("--no-fetch", action="store_true", help="--real: download nothing")
+    parser.add_argument("--methods", default="gmapping,hector,graph", help="--real: methods")
+    parser.add_argument("--sets", default="", help="--real: data sets (default: all found)")
+    parser.add_argument(
+        "--memory-limit", type=float, default=6.0, help="--real: GB of address space per run"
+    )
 
 
 def truth_map_run(rec, resolution: float):
@@ -156,10 +164,18 @@ COLUMNS = [
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.real:
+    """The simulated worlds (unless `--worlds` is empty), then with `--real` the real
+    logs: one command shows what a change does to both."""
+    code = run_sim(args) if args.worlds.strip() else 0
+    if args.real and code == 0:
         from robotrial.benchmarks.slam_real import run_real
 
         return run_real(args)
+    return code
+
+
+def run_sim(args: argparse.Namespace) -> int:
+    """The simulated worlds: record each route once, run every method over it, score."""
     from robotrial.model import load_world
     from robotrial.model.world import world_from_dict
     from robotrial.trials.slam import (

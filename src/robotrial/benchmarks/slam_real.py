@@ -1,59 +1,123 @@
-"""`robotrial bench slam --real`: GMapping- and Hector-class SLAM on public real-robot
-laser logs, scored with the relative-pose error of Kuemmerle et al. (2009) beside the
-figures that paper publishes (layer 5).
+"""`robotrial bench slam --real`: GMapping-, Hector-class and pose-graph SLAM on public
+real-robot laser logs, scored with the relative-pose error of Kuemmerle et al. (2009)
+beside the figures that paper publishes (layer 5).
 
-The Intel Research Lab, ACES and Freiburg 079 logs and their relation files are looked
-for in the cache folder (`robotrial.trials.carmen.cache_dir`); none of them is on a
-package registry, so a user puts them there (the names looked for are printed). The MIT
-Killian Court log ships inside the PyPI package rtb-data (the Robotics Toolbox's data,
-as a g2o file with ROBOTLASER1 lines): it is fetched from PyPI into the cache when
-absent. It has no public relation file, so it is measured for time per scan only. A data
-set that cannot be found is reported as skipped; the benchmark still exits 0.
+Where the logs are looked for: `--log-dir` when given; else the cache folder
+(`robotrial.trials.carmen.cache_dir`) and the data folder beside the checkout
+(`../shared/data/slam/` from the repository's root), in that order. Found there (see
+`DATA_SETS`): the MIT CSAIL CARMEN log (no relation file: its map is the result), the
+relation files of MIT Killian Court and Freiburg 079, and whatever Intel, ACES or FR079
+logs a user puts there. The MIT Killian Court log ships in the PyPI package rtb-data
+(the Robotics Toolbox's data, as a g2o file with ROBOTLASER1 lines): it is read from the
+installed package when there is one, else from the cache, else fetched from PyPI into
+the cache (`pip download`, nothing installed; `--no-fetch` downloads nothing). A data set
+that cannot be found is reported as skipped; the benchmark still exits 0.
 
-`robotrial bench slam --real` and `robotrial bench slam_real` run the same thing.
+Every method runs over a log in a process of its own, so that its peak memory (the
+process's largest resident size, the interpreter and compiled code included) is its own;
+`--memory-limit` caps each such process's address space. The odometry alone is scored
+too: the floor a method must not fall below.
+
+`robotrial bench slam --real` also runs the simulated benchmark first (`bench slam`),
+so that a change that helps one and hurts the other shows in one run;
+`robotrial bench slam_real` runs the real logs alone.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
+import os
+import platform
+import resource
 import subprocess
 import sys
 import tempfile
+import time
 import zipfile
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from robotrial.console import console, print_table, progress
+import numpy as np
 
-# MIT Killian Court: the published figures of the same table (m, mean ± std).
-KILLIAN_PUBLISHED = {
-    "scan matching": (1.651, 4.138),
-    "RBPF": (0.122, 0.386),
-    "graph mapping": (0.050, 0.056),
-}
+from robotrial.console import console, print_table
+
 KILLIAN_FILE = "killian.g2o.zip"
 KILLIAN_PACKAGE = ("rtb-data==2.0.0", "rtbdata/data/killian.g2o.zip")
 
-HELP = "SLAM on public real-robot CARMEN logs: relation error of Kuemmerle et al., ms per scan"
+HELP = "SLAM on real-robot CARMEN logs: relation error of Kuemmerle et al., ms/scan, memory"
 
+METHODS = ("gmapping", "hector", "graph")
 COLUMNS = [
     "data set",
     "method",
     "scans",
-    "ms/scan",
-    "trans. err m",
+    "trans. err m (mean ± std)",
+    "max m",
     "rot. err deg",
-    "paper: scan matching",
-    "paper: RBPF",
-    "paper: graph",
+    "ms/scan",
+    "peak MB",
+    "published (same method class)",
 ]
+PUBLISHED_CLASS = {"gmapping": "RBPF", "hector": "scan matching", "graph": "graph mapping"}
+
+
+@dataclass(frozen=True)
+class DataSet:
+    """A log to run: its name, title, the log's file names looked for, the relation
+    file's, and the published translational errors (m, mean and std) by method class."""
+
+    name: str
+    title: str
+    log_names: tuple[str, ...]
+    relation_names: tuple[str, ...]
+    published: dict[str, tuple[float, float]]
+
+
+def data_sets() -> list[DataSet]:
+    """The public logs of `robotrial.trials.carmen.PUBLIC_LOGS`, MIT Killian Court and
+    MIT CSAIL."""
+    from robotrial.trials.carmen import PUBLIC_LOGS
+
+    out = [
+        DataSet(p.name, p.title, p.log_names, p.relation_names, p.published) for p in PUBLIC_LOGS
+    ]
+    out.append(
+        DataSet(
+            "killian",
+            "MIT Killian Court",
+            (KILLIAN_FILE,),
+            ("mit-killian.relations", "killian.relations"),
+            # Kuemmerle et al. 2009, as for the others (m, mean ± std).
+            {
+                "scan matching": (1.651, 4.138),
+                "RBPF": (0.122, 0.386),
+                "graph mapping": (0.050, 0.056),
+            },
+        )
+    )
+    out.append(DataSet("csail", "MIT CSAIL", ("mit-csail.clf.gz", "mit-csail.clf"), (), {}))
+    return out
+
+
+def repository_data() -> Path:
+    """The data folder beside the checkout: ../shared/data/slam from the repository's
+    root (this file is src/robotrial/benchmarks/ in it)."""
+    return Path(__file__).resolve().parents[3].parent / "shared" / "data" / "slam"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--log-dir", help="folder of the logs (default: the cache)")
+    parser.add_argument("--log-dir", help="folder of the logs (default: cache, then data folder)")
     parser.add_argument("--no-fetch", action="store_true", help="download nothing")
     parser.add_argument("--particles", type=int, default=30, help="GMapping particles")
+    parser.add_argument("--methods", default=",".join(METHODS), help="comma-separated methods")
+    parser.add_argument("--sets", default="", help="comma-separated data sets (default: all)")
+    parser.add_argument(
+        "--memory-limit", type=float, default=6.0, help="GB of address space per run"
+    )
     parser.add_argument(
         "-o",
         "--output",
@@ -62,8 +126,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """The `bench slam_real` entry: the same as `bench slam --real`."""
+    """The `bench slam_real` entry: the real logs alone."""
     return run_real(args)
+
+
+def installed_killian() -> Path | None:
+    """The Killian Court log inside an installed rtb-data package, if there is one."""
+    try:
+        import importlib.resources
+
+        path = importlib.resources.files("rtbdata") / "data" / KILLIAN_FILE
+    except (ImportError, ModuleNotFoundError):
+        return None
+    return Path(str(path)) if path.is_file() else None
 
 
 def fetch_killian(folder: Path) -> tuple[Path | None, str]:
@@ -86,40 +161,80 @@ def fetch_killian(folder: Path) -> tuple[Path | None, str]:
     return target, f"fetched from PyPI ({KILLIAN_PACKAGE[0]})"
 
 
+def _first(folders: list[Path], names: tuple[str, ...]) -> Path | None:
+    for f in folders:
+        for n in names:
+            if (f / n).is_file():
+                return f / n
+    return None
+
+
+def _one_run(
+    log: str, relations: str | None, method: str, params: dict[str, Any], stem: str, limit_gb: float
+) -> dict[str, Any]:
+    """One method over one log, in a process of its own: the scores, time per scan, peak
+    memory (MB), and the map files written at `stem`."""
+    if limit_gb > 0:
+        # Never above a limit the caller's shell set already (that cannot be raised).
+        _, hard = resource.getrlimit(resource.RLIMIT_AS)
+        cap = int(limit_gb * 1e9)
+        if hard != resource.RLIM_INFINITY:
+            cap = min(cap, hard)
+        resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+    from robotrial.model.carmen import read_relations
+    from robotrial.slam.metrics import relation_metric
+    from robotrial.trials import carmen
+    from robotrial.trials.slam import run_slam, write_outputs
+
+    rec, _ = carmen.load_log(log)
+    rel = read_relations(relations) if relations else None
+    out: dict[str, Any] = {"scans": len(rec.scans)}
+    if method == "odometry":
+        stamps = np.array([s.stamp for s in rec.scans])
+        odom = rec.scan_odom
+        if odom is None:
+            odom = np.array([rec.odom_at(t) for t in stamps])
+        if rel is not None:
+            out["relations"] = relation_metric(stamps, odom, rel)
+        return out
+    t0 = time.perf_counter()
+    try:
+        run_ = run_slam(method, rec, params)
+    except MemoryError:
+        out["error"] = f"out of memory (over {limit_gb:g} GB)"
+        return out
+    out["wall_s"] = time.perf_counter() - t0
+    out["time_per_scan_ms"] = float(run_.scan_times.mean() * 1e3)
+    # The whole run's wall time per scan: a pose graph's back end included.
+    out["wall_per_scan_ms"] = out["wall_s"] * 1e3 / max(1, len(rec.scans))
+    if rel is not None:
+        out["relations"] = relation_metric(run_.stamps, run_.poses, rel)
+    out["extra"] = {k: v for k, v in run_.extra.items() if not isinstance(v, dict)}
+    out["files"] = write_outputs(run_, rec, None, stem)
+    out["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3
+    return out
+
+
+def _in_child(*args: Any) -> dict[str, Any]:
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        return pool.submit(_one_run, *args).result()
+
+
 def _pm(mean_std: tuple[float, float] | None) -> str:
     return "-" if mean_std is None else f"{mean_std[0]:.3f} ± {mean_std[1]:.3f}"
 
 
 def run_real(args: argparse.Namespace) -> int:
-    """Run both methods over every public log that can be found; print and write JSON."""
-    from robotrial.model.carmen import CarmenError
+    """Every method over every log that can be found; print a table and write JSON."""
     from robotrial.trials import carmen
-    from robotrial.trials.slam import run_slam, write_outputs
 
-    folder = Path(args.log_dir) if args.log_dir else carmen.cache_dir()
-    sets: list[tuple[str, str, Path | None, Path | None, dict[str, tuple[float, float]]]] = []
-    for pub in carmen.PUBLIC_LOGS:
-        log, rel = carmen.find_public(pub, folder)
-        sets.append((pub.name, pub.title, log, rel, pub.published))
-        if log is None:
-            console.print(
-                f"{pub.title}: skipped, no log in {folder} "
-                f"(looked for {', '.join(pub.log_names)}; it is on no package registry)"
-            )
-        elif rel is None:
-            console.print(
-                f"{pub.title}: no relation file in {folder} "
-                f"(looked for {', '.join(pub.relation_names)}): time per scan only"
-            )
-    killian, how = (None, "not fetched (--no-fetch)")
-    if args.no_fetch:
-        killian = folder / KILLIAN_FILE if (folder / KILLIAN_FILE).is_file() else None
-        how = "cached" if killian else how
-    else:
-        killian, how = fetch_killian(folder)
-    console.print(f"MIT Killian Court: {how if killian else 'skipped, ' + how}")
-    sets.append(("killian", "MIT Killian Court", killian, None, KILLIAN_PUBLISHED))
-
+    folders = [Path(args.log_dir)] if args.log_dir else [carmen.cache_dir(), repository_data()]
+    wanted = {s for s in args.sets.split(",") if s}
+    methods = [m for m in args.methods.split(",") if m]
+    unknown = [m for m in methods if m not in METHODS]
+    if unknown:
+        console.print(f"[red]bench slam --real: unknown methods {unknown}; choose from {METHODS}")
+        return 2
     scratch = None
     if args.output:
         out_dir = Path(args.output).parent
@@ -127,52 +242,83 @@ def run_real(args: argparse.Namespace) -> int:
     else:  # the maps are needed for the scores only
         scratch = tempfile.TemporaryDirectory(prefix="robotrial-slam-real-")
         out_dir = Path(scratch.name)
-    results: dict[str, Any] = {"cache": str(folder), "particles": args.particles, "sets": {}}
+    # The machine may be shared: each run's wall times are read beside the load average
+    # (1 min) at its start and end.
+    results: dict[str, Any] = {
+        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+        "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
+        "load_start": os.getloadavg()[0],
+        "folders": [str(f) for f in folders],
+        "particles": args.particles,
+        "sets": {},
+    }
     rows: list[list[Any]] = []
-    methods = [("hector", {}), ("gmapping", {"particles": args.particles})]
-    for name, title, log_path, rel_path, published in sets:
-        paper = [_pm(published.get(k)) for k in ("scan matching", "RBPF", "graph mapping")]
-        if log_path is None:
-            rows.append([title, "skipped: not found", "-", "-", "-", "-", *paper])
-            results["sets"][name] = {"skipped": True}
+    for ds in data_sets():
+        if wanted and ds.name not in wanted:
             continue
-        try:
-            rec, log = carmen.load_log(log_path)
-            rel = carmen.read_relations(rel_path) if rel_path else None
-        except (CarmenError, FileNotFoundError) as exc:
-            console.print(f"[red]{title}: {exc}")
-            rows.append([title, "skipped: unreadable", "-", "-", "-", "-", *paper])
-            continue
-        per: dict[str, Any] = {"log": str(log_path), "skipped_lines": len(log.skipped)}
-        for method, params in methods:
-            with progress(f"{method} over {log_path.name}", len(rec.scans)) as adv:
-                run_ = run_slam(method, rec, params, on_scan=lambda i: adv())
-            scores = None
-            if rel is not None:
-                from robotrial.slam.metrics import relation_metric
-
-                scores = relation_metric(run_.stamps, run_.poses, rel)
-            s = carmen.summary(run_, scores)
-            s["files"] = write_outputs(run_, rec, None, out_dir / f"{name}_{method}")
-            per[method] = s
-            trans = rot = "-"
-            if scores and "trans_mean" in scores:
-                trans = _pm((scores["trans_mean"], scores["trans_std"]))
-                rot = f"{scores['rot_deg_mean']:.2f} ± {scores['rot_deg_std']:.2f}"
-            rows.append(
-                [title, method, s["scans"], f"{s['time_per_scan_ms']:.2f}", trans, rot, *paper]
+        log = _first(folders, ds.log_names)
+        if ds.name == "killian" and log is None and not args.log_dir:
+            log = installed_killian()
+            if log is None and not args.no_fetch:
+                log, how = fetch_killian(carmen.cache_dir())
+                console.print(f"MIT Killian Court: {how}")
+        rel = _first(folders, ds.relation_names)
+        if log is None:
+            where = ", ".join(str(f) for f in folders)
+            console.print(
+                f"{ds.title}: skipped, no log in {where} (looked for {', '.join(ds.log_names)})"
             )
-        results["sets"][name] = per
+            rows.append([ds.title, "skipped: not found", "-", "-", "-", "-", "-", "-", "-"])
+            results["sets"][ds.name] = {"skipped": True}
+            continue
+        per: dict[str, Any] = {"log": str(log), "relations": str(rel) if rel else None}
+        console.print(f"{ds.title}: {log}" + (f", relations {rel}" if rel else ", no relations"))
+        for method in ["odometry", *methods]:
+            params: dict[str, Any] = {"particles": args.particles} if method == "gmapping" else {}
+            stem = str(out_dir / f"{ds.name}_{method}")
+            load = os.getloadavg()[0]
+            with console.status(f"{method} over {log.name}"):
+                s = _in_child(str(log), str(rel) if rel else None, method, params, stem,
+                              args.memory_limit)  # fmt: skip
+            s["load"] = [load, os.getloadavg()[0]]
+            per[method] = s
+            rows.append(_row(ds, method, s))
+        results["sets"][ds.name] = per
+    results["load_end"] = os.getloadavg()[0]
     if args.output:
         out = Path(args.output).with_name("slam_real.json")
         out.write_text(json.dumps(results, indent=2, default=float))
     if scratch is not None:
         scratch.cleanup()
     print_table(
-        "bench slam --real (relation error of Kuemmerle et al., mean ± std; paper: "
-        "their Table, translational error m)",
+        "bench slam --real (relation error of Kuemmerle et al. 2009; published: their table, "
+        "translational error m, for the same class of method)",
         COLUMNS,
         rows,
     )
-    console.print(f"results: {out}")
+    console.print(
+        f"load average (1 min) {results['load_start']:.1f} at the start, "
+        f"{results['load_end']:.1f} at the end, on {os.cpu_count()} CPUs"
+    )
+    if args.output:
+        console.print(f"results: {out}")
     return 0
+
+
+def _row(ds: DataSet, method: str, s: dict[str, Any]) -> list[Any]:
+    r = s.get("relations") or {}
+    trans = _pm((r["trans_mean"], r["trans_std"])) if "trans_mean" in r else "-"
+    top = f"{r['trans_max']:.2f}" if "trans_max" in r else "-"
+    rot = f"{r['rot_deg_mean']:.2f} ± {r['rot_deg_std']:.2f}" if "rot_deg_mean" in r else "-"
+    if s.get("error"):
+        trans = s["error"]
+    ms = (
+        f"{s['time_per_scan_ms']:.2f} ({s['wall_per_scan_ms']:.1f})"
+        if "time_per_scan_ms" in s
+        else "-"
+    )
+    peak = f"{s['peak_mb']:.0f}" if "peak_mb" in s else "-"
+    cls = PUBLISHED_CLASS.get(method)
+    paper = f"{cls} {_pm(ds.published.get(cls))}" if cls and cls in ds.published else "-"
+    label = "odometry alone" if method == "odometry" else method
+    return [ds.title, label, s.get("scans", "-"), trans, top, rot, ms, peak, paper]

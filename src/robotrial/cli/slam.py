@@ -28,6 +28,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     src.add_argument("--live", action="store_true", help="drive the simulator and map live")
     src.add_argument("--log", metavar="FILE", help="a real-robot CARMEN log (.clf, .log)")
     parser.add_argument("--relations", metavar="FILE", help="--log: relations to score against")
+    parser.add_argument(
+        "--order",
+        choices=("file", "time"),
+        default="file",
+        help="--log: scans in the file's order (as taken) or sorted by time stamp",
+    )
     parser.add_argument("-o", "--output", default="map", help="output stem (STEM.pgm, .yaml, ...)")
     parser.add_argument(
         "--world",

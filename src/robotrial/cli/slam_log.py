@@ -24,7 +24,7 @@ def run_log(args: argparse.Namespace, params: dict[str, str]) -> int:
     from robotrial.trials import carmen, slam
 
     try:
-        rec, log = carmen.load_log(args.log)
+        rec, log = carmen.load_log(args.log, order=args.order)
         if args.relations:
             carmen.read_relations(args.relations)  # a bad file fails before the long run
     except (CarmenError, FileNotFoundError) as exc:

@@ -19,6 +19,19 @@ Every other message type (PARAM, TRUEPOS, SYNC, a g2o file's VERTEX_SE2 ...) is 
 over and counted. A line of a known type that cannot be read is an error naming the
 file and the line (``strict=True``) or is skipped and listed in `CarmenLog.skipped`.
 
+What a reading means depends on the format. A new-style line carries the scanner's
+maximum range: a reading at or past it is "no return". An old-style FLASER line carries
+none; its scanners (SICK LMS and PLS) measure up to `FLASER_MAX_RANGE` and report "no
+return" with a code value above it (81.83 m and 81.91 m are both found in these logs), and
+a log whose largest reading recurs far more often than any measured distance could (see
+`no_return_code`) uses that value as its code. A reading of 0 or less is no measurement.
+No return is stored as inf, no measurement as nan.
+
+Scans stay in the order of the file, which is the order they were taken: some logs'
+time stamps step backwards now and then (by up to a second), so sorting them by stamp
+would shuffle the robot's path (`order="time"` sorts them all the same). Each laser line
+also carries the robot's odometry pose at that scan, kept beside the scan.
+
 A relation file (Kuemmerle et al. 2009, "On measuring the accuracy of SLAM algorithms")
 holds one relation a line: ``t1 t2 x y z roll pitch yaw``, the motion of the robot from
 its pose at time t1 to its pose at time t2, in the frame of the first.
@@ -36,9 +49,12 @@ from pathlib import Path
 
 import numpy as np
 
-# What stands for "no return" in old-style logs that carry no maximum range: the SICK
-# LMS of these data sets reports 81.91 m (or more) when nothing reflected.
-FLASER_MAX_RANGE = 81.9
+# The farthest an old-style (FLASER) reading can be measured: the SICK LMS and PLS of
+# these data sets range to 80 m at most and report "no return" with codes above that.
+FLASER_MAX_RANGE = 80.0
+# A log's largest reading is its "no return" code when at least this share of all its
+# readings carry exactly that value (measured distances spread over millimetres).
+CODE_SHARE = 1e-3
 
 
 class CarmenError(ValueError):
@@ -47,21 +63,24 @@ class CarmenError(ValueError):
 
 @dataclass(frozen=True)
 class CarmenScan:
-    """One laser scan: ranges (m, inf where nothing returned), the angle of the first
-    beam and between beams (rad, in the laser's frame), the maximum range (m)."""
+    """One laser scan: ranges (m, inf where nothing returned, nan where the scanner
+    measured nothing), the angle of the first beam and between beams (rad, in the laser's
+    frame), the maximum range (m), and the robot's odometry pose (x, y, yaw) the line
+    carried (None for a scan without one)."""
 
     stamp: float
     ranges: np.ndarray
     angle_min: float
     angle_increment: float
     range_max: float
+    odom: tuple[float, float, float] | None = None
 
 
 @dataclass
 class CarmenLog:
-    """Scans in time order; odometry as rows (stamp, x, y, yaw); the laser's pose on the
-    robot's base (x, y, yaw); lines skipped as (line number, reason); how many lines of
-    other message types were passed over."""
+    """Scans in file order (or time order, when read so); odometry as rows (stamp, x, y,
+    yaw) in time order; the laser's pose on the robot's base (x, y, yaw); lines skipped as
+    (line number, reason); how many lines of other message types were passed over."""
 
     scans: list[CarmenScan]
     odom: np.ndarray
@@ -73,6 +92,13 @@ class CarmenLog:
     @property
     def duration(self) -> float:
         return self.scans[-1].stamp - self.scans[0].stamp if len(self.scans) > 1 else 0.0
+
+    def scan_odometry(self) -> np.ndarray | None:
+        """The odometry pose of every scan (N, 3) from its own line, or None when some
+        scan's line carried none (then `odom` is interpolated at its stamp instead)."""
+        if not self.scans or any(s.odom is None for s in self.scans):
+            return None
+        return np.array([s.odom for s in self.scans], dtype=np.float64)
 
 
 def _floats(tokens: list[str], start: int, count: int, what: str) -> list[float]:
@@ -97,9 +123,25 @@ def _count(tokens: list[str], at: int, what: str) -> int:
 
 
 def _no_return(ranges: np.ndarray, max_range: float) -> np.ndarray:
-    """Ranges with readings at or past the maximum (the sensor's "nothing") as inf."""
+    """Ranges with readings at or past the maximum (the sensor's "nothing") as inf and
+    readings of 0 or less (no measurement) as nan."""
     r = np.asarray(ranges, dtype=np.float64)
-    return np.where(r >= max_range - 1e-6, np.inf, r)
+    r = np.where(r >= max_range - 1e-6, np.inf, r)
+    return np.where(r > 0, r, np.nan)
+
+
+def no_return_code(ranges: np.ndarray) -> float | None:
+    """The value an old-style log writes for "no return" when it is below
+    `FLASER_MAX_RANGE`: its largest reading, if at least `CODE_SHARE` of all readings
+    are exactly that (a code, not a distance); None otherwise."""
+    r = np.asarray(ranges, dtype=np.float64).ravel()
+    r = r[np.isfinite(r) & (r > 0)]
+    if r.size == 0:
+        return None
+    top = float(r.max())
+    if top >= FLASER_MAX_RANGE:
+        return None
+    return top if np.count_nonzero(r == top) >= max(10, CODE_SHARE * r.size) else None
 
 
 def _flaser_angles(n: int) -> tuple[float, float]:
@@ -131,8 +173,8 @@ def _line(kind: str, tokens: list[str], out: _Parsed) -> None:
         v = _floats(tokens, 2, n + 7, kind)
         laser, robot, stamp = v[n : n + 3], v[n + 3 : n + 6], v[n + 6]
         a0, da = _flaser_angles(n)
-        ranges = _no_return(np.array(v[:n]), FLASER_MAX_RANGE)
-        out.scans.append(CarmenScan(stamp, ranges, a0, da, FLASER_MAX_RANGE))
+        # Raw readings: "no return" is decided over the whole log (`_flaser_codes`).
+        out.scans.append(CarmenScan(stamp, np.array(v[:n]), a0, da, 0.0, tuple(robot)))
         out.scan_odom.append((stamp, *robot))
         out.mounts.append(_mount(laser, robot))
     elif kind in ("ROBOTLASER1", "RAWLASER1"):
@@ -141,32 +183,61 @@ def _line(kind: str, tokens: list[str], out: _Parsed) -> None:
         ranges = np.array(_floats(tokens, 9, n, kind))
         m = _count(tokens, 9 + n, kind + " remissions")
         at = 10 + n + m
+        odom: tuple[float, float, float] | None = None
         if kind == "ROBOTLASER1":
             v = _floats(tokens, at, 12, kind)
             laser, robot, stamp = v[0:3], v[3:6], v[11]
+            odom = (robot[0], robot[1], robot[2])
             out.scan_odom.append((stamp, *robot))
             out.mounts.append(_mount(laser, robot))
         else:
             stamp = _floats(tokens, at, 1, kind)[0]
         if not max_range > 0 or not res > 0:
             raise CarmenError(f"{kind}: maximum range {max_range} and resolution {res} must be > 0")
-        out.scans.append(CarmenScan(stamp, _no_return(ranges, max_range), start, res, max_range))
+        out.scans.append(
+            CarmenScan(stamp, _no_return(ranges, max_range), start, res, max_range, odom)
+        )
     elif kind == "ODOM":
         x, y, th, _tv, _rv, _acc, stamp = _floats(tokens, 1, 7, kind)
         out.odom.append((stamp, x, y, th))
 
 
 KNOWN = ("FLASER", "ROBOTLASER1", "RAWLASER1", "ODOM")
+ORDERS = ("file", "time")
 
 
-def parse_carmen(lines: Iterable[str], source: str = "log", strict: bool = False) -> CarmenLog:
+def _flaser_codes(scans: list[CarmenScan]) -> list[CarmenScan]:
+    """Old-style scans (range_max 0: raw readings) with "no return" decided over all of
+    them: readings past `FLASER_MAX_RANGE` or at the log's own code."""
+    raw = [s for s in scans if s.range_max == 0.0]
+    if not raw:
+        return scans
+    code = no_return_code(np.concatenate([s.ranges for s in raw]))
+    top = FLASER_MAX_RANGE if code is None else code
+    out = []
+    for s in scans:
+        if s.range_max == 0.0:
+            r = np.asarray(s.ranges, dtype=np.float64)
+            beyond = r > FLASER_MAX_RANGE if code is None else r >= code - 1e-6
+            r = np.where(beyond, np.inf, np.where(r > 0, r, np.nan))
+            s = CarmenScan(s.stamp, r, s.angle_min, s.angle_increment, top, s.odom)
+        out.append(s)
+    return out
+
+
+def parse_carmen(
+    lines: Iterable[str], source: str = "log", strict: bool = False, order: str = "file"
+) -> CarmenLog:
     """A CarmenLog from the lines of a log. `strict`: a malformed line of a known type
     raises CarmenError naming `source` and the line; otherwise it is skipped and listed.
+    `order`: "file" keeps the scans as the log holds them, "time" sorts them by stamp.
 
     Odometry comes from the robot poses on the laser lines (one per scan, what the
     mapping programs of these logs used); ODOM lines are used only when no laser line
     carries a pose. The laser's pose on the base is taken from the first laser line whose
     two poses are less than 1 m apart (these logs keep it fixed)."""
+    if order not in ORDERS:
+        raise ValueError(f"CARMEN log order {order!r}: choose from {', '.join(ORDERS)}")
     out = _Parsed()
     skipped: list[tuple[int, str]] = []
     other = 0
@@ -195,7 +266,9 @@ def parse_carmen(lines: Iterable[str], source: str = "log", strict: bool = False
         # Keep one row per stamp (a log may repeat one): interpolation needs them apart.
         keep = np.concatenate([[True], np.diff(odom[:, 0]) > 0])
         odom = odom[keep]
-    scans = sorted(out.scans, key=lambda s: s.stamp)
+    scans = _flaser_codes(out.scans)
+    if order == "time":
+        scans = sorted(scans, key=lambda s: s.stamp)
     # A laser pose far from the odometry is a corrected pose, not the mount: leave it.
     mount = next((m for m in out.mounts if math.hypot(m[0], m[1]) < 1.0), (0.0, 0.0, 0.0))
     return CarmenLog(scans, odom, mount, source, skipped, other)
@@ -215,12 +288,12 @@ def _text_lines(path: Path) -> list[str]:
     return data.decode("utf-8", errors="replace").splitlines()
 
 
-def read_carmen(path: str | Path, strict: bool = False) -> CarmenLog:
+def read_carmen(path: str | Path, strict: bool = False, order: str = "file") -> CarmenLog:
     """A CARMEN log file (.clf, .log, .g2o with ROBOTLASER1 lines; plain, .gz or .zip)."""
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"{p}: no such CARMEN log")
-    return parse_carmen(_text_lines(p), str(p), strict)
+    return parse_carmen(_text_lines(p), str(p), strict, order)
 
 
 def write_carmen(
@@ -238,7 +311,8 @@ def write_carmen(
         for s, (x, y, th) in zip(scans, np.asarray(odom_at_scans), strict=True):
             c, sn = math.cos(th), math.sin(th)
             laser = (x + c * lx - sn * ly, y + sn * lx + c * ly, th + lth)
-            r = np.where(np.isfinite(s.ranges), s.ranges, s.range_max)
+            r = np.where(np.isnan(s.ranges), 0.0, s.ranges)
+            r = np.where(np.isinf(r), s.range_max, r)
             fov = s.angle_increment * max(len(r) - 1, 0)
             f.write(f"ODOM {x:.6f} {y:.6f} {th:.6f} 0 0 0 {s.stamp:.6f} {host} {s.stamp:.6f}\n")
             f.write(

@@ -25,6 +25,7 @@ import yaml
 from robotrial.model.robot import ModelError
 
 FREE, OCCUPIED, UNKNOWN = 254, 0, 205
+BAND_ROWS = 512
 MODES = ("trinary", "scale", "raw")
 
 
@@ -74,15 +75,18 @@ def write_map(
     rest (and -1) grey."""
     pgm, yml = _paths(path)
     pgm.parent.mkdir(parents=True, exist_ok=True)
-    d = np.asarray(grid.data).astype(np.int16)
-    img = np.full(d.shape, UNKNOWN, dtype=np.uint8)
-    img[(d >= 0) & (d <= free_thresh * 100)] = FREE
-    img[d >= occupied_thresh * 100] = OCCUPIED
-    img = img[::-1]
-    h, w = img.shape
+    data = np.asarray(grid.data)
+    h, w = data.shape
     with open(pgm, "wb") as f:
         f.write(f"P5\n# CREATOR: robotrial {grid.resolution:.3f} m/pix\n{w} {h}\n255\n".encode())
-        f.write(img.tobytes())
+        # The image's top row is the map's highest y; written a band of rows at a time,
+        # so a large map (a campus at 2.5 cm) needs no image-sized copies.
+        for top in range(h, 0, -BAND_ROWS):
+            d = data[max(0, top - BAND_ROWS) : top][::-1].astype(np.int16)
+            img = np.full(d.shape, UNKNOWN, dtype=np.uint8)
+            img[(d >= 0) & (d <= free_thresh * 100)] = FREE
+            img[d >= occupied_thresh * 100] = OCCUPIED
+            f.write(img.tobytes())
     meta = {
         "image": pgm.name,
         "mode": "trinary",

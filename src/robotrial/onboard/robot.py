@@ -41,6 +41,7 @@ from robotrial.ros.bus import Bus, Node
 from robotrial.ros.nav_node import NavNode
 from robotrial.ros.slam_node import SlamNode, grid_message, yaw_of
 from robotrial.slam.grid import LogOddsGrid
+from robotrial.slam.tiled import TiledGrid
 
 CMD_RATE = 20.0  # Hz, the robot's own /cmd_vel (route driving, docking)
 
@@ -100,7 +101,7 @@ class Robot(Node):
         self._last_cmd = -np.inf
         self.slam_node = SlamNode(bus, setup.slam) if setup.slam is not None else None
         self.nav_node: NavNode | None = None
-        self.grid: LogOddsGrid | None = None
+        self.grid: LogOddsGrid | TiledGrid | None = None
 
     # --- what it hears -----------------------------------------------------------------
 

@@ -4,7 +4,7 @@ pose out, like slam_gmapping and hector_mapping (layer 4).
 | direction | topic | type |
 | --- | --- | --- |
 | in | `/scan` | sensor_msgs/LaserScan |
-| in | `/odom` | nav_msgs/Odometry (GMapping needs it; Hector and the pose graph ignore it) |
+| in | `/odom` | nav_msgs/Odometry (GMapping needs it; Hector and the graph use it if any) |
 | in | `/tf_static` | tf2_msgs/TFMessage (where the laser sits on the base) |
 | out | `/map` | nav_msgs/OccupancyGrid, latched, every `map_update_interval` s of scan time |
 | out | `/tf` | map -> odom (map -> base frame when there is no odometry) |
@@ -41,6 +41,7 @@ from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.hector import HectorSlam
 from robotrial.slam.posegraph import PoseGraphSlam
 from robotrial.slam.scan import Beams, beams, compose, relative
+from robotrial.slam.tiled import TiledGrid
 
 POSE_TOPIC = "/slam_out_pose"
 
@@ -95,8 +96,10 @@ def scan_to_beams(
     laser_pose: tuple[float, float, float],
     min_range: float,
     usable_range: float,
+    max_range: float = np.inf,
 ) -> Beams:
-    """A LaserScan as SLAM beams in the base frame, with the method's range limits."""
+    """A LaserScan as SLAM beams in the base frame, with the method's range limits
+    (`slam.scan.beams`: past `max_range` a beam is left out, past `usable_range` cut)."""
     rmax = float(msg.range_max) if msg.range_max > 0 else usable_range
     return beams(
         np.asarray(msg.ranges, dtype=np.float64),
@@ -105,10 +108,11 @@ def scan_to_beams(
         max(float(msg.range_min), min_range),
         min(rmax, usable_range),
         laser_pose,
+        max_range,
     )
 
 
-def grid_message(grid: LogOddsGrid, stamp: float, frame: str = "map") -> OccupancyGrid:
+def grid_message(grid: LogOddsGrid | TiledGrid, stamp: float, frame: str = "map") -> OccupancyGrid:
     """The map as nav_msgs/OccupancyGrid (100 occupied, 0 free, -1 unknown)."""
     values = grid.ros_values()
     h, w = values.shape
@@ -199,18 +203,18 @@ class SlamNode(Node):
     def _on_scan(self, msg: LaserScan) -> None:
         with self._lock:
             t = stamp_of(msg.header)
-            odom = self._odom_at(t) if self.slam.uses_odometry else None
+            # Every method is given the odometry when there is some; GMapping needs it.
+            odom = self._odom_at(t)
             mount = self._mount(msg.header.frame_id)
             if (self.slam.uses_odometry and odom is None) or mount is None:
                 self.dropped += 1
                 return
             t0 = time.perf_counter()
-            b = scan_to_beams(msg, mount, self.slam.min_range, self.slam.usable_range)
+            low, top, usable = self.slam.range_limits(float(msg.range_max))
+            b = scan_to_beams(msg, mount, low, usable, top)
             self.pose = pose = self.slam.process(b, t, odom)
             self.scan_times.append(time.perf_counter() - t0)
             self.scans += 1
-            if odom is None:
-                odom = self._odom_at(t)
         self._publish(t, pose, odom)
 
     def _publish(self, t: float, pose: np.ndarray, odom: np.ndarray | None) -> None:

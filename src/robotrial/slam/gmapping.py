@@ -14,11 +14,13 @@ Each particle carries a pose, a log-weight and its own map. When the robot has m
    `lsigma`, `kernelSize`), tempered by `ogain`;
 4. every particle writes the scan into its map at its new pose (a thinned beam fan);
 5. when the effective sample size falls below `resampleThreshold` * particles, the
-   particles are resampled (systematic), children copying their parent's map.
+   particles are resampled (systematic), children taking their parent's map.
 
-Steps 2-4 for all particles are one compiled call (`match_particles`): each map is
-matched and written while it is in the cache. Writing before resampling gives the maps
-GMapping gets by resampling first, as a child takes its parent's pose and map.
+The maps share their tiles until a particle writes into one (`tiled.TiledMaps`, as
+GMapping's patches): a child holds its parent's tiles, and each update copies only the
+tiles the scan crosses. Steps 2-4 for all particles are one compiled call
+(`TiledMaps.match`). Writing before resampling gives the maps GMapping gets by
+resampling first, as a child takes its parent's pose and map.
 
 Between updates the pose follows odometry from the best particle. The trajectory at the
 end is the best particle's ancestry, so it is consistent with its map.
@@ -30,10 +32,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from robotrial.slam.grid import LogOddsGrid, integrate_many
-from robotrial.slam.matcher import match_particles
+from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.params import GMappingParams
-from robotrial.slam.scan import Beams, compose, relative, transform_points
+from robotrial.slam.scan import Beams, compose, motion_sigma, relative
+from robotrial.slam.tiled import TiledMaps
 
 
 def one_per_cell(points: np.ndarray, cell: float) -> np.ndarray:
@@ -66,6 +68,10 @@ def angle_step(scan: Beams) -> float | None:
     return step if step > 0 else None
 
 
+# slam_gmapping's documented maxUrange, for a scanner that states no range_max.
+DEFAULT_USABLE_RANGE = 80.0
+
+
 class OdometryRequired(ValueError):
     """GMapping was given a scan without an odometry pose."""
 
@@ -87,8 +93,7 @@ class GMappingSlam:
         n = p.particles
         self.poses = np.zeros((n, 3))
         self.logw = np.zeros(n)
-        self.maps: list[LogOddsGrid] = [LogOddsGrid(p.delta)]
-        self._map_index = np.zeros(n, dtype=int)
+        self.maps = TiledMaps(n, p.delta)
         self._odom_at_update: np.ndarray | None = None
         self._best = 0
         self.history: list[_Step] = []
@@ -97,18 +102,26 @@ class GMappingSlam:
         self.resamples = 0
         self.neff = float(n)
 
-    @property
-    def usable_range(self) -> float:
-        return self.params.maxUrange
-
-    @property
-    def min_range(self) -> float:
-        return 0.0
+    def range_limits(self, range_max: float) -> tuple[float, float, float]:
+        """(min, maximum, usable) range for a scanner whose range_max is given (0 when
+        unknown), as slam_gmapping sets them: maxRange unset is range_max - 0.01 (so a
+        reading at range_max, "no return", is left out), maxUrange unset is maxRange."""
+        p = self.params
+        top = p.maxRange if p.maxRange > 0 else (range_max - 0.01 if range_max > 0 else np.inf)
+        usable = p.maxUrange if p.maxUrange > 0 else top
+        if not np.isfinite(usable):
+            usable = DEFAULT_USABLE_RANGE
+        return 0.0, top, min(usable, top)
 
     @property
     def grid(self) -> LogOddsGrid:
         """The best particle's map."""
-        return self.maps[self._map_index[self._best]]
+        return self.maps.dense(self._best)
+
+    @property
+    def map_bytes(self) -> int:
+        """The memory the particles' maps take (their tiles held once, and indexes)."""
+        return self.maps.nbytes
 
     @property
     def pose(self) -> np.ndarray:
@@ -150,13 +163,15 @@ class GMappingSlam:
         guesses = compose_many(self.poses, np.asarray(d, dtype=np.float64) + noise)
         step = angle_step(scan)
         fan = replace(scan, angle_step=step) if step is not None else None
-        # The coarse levels of the best particle's map steer every particle's match.
-        ref = self.grid
-        coarse = ref.pyramid(p.match_levels)[1:]
-        self.poses, loglik = match_particles(
-            [self.maps[k] for k in self._map_index],
+        # The coarse levels of the best particle's map, where the scan can land, steer
+        # every particle's match.
+        reach = float(np.hypot(*scan.ends.T).max()) + 1.0 if scan.ends.size else 1.0
+        here = self.poses[self._best]
+        box = (here[0] - reach, here[1] - reach, here[0] + reach, here[1] + reach)
+        coarse, origin = self.maps.coarse(self._best, box, p.match_levels)
+        self.poses, loglik = self.maps.match(
             coarse,
-            ref.origin,
+            origin,
             hits[:: 2 * stride],
             hits,
             guesses,
@@ -180,11 +195,9 @@ class GMappingSlam:
             parents = self._systematic(w)
             self.poses = self.poses[parents].copy()
             self.logw[:] = 0.0
-            self._resample_maps(parents)
+            self.maps.resample(parents)
             self._best = int(np.argmax(w[parents]))
             self.resamples += 1
-        if fan is None:
-            self._register(scan)
         self.history.append(_Step(self.poses.copy(), parents))
         self.updates += 1
 
@@ -192,13 +205,7 @@ class GMappingSlam:
         """GMapping's odometry motion model: standard deviations of x, y (in the frame
         of the previous pose) and yaw, growing with the distance and angle moved."""
         p = self.params
-        sxy = 0.3 * p.srr
-        dx, dy, dth = (abs(float(v)) for v in d)
-        return (
-            p.srr * dx + p.str * dth + sxy * dy,
-            p.srr * dy + p.str * dth + sxy * dx,
-            p.stt * dth + p.srt * float(np.hypot(dx, dy)),
-        )
+        return motion_sigma(d, p.srr, p.str, p.srt, p.stt)
 
     def _systematic(self, w: np.ndarray) -> np.ndarray:
         n = w.size
@@ -206,38 +213,11 @@ class GMappingSlam:
         idx = np.searchsorted(np.cumsum(w), positions)
         return np.minimum(idx, n - 1)
 
-    def _resample_maps(self, parents: np.ndarray) -> None:
-        # A parent's map goes to its first child as is; further children get copies.
-        old = [self.maps[self._map_index[j]] for j in range(len(self._map_index))]
-        taken: set[int] = set()
-        maps: list[LogOddsGrid] = []
-        for j in parents:
-            src = old[j]
-            if id(src) in taken:
-                maps.append(src.copy())
-            else:
-                taken.add(id(src))
-                maps.append(src)
-        self.maps = maps
-        self._map_index = np.arange(len(maps))
-
     def _register(self, scan: Beams) -> None:
-        # Before the first resampling all particles share one map; split it on write.
-        n = self.params.particles
-        if len(self.maps) == 1 and n > 1:
-            self.maps = [self.maps[0].copy() for _ in range(n)]
-            self._map_index = np.arange(n)
         step = angle_step(scan)
-        if step is not None:
-            grids = [self.maps[k] for k in self._map_index]
-            integrate_many(grids, self.poses, scan.origin, scan.ends, scan.hit, step)
+        if step is None:
             return
-        for i in range(n):
-            pose = self.poses[i]
-            origin = transform_points(pose, np.array([scan.origin]))[0]
-            self.maps[self._map_index[i]].integrate(
-                origin, transform_points(pose, scan.ends), scan.hit
-            )
+        self.maps.write(self.poses, replace(scan, angle_step=step))
 
     def map_to_odom(self, odom: np.ndarray) -> np.ndarray:
         """The map -> odom transform that puts `odom` (the odometry pose now) at the

@@ -251,157 +251,6 @@ def _trace_fan(
 
 
 @numba.njit(cache=True, nogil=True)
-def touch(grid: np.ndarray, r0: int, r1: int, c0: int, c1: int) -> float:
-    """Read one value per 64-byte line of rows r0..r1 - 1, columns c0..c1 - 1, in memory
-    order. Tracing or matching on a grid that is not in the cache (the filter goes
-    through 30 maps in turn) otherwise waits for memory cell by cell, in the beams'
-    scattered order; a sweep in order lets the hardware prefetch it at full bandwidth
-    first. Returns a sum, so it is not skipped."""
-    rows, cols = grid.shape
-    total = 0.0
-    for r in range(max(0, r0), min(rows, r1)):
-        for c in range(max(0, c0), min(cols, c1), 16):
-            total += grid[r, c]
-    return total
-
-
-@numba.njit(cache=True, nogil=True)
-def _bounds(poses: np.ndarray, sensor: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    # (xmin, ymin, xmax, ymax) of the sensor and the end points placed at each pose.
-    out = np.empty((poses.shape[0], 4))
-    for k in range(poses.shape[0]):
-        c = np.cos(poses[k, 2])
-        s = np.sin(poses[k, 2])
-        x0 = x1 = poses[k, 0] + c * sensor[0] - s * sensor[1]
-        y0 = y1 = poses[k, 1] + s * sensor[0] + c * sensor[1]
-        for i in range(ends.shape[0]):
-            x = poses[k, 0] + c * ends[i, 0] - s * ends[i, 1]
-            y = poses[k, 1] + s * ends[i, 0] + c * ends[i, 1]
-            x0, x1 = min(x0, x), max(x1, x)
-            y0, y1 = min(y0, y), max(y1, y)
-        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = x0, y0, x1, y1
-    return out
-
-
-@numba.njit(cache=True, nogil=True)
-def trace_at(
-    grid: np.ndarray,
-    ox: float,
-    oy: float,
-    res: float,
-    pose: np.ndarray,
-    sensor: np.ndarray,
-    ends: np.ndarray,
-    stops: np.ndarray,
-    hit: np.ndarray,
-    starts: np.ndarray,
-    l_free: float,
-    l_occ: float,
-    lo: float,
-    hi: float,
-    warm: bool,
-) -> bool:
-    """Trace a thinned beam fan (sensor (2,), ends and their `stop_points` (N, 2) in the
-    base frame) into the grid at `pose`; with `warm`, read the region in memory order
-    first (see `touch`). Returns False, writing nothing, when the scan reaches past the
-    grid's edge."""
-    rows, cols = grid.shape
-    c = np.cos(pose[2])
-    s = np.sin(pose[2])
-    ex = np.empty(ends.shape[0])
-    ey = np.empty(ends.shape[0])
-    fx = np.empty(ends.shape[0])
-    fy = np.empty(ends.shape[0])
-    sx = pose[0] + c * sensor[0] - s * sensor[1]
-    sy = pose[1] + s * sensor[0] + c * sensor[1]
-    x0, x1, y0, y1 = sx, sx, sy, sy
-    for i in range(ends.shape[0]):
-        ex[i] = pose[0] + c * ends[i, 0] - s * ends[i, 1]
-        ey[i] = pose[1] + s * ends[i, 0] + c * ends[i, 1]
-        fx[i] = pose[0] + c * stops[i, 0] - s * stops[i, 1]
-        fy[i] = pose[1] + s * stops[i, 0] + c * stops[i, 1]
-        x0, x1 = min(x0, ex[i]), max(x1, ex[i])
-        y0, y1 = min(y0, ey[i]), max(y1, ey[i])
-    c0, c1 = int(np.floor((x0 - ox) / res)), int(np.floor((x1 - ox) / res))
-    r0, r1 = int(np.floor((y0 - oy) / res)), int(np.floor((y1 - oy) / res))
-    if c0 < 0 or r0 < 0 or c1 >= cols or r1 >= rows:
-        return False
-    if warm:
-        touch(grid, r0, r1 + 1, c0, c1 + 1)
-    _trace_fan(grid, ox, oy, res, sx, sy, ex, ey, fx, fy, hit, starts, l_free, l_occ, lo, hi)
-    return True
-
-
-@numba.njit(cache=True, nogil=True)
-def _trace_fan_many(
-    grids: numba.typed.List,
-    origins: np.ndarray,
-    res: float,
-    poses: np.ndarray,
-    sensor: np.ndarray,
-    ends: np.ndarray,
-    stops: np.ndarray,
-    hit: np.ndarray,
-    starts: np.ndarray,
-    l_free: float,
-    l_occ: float,
-    lo: float,
-    hi: float,
-) -> None:
-    for k in range(poses.shape[0]):
-        trace_at(
-            grids[k], origins[k, 0], origins[k, 1], res, poses[k], sensor, ends, stops,
-            hit, starts, l_free, l_occ, lo, hi, True,
-        )  # fmt: skip
-
-
-def integrate_many(
-    grids: list[LogOddsGrid],
-    poses: np.ndarray,
-    sensor_xy: tuple[float, float],
-    end_xy: np.ndarray,
-    hit: np.ndarray,
-    angle_step: float,
-) -> None:
-    """`LogOddsGrid.integrate(..., angle_step)` of one scan (sensor and (N, 2) end points
-    in the base frame, beams in scan order) into each grid at its pose (grids[k] at
-    poses[k], x y yaw), in one compiled call. The grids must be distinct objects and
-    share a resolution and a log-odds model."""
-    if len(grids) != len(poses):
-        raise ValueError(f"integrate_many: {len(grids)} grids but {len(poses)} poses")
-    if len({id(g) for g in grids}) != len(grids):
-        raise ValueError("integrate_many: a grid appears twice")
-    if not angle_step > 0:
-        raise ValueError(f"integrate_many: angle_step must be positive, got {angle_step}")
-    ends = np.ascontiguousarray(end_xy, dtype=np.float64).reshape(-1, 2)
-    if ends.shape[0] == 0 or not grids:
-        return
-    res, m = grids[0].resolution, grids[0].model
-    if any(g.resolution != res or g.model != m for g in grids):
-        raise ValueError("integrate_many: the grids differ in resolution or model")
-    poses = np.ascontiguousarray(poses, dtype=np.float64).reshape(-1, 3)
-    sensor = np.array([float(sensor_xy[0]), float(sensor_xy[1])])
-    for g, box in zip(grids, _bounds(poses, sensor, ends), strict=True):
-        g.ensure(*box)
-    hit = np.ascontiguousarray(hit, dtype=np.bool_)
-    _trace_fan_many(
-        numba.typed.List([g.logodds for g in grids]),
-        np.array([g.origin for g in grids], dtype=np.float64),
-        res,
-        poses,
-        sensor,
-        ends,
-        stop_points(sensor, ends, hit, m.hit_margin * res),
-        hit,
-        fan_starts(res, angle_step),
-        m.free,
-        m.occupied,
-        m.clamp_min,
-        m.clamp_max,
-    )
-
-
-@numba.njit(cache=True, nogil=True)
 def _halve(src: np.ndarray) -> np.ndarray:
     # Each 2x2 block keeps its most occupied cell (cells outside the grid are unknown,
     # 0): a wall one fine cell thick stays a wall at every level, as in hector_mapping's
@@ -460,6 +309,11 @@ class LogOddsGrid:
     def shape(self) -> tuple[int, int]:
         return self.logodds.shape  # type: ignore[return-value]
 
+    @property
+    def nbytes(self) -> int:
+        """The memory of the cells."""
+        return self.logodds.nbytes
+
     def extent(self) -> tuple[float, float, float, float]:
         """(xmin, ymin, xmax, ymax) in metres."""
         rows, cols = self.shape
@@ -467,12 +321,16 @@ class LogOddsGrid:
         return x0, y0, x0 + cols * self.resolution, y0 + rows * self.resolution
 
     def ensure(self, xmin: float, ymin: float, xmax: float, ymax: float, pad: float = 2.0) -> None:
-        """Grow (with `pad` metres to spare) so the box lies inside; cell edges stay on
-        multiples of the resolution, so content never shifts."""
+        """Grow (with `pad` metres to spare, and at least a quarter of the grid's size, so
+        that a robot exploring a large site does not copy the grid every few metres) so
+        the box lies inside; cell edges stay on multiples of the resolution, so content
+        never shifts."""
         x0, y0, x1, y1 = self.extent()
         empty = self.logodds.size == 0
         if not empty and xmin >= x0 and ymin >= y0 and xmax < x1 and ymax < y1:
             return
+        if not empty:
+            pad = max(pad, 0.25 * max(x1 - x0, y1 - y0))
         r = self.resolution
         nx0 = min(xmin - pad, x0) if not empty else xmin - pad
         ny0 = min(ymin - pad, y0) if not empty else ymin - pad
@@ -497,9 +355,12 @@ class LogOddsGrid:
         end_xy: np.ndarray,
         hit: np.ndarray,
         angle_step: float | None = None,
+        weight: float = 1.0,
     ) -> None:
         """Trace beams from the sensor to (N, 2) end points in the map frame; `hit[i]`
-        says whether beam i ended on something (else only its cells are freed).
+        says whether beam i ended on something (else only its cells are freed). The
+        updates are scaled by `weight`: -1 takes back what the same scan at the same pose
+        wrote with 1 (exactly, on a grid whose clamps are never reached).
 
         With `angle_step` (the angle between neighbouring beams of a fan given in scan
         order), near the sensor, where many beams cross each cell, only a thinned set is
@@ -527,7 +388,7 @@ class LogOddsGrid:
             hit,
         )
         grid = (self.logodds, self.origin[0], self.origin[1], self.resolution, sx, sy)
-        weights = (m.free, m.occupied, m.clamp_min, m.clamp_max)
+        weights = (m.free * weight, m.occupied * weight, m.clamp_min, m.clamp_max)
         if angle_step is not None and angle_step > 0:
             _trace_fan(*grid, *beams, fan_starts(self.resolution, angle_step), *weights)
             return
@@ -548,8 +409,10 @@ class LogOddsGrid:
     def ros_values(self, occupied_above: float = 0.65, free_below: float = 0.35) -> np.ndarray:
         """int8 cells as a ROS OccupancyGrid carries them: 100 occupied, 0 free, -1 unknown
         (never observed, or between the thresholds)."""
-        p = self.probability()
+        # On the log-odds directly: no float64 copy of a large map.
+        occ = np.float32(np.log(occupied_above / (1 - occupied_above)))
+        free = np.float32(np.log(free_below / (1 - free_below)))
         out = np.full(self.shape, -1, dtype=np.int8)
-        out[p >= occupied_above] = 100
-        out[p <= free_below] = 0
+        out[self.logodds >= occ] = 100
+        out[self.logodds <= free] = 0
         return out

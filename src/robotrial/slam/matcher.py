@@ -18,12 +18,15 @@ monotone map l -> 0.5 + 0.5 l / (1 + |l|), which needs no exp in the inner loop.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
-from robotrial.slam.grid import LogOddsGrid, fan_starts, stop_points, touch, trace_at
-from robotrial.slam.scan import Beams
+from robotrial.slam.grid import LogOddsGrid
+
+if TYPE_CHECKING:
+    from robotrial.slam.tiled import TiledGrid
 
 
 @numba.njit(cache=True, inline="always")
@@ -147,7 +150,7 @@ def _gauss_newton(
         h22 += prior_weight[2]
         g0 += prior_weight[0] * (prior[0] - p0)
         g1 += prior_weight[1] * (prior[1] - p1)
-        g2 += prior_weight[2] * (prior[2] - p2)
+        g2 += prior_weight[2] * ((prior[2] - p2 + np.pi) % (2 * np.pi) - np.pi)
         tr = h00 + h11 + h22
         if tr <= 1e-12:
             break
@@ -226,198 +229,6 @@ def _likelihood(
 COARSE_TOL = 0.1
 
 
-@numba.njit(cache=True)
-def _match_particles(
-    maps: numba.typed.List,
-    origins: np.ndarray,
-    res: float,
-    coarse: numba.typed.List,
-    cox: float,
-    coy: float,
-    match_pts: np.ndarray,
-    pts: np.ndarray,
-    stride: int,
-    guesses: np.ndarray,
-    prior_weight: np.ndarray,
-    iterations: int,
-    kernel: int,
-    sigma: float,
-    lsigma: float,
-    null_likelihood: float,
-    min_score: float,
-    write: bool,
-    sensor: np.ndarray,
-    ends: np.ndarray,
-    stops: np.ndarray,
-    hit: np.ndarray,
-    starts: np.ndarray,
-    model: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    n = guesses.shape[0]
-    poses = np.empty((n, 3))
-    logliks = np.empty(n)
-    written = np.zeros(n, dtype=np.bool_)
-    reach = 0.0
-    for i in range(pts.shape[0]):
-        reach = max(reach, np.hypot(pts[i, 0], pts[i, 1]))
-    for i in range(n):
-        grid = maps[i]
-        ox, oy = origins[i, 0], origins[i, 1]
-        start = guesses[i].copy()
-        pose = start.copy()
-        if grid.size > 0 and match_pts.shape[0] > 0:
-            for level in range(len(coarse), 0, -1):
-                block = 1 << level
-                pose, _, _ = _gauss_newton(
-                    coarse[level - 1],
-                    cox,
-                    coy,
-                    res * block,
-                    1,
-                    match_pts,
-                    block,
-                    pose,
-                    iterations,
-                    start,
-                    prior_weight,
-                    COARSE_TOL,
-                )
-            # The scan lands within its reach (the farthest point) of the pose.
-            touch(
-                grid,
-                int((pose[1] - reach - oy) / res),
-                int((pose[1] + reach - oy) / res) + 1,
-                int((pose[0] - reach - ox) / res),
-                int((pose[0] + reach - ox) / res) + 1,
-            )
-            pose, _, _ = _gauss_newton(
-                grid, ox, oy, res, 1, match_pts, 1, pose, iterations, start, prior_weight, 0.05
-            )
-            pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
-        if grid.size == 0:
-            poses[i] = pose
-            logliks[i] = 0.0
-            continue
-        score, loglik, _ = _likelihood(
-            grid, ox, oy, res, pts, stride, pose, kernel, sigma, lsigma, null_likelihood
-        )
-        if score <= min_score:
-            pose = start
-            _, loglik, _ = _likelihood(
-                grid, ox, oy, res, pts, stride, pose, kernel, sigma, lsigma, null_likelihood
-            )
-        poses[i] = pose
-        logliks[i] = loglik
-        if write:
-            # The map is in the cache now, from the match.
-            written[i] = trace_at(
-                grid, ox, oy, res, pose, sensor, ends, stops, hit, starts,
-                model[0], model[1], model[2], model[3], False,
-            )  # fmt: skip
-    return poses, logliks, written
-
-
-def match_particles(
-    maps: list[LogOddsGrid],
-    coarse: list[np.ndarray],
-    coarse_origin: tuple[float, float],
-    match_points: np.ndarray,
-    points: np.ndarray,
-    guesses: np.ndarray,
-    prior_sigma: tuple[float, float, float],
-    iterations: int = 5,
-    stride: int = 1,
-    kernel: int = 1,
-    sigma: float = 0.05,
-    lsigma: float = 0.075,
-    null_likelihood: float = -0.5,
-    min_score: float = 0.0,
-    scan: Beams | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """GMapping's improved proposal and weights for every particle in one compiled call:
-    particle i's guess (guesses[i], x y yaw) is refined as `ScanMatcher.match` does with
-    `match_points` ((N, 2), base frame) on `maps[i]` with the motion prior `prior_sigma`,
-    except that the coarse levels (`coarse`, block sizes 2, 4, ..., anchored at
-    `coarse_origin`) are one shared map's (the particles' maps differ by centimetres,
-    less than a coarse cell); then the pose is scored with every `stride`-th of `points`
-    on its own map's likelihood field as `likelihood` does. A match scoring at most
-    `min_score` is not trusted and the guess is kept. With `scan` (beams in scan order
-    with their angle step), the scan is then written into each map at its particle's
-    pose as `LogOddsGrid.integrate(..., angle_step)` does, while the map is still in the
-    cache from the match (the maps must be distinct objects). Returns (poses (N, 3),
-    log-likelihoods (N,))."""
-    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
-    res = maps[0].resolution
-    for m in maps:
-        if m.resolution != res:
-            raise ValueError(
-                f"match_particles: maps differ in resolution ({m.resolution} vs {res})"
-            )
-    weight = 1.0 / np.maximum(np.asarray(prior_sigma, dtype=np.float64), 1e-3) ** 2
-    grids = numba.typed.List([m.logodds for m in maps])
-    levels = numba.typed.List([np.ascontiguousarray(c, dtype=np.float32) for c in coarse])
-    if len(levels) == 0:
-        levels = numba.typed.List.empty_list(numba.float32[:, ::1])
-    write = scan is not None
-    m = maps[0].model
-    if scan is not None:
-        if not (scan.angle_step is not None and scan.angle_step > 0):
-            raise ValueError("match_particles: the scan to write needs its angle step")
-        if len({id(g) for g in maps}) != len(maps):
-            raise ValueError("match_particles: a map appears twice; cannot write the scan")
-        if any(g.model != m for g in maps):
-            raise ValueError("match_particles: the maps differ in their log-odds model")
-        sensor = np.array(scan.origin, dtype=np.float64)
-        ends = np.ascontiguousarray(scan.ends, dtype=np.float64).reshape(-1, 2)
-        hit = np.ascontiguousarray(scan.hit, dtype=np.bool_)
-        starts = fan_starts(res, scan.angle_step)
-        stops = stop_points(sensor, ends, hit, m.hit_margin * res)
-    else:
-        sensor, ends, stops, hit, starts = (
-            np.zeros(2),
-            np.zeros((0, 2)),
-            np.zeros((0, 2)),
-            np.zeros(0, np.bool_),
-            np.zeros(1),
-        )
-    poses, logliks, written = _match_particles(
-        grids,
-        np.array([m.origin for m in maps], dtype=np.float64).reshape(-1, 2),
-        res,
-        levels,
-        float(coarse_origin[0]),
-        float(coarse_origin[1]),
-        np.ascontiguousarray(match_points, dtype=np.float64).reshape(-1, 2),
-        pts,
-        max(1, stride),
-        np.ascontiguousarray(guesses, dtype=np.float64).reshape(-1, 3),
-        weight,
-        int(iterations),
-        int(kernel),
-        float(sigma),
-        float(lsigma),
-        float(null_likelihood),
-        float(min_score),
-        write,
-        sensor,
-        ends,
-        stops,
-        hit,
-        starts,
-        np.array([m.free, m.occupied, m.clamp_min, m.clamp_max]),
-    )
-    if scan is not None:
-        # A scan reaching past a map's edge: grow the map, then write.
-        for k in np.flatnonzero(~written):
-            pose = poses[k]
-            c, s = np.cos(pose[2]), np.sin(pose[2])
-            rot = np.array([[c, -s], [s, c]])
-            maps[k].integrate(
-                pose[:2] + rot @ sensor, pose[:2] + ends @ rot.T, hit, scan.angle_step
-            )
-    return poses, logliks
-
-
 @dataclass(frozen=True)
 class MatchResult:
     """The matched pose (x, y, yaw), the Gauss-Newton Hessian at the finest level (its
@@ -445,11 +256,12 @@ class ScanMatcher:
 
     def match(
         self,
-        grid: LogOddsGrid,
+        grid: LogOddsGrid | TiledGrid,
         points: np.ndarray,
         guess: np.ndarray,
         pyramid: list[np.ndarray] | None = None,
         prior_sigma: tuple[float, float, float] | None = None,
+        prior_mean: np.ndarray | None = None,
     ) -> MatchResult:
         """Refine `guess` so that `points` ((N, 2), base frame) fall on the map's
         occupied cells. With `pyramid` (LogOddsGrid.pyramid, computed once a map update)
@@ -457,20 +269,27 @@ class ScanMatcher:
         deviations of a motion model) the cost adds sum ((pose - guess) / sigma)^2, so
         along directions the scan cannot tell apart (a corridor, a wall seen alone) the
         pose stays at the guess instead of sliding: the proposal of GMapping combines
-        the scan and the motion model this way."""
+        the scan and the motion model this way. The prior is centred on `prior_mean`
+        (x, y, yaw) when given, else on the guess."""
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
         pose = np.asarray(guess, dtype=np.float64).copy()
-        if pts.shape[0] == 0 or grid.logodds.size == 0:
+        if pts.shape[0] == 0 or min(grid.shape) == 0:
             return MatchResult(pose, np.zeros((3, 3)), 0.0)
         hess = np.zeros((3, 3))
         cost = 0.0
         ox, oy = grid.origin
-        start = pose.copy()
+        start = pose.copy() if prior_mean is None else np.asarray(prior_mean, np.float64).copy()
         weight = np.zeros(3)
         if prior_sigma is not None:
             weight = 1.0 / np.maximum(np.asarray(prior_sigma, dtype=np.float64), 1e-3) ** 2
         for level in range(self.levels - 1, -1, -1):
             block = 1 << level
+            if not isinstance(grid, LogOddsGrid):
+                # A map stored in tiles (slam.tiled.TiledGrid) reads its own cells.
+                pose, hess, cost = grid.gauss_newton(
+                    pts, pose, block, block, self.iterations, start, weight, 1e-2
+                )
+                continue
             if pyramid is not None and level < len(pyramid):
                 arr, res, view = pyramid[level], grid.resolution * block, 1
             else:

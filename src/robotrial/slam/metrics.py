@@ -14,6 +14,7 @@ import numpy as np
 
 from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.scan import relative
+from robotrial.slam.tiled import TiledGrid
 
 
 def umeyama_2d(est: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -64,7 +65,7 @@ def rpe(est: np.ndarray, ref: np.ndarray, delta: int = 1) -> dict[str, float]:
     }
 
 
-def cell_centres(grid: LogOddsGrid, mask: np.ndarray) -> np.ndarray:
+def cell_centres(grid: LogOddsGrid | TiledGrid, mask: np.ndarray) -> np.ndarray:
     """Centres (x, y) of the grid cells where `mask` is True."""
     rows, cols = np.nonzero(mask)
     res = grid.resolution
@@ -73,7 +74,7 @@ def cell_centres(grid: LogOddsGrid, mask: np.ndarray) -> np.ndarray:
     )
 
 
-def room_dimensions(grid: LogOddsGrid) -> tuple[float, float, float]:
+def room_dimensions(grid: LogOddsGrid | TiledGrid) -> tuple[float, float, float]:
     """(width along the room's x, depth along its y, yaw of the room's axes in the map)
     measured on the map alone: the room's axes are the rotation that makes occupied
     cells line up best; each wall's inner face is the mean position of the occupied cells in

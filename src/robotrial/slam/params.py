@@ -47,7 +47,9 @@ class GMappingParams:
     angularUpdate: float = 0.5
     temporalUpdate: float = -1.0
     map_update_interval: float = 5.0
-    maxUrange: float = 80.0
+    # 0: as slam_gmapping when the parameter is not set (maxRange = the scanner's
+    # range_max - 0.01, maxUrange = maxRange; see GMappingSlam.range_limits).
+    maxUrange: float = 0.0
     maxRange: float = 0.0
     sigma: float = 0.05
     kernelSize: int = 1
@@ -80,8 +82,11 @@ class GMappingParams:
             )
         if self.linearUpdate < 0 or self.angularUpdate < 0:
             raise ValueError("gmapping: linearUpdate and angularUpdate must be >= 0")
-        if not self.maxUrange > 0:
-            raise ValueError(f"gmapping: maxUrange must be > 0, got {self.maxUrange}")
+        if self.maxUrange < 0 or self.maxRange < 0:
+            raise ValueError(
+                f"gmapping: maxUrange and maxRange must be > 0 (or 0: from the scanner), "
+                f"got {self.maxUrange}, {self.maxRange}"
+            )
 
     @staticmethod
     def from_dict(values: dict[str, Any] | None) -> GMappingParams:
@@ -89,7 +94,21 @@ class GMappingParams:
 
 
 @dataclass(frozen=True)
-class HectorParams:
+class OdometryModel:
+    """The odometry motion model of Hector's and the pose graph's front ends: standard
+    deviations of x, y and yaw per m and rad moved (`slam.scan.motion_sigma`), at least
+    the minimums."""
+
+    odom_trans_per_trans: float = 0.1
+    odom_trans_per_rot: float = 0.05
+    odom_rot_per_trans: float = 0.05
+    odom_rot_per_rot: float = 0.1
+    odom_min_sigma_xy: float = 0.005
+    odom_min_sigma_yaw: float = 0.005
+
+
+@dataclass(frozen=True)
+class HectorParams(OdometryModel):
     """hector_mapping parameters (ROS names and defaults)."""
 
     map_resolution: float = 0.025
@@ -103,6 +122,8 @@ class HectorParams:
     map_pub_period: float = 2.0
     # Gauss-Newton steps per resolution level (hector_mapping hard-codes a few).
     iterations: int = 5
+    # Odometry, when given: the start of each match and its prior (OdometryModel).
+    use_odometry: bool = True
 
     def __post_init__(self) -> None:
         if not self.map_resolution > 0:
@@ -118,41 +139,84 @@ class HectorParams:
 
 
 @dataclass(frozen=True)
-class PoseGraphParams:
-    """Pose-graph SLAM parameters (names after slam_toolbox's where one exists).
+class PoseGraphParams(OdometryModel):
+    """Pose-graph SLAM parameters (names after slam_toolbox's where one exists; see
+    slam/posegraph.py for what each part does). Distances in m, angles in rad.
 
-    Distances in m, angles in rad. A node is added every `minimum_travel_distance` or
-    `minimum_travel_heading`; a loop closure is searched among nodes within
-    `loop_search_maximum_distance` of the new one and at least `loop_min_chain` nodes
-    back, matched against `loop_neighbours` scans either side of the candidate over a
-    window of +-`loop_search_space` m and +-`loop_search_angle` rad, and accepted when
-    the mean likelihood field value of the scan reaches `loop_match_minimum_response`;
-    after a closure, the next `loop_cooldown` nodes look for none.
-    The graph is optimised after every `optimize_every` accepted closures; the map is
-    rebuilt when that moved a scan by more than `map_rebuild_shift`. With `background`
-    the loop searches, the optimisation and the rebuild run in a worker thread, off the
-    scan path (False: inline, for comparisons). A pass is swapped in at the first scan
+    Nodes: one every `minimum_travel_distance` or `minimum_travel_heading`. Front end:
+    scans are matched against the last `scan_buffer_size` nodes' scans within
+    `scan_buffer_maximum_scan_distance` m of path, from the odometry's prediction, over a
+    window of 3 standard deviations of the odometry motion model (`odom_*`: standard
+    deviation per m or rad moved, at least `odom_min_sigma_*`), at most
+    +-`correlation_search_space` m and +-`correlation_search_angle` rad (the whole window
+    without odometry); the search is skipped when the window lies within Gauss-Newton's
+    reach (its coarsest cell, `gauss_newton_reach_angle`). A match's covariance is its
+    Hessian's inverse times its mean squared residual times `match_variance_scale`, at
+    least `match_min_sigma_*`.
+    Loop closure: candidates at least `loop_min_chain` nodes back whose estimate lies
+    within `loop_search_maximum_distance` plus the search window of the new node; the
+    window is +-(`loop_search_space` + `loop_search_growth` * graph distance) m, at most
+    `loop_search_space_max`, and likewise for the angle, on a likelihood field of
+    `loop_resolution` m cells; a match is kept when its mean field value reaches
+    `loop_match_minimum_response` and a closure from a node at most `loop_confirm_nodes`
+    away implies the same correction, within 3 standard deviations of both closures'
+    covariances plus `loop_confirm_distance` m (and 2 % of the way between the nodes) and
+    `loop_confirm_angle` rad. Its covariance is the spread of the poses that score
+    nearly as well (long along a corridor) plus the refinement's, at least
+    `loop_min_sigma_*`. In the graph, loop closures carry a Cauchy kernel
+    `loop_kernel_width` standard deviations wide; after an optimisation the worst
+    closure with a chi-square above `loop_max_chi2` is taken out and the graph optimised
+    again, `loop_removal_rounds` times at most. The
+    graph is optimised when a closure waiting in it has a chi-square above
+    `loop_optimize_chi2` at the current estimate, or after `optimize_every` closures.
+    With `background` the loop searches and the optimisation run in a worker thread, off
+    the scan path (False: inline, for comparisons). A pass is swapped in at the first scan
     after it ends, which depends on the timing; with `lockstep`, when the next node is
     added, the scan path waiting for it then if it has not finished: the same scans give
-    the same map whatever the machine's load."""
+    the same map whatever the machine's load. `map_rebuild_shift`: a pass that moves a
+    node by less (a turn counting at 5 m) leaves the maps as they are."""
 
     resolution: float = 0.025
-    match_levels: int = 3
+    match_levels: int = 4
     iterations: int = 5
     minimum_travel_distance: float = 0.3
     minimum_travel_heading: float = 0.349
     laser_min_dist: float = 0.4
     max_laser_range: float = 30.0
+    scan_buffer_size: int = 30
+    scan_buffer_maximum_scan_distance: float = 10.0
+    correlation_search_space: float = 0.5
+    correlation_search_angle: float = 0.35
+    correlation_points: int = 150
+    gauss_newton_reach_angle: float = 0.1
+    match_prior_scale: float = 1.0
+    match_variance_scale: float = 30.0
+    match_min_sigma_xy: float = 0.005
+    match_min_sigma_yaw: float = 0.002
     loop_search_maximum_distance: float = 2.0
     loop_min_chain: int = 10
     loop_neighbours: int = 3
     loop_search_space: float = 0.3
+    loop_search_growth: float = 0.05
+    loop_search_space_max: float = 10.0
     loop_search_angle: float = 0.15
+    loop_search_angle_growth: float = 0.005
+    loop_search_angle_max: float = 0.35
     loop_search_angle_step: float = 0.005
     loop_cooldown: int = 1
     loop_match_minimum_response: float = 0.6
     loop_points: int = 300
-    optimize_every: int = 2
+    loop_resolution: float = 0.05
+    loop_confirm_nodes: int = 10
+    loop_confirm_distance: float = 0.1
+    loop_confirm_angle: float = 0.05
+    loop_min_sigma_xy: float = 0.02
+    loop_min_sigma_yaw: float = 0.01
+    loop_kernel_width: float = 3.0
+    loop_max_chi2: float = 25.0
+    loop_removal_rounds: int = 3
+    loop_optimize_chi2: float = 9.0
+    optimize_every: int = 8
     map_rebuild_shift: float = 0.01
     map_pub_period: float = 2.0
     background: bool = True
@@ -173,6 +237,20 @@ class PoseGraphParams:
             )
         if not 0 < self.loop_match_minimum_response <= 1:
             raise ValueError("graph: loop_match_minimum_response must be in (0, 1]")
+        if self.scan_buffer_size < 1 or self.correlation_points < 1:
+            raise ValueError("graph: scan_buffer_size and correlation_points must be >= 1")
+        if not (self.loop_search_space_max >= self.loop_search_space > 0):
+            raise ValueError("graph: need 0 < loop_search_space <= loop_search_space_max")
+        sigmas = (
+            self.match_min_sigma_xy,
+            self.match_min_sigma_yaw,
+            self.odom_min_sigma_xy,
+            self.odom_min_sigma_yaw,
+            self.loop_min_sigma_xy,
+            self.loop_min_sigma_yaw,
+        )
+        if min(sigmas) <= 0:
+            raise ValueError("graph: the *_min_sigma_* parameters must be > 0")
 
     @staticmethod
     def from_dict(values: dict[str, Any] | None) -> PoseGraphParams:

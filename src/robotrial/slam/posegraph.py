@@ -1,41 +1,66 @@
 """Pose-graph SLAM, Karto / slam_toolbox style (layer 3).
 
-Front end: every scan is matched against the map built so far (the Gauss-Newton matcher
-of matcher.py, from the previous pose); every `minimum_travel_distance` or
-`minimum_travel_heading` the scan becomes a node of the graph, joined to the previous
-node by an edge whose measurement is the matched relative pose and whose information is
-the match's Hessian. Loop closure: for a new node, earlier nodes near its estimate but
-not recent in the chain are candidates; the scan is matched correlatively (a brute
-search over a window of poses on a likelihood field) against a small grid built from the
-candidate's neighbouring scans, refined by Gauss-Newton, and accepted when the response
-is high and the refinement agrees with the search. Back end: after every few accepted
-closures a sparse Levenberg-Marquardt over the SE(2) node poses runs, and the map is
-rebuilt from the scans at their optimised poses. Scans between nodes keep their pose
-relative to the node before them, so the whole trajectory follows the optimisation.
+Front end: every scan is predicted from the last pose by the odometry (when there is
+some) and matched against a local map, the scans of the last few nodes (a rolling window,
+`scan_buffer_size` nodes within `scan_buffer_maximum_scan_distance` m of path). The match
+is a brute correlative search over a window as wide as the prediction is uncertain (the
+odometry motion model; without odometry, `correlation_search_space` m and rad), then
+multi-resolution Gauss-Newton from the best pose with the prediction as a prior. Every
+`minimum_travel_distance` or `minimum_travel_heading` the scan becomes a node, joined to
+the previous one by two constraints: the odometry's motion with the motion model's
+covariance, and the matched motion with the covariance of the match (its Hessian scaled
+by the fit's residual: along a corridor the match knows little and the odometry rules).
+
+Loop closure (the back end): for each new node, the earlier nodes not recent in the chain
+whose estimate lies within reach are candidates; the reach grows with the graph distance
+between the two nodes (the path length along the constraints, a loop closure as short
+as it is certain), since the estimates drift apart with it. The scan is matched correlatively
+against a likelihood field of the candidate's neighbouring scans, coarse to fine, over a
+window as wide as that reach, and refined by Gauss-Newton on the same field, then
+once more on an occupancy map of those scans at the map's resolution, as the front end
+matches (on the field's own cells the fit pulls walls onto cell centres, the same way
+for every closure over them). The match's
+covariance is the spread of the poses that score nearly as well (Karto's: long along a
+corridor, where the closure then holds only across it) plus the refinement's. A match is
+verified before it enters the graph: its response must be high, the refinement must stay
+by the peak, and a second closure from a nearby node must imply the same correction of
+the graph (two wrong matches rarely agree). In the graph, loop closures carry a Cauchy
+kernel, so one that slipped through pulls little; after each optimisation a closure
+whose error is still too large for its covariance is taken out and the graph optimised
+again. Optimisation is sparse Levenberg-Marquardt over the SE(2) node poses, run when the
+closures waiting disagree with the estimate (or after `optimize_every` of them); scans
+between nodes keep their pose relative to the node before them, so the whole trajectory
+follows.
+
+The map (`grid`) is built from the node scans at their current poses when it is asked for
+(and kept, scans added as nodes come, until an optimisation moves the nodes).
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numba
 import numpy as np
-from scipy import ndimage, sparse
+from scipy import sparse
+from scipy.sparse.csgraph import dijkstra
 from scipy.sparse.linalg import spsolve
 
 from robotrial.slam.grid import LogOddsGrid, LogOddsModel
 from robotrial.slam.matcher import ScanMatcher
 from robotrial.slam.params import PoseGraphParams
-from robotrial.slam.scan import Beams, compose, relative, transform_points, wrap
+from robotrial.slam.scan import Beams, compose, motion_sigma, relative, transform_points, wrap
+from robotrial.slam.tiled import TiledGrid
 
 
 @dataclass(frozen=True)
 class Edge:
     """A constraint: node j seen from node i at `z` (x, y, yaw in i's frame), with
-    information `info` (3 x 3, in i's frame); `loop` marks a loop closure."""
+    information `info` (3 x 3, in i's frame); `loop` marks a loop closure (robust)."""
 
     i: int
     j: int
@@ -55,23 +80,47 @@ def _errors(poses: np.ndarray, ii: np.ndarray, jj: np.ndarray, z: np.ndarray) ->
     return e
 
 
-def graph_cost(poses: np.ndarray, edges: list[Edge]) -> float:
-    """Sum over edges of e' info e: zero when every constraint holds exactly."""
+def edge_chi2(poses: np.ndarray, edges: list[Edge]) -> np.ndarray:
+    """e' info e of every edge at `poses`: about 3 on average for an edge whose
+    covariance is right, far more for one that does not fit the others."""
     if not edges:
-        return 0.0
+        return np.zeros(0)
     ii = np.array([e.i for e in edges])
     jj = np.array([e.j for e in edges])
     z = np.array([e.z for e in edges], dtype=np.float64)
     info = np.array([e.info for e in edges], dtype=np.float64)
     err = _errors(np.asarray(poses, dtype=np.float64), ii, jj, z)
-    return float(np.einsum("ei,eij,ej->", err, info, err))
+    return np.einsum("ei,eij,ej->e", err, info, err)
+
+
+def graph_cost(poses: np.ndarray, edges: list[Edge]) -> float:
+    """Sum over edges of e' info e: zero when every constraint holds exactly."""
+    return float(edge_chi2(poses, edges).sum())
+
+
+def _robust(chi2: np.ndarray, loop: np.ndarray, width: float | None) -> tuple[float, np.ndarray]:
+    """The cost and the weights of the edges: loop closures under a Cauchy kernel of
+    `width` (in units of their standard deviation), the others squared."""
+    w = np.ones_like(chi2)
+    if width is None or not loop.any():
+        return float(chi2.sum()), w
+    c2 = width * width
+    w[loop] = 1.0 / (1.0 + chi2[loop] / c2)
+    cost = chi2[~loop].sum() + (c2 * np.log1p(chi2[loop] / c2)).sum()
+    return float(cost), w
 
 
 def optimize_graph(
-    poses: np.ndarray, edges: list[Edge], iterations: int = 20, fixed: int = 0
+    poses: np.ndarray,
+    edges: list[Edge],
+    iterations: int = 20,
+    fixed: int = 0,
+    loop_kernel: float | None = None,
 ) -> tuple[np.ndarray, float, float]:
     """Sparse Levenberg-Marquardt over SE(2) poses (N, 3) with `fixed` held where it is
-    (the gauge). Returns (optimised poses, cost before, cost after)."""
+    (the gauge); loop closures under a Cauchy kernel of width `loop_kernel` (standard
+    deviations) when given, by reweighting. Returns (optimised poses, cost before, cost
+    after)."""
     x = np.asarray(poses, dtype=np.float64).copy()
     n = x.shape[0]
     if not edges or n < 2:
@@ -83,7 +132,8 @@ def optimize_graph(
     ii = np.array([e.i for e in edges])
     jj = np.array([e.j for e in edges])
     z = np.array([e.z for e in edges], dtype=np.float64)
-    info = np.array([e.info for e in edges], dtype=np.float64)
+    info0 = np.array([e.info for e in edges], dtype=np.float64)
+    loop = np.array([e.loop for e in edges], dtype=bool)
     # Block row/column indices of the 3x3 blocks (i,i), (i,j), (j,i), (j,j) of every edge.
     k = np.arange(3)
     blocks = [(ii, ii), (ii, jj), (jj, ii), (jj, jj)]
@@ -95,13 +145,15 @@ def optimize_graph(
         [np.broadcast_to(3 * c[:, None, None] + k[None, None, :], (m, 3, 3)) for _, c in blocks]
     ).ravel()
 
-    def cost_of(p: np.ndarray) -> float:
+    def cost_of(p: np.ndarray) -> tuple[float, np.ndarray]:
         err = _errors(p, ii, jj, z)
-        return float(np.einsum("ei,eij,ej->", err, info, err))
+        return _robust(np.einsum("ei,eij,ej->e", err, info0, err), loop, loop_kernel)
 
-    start = cost = cost_of(x)
+    start, weights = cost_of(x)
+    cost = start
     lam = 1e-4
     for _ in range(iterations):
+        info = info0 * weights[:, None, None]
         err = _errors(x, ii, jj, z)
         pi, pj = x[ii], x[jj]
         c, s = np.cos(pi[:, 2]), np.sin(pi[:, 2])
@@ -131,9 +183,9 @@ def optimize_graph(
             step[fixed] = 0.0
             trial = x + step
             trial[:, 2] = (trial[:, 2] + np.pi) % (2 * np.pi) - np.pi
-            new = cost_of(trial)
+            new, new_weights = cost_of(trial)
             if new <= cost:
-                x, lam = trial, max(lam / 10, 1e-9)
+                x, lam, weights = trial, max(lam / 10, 1e-9), new_weights
                 break
             lam *= 10
             if lam > 1e6:
@@ -145,20 +197,78 @@ def optimize_graph(
     return x, start, cost
 
 
-def likelihood_field(grid: LogOddsGrid, sigma: float) -> np.ndarray:
-    """A smooth score per cell, 1 on a wall and falling off over about `sigma` m: the
-    occupied cells blurred by a Gaussian and scaled so that a straight wall peaks at 1
-    (a separable filter, much cheaper than a distance transform on a whole room)."""
-    occ = (grid.logodds > 0).astype(np.float32)
-    if not occ.any():
-        return np.zeros(grid.shape)
-    s = sigma / grid.resolution
-    blurred = ndimage.gaussian_filter(occ, s, truncate=3.0)
-    return np.minimum(1.0, blurred * np.sqrt(2 * np.pi) * s)
+def optimize_pruned(
+    poses: np.ndarray, edges: list[Edge], kernel: float, max_chi2: float, rounds: int
+) -> tuple[np.ndarray, list[Edge]]:
+    """`optimize_graph` with loop closures under a Cauchy kernel of width `kernel`; then,
+    while a closure's chi-square stays above `max_chi2` (it does not fit the rest of the
+    graph), the worst is taken out and the graph optimised again, `rounds` times at
+    most. Returns the poses and the closures taken out."""
+    after, _, _ = optimize_graph(poses, edges, loop_kernel=kernel)
+    removed: list[Edge] = []
+    for _ in range(rounds):
+        loops = [e for e in edges if e.loop]
+        if not loops:
+            break
+        chi = edge_chi2(after, loops)
+        worst = int(np.argmax(chi))
+        if chi[worst] <= max_chi2:
+            break
+        removed.append(loops[worst])
+        edges = [e for e in edges if e is not loops[worst]]
+        after, _, _ = optimize_graph(after, edges, loop_kernel=kernel)
+    return after, removed
 
 
 @numba.njit(cache=True, nogil=True)
-def _correlate(
+def _stamp(field: np.ndarray, ox: float, oy: float, res: float, pts: np.ndarray, sigma: float):
+    rows, cols = field.shape
+    k = int(np.ceil(3.0 * sigma / res))
+    for i in range(pts.shape[0]):
+        c0 = int(np.floor((pts[i, 0] - ox) / res))
+        r0 = int(np.floor((pts[i, 1] - oy) / res))
+        for r in range(max(0, r0 - k), min(rows, r0 + k + 1)):
+            dy = oy + (r + 0.5) * res - pts[i, 1]
+            for c in range(max(0, c0 - k), min(cols, c0 + k + 1)):
+                dx = ox + (c + 0.5) * res - pts[i, 0]
+                v = np.exp(-(dx * dx + dy * dy) / (2.0 * sigma * sigma))
+                if v > field[r, c]:
+                    field[r, c] = v
+
+
+def point_field(
+    points: np.ndarray, resolution: float, sigma: float, box: tuple[float, float, float, float]
+) -> tuple[np.ndarray, tuple[float, float]]:
+    """A likelihood field over `box` (xmin, ymin, xmax, ymax, m): each cell the highest
+    exp(-d^2 / 2 sigma^2) over the (N, 2) points, d its distance to the point (1 on a
+    point, Olson's field); with its origin. Only the box is computed, whatever the
+    points' extent."""
+    x0 = np.floor(box[0] / resolution) * resolution
+    y0 = np.floor(box[1] / resolution) * resolution
+    cols = max(1, int(np.ceil((box[2] - x0) / resolution)))
+    rows = max(1, int(np.ceil((box[3] - y0) / resolution)))
+    field = np.zeros((rows, cols), dtype=np.float32)
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
+    _stamp(field, x0, y0, resolution, pts, sigma)
+    return field, (float(x0), float(y0))
+
+
+@numba.njit(cache=True, nogil=True)
+def _max_pool(field: np.ndarray, block: int) -> np.ndarray:
+    """Each `block` x `block` cell of a coarser field holds the highest of the cells it
+    covers: a bound, at the coarse level, of what any pose in it can score."""
+    rows, cols = field.shape
+    out = np.zeros(((rows + block - 1) // block, (cols + block - 1) // block), field.dtype)
+    for r in range(rows):
+        for c in range(cols):
+            v = field[r, c]
+            if v > out[r // block, c // block]:
+                out[r // block, c // block] = v
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _correlate_peaks(
     field: np.ndarray,
     ox: float,
     oy: float,
@@ -168,10 +278,15 @@ def _correlate(
     gy: float,
     yaws: np.ndarray,
     steps: int,
-) -> tuple[int, int, int, float]:
+    step_cells: int,
+    occupancy: bool,
+) -> np.ndarray:
+    # The score (mean field value at the points) of every pose of the window, as an
+    # array (angles, 2 steps + 1, 2 steps + 1); translations move by `step_cells` cells.
+    # With `occupancy` the field holds log-odds, read as occupancy in [0, 1].
     rows, cols = field.shape
     n = pts.shape[0]
-    best, ba, bi, bj = -1.0, 0, 0, 0
+    out = np.zeros((yaws.shape[0], 2 * steps + 1, 2 * steps + 1))
     rr = np.empty(n, np.int64)
     cc = np.empty(n, np.int64)
     for a in range(yaws.shape[0]):
@@ -183,16 +298,39 @@ def _correlate(
             for j in range(-steps, steps + 1):
                 total = 0.0
                 for k in range(n):
-                    r = rr[k] + i
-                    q = cc[k] + j
+                    r = rr[k] + i * step_cells
+                    q = cc[k] + j * step_cells
                     if 0 <= r < rows and 0 <= q < cols:
-                        total += field[r, q]
-                if total > best:
-                    best, ba, bi, bj = total, a, i, j
-    return ba, bi, bj, best / max(1, n)
+                        v = field[r, q]
+                        if occupancy:
+                            total += 0.5 + 0.5 * v / (1.0 + abs(v))
+                        else:
+                            total += v
+                    elif occupancy:
+                        total += 0.5
+                out[a, i + steps, j + steps] = total / max(1, n)
+    return out
 
 
-def correlative_search(
+@dataclass(frozen=True)
+class Search:
+    """What a correlative search found: the best pose, its score, and the covariance of
+    the poses that score nearly as well (within `SPREAD` of the best), weighted by their
+    scores: long along a corridor, where the scan cannot tell the places apart (Karto's
+    covariance of a correlative match)."""
+
+    pose: np.ndarray
+    response: float
+    cov: np.ndarray
+    # The best poses that are local peaks (apart by more than a step), best first.
+    peaks: tuple[np.ndarray, ...] = ()
+
+
+# The poses within this share of the best score make a search's spread.
+SPREAD = 0.9
+
+
+def search(
     field: np.ndarray,
     origin: tuple[float, float],
     resolution: float,
@@ -201,21 +339,28 @@ def correlative_search(
     space: float,
     angle: float,
     angle_step: float,
-) -> tuple[np.ndarray, float]:
-    """The pose within +-`space` m (in steps of one cell) and +-`angle` rad (in steps of
-    `angle_step`) of `guess` that puts `points` ((N, 2), base frame) on the highest mean
-    of `field`, by brute force (Olson's correlative matching, one resolution). Returns
-    (pose, mean field value there)."""
+    step_cells: int = 1,
+    occupancy: bool = False,
+    peaks: int = 0,
+) -> Search:
+    """The pose within +-`space` m (in steps of `step_cells` cells) and +-`angle` rad (in
+    steps of `angle_step`) of `guess` that puts `points` ((N, 2), base frame) on the
+    highest mean of `field`, by brute force (Olson's correlative matching, one
+    resolution), with the spread of the near-best poses and the `peaks` best local
+    peaks; with `occupancy`, `field` is a log-odds grid read as occupancy."""
     pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
     g = np.asarray(guess, dtype=np.float64)
+    step = resolution * step_cells
+    floor = np.diag([step * step / 12, step * step / 12, angle_step * angle_step / 12])
     if pts.shape[0] == 0 or field.size == 0:
-        return g.copy(), 0.0
+        return Search(g.copy(), 0.0, floor)
     if not (space >= 0 and angle >= 0 and angle_step > 0):
         raise ValueError("correlative search: need space >= 0, angle >= 0, angle_step > 0")
-    yaws = g[2] + np.arange(-angle, angle + 1e-9, angle_step)
-    steps = max(0, round(space / resolution))
-    a, i, j, response = _correlate(
-        np.ascontiguousarray(field, dtype=np.float64),
+    offsets = np.arange(-angle, angle + 1e-9, angle_step)
+    yaws = g[2] + offsets
+    steps = max(0, round(space / step))
+    scores = _correlate_peaks(
+        np.ascontiguousarray(field),
         origin[0],
         origin[1],
         resolution,
@@ -224,61 +369,217 @@ def correlative_search(
         float(g[1]),
         yaws,
         steps,
+        step_cells,
+        occupancy,
     )
-    pose = np.array([g[0] + j * resolution, g[1] + i * resolution, wrap(float(yaws[a]))])
-    return pose, float(response)
+    a, i, j = np.unravel_index(int(np.argmax(scores)), scores.shape)
+    best = float(scores[a, i, j])
+    pose = np.array([g[0] + (j - steps) * step, g[1] + (i - steps) * step, wrap(float(yaws[a]))])
+    near = np.argwhere(scores >= SPREAD * best) if best > 0 else np.zeros((0, 3), int)
+    cov = floor
+    if len(near) > 1:
+        w = scores[near[:, 0], near[:, 1], near[:, 2]]
+        d = np.stack(
+            [(near[:, 2] - j) * step, (near[:, 1] - i) * step, offsets[near[:, 0]] - offsets[a]],
+            axis=1,
+        )
+        cov = (w[:, None, None] * d[:, :, None] * d[:, None, :]).sum(axis=0) / w.sum() + floor
+        cov = _unbounded(cov, space, angle)
+    return Search(pose, best, cov, _peaks(scores, g, yaws, steps, step, peaks) if peaks else ())
+
+
+def _unbounded(cov: np.ndarray, space: float, angle: float) -> np.ndarray:
+    """A search's spread with the directions it reached the window's edge along made
+    wide open: there the window, not the scan, bounded it (a corridor longer than the
+    window), so the match says nothing along them."""
+    out = cov.copy()
+    vals, vecs = np.linalg.eigh(out[:2, :2])
+    if 2.0 * np.sqrt(max(vals[-1], 0.0)) > 0.5 * space > 0:
+        vals[-1] = max(vals[-1], (10.0 * space) ** 2)
+        out[:2, :2] = (vecs * vals) @ vecs.T
+        out[:2, 2] = out[2, :2] = 0.0
+    if 2.0 * np.sqrt(max(out[2, 2], 0.0)) > 0.5 * angle > 0:
+        out[2, 2] = max(out[2, 2], (10.0 * angle) ** 2)
+    return out
+
+
+def _peaks(
+    scores: np.ndarray, g: np.ndarray, yaws: np.ndarray, steps: int, step: float, k: int
+) -> tuple[np.ndarray, ...]:
+    """The `k` best poses of a search's scores that lie more than a step apart, as poses
+    (x, y, yaw) with their scores in a fourth column."""
+    flat = np.argsort(scores, axis=None)[::-1][: 64 * k]
+    chosen: list[tuple[int, int, int]] = []
+    out = []
+    for f in flat:
+        a, i, j = np.unravel_index(int(f), scores.shape)
+        if any(abs(a - x) <= 1 and abs(i - y) <= 1 and abs(j - z) <= 1 for x, y, z in chosen):
+            continue
+        chosen.append((a, i, j))
+        x, y = g[0] + (j - steps) * step, g[1] + (i - steps) * step
+        out.append(np.array([x, y, wrap(float(yaws[a])), float(scores[a, i, j])]))
+        if len(chosen) == k:
+            break
+    return tuple(out)
+
+
+def coarse_to_fine(
+    field: np.ndarray,
+    origin: tuple[float, float],
+    resolution: float,
+    points: np.ndarray,
+    guess: np.ndarray,
+    space: float,
+    angle: float,
+    angle_step: float,
+    coarse_space: float,
+    keep: int = 4,
+) -> tuple[Search, Search]:
+    """A correlative search over a wide window, coarse to fine: first on cells `block`
+    times larger, each the best of the cells it covers (an upper bound of what the poses
+    in it score), with `block` the power of two that leaves about +-`coarse_space` /
+    resolution steps, in angle steps as many times larger; then, level by level with
+    cells half as large, around the `keep` best poses of the level above. Returns the
+    coarsest level's search (its spread says how alike the places in the window look)
+    and the finest's."""
+    block = 1
+    while space > coarse_space * block and block < 64:
+        block *= 2
+    fields = {1: field}
+    b = 2
+    while b <= block:
+        fields[b] = _max_pool(fields[b // 2], 2)
+        b *= 2
+    steps = max(1.0, angle / angle_step)
+    first = search(fields[block], origin, resolution * block, points, guess, space, angle,
+                   angle / max(1.0, np.ceil(steps / block)), peaks=keep)  # fmt: skip
+    level_angle = angle / max(1.0, np.ceil(steps / block))
+    seeds = [q[:3] for q in first.peaks[:keep]] or [first.pose]
+    best = first
+    while block > 1:
+        block //= 2
+        tried = [
+            search(fields[block], origin, resolution * block, points, q,
+                   2 * block * resolution, level_angle, max(angle_step, level_angle / 2))
+            for q in seeds
+        ]  # fmt: skip
+        level_angle = max(angle_step, level_angle / 2)
+        tried.sort(key=lambda s: -s.response)
+        best = tried[0]
+        seeds = [s.pose for s in tried[:keep]]
+    return first, best
 
 
 @dataclass(frozen=True)
 class _Solution:
     """What a back-end pass hands to the scan path: the optimised poses `after` of the
-    first len(after) nodes, the poses `before` they had when the pass began, and the map
-    rebuilt from `after` (None when no scan moved enough to matter)."""
+    first len(after) nodes, the poses `before` they had when the pass began, the local
+    map of the window's nodes among them at `after` (with those nodes), and the map of
+    them all (when one is kept)."""
 
     before: np.ndarray
     after: np.ndarray
-    grid: LogOddsGrid | None
+    local: LogOddsGrid
+    window: list[int]
+    map: TiledGrid | None
+
+
+@dataclass
+class _Closure:
+    """A verified match waiting for a second one that agrees: the loop edge, the node it
+    closes from, where it says that node is (x, y, yaw, in the map frame) and how
+    uncertain that is (3 x 3, map frame)."""
+
+    edge: Edge
+    node: int
+    target: np.ndarray
+    cov: np.ndarray
+
+
+def _information(cov: np.ndarray, floor: tuple[float, float, float]) -> np.ndarray:
+    """The information of a covariance whose standard deviations are held at least at
+    `floor` (x, y, yaw) along every direction."""
+    cov = 0.5 * (cov + cov.T)
+    scale = np.array(floor)
+    unit = cov / np.outer(scale, scale)
+    vals, vecs = np.linalg.eigh(unit)
+    vals = np.maximum(vals, 1.0)
+    return (vecs / vals) @ vecs.T / np.outer(scale, scale)
+
+
+def _span(edge: Edge) -> float:
+    """Three standard deviations of a constraint's position, along its least certain
+    direction (m)."""
+    return float(3.0 / np.sqrt(max(np.linalg.eigvalsh(edge.info[:2, :2])[0], 1e-12)))
+
+
+def _rotate(m: np.ndarray, yaw: float) -> np.ndarray:
+    """A 3 x 3 information matrix over a world pose, in the frame of a pose at `yaw`."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    rot = np.eye(3)
+    rot[:2, :2] = [[c, -s], [s, c]]
+    return rot.T @ m @ rot
 
 
 class PoseGraphSlam:
     """Feed scans with `process`; read `pose`, `grid`, `trajectory` and `closures`.
 
-    The scan path (`process`) matches every scan against the current map and adds the
-    nodes. The back end (loop-closure searches, the optimisation and the map rebuild)
-    runs in one worker thread when `params.background` (its heavy parts, the compiled
-    correlative search and the sparse solve, release the GIL), otherwise inline. Its
-    result is swapped in at the start of the next `process`: the optimised poses, the
-    nodes added meanwhile carried along with the last optimised one, and the rebuilt map
-    with their scans written in. `settle` waits for the back end and optimises what is
-    still pending; `close` stops the worker."""
+    The scan path (`process`) matches every scan against the local map and adds the
+    nodes. The back end (loop-closure searches and the optimisation) runs in one worker
+    thread when `params.background` (its heavy parts, the compiled correlative search and
+    the sparse solve, release the GIL), otherwise inline. Its result is swapped in at the
+    start of the next `process`: the optimised poses and the nodes added meanwhile carried
+    along with the last optimised one. `settle` waits for the back end and optimises what
+    is still pending; `close` stops the worker."""
 
     uses_odometry = False
 
     def __init__(self, params: PoseGraphParams | None = None) -> None:
         self.params = p = params or PoseGraphParams()
         self._model = LogOddsModel.from_probabilities(0.4, 0.9)
-        self._grid = LogOddsGrid(p.resolution, model=self._model)
-        self._pyramid: list[np.ndarray] | None = None
+        # The local map sums the window's scans unclamped, so a scan leaving it can be
+        # taken back exactly.
+        self._local_model = LogOddsModel(
+            self._model.free, self._model.occupied, -1e9, 1e9, self._model.hit_margin
+        )
+        self._local = LogOddsGrid(p.resolution, model=self._local_model)
+        self._window: deque[tuple[int, np.ndarray]] = deque()
         self.matcher = ScanMatcher(p.match_levels, p.iterations)
         self.pose = np.zeros(3)
         self.nodes: list[np.ndarray] = []
         self.scans: list[Beams] = []
         self.edges: list[Edge] = []
+        # The loop closures among `edges` (the back end reads them at every pass), and
+        # how certain each is (`_span`, computed once).
+        self._loops: list[Edge] = []
+        self._spans: dict[tuple[int, int, int], float] = {}
         self.closures = 0
+        self.rejected = 0
+        self.removed = 0
         self.loop_attempts = 0
         self.optimizations = 0
-        self.rebuilds = 0
-        self._written: list[np.ndarray] = []
         self.optimize_time = 0.0
         self.backend_time = 0.0
         self.map_updates = 0
-        self._pending = 0
+        self.searches = 0
+        self._pending: list[_Closure] = []
+        self._unoptimised = 0
         self._last_closure = -1 << 30
-        self._last_hessian = np.eye(3)
+        self._last_info = np.eye(3)
+        self._residual = 0.1
+        self._last_odom: np.ndarray | None = None
+        self._node_odom: list[np.ndarray | None] = []
+        self._path = [0.0]
         self.stamps: list[float] = []
         # Every scan's pose as (node index, pose relative to that node).
         self._anchors: list[int] = []
         self._offsets: list[np.ndarray] = []
+        # The map kept for `grid`: built from the first `_map_nodes` nodes at version
+        # `_map_version` of their poses.
+        self._map: TiledGrid | None = None
+        self._map_nodes = 0
+        self._version = 0
+        self._map_version = -1
         # Shared with the back end: nodes, scans and edges grow under the lock; `_queue`
         # holds the nodes still to be searched for a loop; `_solution` waits to be
         # swapped in. A pass is only started when none runs and no solution waits, so
@@ -289,39 +590,126 @@ class PoseGraphSlam:
         self._job: Future[None] | None = None
         self._executor: ThreadPoolExecutor | None = None
 
-    @property
-    def usable_range(self) -> float:
-        return self.params.max_laser_range
+    def range_limits(self, range_max: float) -> tuple[float, float, float]:
+        """(min, maximum, usable) range: readings past max_laser_range (or the scanner's
+        range_max) are left out, as Karto does."""
+        p = self.params
+        top = min(p.max_laser_range, range_max - 0.01) if range_max > 0 else p.max_laser_range
+        return p.laser_min_dist, top, top
 
     @property
-    def min_range(self) -> float:
-        return self.params.laser_min_dist
-
-    @property
-    def grid(self) -> LogOddsGrid:
-        """The current map: from the optimised poses of the last back-end pass swapped
-        in, plus the scans added since (call `settle` first for the final map)."""
-        return self._grid
+    def grid(self) -> TiledGrid:
+        """The map: the node scans at their current poses (call `settle` first for the
+        final map). Built when asked for after the nodes moved; else the newer nodes'
+        scans are added to the map kept."""
+        with self._lock:
+            nodes = [q.copy() for q in self.nodes]
+            scans = self.scans[: len(nodes)]
+        if self._map is None or self._map_version != self._version:
+            self._map = TiledGrid(self.params.resolution, self._model)
+            self._map_nodes, self._map_version = 0, self._version
+        for q, s in zip(nodes[self._map_nodes :], scans[self._map_nodes :], strict=True):
+            self._write(self._map, q, s)
+        self._map_nodes = len(nodes)
+        return self._map
 
     @property
     def busy(self) -> bool:
         """Whether a back-end pass is running in the worker now."""
         return self._job is not None and not self._job.done()
 
+    # --- the scan path ---------------------------------------------------------------
+
     def process(self, scan: Beams, stamp: float, odom: np.ndarray | None = None) -> np.ndarray:
-        """Match one scan (odometry, if given, is ignored), add a node when the robot has
-        moved enough and hand it to the back end; return the pose (x, y, yaw)."""
+        """Match one scan from the odometry's prediction (odometry optional), add a node
+        when the robot has moved enough and hand it to the back end; return the pose."""
         if not self.params.lockstep:
             self._adopt()
+        odom = None if odom is None else np.asarray(odom, dtype=np.float64)
+        guess, sigma = self._predict(odom)
+        self._last_odom = odom
+        self.pose = guess
         if self.nodes and scan.hit.any():
-            res = self.matcher.match(self._grid, scan.hits, self.pose, self._pyramid)
-            self.pose, self._last_hessian = res.pose, res.hessian
+            self.pose, self._last_info = self._match(scan.hits, guess, sigma)
         if self._moved_enough():
-            self._add_node(scan)
+            self._add_node(scan, odom)
         self.stamps.append(float(stamp))
         self._anchors.append(len(self.nodes) - 1)
         self._offsets.append(relative(self.nodes[-1], self.pose))
         return self.pose.copy()
+
+    def _motion_sigma(self, d: np.ndarray) -> np.ndarray:
+        p = self.params
+        s = motion_sigma(d, p.odom_trans_per_trans, p.odom_trans_per_rot, p.odom_rot_per_trans,
+                         p.odom_rot_per_rot)  # fmt: skip
+        return np.maximum(np.array(s), [p.odom_min_sigma_xy, p.odom_min_sigma_xy,
+                                        p.odom_min_sigma_yaw])  # fmt: skip
+
+    def _predict(self, odom: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """Where the odometry puts the robot now, and how uncertain that is (x, y, yaw
+        standard deviations, in the frame of the last pose); None without odometry."""
+        if odom is None or self._last_odom is None:
+            return self.pose.copy(), None
+        d = relative(self._last_odom, odom)
+        return compose(self.pose, d), self._motion_sigma(d)
+
+    def _match(
+        self, pts: np.ndarray, guess: np.ndarray, sigma: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The pose of the scan on the local map, and the information of that match
+        (over the world pose): a correlative search over the prediction's uncertainty
+        when that exceeds what Gauss-Newton reaches, then Gauss-Newton with the
+        prediction as a prior."""
+        p = self.params
+        grid = self._local
+        if sigma is None:
+            space, angle = p.correlation_search_space, p.correlation_search_angle
+        else:
+            space = min(3.0 * float(max(sigma[0], sigma[1])), p.correlation_search_space)
+            angle = min(3.0 * float(sigma[2]), p.correlation_search_angle)
+        start = guess
+        reach = p.resolution * (1 << (p.match_levels - 1))
+        if space > reach or angle > p.gauss_newton_reach_angle:
+            sub = pts[:: max(1, pts.shape[0] // p.correlation_points)]
+            far = float(np.percentile(np.hypot(sub[:, 0], sub[:, 1]), 90)) if len(sub) else 1.0
+            step = max(p.resolution * 2, 1e-3)
+            found = search(
+                grid.logodds,
+                grid.origin,
+                grid.resolution,
+                sub,
+                guess,
+                space,
+                angle,
+                max(step / max(far, 1.0), 0.002),
+                step_cells=2,
+                occupancy=True,
+            )
+            self.searches += 1
+            start = found.pose
+        prior = None
+        if sigma is not None:
+            # The matcher's cost is the sum of squared residuals; a residual's variance
+            # is the match's (its mean square, scaled): the prior is weighed as much
+            # heavier as that variance is smaller than 1.
+            k = np.sqrt(p.match_variance_scale * max(self._residual, 1e-3))
+            sxy = float(max(sigma[0], sigma[1])) / k
+            prior = (sxy, sxy, float(sigma[2]) / k)
+        res = self.matcher.match(grid, pts, start, None, prior, guess)
+        self._residual = res.residual
+        hess = res.hessian.copy()
+        if prior is not None:
+            # The prior's part of the Hessian belongs to the odometry edge, not the match.
+            hess -= np.diag(1.0 / np.maximum(np.asarray(prior), 1e-3) ** 2)
+        floor = (p.match_min_sigma_xy, p.match_min_sigma_xy, p.match_min_sigma_yaw)
+        return res.pose, _information(self._match_cov(hess, res.residual), floor)
+
+    def _match_cov(self, hess: np.ndarray, residual: float) -> np.ndarray:
+        """A match's covariance: the inverse of its Hessian, scaled by the fit's mean
+        squared residual (a direction the scan cannot see comes out very uncertain)."""
+        h = 0.5 * (hess + hess.T)
+        h = h + np.eye(3) * 1e-6 * max(float(np.trace(h)), 1.0)
+        return np.linalg.inv(h) * self.params.match_variance_scale * max(residual, 1e-3)
 
     def _moved_enough(self) -> bool:
         if not self.nodes:
@@ -333,17 +721,7 @@ class PoseGraphSlam:
             or abs(d[2]) >= p.minimum_travel_heading
         )
 
-    def _edge_info(self, hessian: np.ndarray, frame_yaw: float) -> np.ndarray:
-        # The match's Hessian is over the world pose; the edge is in node i's frame.
-        c, s = np.cos(frame_yaw), np.sin(frame_yaw)
-        rot = np.eye(3)
-        rot[:2, :2] = [[c, -s], [s, c]]
-        h = rot.T @ hessian @ rot
-        h = 0.5 * (h + h.T)
-        # A floor so that a direction the scan cannot see still has some stiffness.
-        return h + np.diag([1e2, 1e2, 1e2])
-
-    def _add_node(self, scan: Beams) -> None:
+    def _add_node(self, scan: Beams, odom: np.ndarray | None) -> None:
         if self.params.lockstep and self._job is not None:
             job, self._job = self._job, None
             job.result()
@@ -352,23 +730,83 @@ class PoseGraphSlam:
         with self._lock:
             self.nodes.append(self.pose.copy())
             self.scans.append(scan)
-            self._written.append(self.pose.copy())
+            self._node_odom.append(None if odom is None else odom.copy())
             if k > 0:
                 prev = self.nodes[k - 1]
+                self._path.append(self._path[-1] + float(np.hypot(*(self.pose - prev)[:2])))
                 self.edges.append(
-                    Edge(
-                        k - 1,
-                        k,
-                        relative(prev, self.pose),
-                        self._edge_info(self._last_hessian, prev[2]),
-                    )
+                    Edge(k - 1, k, relative(prev, self.pose), _rotate(self._last_info, prev[2]))
                 )
+                before = self._node_odom[k - 1]
+                if odom is not None and before is not None:
+                    d = relative(before, odom)
+                    info = np.diag(1.0 / self._motion_sigma(d) ** 2)
+                    self.edges.append(Edge(k - 1, k, d, info))
                 self._queue.append(k)
-        self._write(self._grid, self.pose, scan)
-        self._pyramid = self._grid.pyramid(self.params.match_levels)
+        self._window.append((k, self.pose.copy()))
+        self._local_write(self.pose, scan, 1.0)
+        keep = len(self._in_window([j for j, _ in self._window]))
+        while len(self._window) > keep:
+            old, at = self._window.popleft()
+            self._local_write(at, self.scans[old], -1.0)
+        self._recentre()
         self.map_updates += 1
         if k > 0:
             self._start_pass()
+
+    def _local_write(
+        self, pose: np.ndarray, scan: Beams, weight: float, grid: LogOddsGrid | None = None
+    ) -> None:
+        """Add a scan to the local map (or `grid`) at `pose` (weight 1) or take it back
+        (-1). The map grows by a quarter of the laser's range at a time: each growth
+        copies it."""
+        grid = self._local if grid is None else grid
+        origin = transform_points(pose, np.array([scan.origin]))[0]
+        ends = transform_points(pose, scan.ends)
+        if len(ends):
+            lo = np.minimum(ends.min(axis=0), origin)
+            hi = np.maximum(ends.max(axis=0), origin)
+            grid.ensure(lo[0], lo[1], hi[0], hi[1], 0.25 * self.params.max_laser_range)
+        grid.integrate(origin, ends, scan.hit, scan.angle_step, weight)
+
+    def _in_window(self, nodes: list[int]) -> list[int]:
+        """The last of `nodes` (increasing) that the local map holds: at most
+        `scan_buffer_size`, within `scan_buffer_maximum_scan_distance` m of path of the
+        newest."""
+        p = self.params
+        out: list[int] = []
+        for k in reversed(nodes):
+            if len(out) >= p.scan_buffer_size or (
+                out and self._path[out[0]] - self._path[k] > p.scan_buffer_maximum_scan_distance
+            ):
+                break
+            out.insert(0, k)
+        return out
+
+    def _recentre(self) -> None:
+        """Build the local map anew when it has grown far past the window's scans (the
+        grid only ever grows as the robot moves on)."""
+        reach = 2.0 * self.params.max_laser_range + 4.0
+        x0, y0, x1, y1 = self._local.extent()
+        if (x1 - x0) * (y1 - y0) > 2.0 * reach * reach:
+            self._local = self._local_map(
+                [k for k, _ in self._window], [self.nodes[k] for k, _ in self._window]
+            )
+            self._window = deque((k, self.nodes[k].copy()) for k, _ in self._window)
+
+    def _local_map(self, ids: list[int], poses: list[np.ndarray]) -> LogOddsGrid:
+        """A local map of the scans of nodes `ids` at `poses`."""
+        grid = LogOddsGrid(self.params.resolution, model=self._local_model)
+        for k, q in zip(ids, poses, strict=True):
+            self._local_write(q, self.scans[k], 1.0, grid)
+        return grid
+
+    @staticmethod
+    def _write(grid: TiledGrid, pose: np.ndarray, scan: Beams) -> None:
+        origin = transform_points(pose, np.array([scan.origin]))[0]
+        grid.integrate(origin, transform_points(pose, scan.ends), scan.hit)
+
+    # --- the back end ----------------------------------------------------------------
 
     def _start_pass(self, flush: bool = False) -> None:
         """Run a back-end pass (in the worker, or here) if there is work and none runs."""
@@ -377,7 +815,7 @@ class PoseGraphSlam:
             job.result()  # a failure in the back end surfaces here, on the scan path
         if self.busy or self._solution is not None:
             return
-        if not self._queue and not (flush and self._pending):
+        if not self._queue and not (flush and self._unoptimised):
             return
         # the pass's input is taken here, on the scan path: what it sees does not
         # depend on when the worker starts
@@ -385,110 +823,227 @@ class PoseGraphSlam:
             todo, self._queue = self._queue, []
             nodes = np.array(self.nodes)
             scans = self.scans[: len(nodes)]
+            loops = list(self._loops)
         if not self.params.background:
-            self._backend_pass(flush, todo, nodes, scans)
+            self._backend_pass(flush, todo, nodes, scans, loops)
             self._adopt()
             return
         if self._executor is None:
             self._executor = ThreadPoolExecutor(1, thread_name_prefix="posegraph-backend")
-        self._job = self._executor.submit(self._backend_pass, flush, todo, nodes, scans)
-
-    @staticmethod
-    def _write(grid: LogOddsGrid, pose: np.ndarray, scan: Beams) -> None:
-        origin = transform_points(pose, np.array([scan.origin]))[0]
-        grid.integrate(origin, transform_points(pose, scan.ends), scan.hit)
+        self._job = self._executor.submit(self._backend_pass, flush, todo, nodes, scans, loops)
 
     def _backend_pass(
-        self, flush: bool, todo: list[int], nodes: np.ndarray, scans: list[Beams]
+        self,
+        flush: bool,
+        todo: list[int],
+        nodes: np.ndarray,
+        scans: list[Beams],
+        loops: list[Edge],
     ) -> None:
-        """Search the nodes `todo` for loop closures; after `optimize_every` accepted
-        closures (or any, when `flush`), optimise the graph and rebuild the map, and
-        leave the result in `_solution`. Runs in the worker on a snapshot of the nodes
-        and their scans; touches no state of the scan path but the shared lists (under
-        the lock)."""
+        """Search the nodes `todo` for loop closures and verify them; optimise when the
+        accepted closures disagree with the estimate (or at a flush), leaving the result
+        in `_solution`. Runs in the worker on a snapshot of the nodes, their scans and the
+        loop closures; touches no state of the scan path but the shared lists (under the lock)."""
         t0 = time.perf_counter()
-        found = [e for e in (self._close_loop(k, nodes, scans) for k in todo) if e is not None]
-        with self._lock:
-            self.edges.extend(found)
-        self._pending += len(found)
-        if self._pending and (self._pending >= self.params.optimize_every or flush):
+        p = self.params
+        graph = None
+        for k in todo:
+            if k <= p.loop_min_chain or k - self._last_closure <= p.loop_cooldown:
+                continue
+            if graph is None:
+                graph = self._graph_distances(len(nodes), loops)
+            found = self._close_loop(k, nodes, scans, graph)
+            if found is not None:
+                accepted = self._confirm(found, nodes)
+                if accepted:
+                    loops.extend(accepted)
+                    graph = None
+                    with self._lock:
+                        self.edges.extend(accepted)
+                        self._loops.extend(accepted)
+        chi = edge_chi2(nodes, loops)
+        surprise = bool(len(chi)) and float(chi.max()) > p.loop_optimize_chi2
+        if self._unoptimised and (flush or surprise or self._unoptimised >= p.optimize_every):
             self._solution = self._optimise(nodes, scans)
         self.backend_time += time.perf_counter() - t0
 
-    def _close_loop(self, k: int, nodes: np.ndarray, scans: list[Beams]) -> Edge | None:
-        """A loop-closure edge from node k to an earlier node near it, or None."""
-        p = self.params
-        if k <= p.loop_min_chain or k - self._last_closure <= p.loop_cooldown:
-            return None
-        here = nodes[k]
-        old = nodes[: k - p.loop_min_chain + 1]
-        d = np.hypot(old[:, 0] - here[0], old[:, 1] - here[1])
-        cand = int(np.argmin(d))
-        if d[cand] > p.loop_search_maximum_distance:
-            return None
-        self.loop_attempts += 1
-        local = LogOddsGrid(p.resolution, model=self._model)
-        lo, hi = (
-            max(0, cand - p.loop_neighbours),
-            min(k - p.loop_min_chain, cand + p.loop_neighbours),
+    def _graph_distances(self, n: int, closures: list[Edge]) -> sparse.csr_matrix:
+        """The graph of the first `n` nodes as a sparse matrix of path lengths: the chain
+        between consecutive nodes as long as the motion; a loop closure as long as the
+        path over which the search window grows by 3 of its standard deviations (a
+        closure along a corridor, open along it, is no short cut)."""
+        steps = np.asarray(self._path[:n])
+        chain = np.diff(steps)
+        loops = [e for e in closures if e.i < n and e.j < n]
+        growth = max(self.params.loop_search_growth, 1e-9)
+        spans = [self._spans.setdefault((id(e), e.i, e.j), _span(e)) for e in loops]
+        rows = np.concatenate([np.arange(n - 1), np.array([e.i for e in loops], dtype=int)])
+        cols = np.concatenate([np.arange(1, n), np.array([e.j for e in loops], dtype=int)])
+        length = np.concatenate(
+            [np.maximum(chain, 1e-3), np.maximum(np.array(spans) / growth, 0.1)]
         )
-        for n in range(lo, hi + 1):
-            self._write(local, nodes[n], scans[n])
+        return sparse.coo_matrix((length, (rows, cols)), shape=(n, n)).tocsr()
+
+    def _close_loop(
+        self, k: int, nodes: np.ndarray, scans: list[Beams], graph: sparse.csr_matrix
+    ) -> _Closure | None:
+        """A verified match of node k against an earlier node within reach, or None."""
+        p = self.params
+        here = nodes[k]
+        last = k - p.loop_min_chain
+        if last < 0:
+            return None
+        # Graph distances beyond the widest window need not be known exactly.
+        limit = (p.loop_search_space_max - p.loop_search_space) / max(p.loop_search_growth, 1e-9)
+        gd = dijkstra(graph, directed=False, indices=k, limit=limit)[: last + 1]
+        window = np.minimum(
+            p.loop_search_space + p.loop_search_growth * gd, p.loop_search_space_max
+        )
+        window[~np.isfinite(gd)] = p.loop_search_space_max
+        d = np.hypot(nodes[: last + 1, 0] - here[0], nodes[: last + 1, 1] - here[1])
+        reach = p.loop_search_maximum_distance + window
+        near = d <= reach
+        if not near.any():
+            return None
+        # The place least known from here is the one to close: among the nodes within
+        # reach, those at least half as far along the graph as the farthest, and of
+        # those the nearest (a node just behind in the chain adds nothing).
+        far = np.where(np.isfinite(gd), gd, 2.0 * limit)
+        near &= far >= 0.5 * far[near].max()
+        cand = int(np.argmin(np.where(near, d, np.inf)))
+        space = float(window[cand])
         hits = scans[k].hits
         if hits.shape[0] < 20:
             return None
+        self.loop_attempts += 1
+        lo, hi = max(0, cand - p.loop_neighbours), min(last, cand + p.loop_neighbours)
         sub = hits[:: max(1, hits.shape[0] // p.loop_points)]
-        field = likelihood_field(local, 2 * p.resolution)
-        found, response = correlative_search(
-            field,
-            local.origin,
-            local.resolution,
-            sub,
-            here,
+        angle = p.loop_search_angle_max
+        if np.isfinite(gd[cand]):
+            grown = p.loop_search_angle + p.loop_search_angle_growth * float(gd[cand])
+            angle = min(grown, angle)
+        # The field covers where the scan can land (its points at the estimate, widened
+        # by the window) and where the candidate's scans saw something.
+        at = transform_points(here, sub)
+        pad = space + 0.5 + angle * float(np.percentile(np.hypot(*sub.T), 90))
+        old_hits = np.concatenate(
+            [transform_points(nodes[n], scans[n].hits) for n in range(lo, hi + 1)]
+        )
+        box = (
+            max(at[:, 0].min() - pad, old_hits[:, 0].min() - 0.5),
+            max(at[:, 1].min() - pad, old_hits[:, 1].min() - 0.5),
+            min(at[:, 0].max() + pad, old_hits[:, 0].max() + 0.5),
+            min(at[:, 1].max() + pad, old_hits[:, 1].max() + 0.5),
+        )
+        if box[2] <= box[0] or box[3] <= box[1]:
+            return None
+        res = p.loop_resolution
+        field, origin = point_field(old_hits, res, res, box)
+        coarse, found = coarse_to_fine(
+            field, origin, res, sub, here, space, angle, p.loop_search_angle_step,
             p.loop_search_space,
-            p.loop_search_angle,
-            p.loop_search_angle_step,
-        )
-        if response < p.loop_match_minimum_response:
+        )  # fmt: skip
+        if found.response < p.loop_match_minimum_response:
             return None
-        fine = self.matcher.match(local, hits, found)
+        # Gauss-Newton on the same field, read as occupancy 0.5 + 0.5 f.
+        smooth = LogOddsGrid(res, origin, field.shape)
+        smooth.logodds = (field / (1.0001 - field)).astype(np.float32)
+        refined = self.matcher.match(smooth, hits, found.pose)
         # Consistency: the Gauss-Newton refinement stays by the search's peak.
-        shift = relative(found, fine.pose)
-        if np.hypot(shift[0], shift[1]) > 2 * p.resolution or abs(shift[2]) > 0.02:
+        shift = relative(found.pose, refined.pose)
+        if np.hypot(shift[0], shift[1]) > 2 * res or abs(shift[2]) > 0.02:
+            self.rejected += 1
             return None
+        where = self._sub_cell(refined.pose, hits, list(range(lo, hi + 1)), nodes)
         anchor = nodes[cand]
-        self.closures += 1
+        # As uncertain as the wider of the search's spread and the refinement's fit.
+        cov = coarse.cov + found.cov + self._match_cov(refined.hessian, refined.residual)
+        floor = (p.loop_min_sigma_xy, p.loop_min_sigma_xy, p.loop_min_sigma_yaw)
+        world = _information(cov, floor)
+        edge = Edge(cand, k, relative(anchor, where), _rotate(world, anchor[2]), True)
+        return _Closure(edge, k, where, np.linalg.inv(world))
+
+    def _sub_cell(
+        self, pose: np.ndarray, hits: np.ndarray, ids: list[int], nodes: np.ndarray
+    ) -> np.ndarray:
+        """A loop closure's pose refined below the search field's cells: Gauss-Newton
+        from `pose` on an occupancy map of the candidate's scans (nodes `ids`) at the
+        map's resolution, as the front end matches. On the field's own cells, as wide as
+        its peaks, the bilinear fit pulls each wall onto a cell centre: up to half a cell
+        off, the same way for every closure over the same walls, and the graph follows.
+        The result is kept within a field cell and 0.01 rad of `pose` (else `pose`): the
+        closure is still the one verified."""
+        p = self.params
+        grid = self._local_map(ids, [nodes[n] for n in ids])
+        out = ScanMatcher(2, p.iterations).match(grid, hits, pose).pose
+        shift = relative(pose, out)
+        if np.hypot(shift[0], shift[1]) > p.loop_resolution or abs(shift[2]) > 0.01:
+            return pose
+        return out
+
+    def _confirm(self, found: _Closure, nodes: np.ndarray) -> list[Edge]:
+        """The closures that enter the graph now: `found` once a closure from a nearby
+        node implies the same correction (where its node should be, carried to `found`'s
+        node along the current estimate, within their covariances and the tolerances:
+        two closures along a corridor agree across it), and with it any that agreed;
+        closures too old to be confirmed are dropped."""
+        p = self.params
+        k = found.node
+        self._pending = [c for c in self._pending if k - c.node <= p.loop_confirm_nodes]
+        agree = []
+        for c in self._pending:
+            # Where c says found's node is: c's correction applied to found's estimate.
+            moved = compose(c.target, relative(nodes[c.node], nodes[k]))
+            off = np.array([*(found.target[:2] - moved[:2]), wrap(found.target[2] - moved[2])])
+            tol = p.loop_confirm_distance + 0.02 * float(np.hypot(*(nodes[k] - nodes[c.node])[:2]))
+            spread = found.cov + c.cov + np.diag([tol**2, tol**2, p.loop_confirm_angle**2])
+            if float(off @ np.linalg.solve(spread, off)) <= 9.0:
+                agree.append(c)
+        if not agree:
+            self._pending.append(found)
+            return []
+        accepted = [found, *agree]
+        self._pending = [c for c in self._pending if c not in agree]
         self._last_closure = k
-        return Edge(
-            cand, k, relative(anchor, fine.pose), self._edge_info(fine.hessian, anchor[2]), True
-        )
+        self.closures += len(accepted)
+        self._unoptimised += len(accepted)
+        return [c.edge for c in accepted]
 
     def _optimise(self, nodes: np.ndarray, scans: list[Beams]) -> _Solution:
-        """Optimise the graph over `nodes` (a snapshot) and rebuild the map from them
-        when some scan would land elsewhere by more than `map_rebuild_shift` (a turn
-        counts at 5 m, the length of a typical beam)."""
+        """Optimise the graph over `nodes` (a snapshot); take out the loop closure whose
+        error stays far beyond its covariance and optimise again, while there is one."""
         t0 = time.perf_counter()
+        p = self.params
         n = len(nodes)
         with self._lock:
             edges = [e for e in self.edges if e.i < n and e.j < n]
-            written = np.array(self._written[:n])
-        after, _, _ = optimize_graph(nodes, edges)
-        turn = np.abs((after[:, 2] - written[:, 2] + np.pi) % (2 * np.pi) - np.pi)
-        shift = np.hypot(*(after[:, :2] - written[:, :2]).T) + 5.0 * turn
-        grid = None
-        if shift.max() > self.params.map_rebuild_shift:
-            grid = LogOddsGrid(self.params.resolution, model=self._model)
+        after, bad = optimize_pruned(
+            nodes, edges, p.loop_kernel_width, p.loop_max_chi2, p.loop_removal_rounds
+        )
+        if bad:
+            with self._lock:
+                self.edges = [e for e in self.edges if not any(e is b for b in bad)]
+                self._loops = [e for e in self._loops if not any(e is b for b in bad)]
+            self.removed += len(bad)
+            self.closures -= len(bad)
+        # The maps at the new poses, built here off the scan path: the local window's,
+        # and the whole map when one is kept (a live node publishes it).
+        window = self._in_window(list(range(n)))
+        local = self._local_map(window, [after[k] for k in window])
+        full = None
+        if self._map is not None:
+            full = TiledGrid(p.resolution, self._model)
             for q, s in zip(after, scans, strict=True):
-                self._write(grid, q, s)
-        self._pending = 0
+                self._write(full, q, s)
+        self._unoptimised = 0
         self.optimizations += 1
         self.optimize_time += time.perf_counter() - t0
-        return _Solution(nodes, after, grid)
+        return _Solution(nodes, after, local, window, full)
 
     def _adopt(self) -> None:
         """Swap in a finished back-end pass: the optimised nodes, the nodes added since
-        moved with the last optimised one, the current pose likewise, and the rebuilt
-        map with the newer nodes' scans written in."""
+        moved with the last optimised one, the current pose likewise, and the local map
+        rebuilt at the new poses."""
         sol = self._solution
         if sol is None:
             return
@@ -499,16 +1054,28 @@ class PoseGraphSlam:
 
         with self._lock:
             newer = [carried(q) for q in self.nodes[n:]]
-            self.nodes = [q.copy() for q in sol.after] + newer
+            moved = [q.copy() for q in sol.after] + newer
+            shift = max(
+                (
+                    float(np.hypot(*(a - b)[:2]) + 5.0 * abs(wrap(float(a[2] - b[2]))))
+                    for a, b in zip(moved, self.nodes, strict=True)
+                ),
+                default=0.0,
+            )
+            self.nodes = moved
         self.pose = carried(self.pose)
-        if sol.grid is not None:
-            for q, s in zip(newer, self.scans[n:], strict=True):
-                self._write(sol.grid, q, s)
-            self._grid = sol.grid
-            self._pyramid = sol.grid.pyramid(self.params.match_levels)
-            with self._lock:
-                self._written = [q.copy() for q in self.nodes]
-            self.rebuilds += 1
+        if shift > self.params.map_rebuild_shift:
+            # The pass's maps, with the scans of the nodes added since it began.
+            ids = list(sol.window) + [k for k, _ in self._window if k >= n]
+            for k in ids[len(sol.window) :]:
+                self._local_write(moved[k], self.scans[k], 1.0, sol.local)
+            self._local = sol.local
+            self._window = deque((k, moved[k].copy()) for k in ids)
+            self._version += 1
+            if sol.map is not None:
+                for q, scan in zip(moved[n:], self.scans[n : len(moved)], strict=True):
+                    self._write(sol.map, q, scan)
+                self._map, self._map_nodes, self._map_version = sol.map, len(moved), self._version
         self._solution = None
         # Nodes queued while the pass ran wait for the next one.
         self._start_pass()

@@ -2,8 +2,10 @@
 
 A pose is (x, y, yaw) in metres and radians. `beams` turns the ranges of a planar scan
 into end points in the robot's base frame, given where the laser sits on the base, and
-says which beams hit something: beams past the usable range are cut there and only free
-the cells they cross (GMapping's maxUrange, Hector's laser_max_dist).
+says which beams hit something. Two limits apply, as in GMapping: a beam longer than the
+maximum range (maxRange; a "no return", read as inf, always is) is left out; a beam
+longer than the usable range (maxUrange) is cut there and only frees the cells it
+crosses. Hector's laser_max_dist is both limits at once: past it, a beam is left out.
 """
 
 from __future__ import annotations
@@ -64,16 +66,19 @@ def beams(
     range_min: float,
     usable_range: float,
     laser_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    max_range: float = np.inf,
 ) -> Beams:
-    """Beams of a planar scan (`ranges`, inf or nan where nothing returned) in the base
-    frame of a laser mounted at `laser_pose` (x, y, yaw on the base)."""
+    """Beams of a planar scan (`ranges`: inf where nothing returned, nan where nothing
+    was measured) in the base frame of a laser mounted at `laser_pose` (x, y, yaw on the
+    base). Beams longer than `max_range` are left out, beams longer than `usable_range`
+    cut there (free space only)."""
     r = np.asarray(ranges, dtype=np.float64).ravel()
     if not usable_range > 0:
         raise ValueError(f"usable laser range must be positive, got {usable_range}")
     if not angle_increment != 0:
         raise ValueError("scan angle_increment is 0")
     angles = angle_min + angle_increment * np.arange(r.size)
-    valid = ~np.isnan(r) & (r >= range_min)
+    valid = ~np.isnan(r) & (r >= range_min) & (r > 0) & (r <= max_range)
     hit = valid & (r <= usable_range)
     dist = np.where(hit, r, usable_range)[valid]
     a = angles[valid] + laser_pose[2]
@@ -82,4 +87,23 @@ def beams(
     ends[:, 1] = laser_pose[1] + dist * np.sin(a)
     return Beams(
         (float(laser_pose[0]), float(laser_pose[1])), ends, hit[valid], abs(float(angle_increment))
+    )
+
+
+def motion_sigma(
+    d: np.ndarray | tuple,
+    trans_per_trans: float,
+    trans_per_rot: float,
+    rot_per_trans: float,
+    rot_per_rot: float,
+) -> tuple[float, float, float]:
+    """Standard deviations (x, y in the frame of the pose moved from, yaw) of an odometry
+    motion `d` (x, y, yaw): GMapping's model, growing with the distance and the angle
+    moved (srr, str, srt, stt are its names for the four gains)."""
+    dx, dy, dth = (abs(float(v)) for v in d)
+    side = 0.3 * trans_per_trans
+    return (
+        trans_per_trans * dx + trans_per_rot * dth + side * dy,
+        trans_per_trans * dy + trans_per_rot * dth + side * dx,
+        rot_per_rot * dth + rot_per_trans * float(np.hypot(dx, dy)),
     )

@@ -23,18 +23,29 @@ from robotrial.trials.slam import Recording, ScanSample, SlamRun
 
 
 def recording_from_log(log: CarmenLog) -> Recording:
-    """What the SLAM runner takes, from a CARMEN log: its scans and odometry; no ground
-    truth (real logs have none), the laser 0.3 m above the floor (unused by SLAM)."""
+    """What the SLAM runner takes, from a CARMEN log: its scans in the log's order with
+    the odometry pose of each; no ground truth (real logs have none), the laser 0.3 m
+    above the floor (unused by SLAM)."""
     scans = [
         ScanSample(s.stamp, s.ranges, s.angle_min, s.angle_increment, 0.0, s.range_max)
         for s in log.scans
     ]
-    return Recording(scans, log.odom, np.zeros((0, 4)), log.laser_pose, 0.3, log.source)
+    return Recording(
+        scans,
+        log.odom,
+        np.zeros((0, 4)),
+        log.laser_pose,
+        0.3,
+        log.source,
+        log.scan_odometry(),
+    )
 
 
-def load_log(path: str | Path, strict: bool = False) -> tuple[Recording, CarmenLog]:
+def load_log(
+    path: str | Path, strict: bool = False, order: str = "file"
+) -> tuple[Recording, CarmenLog]:
     """A CARMEN log file as a Recording (and the log, for its counts of skipped lines)."""
-    log = read_carmen(path, strict)
+    log = read_carmen(path, strict, order)
     return recording_from_log(log), log
 
 

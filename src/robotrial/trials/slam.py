@@ -40,6 +40,7 @@ from robotrial.slam.metrics import ate, cell_centres, room_dimensions, rpe
 from robotrial.slam.params import GMappingParams, HectorParams, PoseGraphParams
 from robotrial.slam.posegraph import PoseGraphSlam
 from robotrial.slam.scan import beams, relative, wrap
+from robotrial.slam.tiled import TiledGrid
 
 METHODS = ("gmapping", "hector", "graph")
 Slam = GMappingSlam | HectorSlam | PoseGraphSlam
@@ -68,6 +69,9 @@ class Recording:
     laser_pose: tuple[float, float, float]
     laser_height: float
     source: str = ""
+    # The odometry pose (N, 3) that came with each scan, when the recording holds one per
+    # scan (a CARMEN log's laser lines); otherwise `odom` is interpolated at its stamp.
+    scan_odom: np.ndarray | None = None
 
     @property
     def duration(self) -> float:
@@ -186,7 +190,7 @@ class SlamRun:
     which scans updated the map."""
 
     method: str
-    grid: LogOddsGrid
+    grid: LogOddsGrid | TiledGrid
     stamps: np.ndarray
     poses: np.ndarray
     scan_times: np.ndarray
@@ -199,13 +203,16 @@ class SlamRun:
 
 
 def scan_beams(slam: Slam, s: ScanSample, laser_pose) -> Any:
+    """A scan's beams in the base frame with the method's range limits."""
+    low, top, usable = slam.range_limits(s.range_max)
     return beams(
         s.ranges,
         s.angle_min,
         s.angle_increment,
-        max(s.range_min, slam.min_range),
-        min(s.range_max, slam.usable_range) if s.range_max > 0 else slam.usable_range,
+        max(s.range_min, low),
+        min(s.range_max, usable) if s.range_max > 0 else usable,
         laser_pose,
+        top,
     )
 
 
@@ -227,7 +234,7 @@ def run_slam(
     updated = np.zeros(len(rec.scans), bool)
     wall0 = time.perf_counter()
     for i, s in enumerate(rec.scans):
-        odom = rec.odom_at(s.stamp) if slam.uses_odometry else None
+        odom = rec.scan_odom[i] if rec.scan_odom is not None else rec.odom_at(s.stamp)
         if not (slam.uses_odometry and odom is None):
             before = _updates(slam)
             t0, c0 = time.perf_counter(), time.thread_time()
@@ -260,24 +267,26 @@ def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration
         slam.close()
     stamps, poses = slam.trajectory()
     if isinstance(slam, GMappingSlam):
-        nbytes = sum(m.logodds.nbytes for m in slam.maps)
+        nbytes = slam.map_bytes
         extra: dict[str, Any] = {"updates": slam.updates, "resamples": slam.resamples}
     elif isinstance(slam, PoseGraphSlam):
-        nbytes = slam.grid.logodds.nbytes
+        nbytes = slam.grid.nbytes
         extra = {
             "map_updates": slam.map_updates,
             "nodes": len(slam.nodes),
             "closures": slam.closures,
+            "closures_rejected": slam.rejected,
+            "closures_removed": slam.removed,
             "loop_attempts": slam.loop_attempts,
             "optimizations": slam.optimizations,
-            "map_rebuilds": slam.rebuilds,
+            "correlative_searches": slam.searches,
             "optimize_ms_total": slam.optimize_time * 1e3,
             "backend_ms_total": slam.backend_time * 1e3,
             "background": slam.params.background,
             "settle_ms": settle_ms,
         }
     else:
-        nbytes = slam.grid.logodds.nbytes
+        nbytes = slam.grid.nbytes
         extra = {"map_updates": slam.map_updates}
     return SlamRun(method, slam.grid, stamps, poses, times, wall, duration, int(nbytes), extra)
 
@@ -424,11 +433,12 @@ def write_outputs(
 
     stem = Path(stem)
     g = run.grid
+    values = g.ros_values()
     frame = map_pose_in_world(rec)
     pgm, yml = write_map(
         stem,
         OccupancyMap(
-            g.ros_values(),
+            values,
             g.resolution,
             (*g.origin, 0.0),
             world.name if world is not None else None,
@@ -443,24 +453,55 @@ def write_outputs(
                 f"{np.cos(p[2] / 2):.9f}\n"
             )
     png = stem.with_name(stem.name + ".png")
-    plot_map(run, rec, world, png)
+    plot_map(run, rec, world, png, values)
     return {"pgm": str(pgm), "yaml": str(yml), "trajectory": str(tum), "png": str(png)}
 
 
-def plot_map(run: SlamRun, rec: Recording, world: World | None, png: Path) -> None:
-    """The map in its own frame, the true walls and path moved into that frame."""
+PLOT_CELLS = 2400
+
+
+def _shrunk(vals: np.ndarray, k: int) -> np.ndarray:
+    """ROS map values with k x k cells a pixel: occupied if any of its cells is, else
+    free if any is; a band of rows at a time (no copy of a large map)."""
+    rows, cols = -(-vals.shape[0] // k), -(-vals.shape[1] // k)
+    out = np.full((rows, cols), -1, dtype=np.int8)
+    band = max(1, 1024 // k)
+    for r0 in range(0, rows, band):
+        part = vals[r0 * k : (r0 + band) * k]
+        padded = np.full((-(-part.shape[0] // k) * k, cols * k), -1, dtype=np.int8)
+        padded[: part.shape[0], : part.shape[1]] = part
+        blocks = padded.reshape(-1, k, cols, k)
+        out[r0 : r0 + blocks.shape[0]] = np.where(
+            (blocks == 100).any(axis=(1, 3)), 100, np.where((blocks == 0).any(axis=(1, 3)), 0, -1)
+        )
+    return out
+
+
+def plot_map(
+    run: SlamRun,
+    rec: Recording,
+    world: World | None,
+    png: Path,
+    values: np.ndarray | None = None,
+) -> None:
+    """The map in its own frame, the true walls and path moved into that frame
+    (`values`: the map's ROS values, when already at hand)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     g = run.grid
-    vals = g.ros_values()
-    img = np.full(vals.shape, 0.8)
+    vals = g.ros_values() if values is None else values
+    # A large map (a building, a campus) is drawn at most PLOT_CELLS cells a side.
+    k = max(1, -(-max(vals.shape) // PLOT_CELLS))
+    if k > 1:
+        vals = _shrunk(vals, k)
+    img = np.full(vals.shape, 0.8, dtype=np.float32)
     img[vals == 0] = 1.0
     img[vals == 100] = 0.0
     x0, y0, x1, y1 = g.extent()
-    fig, ax = plt.subplots(figsize=(7, 7))
+    fig, ax = plt.subplots(figsize=(7, 7) if k == 1 else (12, 12))
     ax.imshow(img, cmap="gray", origin="lower", extent=(x0, x1, y0, y1), vmin=0, vmax=1)
     start = map_pose_in_world(rec)
     if start is not None and world is not None:
@@ -518,7 +559,7 @@ def true_poses(rec: Recording, stamps: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 
 def map_accuracy(
-    grid: LogOddsGrid, map_in_world: np.ndarray, world: World, laser_height: float
+    grid: LogOddsGrid | TiledGrid, map_in_world: np.ndarray, world: World, laser_height: float
 ) -> dict[str, float]:
     """Precision and recall of the map's occupied cells against the world's ground truth
     with a one-cell tolerance (see the module docstring). `map_in_world` is the map

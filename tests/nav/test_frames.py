@@ -9,6 +9,7 @@ took for the world's would stop it a metre or more away."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,50 +29,46 @@ GOALS = {
 }
 
 
-@pytest.mark.parametrize("world", list(GOALS))
-def test_a_map_made_by_slam_is_navigated_in_its_own_frame(world, tmp_path, capsys):
+def _map(world: str, tmp_path, capsys) -> Path:
+    """The stem of a map `robotrial slam` made from a 2 s recording at the spawn."""
     bag, stem = tmp_path / "run.mcap", tmp_path / "mymap"
     args = ["sim", "--world", world, "--duration", "2", "--drive", "none"]
     assert main([*args, "--record", str(bag), "--plot", str(tmp_path / "sim.png")]) == 0
     argv = ["slam", "--method", "gmapping", "--bag", str(bag), "-o", str(stem), "--world", world]
     assert main([*argv, "--json"]) == 0
     capsys.readouterr()
+    return stem
+
+
+def _navigate(world: str, stem: Path, capsys) -> dict:
+    """`robotrial nav` on the map to the world's goal; its JSON, checked for where the
+    simulated robot truly stopped."""
     goal = GOALS[world]
     argv = ["nav", "--world", world, "--map", f"{stem}.yaml", "--speed", "1.0", "--json"]
     code = main([*argv, "--goal", *map(str, goal)])
     out = json.loads(capsys.readouterr().out)
     run = out["runs"][0]
-    assert out["start_from"] == "the map's metadata"
-    assert np.allclose(out["start"], (0.0, 0.0, 0.0), atol=1e-6)
     spawn = load_world(world).spawn("default")
     target = compose(np.array([*spawn.xyz[:2], spawn.yaw]), np.array(goal))
     off = float(np.hypot(*(np.array(run["end"][:2]) - target[:2])))
     assert code == 0 and run["success"], run
     assert off <= 0.15, f"stopped {off:.2f} m from the goal in the world: {run}"
+    return out
+
+
+@pytest.mark.parametrize("world", list(GOALS))
+def test_a_map_made_by_slam_is_navigated_in_its_own_frame(world, tmp_path, capsys):
+    out = _navigate(world, _map(world, tmp_path, capsys), capsys)
+    assert out["start_from"] == "the map's metadata"
+    assert np.allclose(out["start"], (0.0, 0.0, 0.0), atol=1e-6)
 
 
 def test_a_map_with_no_frame_is_navigated_after_global_localization(tmp_path, capsys):
     """A map_server map that says nothing of where it lies: AMCL spreads its particles over
     the whole free space, gathers them while the robot turns, and the goal in the map's
     frame is reached."""
-    world, bag, stem = "room_b", tmp_path / "run.mcap", tmp_path / "plain"
-    assert (
-        main(["sim", "--world", world, "--duration", "2", "--drive", "none", "--record", str(bag)])
-        == 0
-    )
-    assert main(["slam", "--method", "gmapping", "--bag", str(bag), "-o", str(stem), "--json"]) == 0
-    meta = yaml.safe_load((tmp_path / "plain.yaml").read_text())
-    meta.pop("robotrial", None)
-    (tmp_path / "plain.yaml").write_text(yaml.safe_dump(meta))
-    capsys.readouterr()
-    goal = GOALS[world]
-    argv = ["nav", "--world", world, "--map", f"{stem}.yaml", "--speed", "1.0", "--json"]
-    code = main([*argv, "--goal", *map(str, goal)])
-    out = json.loads(capsys.readouterr().out)
-    run = out["runs"][0]
-    assert out["start_from"] == "global localization"
-    spawn = load_world(world).spawn("default")
-    target = compose(np.array([*spawn.xyz[:2], spawn.yaw]), np.array(goal))
-    off = float(np.hypot(*(np.array(run["end"][:2]) - target[:2])))
-    assert code == 0 and run["success"], run
-    assert off <= 0.15, f"stopped {off:.2f} m from the goal in the world: {run}"
+    stem = _map("room_b", tmp_path, capsys)
+    meta = yaml.safe_load(stem.with_suffix(".yaml").read_text())
+    meta.pop("robotrial")
+    stem.with_suffix(".yaml").write_text(yaml.safe_dump(meta))
+    assert _navigate("room_b", stem, capsys)["start_from"] == "global localization"

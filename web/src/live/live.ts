@@ -82,6 +82,8 @@ export interface LiveState {
   status: { state: string; text: string; distance: number; elapsed: number } | null;
   /** The states the navigator went through since the last goal was sent, in order. */
   statusHistory: string[];
+  /** The status line said on entering each of those states. */
+  statusLines: string[];
   statusLine: string;
   /** The last /cmd_vel sent: linear x (m/s), angular z (rad/s). */
   drive: [number, number];
@@ -156,6 +158,7 @@ export class LiveView {
   private poseEstimate: [number, number, number] | null = null;
   private status: NavStatus | null = null;
   private statusHistory: string[] = [];
+  private statusLines: string[] = [];
   private command: [number, number] = [0, 0];
   private readonly held = new Set<string>();
   private cmdTimer: number | undefined;
@@ -278,6 +281,7 @@ export class LiveView {
           }
         : null,
       statusHistory: [...this.statusHistory],
+      statusLines: [...this.statusLines],
       statusLine: this.statusText.textContent ?? "",
       drive: this.command,
       screen: this.screen(),
@@ -483,8 +487,12 @@ export class LiveView {
 
   private navStatus(m: NavStatus): void {
     this.status = m;
-    if (this.statusHistory[this.statusHistory.length - 1] !== m.state) this.statusHistory.push(m.state);
-    this.say(statusLine(m), m.state);
+    const line = statusLine(m);
+    if (this.statusHistory[this.statusHistory.length - 1] !== m.state) {
+      this.statusHistory.push(m.state);
+      this.statusLines.push(line);
+    }
+    this.say(line, m.state);
     const done = m.state === "reached" || m.state === "failed" || m.state === "refused";
     this.goalArrow.setColor(done ? DONE_COLOR : GOAL_COLOR);
     if (m.state === "refused" || m.state === "failed") this.localLine.geometry.setDrawRange(0, 0);
@@ -616,6 +624,7 @@ export class LiveView {
       this.goal = [x, y, heading];
       this.status = null; // the last goal's answer is not this one's
       this.statusHistory = [];
+      this.statusLines = [];
       this.placeArrow(this.goalArrow, new Vector3(x, y, 0), heading);
       this.goalArrow.setColor(GOAL_COLOR);
       this.say("Goal sent…", "planning");

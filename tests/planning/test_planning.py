@@ -25,7 +25,7 @@ from robotrial.planning.problems import desk_task
 from robotrial.planning.smoothing import round_corners, shortcut, shortcut_and_round
 from robotrial.planning.task import TaskPlanner
 from robotrial.planning.timing import time_parameterize, time_parameterize_reference
-from robotrial.ros.planning_node import answer
+from robotrial.ros.plan_task import answer
 
 START = [-0.785, 0.80, 1.57, 0.0, 0.76, 0.0]  # the hand near (0.15, -0.15, 0.02)
 

@@ -89,6 +89,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--calls", type=int, default=50, help="service calls for --service")
     parser.add_argument(
+        "--cold",
+        action="store_true",
+        help="only `robotrial plan` for the desk task from fresh processes",
+    )
+    parser.add_argument(
+        "--cold-runs", type=int, default=5, help="fresh processes per variant for --cold/--service"
+    )
+    parser.add_argument(
+        "--baseline-src",
+        type=Path,
+        metavar="DIR",
+        help="the src folder of another checkout: its fresh `robotrial plan` is timed in "
+        "turns with this one (--cold, --service)",
+    )
+    parser.add_argument(
         "--suite",
         choices=["default", "mbm"],
         default="default",
@@ -254,7 +269,7 @@ def random_desk_validation(n: int, seed: int = 0, show: bool = True) -> dict[str
     from robotrial.msgs.robotrial_msgs import PlanTaskRequest
     from robotrial.msgs.sensor_msgs import JointState
     from robotrial.planning.task import TaskPlanner
-    from robotrial.ros.planning_node import answer
+    from robotrial.ros.plan_task import answer
 
     robot, world = load_robot("desk_arm"), load_world("desk")
     planner = TaskPlanner(robot, world)
@@ -402,7 +417,7 @@ def service_breakdown(calls: int, show: bool = True) -> dict[str, Any]:
     from robotrial.msgs.robotrial_msgs import PlanTaskRequest
     from robotrial.planning.task import TaskPlanner
     from robotrial.planning.timing import time_parameterize
-    from robotrial.ros.planning_node import plan_task_response, task_request
+    from robotrial.ros.plan_task import plan_task_response, task_request
     from robotrial.ros.rosbridge.encoding import dumps
 
     robot, world = load_robot("desk_arm"), load_world("desk")
@@ -507,16 +522,101 @@ def service_round_trips(calls: int, show: bool = True) -> dict[str, Any]:
     }
 
 
-def cold_plan(runs: int = 3) -> dict[str, Any]:
+_LAUNCH = "import sys; from robotrial.cli import main; sys.exit(main())"
+"""What the `robotrial` script runs; started as `python -c` so that PYTHONPATH can put
+another source tree's package first."""
+
+
+def _fresh_run(argv: list[str], env: dict[str, str]) -> tuple[float, float]:
+    """One fresh process of `robotrial ARGV`: (wall s, CPU s of the process)."""
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _LAUNCH, *argv],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
+    if proc.stderr:
+        proc.stderr.close()
+    if proc.returncode != 0:
+        raise RuntimeError(f"robotrial {' '.join(argv)} failed ({proc.returncode}): {err[-500:]}")
+    return wall, usage.ru_utime + usage.ru_stime
+
+
+def cold_plan(runs: int = 3, baseline: Path | None = None) -> dict[str, Any]:
     """`robotrial plan` for the desk task from a fresh process (numba's and robotrial's
-    caches already filled by `robotrial warm`), wall clock."""
-    exe = Path(sys.executable).parent / "robotrial"
-    times = []
+    caches filled by one untimed run first), wall clock and CPU time. With `baseline` (the
+    `src` folder of another checkout), that code's `robotrial plan` too, in turns with
+    this one, so that both see the same load."""
+    argv = [*PLAN_COMMAND, "--json"]
+    variants: dict[str, dict[str, str]] = {"current": dict(os.environ)}
+    if baseline is not None:
+        if not (baseline / "robotrial" / "cli" / "__init__.py").is_file():
+            raise SystemExit(f"--baseline-src {baseline}: no robotrial package there")
+        variants["baseline"] = {**os.environ, "PYTHONPATH": str(baseline.resolve())}
+    for env in variants.values():
+        _fresh_run(argv, env)
+    times: dict[str, list[tuple[float, float]]] = {name: [] for name in variants}
     for _ in range(runs):
-        t0 = time.perf_counter()
-        subprocess.run([str(exe), *PLAN_COMMAND, "--json"], check=True, capture_output=True)
-        times.append(time.perf_counter() - t0)
-    return {"runs": runs, "median_s": float(np.median(times)), "min_s": float(np.min(times))}
+        for name, env in variants.items():
+            times[name].append(_fresh_run(argv, env))
+    out: dict[str, Any] = {"runs": runs}
+    for name, got in times.items():
+        wall, cpu = np.array(got).T
+        out[name] = {
+            "median_s": float(np.median(wall)),
+            "min_s": float(np.min(wall)),
+            "median_cpu_s": float(np.median(cpu)),
+            "min_cpu_s": float(np.min(cpu)),
+        }
+    return out
+
+
+def _cold_rows(c: dict[str, Any]) -> list[tuple[str, str, str]]:
+    """Table rows for a cold_plan result: (what, baseline, current), ms."""
+
+    def ms(name: str, key: str) -> str:
+        return f"{c[name][key] * 1e3:.0f}" if name in c else ""
+
+    return [
+        (
+            f"robotrial plan, fresh process, wall ({c['runs']} runs)",
+            ms("baseline", "median_s"),
+            ms("current", "median_s"),
+        ),
+        (
+            "  CPU time of the process",
+            ms("baseline", "median_cpu_s"),
+            ms("current", "median_cpu_s"),
+        ),
+        ("  quickest run, wall", ms("baseline", "min_s"), ms("current", "min_s")),
+    ]
+
+
+def run_cold(args: argparse.Namespace) -> int:
+    """`robotrial bench planning --cold`: only the fresh `robotrial plan`."""
+    load_before = os.getloadavg()[0]
+    report = {
+        "date": date.today().isoformat(),
+        "cold_plan": cold_plan(args.cold_runs, args.baseline_src),
+        "load": f"{load_before:.2f}, {os.getloadavg()[0]:.2f}",
+    }
+    if args.output:
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        args.output.write_text(json.dumps(report, indent=2))
+    if args.json:
+        print_json(report)
+    else:
+        print_table(
+            f"robotrial plan from a fresh process, desk task (median ms; load {report['load']})",
+            ["what", "baseline", "current"],
+            _cold_rows(report["cold_plan"]),
+        )
+    return 0
 
 
 def run_service(args: argparse.Namespace) -> int:
@@ -529,7 +629,7 @@ def run_service(args: argparse.Namespace) -> int:
         f"{platform.python_implementation()} {platform.python_version()}",
         "breakdown": service_breakdown(args.calls, show),
         "round_trip": service_round_trips(args.calls, show),
-        "cold_plan": cold_plan(),
+        "cold_plan": cold_plan(args.cold_runs, args.baseline_src),
     }
     report["load"] = f"{load_before:.2f}, {os.getloadavg()[0]:.2f}"
     if args.output:
@@ -561,7 +661,7 @@ def run_service(args: argparse.Namespace) -> int:
         )
         rows.append(("round trip over rosbridge (roslibpy)", "", _ms(r["median_s"])))
         rows.append(("  p95", "", _ms(r["p95_s"])))
-        rows.append(("robotrial plan, fresh process", "", f"{c['median_s'] * 1e3:.0f}"))
+        rows += _cold_rows(c)
         print_table(
             "PlanTask, desk task (median ms)", ["part", "reference ms", "compiled ms"], rows
         )
@@ -606,8 +706,7 @@ def service_markdown(report: dict[str, Any]) -> str:
         f"| round trip over rosbridge, roslibpy to a warm `robotrial rosbridge --robot` "
         f"({r['calls']} calls) | | {_ms(r['median_s'])} (p95 {_ms(r['p95_s'])}) |",
         f"| the response's planning_time in those calls | | {_ms(r['median_planning_time_s'])} |",
-        f"| `robotrial plan` from a fresh process, caches warm ({c['runs']} runs) | | "
-        f"{c['median_s'] * 1e3:.0f} |",
+        *(f"| {what} | {old_ms} | {new_ms} |" for what, old_ms, new_ms in _cold_rows(c)),
         "",
         f"Time parameterization on the same paths: compiled {b['timing_ours_median_s'] * 1e3:.3f}"
         f" ms, toppra {b['timing_toppra_median_s'] * 1e3:.3f} ms; trajectory duration ours / "
@@ -641,6 +740,8 @@ def _problems(quick: bool) -> list[tuple[str, PlanningProblem, bool]]:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.cold:
+        return run_cold(args)
     if args.service:
         return run_service(args)
     if args.suite == "mbm":

@@ -130,7 +130,7 @@ def _empty_box():
 def run(args: argparse.Namespace) -> int:
     from robotrial.model import ModelError, load_world
     from robotrial.planning.task import TaskPlanner
-    from robotrial.ros.planning_node import answer
+    from robotrial.ros.plan_task import answer
 
     try:
         robot = load_robot_from_args(args)

@@ -46,9 +46,22 @@ class ExactChecker:
         tolerance: float = 1e-6,
         robot_pairs: Iterable[tuple[str, str]] | None = None,
     ) -> None:
+        self.checker = checker
+        self.tolerance = tolerance
+        self._world = world
+        self._obstacles = tuple(obstacles)
+        self._held = held
+        self._robot_pairs = None if robot_pairs is None else tuple(robot_pairs)
+        self._built = False
+
+    def _build(self) -> None:
+        """The MJCF and MuJoCo model of the scene, made on the first query: most answers
+        never ask MuJoCo (the screen clears every sample), so they skip loading it."""
+        if self._built:
+            return
         import mujoco
 
-        self.checker = checker
+        checker, held, world = self.checker, self._held, self._world
         kin = checker.kin
         robot = kin.model
         if held is not None:
@@ -60,7 +73,7 @@ class ExactChecker:
                     Joint(f"{HELD_LINK}_mount", "fixed", link, HELD_LINK, pose_in_link),
                 ),
             )
-        extra = tuple(Obstacle(name, shape, pose) for name, shape, pose in obstacles)
+        extra = tuple(Obstacle(name, shape, pose) for name, shape, pose in self._obstacles)
         if world is None:
             world = World(name="planning", obstacles=extra)
         else:
@@ -85,7 +98,6 @@ class ExactChecker:
             _EXCLUDED[checker.robot] = self.doc.excluded
         self.model = self.doc.compile()
         self.data = mujoco.MjData(self.model)
-        self.tolerance = tolerance
         m = self.model
         body_names = [
             mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, i) or "" for i in range(m.nbody)
@@ -98,8 +110,8 @@ class ExactChecker:
         names = [b.name for b in checker.bodies]
         self._enabled = (
             {(names[i], names[j]) for i, j in checker.pairs}
-            if robot_pairs is None
-            else set(robot_pairs)
+            if self._robot_pairs is None
+            else set(self._robot_pairs)
         )
         self._enabled |= {(b, a) for a, b in self._enabled}
         # counts[b1, b2]: a contact between these MuJoCo bodies is a collision
@@ -114,10 +126,12 @@ class ExactChecker:
                     self._counts[i, j] = self._moving[i] or self._moving[j]
         self._qpos0, self._adr, self._src, self._mult, self._off = qpos_map(kin, m)
         self._geom_body = np.asarray(m.geom_bodyid)
+        self._built = True
 
     def _set(self, q: np.ndarray) -> None:
         import mujoco
 
+        self._build()
         qpos = self._qpos0.copy()
         qpos[self._adr] = self._mult * q[self._src] + self._off
         self.data.qpos[:] = qpos
@@ -165,8 +179,6 @@ class ExactChecker:
         shapes and its contacts count from 10 um, so a sample it calls free is free for
         MuJoCo too), only the samples it does not clear go to MuJoCo: those near a
         contact."""
-        import mujoco
-
         path = np.atleast_2d(np.asarray(path, dtype=float))
         if not len(path):
             return True, -1
@@ -179,6 +191,9 @@ class ExactChecker:
         near = np.arange(len(qs)) if screen is None else np.nonzero(~screen.valid(qs))[0]
         if not len(near):
             return True, -1
+        import mujoco
+
+        self._build()
         qpos = np.tile(self._qpos0, (len(near), 1))
         qpos[:, self._adr] = self._mult * qs[near][:, self._src] + self._off
         model, data = self.model, self.data

@@ -1,39 +1,24 @@
 """ROS message types as dataclasses, with rosbridge JSON and CBOR conversion (layer 0).
 
-One module per ROS package (`sensor_msgs`, `geometry_msgs`, ...). Every type is a
-dataclass built by `core.message`; importing this package registers them all, so
+One module per ROS package (`sensor_msgs`, `geometry_msgs`, ...), imported on first use.
+Every type is a dataclass built by `core.message`; a lookup by name loads them all, so
 `lookup_message("sensor_msgs/LaserScan")` and `lookup_message("sensor_msgs/msg/LaserScan")`
 both find `sensor_msgs.LaserScan`. Internal spelling is ROS 2 (see `core`).
 """
 
-from robotrial.msgs import (
-    builtin_interfaces,
-    control_msgs,
-    geometry_msgs,
-    nav2_msgs,
-    nav_msgs,
-    robotrial_msgs,
-    rosapi,
-    rosgraph_msgs,
-    sensor_msgs,
-    std_msgs,
-    std_srvs,
-    tf2_msgs,
-    tf2_web_republisher,
-    trajectory_msgs,
-    visualization_msgs,
-)
+import importlib
+from typing import Any
+
 from robotrial.msgs.core import (
-    ACTIONS,
     DIALECTS,
-    MESSAGES,
-    SERVICES,
+    PACKAGES,
     ActionType,
     Dialect,
     Message,
     MessageError,
     ServiceType,
     full_definition,
+    load_all,
     lookup_action,
     lookup_message,
     lookup_service,
@@ -42,36 +27,37 @@ from robotrial.msgs.core import (
     type_for_value,
 )
 
+_REGISTRIES = ("ACTIONS", "MESSAGES", "SERVICES")
+
+
+def __getattr__(name: str) -> Any:
+    """A package's module, imported on first use; the registries, complete."""
+    if name in PACKAGES:
+        return importlib.import_module(f"robotrial.msgs.{name}")
+    if name in _REGISTRIES:
+        load_all()
+        return getattr(importlib.import_module("robotrial.msgs.core"), name)
+    raise AttributeError(f"module 'robotrial.msgs' has no attribute {name!r}")
+
+
 __all__ = [
     "ACTIONS",
     "DIALECTS",
     "MESSAGES",
+    "PACKAGES",
     "SERVICES",
     "ActionType",
     "Dialect",
     "Message",
     "MessageError",
     "ServiceType",
-    "builtin_interfaces",
-    "control_msgs",
     "full_definition",
-    "geometry_msgs",
+    "load_all",
     "lookup_action",
     "lookup_message",
     "lookup_service",
-    "nav2_msgs",
-    "nav_msgs",
-    "robotrial_msgs",
     "ros1_name",
-    "rosapi",
-    "rosgraph_msgs",
-    "sensor_msgs",
-    "std_msgs",
-    "std_srvs",
-    "tf2_msgs",
-    "tf2_web_republisher",
-    "trajectory_msgs",
     "type_dialect",
     "type_for_value",
-    "visualization_msgs",
+    *PACKAGES,
 ]

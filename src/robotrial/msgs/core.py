@@ -21,6 +21,7 @@ from __future__ import annotations
 import base64
 import binascii
 import dataclasses
+import importlib
 import inspect
 import math
 import re
@@ -269,6 +270,46 @@ _SRV_INDEX: dict[tuple[str, str], ServiceType] = {}
 _ACTION_INDEX: dict[tuple[str, str], ActionType] = {}
 
 
+PACKAGES = (
+    "builtin_interfaces",
+    "control_msgs",
+    "geometry_msgs",
+    "nav2_msgs",
+    "nav_msgs",
+    "robotrial_msgs",
+    "rosapi",
+    "rosgraph_msgs",
+    "sensor_msgs",
+    "std_msgs",
+    "std_srvs",
+    "tf2_msgs",
+    "tf2_web_republisher",
+    "trajectory_msgs",
+    "visualization_msgs",
+)
+"""The modules of `robotrial.msgs` that define types, one per ROS package."""
+
+_all_loaded = False
+
+
+def load_all() -> None:
+    """Import every package's module, registering all types. A module is imported when
+    first used, so that a command needing a few types does not build them all; a lookup
+    by name, and `robotrial.msgs.MESSAGES`, load the rest."""
+    global _all_loaded
+    if not _all_loaded:
+        for package in PACKAGES:
+            importlib.import_module(f"robotrial.msgs.{package}")
+        _all_loaded = True
+
+
+def _find(index: dict[tuple[str, str], Any], name: str) -> Any:
+    key = _key(name)
+    if key not in index:
+        load_all()
+    return index.get(key)
+
+
 def lookup_message(name: str) -> type[Message] | None:
     """The message class for a type name in any spelling (`pkg/Name`, `pkg/msg/Name`,
     ROS 1 `time`/`duration`), or None when the type is not known here."""
@@ -276,17 +317,17 @@ def lookup_message(name: str) -> type[Message] | None:
         name = "builtin_interfaces/msg/Time"
     elif name == "duration":
         name = "builtin_interfaces/msg/Duration"
-    return _MSG_INDEX.get(_key(name))
+    return _find(_MSG_INDEX, name)
 
 
 def lookup_service(name: str) -> ServiceType | None:
     """The service type for a name in any spelling (`pkg/Name`, `pkg/srv/Name`)."""
-    return _SRV_INDEX.get(_key(name))
+    return _find(_SRV_INDEX, name)
 
 
 def lookup_action(name: str) -> ActionType | None:
     """The action type for a name in any spelling (`pkg/Name`, `pkg/action/Name`)."""
-    return _ACTION_INDEX.get(_key(name))
+    return _find(_ACTION_INDEX, name)
 
 
 def type_dialect(name: str | None) -> Dialect | None:

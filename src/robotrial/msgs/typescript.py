@@ -19,9 +19,8 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-import robotrial.msgs  # noqa: F401  (registers every type)
-from robotrial.msgs import names
-from robotrial.msgs.core import BYTE_TYPES, MESSAGES, SERVICES, FieldSpec, Message
+from robotrial.msgs import MESSAGES, SERVICES, names  # every type, registered
+from robotrial.msgs.core import BYTE_TYPES, FieldSpec, Message
 
 
 def _bare(cls: type[Message]) -> str:

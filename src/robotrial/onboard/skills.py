@@ -52,7 +52,7 @@ from robotrial.onboard.perception import (
 from robotrial.onboard.robot import Robot
 from robotrial.onboard.voxels import Obstacles, RobotBody, VoxelMap, merge_runs
 from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult, robot_spheres
-from robotrial.ros.planning_node import joint_trajectory
+from robotrial.ros.plan_task import joint_trajectory
 from robotrial.ros.slam_node import scan_to_beams
 from robotrial.slam.matcher import ScanMatcher
 from robotrial.slam.scan import wrap

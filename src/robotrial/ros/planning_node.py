@@ -1,13 +1,13 @@
 """The arm planner on the bus: the /robotrial/plan_task service (layer 4).
 
 `PlanningNode` plays MoveIt's move_group for the g2rViewer task. It holds no algorithm
-of its own: each request is converted from its ROS message to arrays and geometry
-(`task_request`), answered by `robotrial.planning.task.TaskPlanner`, and the result
-converted back (`plan_task_response`, with a MoveIt error code); a successful trajectory
+of its own: each request is converted from its ROS message to arrays and geometry,
+answered by `robotrial.planning.task.TaskPlanner`, and the result converted back with a
+MoveIt error code (`robotrial.ros.plan_task.answer`); a successful trajectory
 is also published as the joint reference the simulators track. The node plans for any
 robot of a server's list: one TaskPlanner per robot, built on its first request.
 
-Every request has a budget: at most MAX_OBSTACLES boxes, a time limit that bounds the
+Every request has a budget: at most `plan_task.MAX_OBSTACLES` boxes, a time limit that bounds the
 whole answer (a request still waiting for its robot's planner when its time is up is
 answered with TIMED_OUT and never planned), and work that stops once the caller has gone.
 Requests for different robots plan at the same time; the compiled planner releases the
@@ -28,163 +28,20 @@ import threading
 import time
 from collections.abc import Callable
 
-import numpy as np
-
-from robotrial.geometry import Box, Pose
 from robotrial.model.robot import RobotModel
 from robotrial.model.world import World
-from robotrial.msgs.builtin_interfaces import Duration, Time
-from robotrial.msgs.robotrial_msgs import Box as BoxMsg
+from robotrial.msgs.builtin_interfaces import Time
 from robotrial.msgs.robotrial_msgs import PlanTask, PlanTaskRequest, PlanTaskResponse
 from robotrial.msgs.sensor_msgs import JointState
-from robotrial.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
-from robotrial.planning.task import TaskError, TaskPlanner, TaskRequest, TaskResult, time_limit
-from robotrial.planning.timing import Trajectory
+from robotrial.msgs.trajectory_msgs import JointTrajectory
+from robotrial.planning.task import TaskError, TaskPlanner, time_limit
 from robotrial.ros.bus import Bus, Node, current_call
+from robotrial.ros.plan_task import answer
 
 PLAN_TASK = "/robotrial/plan_task"
 JOINT_REFERENCE = "/robotrial/joint_reference"
 
-ERROR_CODES = {
-    "": PlanTaskResponse.SUCCESS,
-    "bad_request": PlanTaskResponse.INVALID_GOAL_CONSTRAINTS,
-    "start_in_collision": PlanTaskResponse.START_STATE_IN_COLLISION,
-    "unreachable": PlanTaskResponse.NO_IK_SOLUTION,
-    "goal_in_collision": PlanTaskResponse.GOAL_IN_COLLISION,
-    "timeout": PlanTaskResponse.TIMED_OUT,
-    "planning_failed": PlanTaskResponse.PLANNING_FAILED,
-    "invalid_path": PlanTaskResponse.INVALID_MOTION_PLAN,
-}
-
-MAX_OBSTACLES = 500
-"""The most obstacle boxes a request may hold (the page's scenes hold a few dozen)."""
-MAX_NAME = 64
-"""The longest id or planner name quoted back in a message."""
-
 log = logging.getLogger(__name__)
-
-
-def _numbers(values: np.ndarray) -> str:
-    return "(" + ", ".join(f"{float(v):g}" for v in values) + ")"
-
-
-def _short(text: str) -> str:
-    return text if len(text) <= MAX_NAME else text[:MAX_NAME] + "..."
-
-
-def _finite(values: list[float], what: str) -> np.ndarray:
-    out = np.array(values, dtype=float)
-    if not np.all(np.isfinite(out)):
-        raise TaskError(f"{what} has a non-finite number {_numbers(out)}")
-    return out
-
-
-def _zero(values: np.ndarray) -> bool:
-    """All within 1e-8 of zero (np.allclose(values, 0) at a tenth of its cost)."""
-    return bool(np.all(np.abs(values) <= 1e-8))
-
-
-def _pose_of(msg, what: str) -> Pose:
-    """A geometry_msgs/Pose as a Pose (an all-zero orientation is the identity)."""
-    p = _finite([msg.position.x, msg.position.y, msg.position.z], what + ".position")
-    o = msg.orientation
-    q = _finite([o.x, o.y, o.z, o.w], what + ".orientation")
-    if _zero(q):
-        q = np.array([0.0, 0.0, 0.0, 1.0])
-    return Pose(tuple(p), tuple(q))  # type: ignore[arg-type]
-
-
-def _box_of(msg: BoxMsg, what: str, none_ok: bool) -> tuple[Box, Pose] | None:
-    """A robotrial_msgs/Box as a shape and pose; None when all sizes are 0 and
-    `none_ok` (the object's way of saying "none"), else TaskError for an empty box."""
-    size = np.array([msg.size.x, msg.size.y, msg.size.z], dtype=float)
-    if not np.all(np.isfinite(size)) or np.any(size < 0):
-        raise TaskError(f"{what}.size must be finite and non-negative, got {_numbers(size)}")
-    if np.all(size == 0) and none_ok:
-        return None
-    if np.any(size == 0):
-        raise TaskError(f"{what}.size has a zero edge {_numbers(size)}; give all three edges")
-    return Box(tuple(size)), _pose_of(msg.pose, what + ".pose")  # type: ignore[arg-type]
-
-
-def task_request(request: PlanTaskRequest) -> TaskRequest:
-    """A PlanTask request as arrays and geometry; raises TaskError naming the bad field.
-    An all-zero `ee_goal.orientation` asks for the position only."""
-    if len(request.obstacles) > MAX_OBSTACLES:
-        raise TaskError(
-            f"obstacles: {len(request.obstacles)} boxes; a request may hold at most {MAX_OBSTACLES}"
-        )
-    time_limit(request.time_limit)
-    obstacles = []
-    for i, box in enumerate(request.obstacles):
-        shape = _box_of(box, f"obstacles[{i}]", none_ok=False)
-        assert shape is not None
-        obstacles.append((_short(box.id) or f"obstacle{i}", *shape))
-    obj = _box_of(request.object, "object", none_ok=True)
-    g = request.ee_goal
-    position = _finite([g.position.x, g.position.y, g.position.z], "ee_goal.position")
-    q = _finite(
-        [g.orientation.x, g.orientation.y, g.orientation.z, g.orientation.w],
-        "ee_goal.orientation",
-    )
-    return TaskRequest(
-        positions=np.asarray(request.current_joints.position, dtype=float),
-        joint_names=list(request.current_joints.name),
-        goal_position=position,
-        goal_orientation=None if _zero(q) else q,
-        obstacles=obstacles,
-        object=None if obj is None else (_short(request.object.id), *obj),
-        planner=request.planner,
-        time_limit=float(request.time_limit),
-    )
-
-
-def joint_trajectory(names: list[str], traj: Trajectory) -> JointTrajectory:
-    """A trajectory_msgs/JointTrajectory of the samples (time from the start)."""
-    points = [
-        JointTrajectoryPoint(
-            positions=q,
-            velocities=qd,
-            accelerations=qdd,
-            time_from_start=Duration.from_sec(t),
-        )
-        for t, q, qd, qdd in zip(
-            traj.t.tolist(), traj.q.tolist(), traj.qd.tolist(), traj.qdd.tolist(), strict=True
-        )
-    ]
-    return JointTrajectory(joint_names=list(names), points=points)
-
-
-def plan_task_response(result: TaskResult) -> PlanTaskResponse:
-    """The PlanTask response of a result, with MoveIt's error code for its failure."""
-    response = PlanTaskResponse(
-        success=result.success,
-        message=result.message,
-        planning_time=result.planning_time,
-        error_code=ERROR_CODES[result.failure],
-        object_held=result.object_held,
-    )
-    if result.success and result.trajectory is not None:
-        response.goal_joints = result.trajectory.q[-1].tolist()
-        response.trajectory = joint_trajectory(result.joint_names, result.trajectory)
-    return response
-
-
-def answer(
-    planner: TaskPlanner,
-    request: PlanTaskRequest,
-    seed: int | None = None,
-    abandoned: threading.Event | None = None,
-) -> tuple[PlanTaskResponse, TaskResult]:
-    """Plan a PlanTask request with `planner`: the response and the full result.
-    `abandoned`: set when the caller has gone (the planner then stops)."""
-    try:
-        task = task_request(request)
-    except TaskError as exc:
-        result = TaskResult(failure="bad_request", message=str(exc))
-    else:
-        result = planner.plan(task, seed=seed, abandoned=abandoned)
-    return plan_task_response(result), result
 
 
 def robot_service(robot: str) -> str:

@@ -6,6 +6,8 @@ from __future__ import annotations
 import base64
 import math
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -249,3 +251,19 @@ def test_full_definitions_decode_cdr_like_ros2_tools() -> None:
         decoded = decoder(cdr.serialize(sample))
         if "header" in cls.__field_map__:
             assert decoded.header.frame_id == "map" and decoded.header.stamp.nanosec == 8, name
+
+
+def test_a_fresh_process_finds_every_type_by_name() -> None:
+    # the packages' modules are imported on first use; a lookup by name must not depend
+    # on which of them some earlier code happened to import
+    code = (
+        "import robotrial.msgs.core as core\n"
+        "assert core.lookup_message('nav_msgs/Odometry').__name__ == 'Odometry'\n"
+        "assert core.lookup_service('rosapi/Topics') is not None\n"
+        "assert core.lookup_action('control_msgs/FollowJointTrajectory') is not None\n"
+        "import robotrial.msgs as m\n"
+        "assert 'visualization_msgs/msg/Marker' in m.MESSAGES\n"
+        "assert m.tf2_msgs.TFMessage.__ros_type__ == 'tf2_msgs/msg/TFMessage'\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-800:]

@@ -551,19 +551,21 @@ def cold_plan(runs: int = 3, baseline: Path | None = None) -> dict[str, Any]:
     """`robotrial plan` for the desk task from a fresh process (numba's and robotrial's
     caches filled by one untimed run first), wall clock and CPU time. With `baseline` (the
     `src` folder of another checkout), that code's `robotrial plan` too, in turns with
-    this one, so that both see the same load."""
+    this one, so that both see the same load. The processes keep Python's bytecode cache
+    as an installation does (PYTHONDONTWRITEBYTECODE is left out of their environment)."""
     argv = [*PLAN_COMMAND, "--json"]
-    variants: dict[str, dict[str, str]] = {"current": dict(os.environ)}
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    variants: dict[str, dict[str, str]] = {"current": env}
     if baseline is not None:
         if not (baseline / "robotrial" / "cli" / "__init__.py").is_file():
             raise SystemExit(f"--baseline-src {baseline}: no robotrial package there")
-        variants["baseline"] = {**os.environ, "PYTHONPATH": str(baseline.resolve())}
-    for env in variants.values():
-        _fresh_run(argv, env)
+        variants["baseline"] = {**env, "PYTHONPATH": str(baseline.resolve())}
+    for settings in variants.values():
+        _fresh_run(argv, settings)
     times: dict[str, list[tuple[float, float]]] = {name: [] for name in variants}
     for _ in range(runs):
-        for name, env in variants.items():
-            times[name].append(_fresh_run(argv, env))
+        for name, settings in variants.items():
+            times[name].append(_fresh_run(argv, settings))
     out: dict[str, Any] = {"runs": runs}
     for name, got in times.items():
         wall, cpu = np.array(got).T

@@ -287,6 +287,8 @@ def run_scene(probs: list[Any], time_limit: float, ompl: bool, on_problem=None) 
             "valid_ends_mujoco": bool(start_ok and goal_ok),
             "ours_solved": bool(res.success),
             "ours_ms": 1e3 * res.planning_time,
+            "ours_iterations": int(res.stats.get("iterations", 0)),
+            "ours_nodes": int(res.stats.get("nodes", 0)),
             "ours_colliding": bool(res.success and not exact.path_valid(res.path)[0]),
             "alternating_solved": bool(alt.success),
             "alternating_ms": 1e3 * alt.planning_time,

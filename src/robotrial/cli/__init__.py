@@ -114,8 +114,11 @@ def main(argv: list[str] | None = None) -> int:
     code = _main(sys.argv[1:])
     if sys.argv[1:2] and sys.argv[1] in QUICK_EXIT:
         logging.shutdown()
-        sys.stdout.flush()
-        sys.stderr.flush()
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        except OSError:  # the reader has gone (`robotrial plan ... | head`)
+            pass
         os._exit(code)
     return code
 

@@ -176,12 +176,6 @@ class PoseGraphParams(OdometryModel):
     the same map whatever the machine's load. `map_rebuild_shift`: a pass that moves a
     node by less (a turn counting at 5 m) leaves the maps as they are."""
 
-    # Wider in rotation than Hector's: raw odometry can err by a tenth of a turn and
-    # more (MIT CSAIL: up to 0.5 rad over a 5 s spin); a narrower model keeps the front
-    # end's search and prior near the odometry's heading. Accurate odometry loses
-    # little: the matches then rule.
-    odom_rot_per_trans: float = 0.3
-    odom_rot_per_rot: float = 2.0
     resolution: float = 0.025
     match_levels: int = 4
     iterations: int = 5

@@ -125,3 +125,25 @@ def test_the_matcher_recovers_known_offsets_on_a_tiled_map():
         got = matcher.match(tiled, scan, true + np.array(offset)).pose
         assert np.hypot(*(got[:2] - true[:2])) < 0.015
         assert abs(got[2] - true[2]) < 0.01
+
+
+def test_along_a_corridor_the_match_keeps_the_odometry_prediction_not_the_draw():
+    # Two walls 2 m apart along x: the scan fixes y and yaw, the motion prior alone says
+    # where along the corridor the robot is, and that is its mean, the prediction.
+    a = np.linspace(-np.pi, np.pi, 720, endpoint=False)
+    hit = np.abs(np.sin(a)) > 0.2
+    r = np.where(hit, 1.0 / np.maximum(np.abs(np.sin(a)), 0.2), 5.0)
+    ends = np.c_[r * np.cos(a), r * np.sin(a)]
+    maps = TiledMaps(1, 0.05)
+    for x in np.arange(-3.0, 3.01, 0.5):
+        maps.write(np.array([[x, 0.0, 0.0]]), Beams((0.0, 0.0), ends, hit, a[1] - a[0]))
+    pts = ends[hit & (np.abs(ends[:, 0]) < 3.0)]
+    predicted = np.array([[0.0, 0.0, 0.0]])
+    draw = np.array([[0.3, 0.06, 0.04]])
+    coarse, origin = maps.coarse(0, (-6.0, -3.0, 6.0, 3.0), 3)
+    got, _ = maps.match(coarse, origin, pts, pts, draw, (0.2, 0.2, 0.2), 10, prior_means=predicted)
+    assert abs(got[0, 0]) < 0.03  # the prediction's x, not the draw's 0.3
+    assert abs(got[0, 1]) < 0.02 and abs(got[0, 2]) < 0.01  # the walls fix y and yaw
+    # Centred on the draw, the prior holds the draw's x: its noise stays in the estimate.
+    held, _ = maps.match(coarse, origin, pts, pts, draw, (0.2, 0.2, 0.2), 10)
+    assert abs(held[0, 0] - 0.3) < 0.03

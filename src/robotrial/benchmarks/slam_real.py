@@ -62,19 +62,24 @@ COLUMNS = [
     "peak MB",
     "published (same method class)",
 ]
+# GMapping's odometry error model (srr, srt, str, stt).
+CORRECTED = ("srr", "srt", "str", "stt")
 PUBLISHED_CLASS = {"gmapping": "RBPF", "hector": "scan matching", "graph": "graph mapping"}
 
 
 @dataclass(frozen=True)
 class DataSet:
     """A log to run: its name, title, the log's file names looked for, the relation
-    file's, and the published translational errors (m, mean and std) by method class."""
+    file's, the published translational errors (m, mean and std) by method class, and
+    runs with parameters set for this log beside the defaults' (method, what the
+    parameters say, the parameters)."""
 
     name: str
     title: str
     log_names: tuple[str, ...]
     relation_names: tuple[str, ...]
     published: dict[str, tuple[float, float]]
+    variants: tuple[tuple[str, str, dict[str, Any]], ...] = ()
 
 
 def data_sets() -> list[DataSet]:
@@ -97,9 +102,24 @@ def data_sets() -> list[DataSet]:
                 "RBPF": (0.122, 0.386),
                 "graph mapping": (0.050, 0.056),
             },
+            # This log's poses are an already corrected trajectory, not raw odometry: a
+            # motion model that says so (GMapping's defaults expect 0.1 m per m).
+            (("gmapping", "motion model for corrected poses", dict.fromkeys(CORRECTED, 0.001)),),
         )
     )
-    out.append(DataSet("csail", "MIT CSAIL", ("mit-csail.clf.gz", "mit-csail.clf"), (), {}))
+    # The robot's raw odometry errs by up to 0.5 rad over a 5 s spin: a motion model that
+    # says so (the defaults expect 10 % of a turn and 0.05 rad per m).
+    raw = {"odom_rot_per_rot": 2.0, "odom_rot_per_trans": 0.3}
+    out.append(
+        DataSet(
+            "csail",
+            "MIT CSAIL",
+            ("mit-csail.clf.gz", "mit-csail.clf"),
+            (),
+            {},
+            (("graph", "motion model for its raw odometry", raw),),
+        )
+    )
     return out
 
 
@@ -273,16 +293,21 @@ def run_real(args: argparse.Namespace) -> int:
             continue
         per: dict[str, Any] = {"log": str(log), "relations": str(rel) if rel else None}
         console.print(f"{ds.title}: {log}" + (f", relations {rel}" if rel else ", no relations"))
-        for method in ["odometry", *methods]:
+        runs = [(m, "", {}) for m in ["odometry", *methods]]
+        runs += [v for v in ds.variants if v[0] in methods]
+        for n, (method, label, extra) in enumerate(runs):
             params: dict[str, Any] = {"particles": args.particles} if method == "gmapping" else {}
-            stem = str(out_dir / f"{ds.name}_{method}")
+            params.update(extra)
+            key = f"{method}, {label}" if label else method
+            stem = str(out_dir / (f"{ds.name}_{method}" + (f"_{n}" if label else "")))
             load = os.getloadavg()[0]
-            with console.status(f"{method} over {log.name}"):
+            with console.status(f"{key} over {log.name}"):
                 s = _in_child(str(log), str(rel) if rel else None, method, params, stem,
                               args.memory_limit)  # fmt: skip
             s["load"] = [load, os.getloadavg()[0]]
-            per[method] = s
-            rows.append(_row(ds, method, s))
+            s["params"] = params
+            per[key] = s
+            rows.append(_row(ds, method, s, label))
         results["sets"][ds.name] = per
     results["load_end"] = os.getloadavg()[0]
     if args.output:
@@ -305,7 +330,7 @@ def run_real(args: argparse.Namespace) -> int:
     return 0
 
 
-def _row(ds: DataSet, method: str, s: dict[str, Any]) -> list[Any]:
+def _row(ds: DataSet, method: str, s: dict[str, Any], label: str = "") -> list[Any]:
     r = s.get("relations") or {}
     trans = _pm((r["trans_mean"], r["trans_std"])) if "trans_mean" in r else "-"
     top = f"{r['trans_max']:.2f}" if "trans_max" in r else "-"
@@ -320,5 +345,6 @@ def _row(ds: DataSet, method: str, s: dict[str, Any]) -> list[Any]:
     peak = f"{s['peak_mb']:.0f}" if "peak_mb" in s else "-"
     cls = PUBLISHED_CLASS.get(method)
     paper = f"{cls} {_pm(ds.published.get(cls))}" if cls and cls in ds.published else "-"
-    label = "odometry alone" if method == "odometry" else method
-    return [ds.title, label, s.get("scans", "-"), trans, top, rot, ms, peak, paper]
+    name = "odometry alone" if method == "odometry" else method
+    name = f"{name}, {label}" if label else name
+    return [ds.title, name, s.get("scans", "-"), trans, top, rot, ms, peak, paper]

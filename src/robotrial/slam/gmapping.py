@@ -6,7 +6,8 @@ Each particle carries a pose, a log-weight and its own map. When the robot has m
 
 1. every particle draws its new pose from the odometry motion model (srr, srt, str, stt);
 2. the scan matcher moves that draw to where the scan fits the particle's own map, with
-   the motion model as a prior (the improved proposal of Grisetti et al. 2007); a match
+   the motion model (centred on the odometry's prediction, not on the draw) as a prior
+   (the improved proposal of Grisetti et al. 2007); a match
    scoring below `minimumScore` is not trusted and the draw stays. The weights use one
    scan end point per map cell, the fine level of the match every second of those, the
    coarse levels the best particle's map (computed once an update);
@@ -160,7 +161,13 @@ class GMappingSlam:
         sx, sy, sth = self._motion_sigma(d)
         sigma = (max(sx, sy), max(sx, sy), sth)  # isotropic: the map frame is rotated
         noise = self.rng.normal(size=(n, 3)) * np.asarray(self._motion_sigma(d))
-        guesses = compose_many(self.poses, np.asarray(d, dtype=np.float64) + noise)
+        moved = np.broadcast_to(np.asarray(d, dtype=np.float64), (n, 3))
+        guesses = compose_many(self.poses, moved + noise)
+        # The match starts from the draw but its motion prior is centred on the odometry's
+        # prediction: centred on the draw, the prior would hold each particle at its own
+        # noise, which then adds up over the updates (the proposal is the product of the
+        # scan's likelihood and the motion model, whose mean is the prediction).
+        predicted = compose_many(self.poses, moved)
         step = angle_step(scan)
         fan = replace(scan, angle_step=step) if step is not None else None
         # The coarse levels of the best particle's map, where the scan can land, steer
@@ -183,6 +190,7 @@ class GMappingSlam:
             lsigma=p.lsigma,
             min_score=p.minimumScore,
             scan=fan,
+            prior_means=predicted,
         )
         self.logw += loglik
         gain = 1.0 / (p.ogain * n)

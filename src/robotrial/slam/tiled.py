@@ -314,8 +314,9 @@ def _match_all(
     index: np.ndarray, pool: np.ndarray, refs: np.ndarray, free: np.ndarray,
     top: np.ndarray, ox: float, oy: float, res: float, coarse: numba.typed.List,
     cox: float, coy: float, match_pts: np.ndarray, pts: np.ndarray, stride: int,
-    guesses: np.ndarray, prior_weight: np.ndarray, iterations: int, kernel: int,
-    sigma: float, lsigma: float, null_likelihood: float, min_score: float, write: bool,
+    guesses: np.ndarray, centres: np.ndarray, prior_weight: np.ndarray, iterations: int,
+    kernel: int, sigma: float, lsigma: float, null_likelihood: float, min_score: float,
+    write: bool,
     sensor: np.ndarray, ends: np.ndarray, stops: np.ndarray, hit: np.ndarray,
     starts: np.ndarray, model: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
@@ -324,16 +325,17 @@ def _match_all(
     logliks = np.empty(n)
     for k in range(n):
         start = guesses[k].copy()
+        centre = centres[k].copy()
         pose = start.copy()
         if match_pts.shape[0] > 0:
             for level in range(len(coarse), 0, -1):
                 block = 1 << level
                 pose, _, _ = _gauss_newton(
                     coarse[level - 1], cox, coy, res * block, 1, match_pts, block, pose,
-                    iterations, start, prior_weight, COARSE_TOL,
+                    iterations, centre, prior_weight, COARSE_TOL,
                 )  # fmt: skip
             pose, _, _ = _gauss_newton_tiles(
-                index, pool, k, ox, oy, res, 1, match_pts, 1, pose, iterations, start,
+                index, pool, k, ox, oy, res, 1, match_pts, 1, pose, iterations, centre,
                 prior_weight, 0.05,
             )  # fmt: skip
         score, loglik = _likelihood(index, pool, k, ox, oy, res, pts, stride, pose, kernel,
@@ -515,17 +517,21 @@ class TiledMaps:
         null_likelihood: float = -0.5,
         min_score: float = 0.0,
         scan: Beams | None = None,
+        prior_means: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """GMapping's improved proposal and weights for every particle in one compiled
         call: particle k's guess (guesses[k], x y yaw) is refined by Gauss-Newton with
         `match_points` ((N, 2), base frame) on the shared coarse levels (`coarse`, block
         sizes 2, 4, ..., anchored at `coarse_origin`), then on its own map, with the
-        motion prior `prior_sigma`; then scored with every `stride`-th of `points` on its
+        motion prior `prior_sigma` centred on `prior_means` ((N, 3); default the guesses);
+        then scored with every `stride`-th of `points` on its
         own map's likelihood field (GMapping's formulas, `kernel` cells around). A match
         scoring at most `min_score` is not trusted and the guess is kept. With `scan`,
         the scan is then written into each map at its matched pose. Returns (poses
         (N, 3), log-likelihoods (N,))."""
         guesses = np.ascontiguousarray(guesses, dtype=np.float64).reshape(-1, 3)
+        centres = guesses if prior_means is None else prior_means
+        centres = np.ascontiguousarray(centres, dtype=np.float64).reshape(-1, 3)
         weight = 1.0 / np.maximum(np.asarray(prior_sigma, dtype=np.float64), 1e-3) ** 2
         levels = numba.typed.List([np.ascontiguousarray(c, dtype=np.float32) for c in coarse])
         if len(levels) == 0:
@@ -545,7 +551,7 @@ class TiledMaps:
             levels, float(coarse_origin[0]), float(coarse_origin[1]),
             np.ascontiguousarray(match_points, dtype=np.float64).reshape(-1, 2),
             np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2), max(1, stride),
-            guesses, weight, int(iterations), int(kernel), float(sigma), float(lsigma),
+            guesses, centres, weight, int(iterations), int(kernel), float(sigma), float(lsigma),
             float(null_likelihood), float(min_score), write, sensor, ends, stops, hit,
             starts, model,
         )  # fmt: skip

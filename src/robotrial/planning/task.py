@@ -44,6 +44,7 @@ from robotrial.geometry import Box, Pose, Shape
 from robotrial.kinematics.chain import Kinematics, default_planning_joints
 from robotrial.kinematics.ik import solve_ik
 from robotrial.model.robot import RobotModel
+from robotrial.model.stand import seen_from, stand
 from robotrial.model.world import World
 from robotrial.planning import planner_class
 from robotrial.planning.base import PlanResult, Problem, path_length
@@ -215,7 +216,9 @@ class TaskPlanner:
         self.robot = robot
         self.reference = reference
         self.checker_class = checker
-        self.world = world
+        # the world in the robot's frame: a robot that stands on the floor sees it shifted
+        self.world = None if world is None else seen_from(world, stand(robot, world))
+        world = self.world
         self.joint_names = list(joints) if joints else default_planning_joints(robot)
         self.kin = Kinematics(robot, self.joint_names)
         self.spheres = robot_spheres(self.kin)

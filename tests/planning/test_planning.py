@@ -442,3 +442,22 @@ def test_warm_plans_from_a_free_configuration(planner) -> None:
     result = planner.warm()
     assert result is not None and result.success, result and result.message
     assert len(result.trajectory.t) >= 2
+
+
+def test_a_goal_whose_nearest_ik_solution_is_blocked_takes_one_reached_straight(
+    example_robot_data,
+) -> None:
+    # The UR3 of example-robot-data asked for a point by its own base: the nearest IK
+    # solution sits where no straight motion from this start enters (the search needed
+    # seconds, or failed within 10 s); another solution is reached in a straight line
+    ur3 = example_robot_data.models[example_robot_data.root / "ur_description/urdf/ur3_robot.urdf"]
+    planner = TaskPlanner(ur3, load_world("desk"))
+    start = np.array([1.34, 2.88, 0.27, 5.47, 3.97, -6.25])
+    goal = planner.kin.link_pose(np.array([2.46, -2.16, -2.04, 2.2, -1.72, -2.14]))[:3, 3]
+    from robotrial.planning.task import TaskRequest
+
+    res = planner.plan(TaskRequest(start, goal, joint_names=planner.joint_names), seed=1)
+    assert res.success, res.message
+    assert len(res.path) == 2 and "planner_nodes" not in res.stats  # no search was needed
+    reached = planner.kin.link_pose(res.path[-1])[:3, 3]
+    assert np.linalg.norm(reached - goal) < 0.01

@@ -25,7 +25,7 @@ import { el, humanize, robotTitle } from "./ui/dom";
 import { Panel } from "./ui/panel";
 import { HomeSection } from "./home/editor";
 import { chooseTool, UploadSection } from "./upload/upload";
-import { loadWorld, placeAt } from "./world";
+import { loadWorld, placeAt, standing } from "./world";
 
 const ORIGIN: SpawnPose = { xyz: [0, 0, 0], quat: [0, 0, 0, 1] };
 
@@ -216,7 +216,9 @@ export class RobotrialApp {
     const entry = this.catalog.robots.find((r) => r.name === robotName);
     const title = entry ? robotTitle(entry) : robotName;
     this.panel.setStatus(`Loading ${title}…`, "loading");
-    const spawn = this.catalog.worlds.find((w) => w.name === worldName)?.spawn;
+    const spawnPose = this.catalog.worlds.find((w) => w.name === worldName)?.spawn ?? ORIGIN;
+    // the server says where the robot stands in the world it opens in
+    const spawn = entry && entry.world === worldName ? standing(spawnPose, entry.stand) : spawnPose;
     try {
       const keep = this.robot && this.robotShown === robotName ? this.robot : null;
       const [robot, world] = await Promise.all([

@@ -24,6 +24,7 @@ from robotrial.geometry import Pose
 from robotrial.model import ROBOT_SUFFIXES, library, load_robot, load_world
 from robotrial.model.anatomy import tool_choices, with_tool
 from robotrial.model.robot import RobotModel
+from robotrial.model.stand import stand
 from robotrial.model.world import World
 
 Kind = Literal["arm", "mobile"]
@@ -55,6 +56,10 @@ def world_kind(world: World) -> Kind:
     return "mobile" if world.walls else "arm"
 
 
+def _pose_entry(pose: Pose) -> dict[str, list[float]]:
+    return {"xyz": list(pose.xyz), "quat": list(pose.quat)}
+
+
 def _default_spawn(world: World) -> Pose:
     """The spawn pose named "default", else the first one, else the origin."""
     if "default" in world.spawns or not world.spawns:
@@ -78,6 +83,7 @@ class Catalog:
         self._assets: dict[str, Asset] = {}
         self._uploaded: dict[str, RobotModel] = {}
         self._added_worlds: dict[str, World] = {}
+        self._stands: dict[tuple[str, str], Pose] = {}
         self.default_robot = self._robot_file(robot) if _is_file(robot, ROBOT_SUFFIXES) else robot
         self.default_world = self._world_file(world) if _is_file(world, WORLD_SUFFIXES) else world
         self.check_robot(self.default_robot)
@@ -174,6 +180,18 @@ class Catalog:
             added = self._added_worlds.get(name)
         return added or library.load_builtin_world(self.check_world(name))
 
+    def stand(self, robot: str, world: str) -> Pose:
+        """Where the robot's root stands relative to the world's spawn (model/stand.py:
+        lifted onto the floor when its legs reach below it), kept per pair."""
+        key = (robot, world)
+        with self._lock:
+            kept = self._stands.get(key)
+        if kept is None:
+            kept = stand(self.robot(robot), self.world(world), _default_spawn(self.world(world)))
+            with self._lock:
+                self._stands[key] = kept
+        return kept
+
     def default_pair(self) -> dict[str, str]:
         return {"robot": self.default_robot, "world": self.default_world}
 
@@ -203,6 +221,7 @@ class Catalog:
                     "uploaded": self.is_uploaded(name),
                     "tool": model.end_effector,
                     "tools": tool_choices(model) if kind == "arm" else [],
+                    "stand": _pose_entry(self.stand(name, self.world_for(kind))),
                 }
             )
         return out
@@ -218,7 +237,7 @@ class Catalog:
                     "name": name,
                     "kind": world_kind(world),
                     "description": world.description,
-                    "spawn": {"xyz": list(spawn.xyz), "quat": list(spawn.quat)},
+                    "spawn": _pose_entry(spawn),
                 }
             )
         return out

@@ -90,6 +90,9 @@ class RobotEntry(ApiModel):
     """The tool link: what the hand read-out shows and Move Robot!'s goal moves."""
     tools: list[str] = []
     """Links an arm's tool may be (POST /api/robots/{name}/tool); the tool first."""
+    stand: SpawnPose = SpawnPose(xyz=(0.0, 0.0, 0.0), quat=(0.0, 0.0, 0.0, 1.0))
+    """Where its base stands relative to the spawn of `world`: lifted onto the floor and
+    moved back from the furniture when its legs reach below the floor, else no change."""
 
 
 class ToolChoice(ApiModel):

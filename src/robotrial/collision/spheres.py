@@ -416,7 +416,18 @@ def _cylinder(radius: float, length: float, grid: _Grid) -> _Convex:
 
 def _hull(mesh: Mesh, grid: _Grid) -> _Convex:
     """The (scaled) convex hull of a mesh: what MuJoCo collides with."""
+    vertices, faces, normals, offsets = _hull_planes(_key(mesh))
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    return _Convex(vertices, faces, 0.0, lo, hi, _polyhedron_depth(normals, offsets), grid)
+
+
+@lru_cache(maxsize=64)
+def _hull_planes(key: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A mesh's convex hull (vertices, faces) and its face planes (normals, offsets):
+    made once for the coarse and the fine cover."""
     import trimesh
+
+    mesh = _MESHES[key]
 
     if mesh.data is not None:
         tm = trimesh.Trimesh(mesh.data.vertices, mesh.data.faces, process=False)
@@ -438,9 +449,7 @@ def _hull(mesh: Mesh, grid: _Grid) -> _Convex:
         raise ValueError(f"mesh {name} is flat: its convex hull encloses no volume")
     normals = np.asarray(hull.face_normals)
     offsets = np.einsum("ij,ij->i", normals, hull.triangles[:, 0])
-    lo, hi = hull.bounds
-    depth = _polyhedron_depth(normals, offsets)
-    return _Convex(hull.vertices, hull.faces, 0.0, lo, hi, depth, grid)
+    return np.asarray(hull.vertices), np.asarray(hull.faces), normals, offsets
 
 
 _MESHES: dict[tuple, Mesh] = {}  # a mesh by its key, so covers can be cached by key

@@ -31,6 +31,7 @@ from robotrial.geometry import (
 )
 from robotrial.model.meshes import load_mesh
 from robotrial.model.robot import Inertial, Joint, ModelError, RobotModel, Sensor
+from robotrial.model.stand import stand
 from robotrial.model.world import Light, Obstacle, World
 
 if TYPE_CHECKING:
@@ -713,8 +714,9 @@ def to_mjcf(
     ("free", named `base_free`) or moves in the floor plane ("planar": slides `base_x`,
     `base_y` and hinge `base_yaw`, whose values are the base's world x, y and yaw).
     `spawn`: where the robot's root stands (default: the world's `default` spawn, else
-    the origin). `actuators`: one kind for every actuated joint, or a mapping joint ->
-    kind ("motor" torque/force, "position" servo, "velocity" servo, "none"); joints
+    the origin; a fixed robot whose legs reach below the floor stands on it, `stand`).
+    `actuators`: one kind for every actuated joint, or a mapping joint -> kind ("motor"
+    torque/force, "position" servo, "velocity" servo, "none"); joints
     missing from a mapping get none. `kp`/`kv`: servo gains (a number or per joint).
     `armature` (kg m^2 or kg) is added to every robot joint for numerical stability.
     `self_collision`: let the robot's non-adjacent links collide with each other
@@ -739,6 +741,8 @@ def to_mjcf(
             raise ModelError(f"actuators name joints the robot does not have: {unknown}")
     if spawn is None:
         spawn = world.spawns.get("default", Pose()) if world is not None else Pose()
+        if robot is not None and base == "fixed":  # on the floor if its legs reach below
+            spawn = spawn @ stand(robot, world, spawn)
     if not 4 <= max_mesh_faces <= MAX_MESH_FACES:
         raise ModelError(f"max_mesh_faces must be in [4, {MAX_MESH_FACES}], got {max_mesh_faces}")
     opts = _Options(

@@ -44,6 +44,7 @@ from robotrial.geometry import Box, Pose, Shape
 from robotrial.kinematics.chain import Kinematics, default_planning_joints
 from robotrial.kinematics.ik import solve_ik
 from robotrial.model.robot import RobotModel
+from robotrial.model.stand import seen_from, stand
 from robotrial.model.world import World
 from robotrial.planning import planner_class
 from robotrial.planning.base import PlanResult, Problem, path_length
@@ -215,7 +216,9 @@ class TaskPlanner:
         self.robot = robot
         self.reference = reference
         self.checker_class = checker
-        self.world = world
+        # the world in the robot's frame: a robot that stands on the floor sees it shifted
+        self.world = None if world is None else seen_from(world, stand(robot, world))
+        world = self.world
         self.joint_names = list(joints) if joints else default_planning_joints(robot)
         self.kin = Kinematics(robot, self.joint_names)
         self.spheres = robot_spheres(self.kin)
@@ -318,11 +321,25 @@ class TaskPlanner:
     def _solve(self, planner, problem: Problem, checker, free_ik: Callable | None) -> PlanResult:
         """Plan to the nearest IK solution for half the time, then to it and to other IK
         solutions for the rest: on arms whose joints turn twice around, the nearest
-        solution can sit in a pocket the start has no free motion into. A joint-space
-        goal (no `free_ik`) gets the whole time."""
+        solution can sit in a pocket the start has no free motion into. When the straight
+        motion to it is blocked, the nearest of other solutions the start reaches in a
+        straight line is taken first. A joint-space goal (no `free_ik`) gets the whole
+        time."""
         if free_ik is None:
             return planner.solve(problem, checker)
         t0 = time.perf_counter()
+        if not checker.motion_valid(problem.start, problem.goals[0]):
+            # a goal the start reaches in a straight line, if other IK solutions give one
+            # (milliseconds, where a search into the nearest one's pocket takes seconds)
+            others = free_ik(accept=checker.valid, wanted=8, batch=8).solutions
+            if others:
+                others = np.asarray(others)
+                direct = others[
+                    checker.motions_valid(np.tile(problem.start, (len(others), 1)), others)
+                ]
+                if len(direct):
+                    near = np.argmin(np.linalg.norm(direct - problem.start, axis=1))
+                    problem = replace(problem, goals=direct[near][None])
         half = replace(problem, time_limit=problem.time_limit / 2)
         res = planner.solve(half, checker)
         if res.success or res.status != "timeout":

@@ -26,6 +26,7 @@ import numpy as np
 from robotrial.geometry import Pose
 from robotrial.kinematics.reference import link_poses
 from robotrial.model.robot import RobotModel
+from robotrial.model.stand import stand
 from robotrial.model.world import World
 from robotrial.sim.build import compile_world
 from robotrial.sim.controllers import (
@@ -188,6 +189,8 @@ class Simulation:
         if base == "auto":
             base = "planar" if r.metadata.get("drive") else "fixed"
         pose = w.spawn(spawn) if isinstance(spawn, str) else spawn
+        if base == "fixed":  # on the floor if its legs reach below it (model/stand.py)
+            pose = pose @ stand(r, w, pose)
         model = compile_world(w, r, base=base, spawn=pose)
         sw = SimWorld(model, seed=seed, base_body=r.root)
         if base != "fixed":

@@ -69,6 +69,9 @@ export interface RobotEntry {
   tool: string;
   /** Links an arm's tool may be (POST /api/robots/{name}/tool); the tool first. */
   tools: string[];
+  /** Where its base stands relative to the spawn of `world`: lifted onto the floor and
+   * moved back from the furniture when its legs reach below the floor, else no change. */
+  stand: SpawnPose;
 }
 
 /** The robots the server offers, and its default robot and world. */

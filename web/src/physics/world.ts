@@ -117,7 +117,7 @@ export class PhysicsWorld {
       mj.FS.writeFile(`${DIR}/${name}`, decodeBase64(base64));
     }
     const xmlPath = `${DIR}/${bundle.name || "scene"}.xml`;
-    mj.FS.writeFile(xmlPath, withTaskBodies(bundle.xml, bodies));
+    mj.FS.writeFile(xmlPath, withTaskBodies(bundle.xml, bodies, rootLink));
     return new PhysicsWorld(mj, xmlPath, rootLink);
   }
 
@@ -274,21 +274,42 @@ export class PhysicsWorld {
 }
 
 /** The MJCF text with the user's obstacles (static boxes in the world body) and the
- * object (a free body, or a body fixed in the tcp's body while it is held). */
-export function withTaskBodies(xml: string, bodies: TaskBodies): string {
+ * object (a free body, or a body fixed in the tcp's body while it is held). Their poses
+ * are in the robot's base frame: where the body `rootLink` stands in the world. */
+export function withTaskBodies(xml: string, bodies: TaskBodies, rootLink = ""): string {
   const doc = new DOMParser().parseFromString(xml, "application/xml");
   const error = doc.querySelector("parsererror");
   if (error) throw new Error(`the server's MJCF is not valid XML: ${error.textContent}`);
   const worldbody = doc.querySelector("worldbody");
   if (!worldbody) throw new Error("the server's MJCF has no <worldbody>");
+  const root = [...worldbody.children].find(
+    (e) => e.tagName === "body" && e.getAttribute("name") === rootLink,
+  );
+  const base = root ? poseMatrix(attr(root, "pos", "0 0 0"), attr(root, "quat", "1 0 0 0")) : null;
+  /** `position` and `quaternion` (x, y, z, w) in the base frame as MJCF pos and quat. */
+  const placed = (position: number[], quaternion: Quat): { pos: string; quat: string } => {
+    if (!base) return { pos: position.join(" "), quat: wxyz(quaternion) };
+    const p = new Vector3();
+    const q = new Quaternion();
+    base
+      .clone()
+      .multiply(
+        new Matrix4().compose(
+          new Vector3(...position),
+          new Quaternion(...quaternion),
+          new Vector3(1, 1, 1),
+        ),
+      )
+      .decompose(p, q, new Vector3());
+    return { pos: `${p.x} ${p.y} ${p.z}`, quat: `${q.w} ${q.x} ${q.y} ${q.z}` };
+  };
   for (const box of bodies.obstacles) {
     worldbody.append(
       element(doc, "geom", {
         name: OBSTACLE_PREFIX + box.id,
         type: "box",
         size: halves(box.size),
-        pos: box.position.join(" "),
-        quat: wxyz(box.quaternion),
+        ...placed(box.position, box.quaternion),
         class: "world",
         rgba: "0.9 0.45 0.2 1",
       }),
@@ -327,8 +348,9 @@ export function withTaskBodies(xml: string, bodies: TaskBodies): string {
       body.setAttribute("quat", `${q.w} ${q.x} ${q.y} ${q.z}`);
       hand.append(body);
     } else {
-      body.setAttribute("pos", object.position.join(" "));
-      body.setAttribute("quat", wxyz(object.quaternion));
+      const at = placed(object.position, object.quaternion);
+      body.setAttribute("pos", at.pos);
+      body.setAttribute("quat", at.quat);
       body.prepend(element(doc, "freejoint", { name: OBJECT_NAME }));
       worldbody.append(body);
     }

@@ -54,6 +54,7 @@ from robotrial.onboard.voxels import Obstacles, RobotBody, VoxelMap, merge_runs
 from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult, robot_spheres
 from robotrial.ros.planning_node import joint_trajectory
 from robotrial.ros.slam_node import scan_to_beams
+from robotrial.slam.keyframes import Keyframes
 from robotrial.slam.matcher import ScanMatcher
 from robotrial.slam.scan import wrap
 
@@ -67,11 +68,14 @@ LIFT = 0.06  # m
 SETTLE = 0.3  # s after each arm motion
 MAPPING_SPEED = 0.3  # m/s, the top speed while the map is being built
 DOCK_SCANS = 5  # scans matched to the map for the pose at a work site
+KEYFRAME_RADIUS = 4.0  # m, nodes whose scans a work site's scans are matched to
+KEYFRAME_SHARE = 0.5  # of a scan's hits on the nodes' lines, or the map's match stands
 HEADINGS = 6  # looks per turn on the spot while searching
 SEARCH_SPOTS = 3  # places in a room to search from
 NAV_TRIES = 3  # work sites the navigator may fail to reach before a skill gives up
 FAR_LOOK = 1  # pixel stride of a look from afar (every other pixel: none found past 2.2 m)
 NEAR_LOOK = 1  # pixel stride of a look at the object up close
+LOOK_BACK = (0.1, 0.2)  # m backed up to look again when the object is out of view up close
 SAME_OBJECT = 0.15  # m: a detection this close to the expected place is the object
 GRIP_SETTLE = 0.25  # s the fingers must stand still to count as closed
 GRIP_SLACK = 0.012  # m: fingers closed this much narrower than the object missed it
@@ -272,18 +276,32 @@ class Skills:
 
     def docked_pose(self) -> Generator[None, None, np.ndarray]:
         """The pose at a work site from scans matched to the built map (AMCL's particles
-        settle a few cm off; standing still, the scans say better)."""
+        settle a few cm off; standing still, the scans say better), then to the raw
+        scans of the SLAM's nodes around, when it kept them (the map's cells round the
+        walls' places by up to half a cell)."""
         grid = self.robot.grid
         assert grid is not None
         poses = []
         guess = self.robot.pose()
+        keyframes = None
+        if self.robot.keyframes[0]:
+            try:
+                keyframes = Keyframes(*self.robot.keyframes, guess, KEYFRAME_RADIUS)
+            except ValueError:  # no node near: the map's match stands
+                pass
         for _ in range(DOCK_SCANS):
             seen = self.robot.scan
             while self.robot.scan is seen:
                 yield
             assert self.robot.scan is not None
             b = scan_to_beams(self.robot.scan, self.robot.laser, 0.1, 12.0)
-            poses.append(self.matcher.match(grid, b.hits, guess).pose)
+            pose = self.matcher.match(grid, b.hits, guess).pose
+            if keyframes is not None:
+                # from the map's match to the raw scans of the nodes around: no cells
+                refined, used = keyframes.match(b.hits, pose)
+                if used >= KEYFRAME_SHARE * len(b.hits):
+                    pose = refined
+            poses.append(pose)
         p = np.array(poses)
         mean_yaw = float(np.arctan2(np.sin(p[:, 2]).mean(), np.cos(p[:, 2]).mean()))
         return np.array([p[:, 0].mean(), p[:, 1].mean(), mean_yaw])
@@ -673,6 +691,20 @@ class Skills:
             )
         return None
 
+    def _look_back(self, target: Sighting) -> Generator[None, None, Sighting | None]:
+        """Back up and look again, then drive back in: at the work site an object near
+        the table's edge can stand below the head camera's view, its foot cut off by the
+        image's lower edge (a cluster that does not reach down to its surface is not
+        classified)."""
+        for back in LOOK_BACK:
+            yield from self.straight(-back)
+            base = yield from self.docked_pose()
+            seen = self._find(self.look(base, NEAR_LOOK), target)
+            yield from self.straight(back)
+            if seen is not None:
+                return seen
+        return None
+
     def pick(self, target: Sighting) -> Iterator[None]:
         """Grasp the object from the work site, by friction, lift it, back out, and hold
         it in the carry pose."""
@@ -680,10 +712,13 @@ class Skills:
             base = yield from self.docked_pose()
             seen = self._find(self.look(base, NEAR_LOOK), target)
             if seen is None:
+                seen = yield from self._look_back(target)
+                base = yield from self.docked_pose()
+            if seen is None:
                 raise SkillFailed(
                     "not_seen",
                     f"the {target.kind.name} seen from the approach is not in view at the "
-                    "work site",
+                    f"work site, nor from {100 * LOOK_BACK[-1]:.0f} cm behind it",
                 )
             if moves == len(REACHES) or self._reaches(base, seen.position, seen.kind):
                 break

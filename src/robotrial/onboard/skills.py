@@ -69,7 +69,7 @@ SETTLE = 0.3  # s after each arm motion
 MAPPING_SPEED = 0.3  # m/s, the top speed while the map is being built
 DOCK_SCANS = 5  # scans matched to the map for the pose at a work site
 KEYFRAME_RADIUS = 4.0  # m, nodes whose scans a work site's scans are matched to
-KEYFRAME_SHARE = 0.5  # of a scan's hits on the nodes' lines, or the map's match stands
+KEYFRAME_POINTS = 100  # a scan's hits on the nodes' lines, fewer and the map's match stands
 HEADINGS = 6  # looks per turn on the spot while searching
 SEARCH_SPOTS = 3  # places in a room to search from
 NAV_TRIES = 3  # work sites the navigator may fail to reach before a skill gives up
@@ -299,7 +299,8 @@ class Skills:
             if keyframes is not None:
                 # from the map's match to the raw scans of the nodes around: no cells
                 refined, used = keyframes.match(b.hits, pose)
-                if used >= KEYFRAME_SHARE * len(b.hits):
+                d = refined - pose
+                if used >= KEYFRAME_POINTS and np.hypot(d[0], d[1]) < 0.05 and abs(d[2]) < 0.03:
                     pose = refined
             poses.append(pose)
         p = np.array(poses)
@@ -915,8 +916,12 @@ class Skills:
         self.check_grip("lowering it")
         # above the point, the head camera sees the object's top: where it truly sits in
         # the hand, and so where the hand must go
-        if self.measure_held():
-            hand = local - orientation.apply(held.in_hand)
+        self.measure_held()
+        # the arm's swings move the base a few mm and mrad on its wheels: where it
+        # stands now
+        base = yield from self.docked_pose()
+        local = to_base(base, target)
+        hand = local - orientation.apply(held.in_hand)
         yield from self.move_arm(
             base, "arm_planning", hand + np.array([0.0, 0.0, 0.005]), orientation
         )

@@ -916,12 +916,8 @@ class Skills:
         self.check_grip("lowering it")
         # above the point, the head camera sees the object's top: where it truly sits in
         # the hand, and so where the hand must go
-        self.measure_held()
-        # the arm's swings move the base a few mm and mrad on its wheels: where it
-        # stands now
-        base = yield from self.docked_pose()
-        local = to_base(base, target)
-        hand = local - orientation.apply(held.in_hand)
+        if self.measure_held():
+            hand = local - orientation.apply(held.in_hand)
         yield from self.move_arm(
             base, "arm_planning", hand + np.array([0.0, 0.0, 0.005]), orientation
         )

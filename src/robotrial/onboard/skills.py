@@ -66,6 +66,7 @@ GRASP_BACKOFF = 0.1  # m, pre-grasp distance along the approach
 GRASP_MARGIN = 0.003  # m kept between the object and the palm
 LIFT = 0.06  # m
 SETTLE = 0.3  # s after each arm motion
+RELEASE_HEIGHTS = (0.005, 0.015, 0.025)  # m above the surface the object is let go, in turn
 MAPPING_SPEED = 0.3  # m/s, the top speed while the map is being built
 DOCK_SCANS = 5  # scans matched to the map for the pose at a work site
 KEYFRAME_RADIUS = 4.0  # m, nodes whose scans a work site's scans are matched to
@@ -918,9 +919,17 @@ class Skills:
         # the hand, and so where the hand must go
         if self.measure_held():
             hand = local - orientation.apply(held.in_hand)
-        yield from self.move_arm(
-            base, "arm_planning", hand + np.array([0.0, 0.0, 0.005]), orientation
-        )
+        # the camera's correction can put the goal where the arm grazes the table's
+        # voxels: let the object go from a little higher then
+        self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
+        obstacles = self._obstacles(base)
+        for drop in RELEASE_HEIGHTS:
+            res = self.plan(self.arm_q(), obstacles, hand + np.array([0.0, 0.0, drop]), orientation)
+            if res.success:
+                break
+        if not res.success:
+            raise SkillFailed("arm_planning", f"arm planning: {res.message}")
+        yield from self.follow(res)
         self.robot.grip(self.finger_open, self.robot.setup.grip_force)
         yield from self.wait(0.6)
         self.held = None

@@ -102,6 +102,9 @@ class Robot(Node):
         self.slam_node = SlamNode(bus, setup.slam) if setup.slam is not None else None
         self.nav_node: NavNode | None = None
         self.grid: LogOddsGrid | TiledGrid | None = None
+        # the SLAM's node poses (map frame) and their scans' hits (base frame), when its
+        # method keeps nodes: the raw scans the map was drawn from
+        self.keyframes: tuple[list[np.ndarray], list[np.ndarray]] = ([], [])
 
     # --- what it hears -----------------------------------------------------------------
 
@@ -205,8 +208,13 @@ class Robot(Node):
             )
         self.slam_node.settle()
         pose = self.pose()
-        grid = self.slam_node.slam.grid
-        self.grid = grid.copy()
+        slam = self.slam_node.slam
+        self.grid = slam.grid.copy()
+        nodes, scans = getattr(slam, "nodes", []), getattr(slam, "scans", [])
+        self.keyframes = (
+            [np.array(q, dtype=float) for q in nodes],
+            [s.hits.copy() for s in scans[: len(nodes)]],
+        )
         self.slam_node.destroy()
         self.slam_node = None
         self._tf_sub.close()  # SLAM's map -> odom is all it was for

@@ -54,6 +54,7 @@ from robotrial.onboard.voxels import Obstacles, RobotBody, VoxelMap, merge_runs
 from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult, robot_spheres
 from robotrial.ros.plan_task import joint_trajectory
 from robotrial.ros.slam_node import scan_to_beams
+from robotrial.slam.keyframes import Keyframes
 from robotrial.slam.matcher import ScanMatcher
 from robotrial.slam.scan import wrap
 
@@ -65,13 +66,17 @@ GRASP_BACKOFF = 0.1  # m, pre-grasp distance along the approach
 GRASP_MARGIN = 0.003  # m kept between the object and the palm
 LIFT = 0.06  # m
 SETTLE = 0.3  # s after each arm motion
+RELEASE_HEIGHTS = (0.005, 0.015, 0.025)  # m above the surface the object is let go, in turn
 MAPPING_SPEED = 0.3  # m/s, the top speed while the map is being built
 DOCK_SCANS = 5  # scans matched to the map for the pose at a work site
+KEYFRAME_RADIUS = 4.0  # m, nodes whose scans a work site's scans are matched to
+KEYFRAME_POINTS = 100  # a scan's hits on the nodes' lines, fewer and the map's match stands
 HEADINGS = 6  # looks per turn on the spot while searching
 SEARCH_SPOTS = 3  # places in a room to search from
 NAV_TRIES = 3  # work sites the navigator may fail to reach before a skill gives up
 FAR_LOOK = 1  # pixel stride of a look from afar (every other pixel: none found past 2.2 m)
 NEAR_LOOK = 1  # pixel stride of a look at the object up close
+LOOK_BACK = (0.1, 0.2)  # m backed up to look again when the object is out of view up close
 SAME_OBJECT = 0.15  # m: a detection this close to the expected place is the object
 GRIP_SETTLE = 0.25  # s the fingers must stand still to count as closed
 GRIP_SLACK = 0.012  # m: fingers closed this much narrower than the object missed it
@@ -272,18 +277,33 @@ class Skills:
 
     def docked_pose(self) -> Generator[None, None, np.ndarray]:
         """The pose at a work site from scans matched to the built map (AMCL's particles
-        settle a few cm off; standing still, the scans say better)."""
+        settle a few cm off; standing still, the scans say better), then to the raw
+        scans of the SLAM's nodes around, when it kept them (the map's cells round the
+        walls' places by up to half a cell)."""
         grid = self.robot.grid
         assert grid is not None
         poses = []
         guess = self.robot.pose()
+        keyframes = None
+        if self.robot.keyframes[0]:
+            try:
+                keyframes = Keyframes(*self.robot.keyframes, guess, KEYFRAME_RADIUS)
+            except ValueError:  # no node near: the map's match stands
+                pass
         for _ in range(DOCK_SCANS):
             seen = self.robot.scan
             while self.robot.scan is seen:
                 yield
             assert self.robot.scan is not None
             b = scan_to_beams(self.robot.scan, self.robot.laser, 0.1, 12.0)
-            poses.append(self.matcher.match(grid, b.hits, guess).pose)
+            pose = self.matcher.match(grid, b.hits, guess).pose
+            if keyframes is not None:
+                # from the map's match to the raw scans of the nodes around: no cells
+                refined, used = keyframes.match(b.hits, pose)
+                d = refined - pose
+                if used >= KEYFRAME_POINTS and np.hypot(d[0], d[1]) < 0.05 and abs(d[2]) < 0.03:
+                    pose = refined
+            poses.append(pose)
         p = np.array(poses)
         mean_yaw = float(np.arctan2(np.sin(p[:, 2]).mean(), np.cos(p[:, 2]).mean()))
         return np.array([p[:, 0].mean(), p[:, 1].mean(), mean_yaw])
@@ -673,6 +693,20 @@ class Skills:
             )
         return None
 
+    def _look_back(self, target: Sighting) -> Generator[None, None, Sighting | None]:
+        """Back up and look again, then drive back in: an object classified from the
+        staging pose can come out unclassified up close (a can 0.7 m ahead, seen from
+        above, measured 10 cm across instead of 6.6: more of the table around it joined
+        its cluster)."""
+        for back in LOOK_BACK:
+            yield from self.straight(-back)
+            base = yield from self.docked_pose()
+            seen = self._find(self.look(base, NEAR_LOOK), target)
+            yield from self.straight(back)
+            if seen is not None:
+                return seen
+        return None
+
     def pick(self, target: Sighting) -> Iterator[None]:
         """Grasp the object from the work site, by friction, lift it, back out, and hold
         it in the carry pose."""
@@ -680,10 +714,13 @@ class Skills:
             base = yield from self.docked_pose()
             seen = self._find(self.look(base, NEAR_LOOK), target)
             if seen is None:
+                seen = yield from self._look_back(target)
+                base = yield from self.docked_pose()
+            if seen is None:
                 raise SkillFailed(
                     "not_seen",
                     f"the {target.kind.name} seen from the approach is not in view at the "
-                    "work site",
+                    f"work site, nor from {100 * LOOK_BACK[-1]:.0f} cm behind it",
                 )
             if moves == len(REACHES) or self._reaches(base, seen.position, seen.kind):
                 break
@@ -882,9 +919,17 @@ class Skills:
         # the hand, and so where the hand must go
         if self.measure_held():
             hand = local - orientation.apply(held.in_hand)
-        yield from self.move_arm(
-            base, "arm_planning", hand + np.array([0.0, 0.0, 0.005]), orientation
-        )
+        # the camera's correction can put the goal where the arm grazes the table's
+        # voxels: let the object go from a little higher then
+        self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
+        obstacles = self._obstacles(base)
+        for drop in RELEASE_HEIGHTS:
+            res = self.plan(self.arm_q(), obstacles, hand + np.array([0.0, 0.0, drop]), orientation)
+            if res.success:
+                break
+        if not res.success:
+            raise SkillFailed("arm_planning", f"arm planning: {res.message}")
+        yield from self.follow(res)
         self.robot.grip(self.finger_open, self.robot.setup.grip_force)
         yield from self.wait(0.6)
         self.held = None

@@ -199,3 +199,24 @@ def test_a_base_wedged_askew_in_a_doorway_backs_out_and_drives_through():
     assert Recovery.BACK_UP.value in nav.recoveries
     room = rectangle_clearance(cm, np.array(poses))
     assert room.min() >= room[0] - 1e-3, "it went nearer the jamb than it started"
+
+
+def test_a_replan_that_finds_nothing_mid_swing_leaves_the_base_on_its_plan():
+    """Swinging into a generated home's 0.8 m doorway 0.14 rad askew, the base stands
+    where the footprint planner (its turns on the spot) finds no way to the goal; it
+    drives on along the plan it follows instead of stopping to back up."""
+    from robotrial.trials.nav import navigator_config
+    from robotrial.trials.nav_goals import goal_world
+
+    _, m = goal_world("home:2001")
+    config = navigator_config(1.0, 2.0, 1.0, "hybrid", 3.0)
+    nav = Navigator(m.occupied, m.origin, m.resolution, Footprint(0.99, 0.67), config, m.unknown)
+    nav.set_goal(3.937, 0.868, -2.712)
+    nav.step(0.0, (2.024, 1.878, 0.268), (0.76, 0.22))
+    swing = (2.526, 2.103, 0.143)
+    with pytest.raises(NoPath):
+        nav.hybrid.plan(nav.global_costmap, swing, tuple(nav.goal))
+    v, _ = nav.step(1.0, swing, (0.30, -1.31))  # a replan is due
+    assert v > 0.05
+    assert nav.status is Status.ACTIVE and nav.recoveries == []
+    assert nav.phase() == ("driving", "")

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from robotrial.nav.costmap import Costmap, Footprint, Inflation
-from robotrial.nav.hybrid import HybridAStar, HybridConfig
+from robotrial.nav.hybrid import HybridAStar, HybridConfig, footprint_hits
 from robotrial.nav.navigator import Navigator, NavigatorConfig, Status
 from robotrial.nav.planners import AStar, NoPath
+from robotrial.nav.profile import rectangle_clearance
 
 
 def _overlaps(poses: np.ndarray, cm: Costmap, fp: Footprint) -> int:
@@ -154,3 +155,68 @@ def test_a_base_past_the_study_doorway_is_told_to_turn_before_it_backs_up():
     assert planner.collides(cm, backed(pose[2])).any()
     assert not planner.collides(cm, backed(heading)).any()
     assert planner.plan(cm, tuple(backed(heading)[-1]), goal)[-1] == pytest.approx(goal, abs=0.1)
+
+
+def test_a_base_wedged_askew_in_a_doorway_backs_out_and_drives_through():
+    """A generated home's 0.8 m doorway: the base stopped at its entrance 0.12 rad askew,
+    its front corner on the jamb as mapped (the scan, from a pose 4 cm off, marks the
+    jamb nearer still), where neither a drive on nor a turn on the spot is clear. It
+    backs out (away from the jamb, never into it) and then drives through."""
+    from robotrial.nav.amcl import compose
+    from robotrial.nav.navigator import Recovery
+    from robotrial.trials.nav import navigator_config
+    from robotrial.trials.nav_goals import goal_world
+    from tests.nav.test_profile import _arc
+
+    _, m = goal_world("home:2000")
+    fp = Footprint(0.99, 0.67)
+    config = navigator_config(1.0, 2.0, 1.0, "hybrid", 3.0)
+    nav = Navigator(m.occupied, m.origin, m.resolution, fp, config, m.unknown)
+    start = np.array([2.12, 3.935, -0.119])
+    jamb_x = 2.6  # the doorway's wall; the goal room lies east of it
+    cm = Costmap(m.occupied, m.origin, m.resolution, fp)
+    assert footprint_hits(cm, start[None], 0.0).any(), "the start touches the jamb as mapped"
+    rows, cols = np.nonzero(m.occupied)
+    walls = np.column_stack(
+        [m.origin[0] + (cols + 0.5) * m.resolution, m.origin[1] + (rows + 0.5) * m.resolution]
+    )
+    nav.set_goal(4.347, 3.995, -2.378)
+    pose, vel, period = start.copy(), np.zeros(2), config.dwa.period
+    poses = [pose]
+    for k in range(400):
+        if k % 2 == 0:  # scans at 10 Hz
+            near = np.hypot(*(walls - pose[:2]).T) <= 3.0
+            nav.observe(tuple(pose[:2]), walls[near] + (-0.04, 0.0))
+        cmd = nav.step(k * period, tuple(pose), tuple(vel))
+        for _ in range(5):  # the base's own rate limits (1 m/s^2, 3 rad/s^2), at 100 Hz
+            vel += np.clip(np.array(cmd) - vel, [-0.01, -0.03], [0.01, 0.03])
+            pose = compose(pose, _arc(vel[0], vel[1], period / 5))
+        poses.append(pose)
+        if nav.status is not Status.ACTIVE or pose[0] > jamb_x + 0.6:
+            break
+    assert nav.status is Status.ACTIVE, nav.message
+    assert pose[0] > jamb_x + 0.6, f"stopped at {pose.round(2)}"
+    assert Recovery.BACK_UP.value in nav.recoveries
+    room = rectangle_clearance(cm, np.array(poses))
+    assert room.min() >= room[0] - 1e-3, "it went nearer the jamb than it started"
+
+
+def test_a_replan_that_finds_nothing_mid_swing_leaves_the_base_on_its_plan():
+    """Swinging into a generated home's 0.8 m doorway 0.14 rad askew, the base stands
+    where the footprint planner (its turns on the spot) finds no way to the goal; it
+    drives on along the plan it follows instead of stopping to back up."""
+    from robotrial.trials.nav import navigator_config
+    from robotrial.trials.nav_goals import goal_world
+
+    _, m = goal_world("home:2001")
+    config = navigator_config(1.0, 2.0, 1.0, "hybrid", 3.0)
+    nav = Navigator(m.occupied, m.origin, m.resolution, Footprint(0.99, 0.67), config, m.unknown)
+    nav.set_goal(3.937, 0.868, -2.712)
+    nav.step(0.0, (2.024, 1.878, 0.268), (0.76, 0.22))
+    swing = (2.526, 2.103, 0.143)
+    with pytest.raises(NoPath):
+        nav.hybrid.plan(nav.global_costmap, swing, tuple(nav.goal))
+    v, _ = nav.step(1.0, swing, (0.30, -1.31))  # a replan is due
+    assert v > 0.05
+    assert nav.status is Status.ACTIVE and nav.recoveries == []
+    assert nav.phase() == ("driving", "")

@@ -11,7 +11,14 @@ velocity and (when a new scan arrived) the scan's end points on the map. It
 3. near the goal, stops on it and turns in place to the goal's heading,
 4. when no admissible arc exists or the robot has not made progress for
    `progress_timeout` s, runs the recovery behaviours in order: clear the costmaps'
-   obstacle layers, rotate in place, back up; after the last one fails it aborts.
+   obstacle layers, rotate in place, back up; after the last one fails it aborts. A
+   base that already touches something (as mapped) may still turn or back up where
+   that takes it clear or further from it.
+
+A replan that finds no way while the base follows a plan does not stop it: it keeps to
+that plan for `planner_patience` s (move_base's planner patience), as a base swinging
+into a doorway a little askew, from where the footprint planner's turns on the spot
+find nothing, is then through it a moment later.
 
 The final status is SUCCEEDED or ABORTED with a message saying why (no path, stuck
 after every recovery, time limit).
@@ -30,7 +37,7 @@ from robotrial.nav.costmap import Costmap, Footprint, Inflation, coarsen
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
 from robotrial.nav.hybrid import HybridAStar, HybridConfig, footprint_hits, resample
 from robotrial.nav.planners import PLANNERS, NoPath, StartBlocked, make_planner, smooth
-from robotrial.nav.profile import ProfileConfig, ProfileController
+from robotrial.nav.profile import ProfileConfig, ProfileController, rectangle_clearance
 from robotrial.nav.pursuit import PursuitConfig, PursuitController
 
 GLOBAL_PLANNERS = (*PLANNERS, "hybrid", "auto")
@@ -67,7 +74,8 @@ class NavigatorConfig:
     'dwa', 'pursuit' (regulated pure pursuit, for footprint plans), both within the
     limits of `dwa`, or 'profile' (the fastest speed profile along the footprint plan
     that its clearance allows, tracked; within the limits of `profile`).
-    `turn_yaw_rate` (rad/s) and `turn_acc` (rad/s^2) bound the final turn in place to
+    `planner_patience` (s): how long the base keeps to its plan while replans find
+    none. `turn_yaw_rate` (rad/s) and `turn_acc` (rad/s^2) bound the final turn in place to
     the goal's heading (None: the DWA's limits). `costmap_resolution` (m): the costmaps'
     cell size; a map at least twice as fine is coarsened to it (None: the map's)."""
 
@@ -88,6 +96,7 @@ class NavigatorConfig:
     backup_distance: float = 0.3
     backup_speed: float = 0.15
     max_no_path: int = 3
+    planner_patience: float = 3.0
     turn_yaw_rate: float | None = None
     turn_acc: float | None = None
     obstacle_range: float = 3.0
@@ -103,6 +112,9 @@ class _Behaviour:
     last_yaw: float = 0.0
     distance: float = 0.0
     heading: float | None = None  # a back-up first turns on the spot to this yaw
+
+
+_ASIDE = ((0.02, 0.0), (-0.02, 0.0), (0.0, 0.02), (0.0, -0.02))
 
 
 def _wrap(a: float) -> float:
@@ -133,6 +145,10 @@ class Navigator:
         self.hybrid = HybridAStar(config.hybrid)
         # from a start already within the margin (a doorway, localization a few cm off)
         self.hybrid_tight = HybridAStar(replace(config.hybrid, margin=0.0))
+        # a goal whose plan cannot end as near as asked (a rectangle that fits there only
+        # at a heading it cannot turn to in place) may end within two thirds of the
+        # navigator's own tolerance, as `check_goal` judges it
+        self.loose_tolerance = 2.0 / 3.0 * config.xy_tolerance
         self.plans_by: list[str] = []
         kind = config.controller or default_controller(config.planner)
         if kind not in CONTROLLERS:
@@ -171,6 +187,7 @@ class Navigator:
         self._behaviour: _Behaviour | None = None
         self._next_recovery = 0
         self._no_path = 0
+        self._failing_since: float | None = None
         self._planned = False
         self._rotating = False
         self._dirty = False
@@ -211,6 +228,7 @@ class Navigator:
         self._behaviour = None
         self._next_recovery = 0
         self._no_path = 0
+        self._failing_since = None
         self._planned = False
         self._rotating = False
         self._blocked_since = None
@@ -359,8 +377,14 @@ class Navigator:
             path = self._global_path(pose)
         except NoPath as err:
             self.plan_times.append(time.perf_counter() - t0)
-            self._no_path += 1
             self._last_plan = now
+            if self.path is not None:
+                if self._failing_since is None:
+                    self._failing_since = now
+                if now - self._failing_since < self.config.planner_patience:
+                    return True  # on along the plan being followed
+            self._failing_since = None
+            self._no_path += 1
             if self._no_path >= self.config.max_no_path:
                 self._finish(Status.ABORTED, f"no path to the goal: {err}")
             else:
@@ -375,6 +399,7 @@ class Navigator:
             return False
         self.plan_times.append(time.perf_counter() - t0)
         self._no_path = 0
+        self._failing_since = None
         self._planned = True
         self.path = path
         self._last_plan = now
@@ -398,7 +423,7 @@ class Navigator:
                     return path
             for planner in (self.hybrid, self.hybrid_tight):
                 try:
-                    self._poses = planner.plan_poses(cm, tuple(pose), tuple(self.goal))
+                    self._poses = self._plan_poses(planner, pose)
                     self.plans_by.append("hybrid")
                     return resample(self._poses[:, :2], cm.resolution)
                 except StartBlocked:
@@ -410,6 +435,46 @@ class Navigator:
             # out on the grid, where cells near the start stay open
         self.plans_by.append("grid")
         return smooth(self.planner.plan(cm, tuple(pose[:2]), goal), cm)
+
+    def _plan_poses(self, planner: HybridAStar, pose: np.ndarray) -> np.ndarray:
+        """`planner`'s poses to the goal; where it finds none, the same with the looser
+        goal tolerance (its last pose then stands within that of the goal), for a first
+        plan also from starts 2 cm aside: a goal the rectangle reaches only by one exact
+        approach is found from some starts of the search's lattice and not from others
+        a centimetre away (`check_goal` judged it from the base's nominal start)."""
+        cm, goal = self.global_costmap, tuple(self.goal)
+        try:
+            return planner.plan_poses(cm, tuple(pose), goal)
+        except StartBlocked:
+            raise
+        except NoPath as err:
+            if self.loose_tolerance <= planner.config.goal_tolerance:
+                raise
+            failure = err
+        loose = HybridAStar(replace(planner.config, goal_tolerance=self.loose_tolerance))
+        starts = [pose[:3]]
+        if not self._planned:
+            starts += [pose[:3] + np.array([dx, dy, 0.0]) for dx, dy in _ASIDE]
+        for start in starts:
+            try:
+                poses = loose.plan_poses(cm, tuple(start), goal)
+                break
+            except NoPath as err:  # StartBlocked too: a start aside may touch
+                failure = err
+        else:
+            raise failure
+        poses[0] = pose[:3]
+        # a search that ended near the goal is put on it by a step sideways, which no
+        # base drives: the plan ends where the search did, turned to the goal's heading
+        # (the navigator's final turn, within its tolerance)
+        if len(poses) < 3:
+            return poses
+        end, on = poses[-3], poses[-2]
+        step = on[:2] - end[:2]
+        sideways = abs(step[0] * np.sin(on[2]) - step[1] * np.cos(on[2]))
+        if sideways < 1e-3:
+            return poses
+        return np.vstack([poses[:-2], [end[0], end[1], poses[-1, 2]]])
 
     def _track_progress(self, now: float, pose: np.ndarray) -> None:
         since, where = self._progress
@@ -473,6 +538,26 @@ class Navigator:
             return bool(footprint_hits(costmap, poses, 0.0).any())
         return bool(footprint_clearance(costmap, self.footprint, poses).min() < 0.0)
 
+    def _clearance(self, costmap: Costmap, poses: np.ndarray) -> np.ndarray:
+        """The footprint's clearance (m, negative: overlap) at poses (N, 3), measured as
+        `_touches` checks it."""
+        if self.config.dwa.exact_footprint:
+            return rectangle_clearance(costmap, poses)
+        return footprint_clearance(costmap, self.footprint, poses)
+
+    def _motion_blocked(self, costmap: Costmap, pose: np.ndarray, poses: np.ndarray) -> bool:
+        """Whether a recovery's motion through `poses` (N, 3) from `pose` may not be
+        made: it touches something, and either the base stands clear now or the motion
+        takes it nearer (a base wedged against a doorway's jamb, as mapped, may back or
+        turn away from it)."""
+        poses = poses.reshape(-1, 3)
+        if not self._touches(costmap, poses):
+            return False
+        here = self._clearance(costmap, pose[None, :3])
+        if not self._touches(costmap, pose[None, :3]):
+            return True
+        return bool(self._clearance(costmap, poses).min() < here[0])
+
     def _recover(
         self, now: float, pose: np.ndarray, velocity: tuple[float, float]
     ) -> tuple[float, float]:
@@ -487,7 +572,7 @@ class Navigator:
             w = 0.5 * self.config.dwa.max_yaw_rate
             if local is not None:
                 nxt = rollout(tuple(pose), np.array([0.0]), np.array([w]), 5, 0.1)
-                if self._touches(local, nxt):
+                if self._motion_blocked(local, pose, nxt):
                     done = True
             done = done or b.turned >= 2 * np.pi
             cmd = (0.0, w)
@@ -498,7 +583,7 @@ class Navigator:
             w = float(np.sign(err) * min(rate, max(0.15, 2.0 * abs(err))))
             if local is not None:
                 nxt = rollout(tuple(pose), np.array([0.0]), np.array([w]), 5, 0.1)
-                if self._touches(local, nxt):
+                if self._motion_blocked(local, pose, nxt):
                     b.heading = None
             if abs(err) <= 0.05:
                 b.heading = None  # turned: back up from here on
@@ -509,7 +594,7 @@ class Navigator:
                 nxt = rollout(
                     tuple(pose), np.array([-self.config.backup_speed]), np.array([0.0]), 5, 0.1
                 )
-                if self._touches(local, nxt):
+                if self._motion_blocked(local, pose, nxt):
                     done = True
             b.turned += abs(velocity[0]) * self.config.dwa.period
             travelled = b.turned

@@ -69,6 +69,7 @@ MAPPING_SPEED = 0.3  # m/s, the top speed while the map is being built
 DOCK_SCANS = 5  # scans matched to the map for the pose at a work site
 HEADINGS = 6  # looks per turn on the spot while searching
 SEARCH_SPOTS = 3  # places in a room to search from
+LOOK_HERE = 0.3  # m: a place to look from this near the robot is looked from where it stands
 NAV_TRIES = 3  # work sites the navigator may fail to reach before a skill gives up
 FAR_LOOK = 1  # pixel stride of a look from afar (every other pixel: none found past 2.2 m)
 NEAR_LOOK = 1  # pixel stride of a look at the object up close
@@ -342,9 +343,14 @@ class Skills:
             yaw = float(np.arctan2(centre[1] - spot[1], centre[0] - spot[0]))
             if np.hypot(*(spot - centre)) < 0.3:
                 yaw = self.robot.pose()[2]
-            goal = np.array([spot[0], spot[1], yaw])
-            if not (
-                yield from self.reach_stage(goal, f"a place to look from in the {room}", failed)
+            here = self.robot.pose()
+            if np.hypot(*(spot - here[:2])) < LOOK_HERE:
+                # no motion of the footprint plans this short a move: look from here
+                yaw = float(here[2])
+            elif not (
+                yield from self.reach_stage(
+                    np.array([spot[0], spot[1], yaw]), f"a place to look from in the {room}", failed
+                )
             ):
                 continue
             for k in range(HEADINGS):

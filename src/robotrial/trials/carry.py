@@ -11,7 +11,9 @@ for contacts and scores the end against the truth. The robot side is told only:
   `mapping='route'` the mapping route (`ROUTES`, waypoints given in advance, as a
   teleoperated mapping run would; for a world without one, a tour of its rooms made from
   its plan, `exploration_route`); with `mapping='frontier'` no route: the robot explores
-  on its own (`onboard.explore`);
+  on its own (`onboard.explore`). The default, `mapping='auto'`, takes the given route
+  where `ROUTES` has one (the apartment) and explores by frontiers everywhere else (a
+  drawn or generated home);
 - the order: the object's kind, the room it is in, the room to take it to and the point
   there to set it down (the room's `place`);
 - the catalogue of object kinds (shape, size, colour; no poses).
@@ -71,9 +73,17 @@ from robotrial.sim.controllers import DriveLimits
 from robotrial.trials.nav import ContactWatch, footprint_of, navigator_config
 from robotrial.trials.slam import make_slam
 
-__all__ = ["PHASES", "ROUTES", "CarryResult", "CarrySetup", "exploration_route", "run_carry"]
+__all__ = [
+    "PHASES",
+    "ROUTES",
+    "CarryResult",
+    "CarrySetup",
+    "exploration_route",
+    "mapping_route",
+    "run_carry",
+]
 
-MAPPINGS = ("route", "frontier")
+MAPPINGS = ("auto", "route", "frontier")
 PLACE_TOLERANCE = 0.03  # m, object centre to the place point, in the plane
 UPRIGHT = np.deg2rad(10.0)  # largest tilt of an object that stood upright
 OBJECTS_TOPIC = "/ground_truth/objects"  # the objects' true poses, for scoring and plots
@@ -149,6 +159,21 @@ def exploration_route(world: World, footprint: Footprint) -> list[tuple[float, f
     return route
 
 
+def mapping_route(
+    setup: CarrySetup, world: World, footprint: Footprint
+) -> list[tuple[float, float]]:
+    """The route the robot is given to map the home along (world x, y), or none (it
+    explores by frontiers): `setup.mapping` 'route' gives the world's route in ROUTES or a
+    tour made from its plan, 'frontier' none, 'auto' the route in ROUTES if there is one,
+    else none."""
+    given = isinstance(setup.world, str) and setup.world in ROUTES
+    if setup.mapping == "frontier" or (setup.mapping == "auto" and not given):
+        return []
+    if given:
+        return list(ROUTES[setup.world])  # type: ignore[index]
+    return exploration_route(world, footprint)
+
+
 def object_kind(ob: Obstacle) -> ObjectKind:
     """An object of the world as a kind of the catalogue: its shape, size and colour
     (never its pose)."""
@@ -193,7 +218,9 @@ class CarrySetup:
     robot: str = "mobile_manipulator"
     planner: str = "rrt_connect"
     time_limit: float = 600.0  # s, simulated
-    mapping: str = "route"  # 'route': the given route; 'frontier': it explores on its own
+    # 'route': the given route; 'frontier': it explores on its own; 'auto': the route
+    # where ROUTES has one for the world, else frontiers
+    mapping: str = "auto"
 
     def __post_init__(self) -> None:
         if not self.speed > 0:
@@ -305,12 +332,7 @@ class CarryTrial(Node):
         limits = DriveLimits.from_metadata(robot.metadata.get("drive", {}) or {})
         speed = min(setup.speed, limits.max_speed)
         footprint = footprint_of(self.sim)
-        if setup.mapping == "frontier":
-            route: list[tuple[float, float]] = []
-        elif isinstance(setup.world, str) and setup.world in ROUTES:
-            route = list(ROUTES[setup.world])
-        else:
-            route = exploration_route(world, footprint)
+        route = mapping_route(setup, world, footprint)
         plan = Plan(
             start=(float(spawn.xyz[0]), float(spawn.xyz[1]), float(spawn.yaw)),
             rooms={r.name: r.bounds for r in world.rooms},

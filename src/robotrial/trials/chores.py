@@ -33,11 +33,51 @@ def parse_chore(text: str) -> tuple[str, str]:
     return obj.strip(), room.strip()
 
 
+def home_chores(world: World, n: int = 3) -> list[tuple[str, str]]:
+    """Up to `n` chores a world offers: each movable object standing in a room, to
+    another room with a place to set it down; one chore per object before any object
+    gets a second (objects and rooms in the world's order)."""
+    options: list[list[tuple[str, str]]] = []
+    for ob in world.objects:
+        x, y = ob.pose.xyz[:2]
+        inside = [r.name for r in world.rooms if r.contains(x, y)]
+        if inside:
+            to = [r.name for r in world.rooms if r.place is not None and r.name != inside[0]]
+            options.append([(ob.name, room) for room in to])
+    out: list[tuple[str, str]] = []
+    for k in range(max((len(o) for o in options), default=0)):
+        out += [o[k] for o in options if k < len(o)]
+    return out[:n]
+
+
+PHASE_SHARES = {
+    "mapping": "exploring",
+    "search": "searching",
+    "navigation": "navigating",
+    "carry": "navigating",
+    "pick": "manipulating",
+    "place": "manipulating",
+}
+
+
+def time_shares(phases: Sequence[dict[str, Any]]) -> dict[str, float]:
+    """A run's simulated time (s) spent exploring, navigating, searching and
+    manipulating, from its phases (`PHASE_SHARES`: the carry phase, driving to the place
+    with the object held, counts as navigating)."""
+    shares = dict.fromkeys(("exploring", "navigating", "searching", "manipulating"), 0.0)
+    for p in phases:
+        what = PHASE_SHARES.get(p["phase"])
+        if what is not None:
+            shares[what] = round(shares[what] + float(p["time"]), 2)
+    return shares
+
+
 @dataclass
 class ChoreVerdict:
     """One chore over its seeds: successes of runs, mean simulated time (s) of the
-    successful runs, the failed phases by count, each run's outcome, or why the trial
-    refused it (`refused`)."""
+    successful runs and its mean share exploring, navigating, searching, manipulating
+    (`shares`, s; `time_shares`), the failed phases by count, each run's outcome, or why
+    the trial refused it (`refused`)."""
 
     object: str
     room: str
@@ -48,6 +88,7 @@ class ChoreVerdict:
     outcomes: list[dict[str, Any]] = field(default_factory=list)
     refused: str = ""
     wall_time: float = 0.0
+    shares: dict[str, float] | None = None
 
     @property
     def name(self) -> str:
@@ -72,6 +113,7 @@ class ChoreVerdict:
             "success_rate": round(self.rate, 3),
             "done": self.done,
             "mean_time": None if self.mean_time is None else round(self.mean_time, 2),
+            "shares": self.shares,
             "failed_phases": self.failed_phases,
             "outcomes": self.outcomes,
             "refused": self.refused,
@@ -164,6 +206,7 @@ def run_chores(
                     "cause": r.cause,
                     "reason": r.reason,
                     "sim_time": round(r.sim_time, 2),
+                    "shares": time_shares(r.phases),
                 }
             )
             if r.success:
@@ -173,6 +216,9 @@ def run_chores(
                 v.failed_phases[r.failed_phase] = v.failed_phases.get(r.failed_phase, 0) + 1
         v.refused = v.refused or unable
         v.mean_time = float(np.mean(times)) if times else None
+        done = [o["shares"] for o in v.outcomes if o["success"]]
+        if done:
+            v.shares = {k: round(float(np.mean([d[k] for d in done])), 2) for k in done[0]}
         v.wall_time = time.perf_counter() - t0
         out.append(v)
     return out

@@ -103,6 +103,7 @@ def run(args: argparse.Namespace) -> int:
                     shares=time_shares(r.phases),
                     place_error=None if r.place_error is None else round(r.place_error, 4),
                     looks=r.looks,
+                    found=r.found,
                     wall_time=round(r.wall_time, 1),
                 )
             row["load_average"] = round(os.getloadavg()[0], 2)

@@ -235,8 +235,8 @@ class CarrySetup:
 class CarryResult:
     """What a run gave: success, the phase that failed with its cause and reason, each
     phase's simulated and wall time, the final object error, contacts, what the robot saw
-    and how far that was from the truth, the paths and joint curves, the oracles used
-    (none)."""
+    and how far that was from the truth, where it found the object (`found`, on the
+    plan), the paths and joint curves, the oracles used (none)."""
 
     seed: int
     success: bool
@@ -252,6 +252,7 @@ class CarryResult:
     collision: str = ""
     grasp: str = ""
     looks: int = 0
+    found: str = ""
     stopped: str = ""
     oracles: list[str] = field(default_factory=list)
     arm_plans: list[dict[str, Any]] = field(default_factory=list)
@@ -284,6 +285,7 @@ class CarryResult:
             "collision": self.collision,
             "grasp": self.grasp,
             "looks": self.looks,
+            "found": self.found,
             "stopped": self.stopped,
             "arm_plans": self.arm_plans,
         }
@@ -469,6 +471,16 @@ class CarryTrial(Node):
         c, s = np.cos(self.spawn[2]), np.sin(self.spawn[2])
         return self.spawn[:2] + np.array([c * p[0] - s * p[1], s * p[0] + c * p[1]])
 
+    def _found_words(self, found: dict[str, Any]) -> str:
+        """Where the robot found the object, on the plan: its room and the furniture top
+        (the piece's centre as the robot mapped it)."""
+        top = f"{found['top']:.2f} m high"
+        if found["furniture"] is None:
+            x, y = self._to_world(found["at"])
+            return f"in the {found['room']}, on a surface {top} at ({x:.2f}, {y:.2f})"
+        x, y = self._to_world(found["furniture"])
+        return f"in the {found['room']}, on the furniture top at ({x:.2f}, {y:.2f}), {top}"
+
     # --- the result --------------------------------------------------------------------
 
     def _score(self) -> None:
@@ -522,6 +534,8 @@ class CarryTrial(Node):
         r.phases = out.phases
         r.sim_time = self.sim.world.time
         r.grasp, r.arm_plans, r.looks = log.grasp, log.arm_plans, len(log.looks)
+        if log.found is not None:
+            r.found = self._found_words(log.found)
         if log.target is not None:
             seen = self._to_world(log.target)
             truth = self.start_poses[self.setup.object]

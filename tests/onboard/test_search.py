@@ -17,7 +17,7 @@ MARGIN = _footprint().circumscribed_radius + 0.1
 
 
 def _home():
-    seed, world, _ = chore_homes(1)[0]
+    _, world, _ = chore_homes(1)[0]
     grid = world_map(world)
     occupied = np.asarray(grid.occupied, dtype=bool)
     origin = np.asarray(grid.origin, dtype=float)

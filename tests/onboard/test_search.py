@@ -10,7 +10,7 @@ from scipy import ndimage
 
 from robotrial.benchmarks.chores import chore_homes
 from robotrial.model.gridmap import world_map
-from robotrial.onboard.skills import LOOK_AT, furniture_tops, look_pose
+from robotrial.onboard.skills import LOOK_AT, furniture_tops, look_pose, overlaps
 from robotrial.trials.nav_goals import _footprint
 
 MARGIN = _footprint().circumscribed_radius + 0.1
@@ -54,3 +54,16 @@ def test_a_piece_is_looked_at_from_a_free_pose_facing_it() -> None:
             towards = piece.mean(axis=0) - pose[:2]
             assert abs(np.arctan2(towards[1], towards[0]) - pose[2]) < 1e-6
     assert looked >= 2
+
+
+def test_the_piece_the_order_names_is_told_from_the_others() -> None:
+    world, occupied, origin, res, _ = _home()
+    furniture = [o for o in world.obstacles if o.kind == "furniture"]
+    for room in world.rooms:
+        pieces = furniture_tops(occupied, origin, res, room.bounds)
+        for f in furniture:
+            if not room.contains(*f.pose.xyz[:2]):
+                continue
+            x, y = f.pose.xyz[:2]
+            outline = ((x - 0.05, y - 0.05), (x + 0.05, y + 0.05))
+            assert sum(overlaps(p, outline) for p in pieces) == 1, f.name

@@ -14,7 +14,8 @@ import pytest
 
 from robotrial.cli import main
 from robotrial.model import load_world
-from robotrial.trials.chores import parse_chore, run_chores, time_shares
+from robotrial.trials.carry import CarrySetup, run_carry
+from robotrial.trials.chores import parse_chore, run_chores, split_object, time_shares
 
 
 def test_a_chore_is_object_colon_room() -> None:
@@ -22,6 +23,17 @@ def test_a_chore_is_object_colon_room() -> None:
     for bad in ("cup", "cup:", ":bedroom", "cup bedroom"):
         with pytest.raises(ValueError, match="OBJECT:ROOM"):
             parse_chore(bad)
+
+
+def test_a_chore_may_name_the_furniture_the_object_is_on() -> None:
+    obj, room = parse_chore("cup@kitchen_table:bedroom")
+    assert (split_object(obj), room) == (("cup", "kitchen_table"), "bedroom")
+    assert split_object("cup") == ("cup", "")
+    for bad in ("cup@:bedroom", "@table:bedroom"):
+        with pytest.raises(ValueError, match="cup@kitchen_table:bedroom"):
+            parse_chore(bad)
+    with pytest.raises(ValueError, match="'cup' is not furniture"):
+        run_carry(CarrySetup(on="cup"), 0)  # an object, not furniture
 
 
 def test_chores_the_trial_cannot_do_are_reported_not_raised() -> None:

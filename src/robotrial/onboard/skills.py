@@ -146,6 +146,7 @@ class SkillLog:
     # where the search found the object: room, the furniture's centre (map; None when
     # the map shows none under it), the object (map), the top's height
     found: dict[str, Any] | None = None
+    not_on: str = ""  # the furniture named in the order, looked at without the object
 
 
 class Skills:
@@ -337,26 +338,36 @@ class Skills:
         return Look(base, surfaces, sightings, len(found) - len(sightings))
 
     def search(
-        self, kind: ObjectKind, room: str, bounds: tuple[tuple[float, float], tuple[float, float]]
+        self,
+        kind: ObjectKind,
+        room: str,
+        bounds: tuple[tuple[float, float], tuple[float, float]],
+        on: tuple[str, tuple[tuple[float, float], tuple[float, float]]] | None = None,
     ) -> Generator[None, None, Sighting]:
         """Find an object of `kind` in a room (bounds in the map frame): first on the
         furniture tops the built map shows in the room, each looked at from a free pose
-        facing it, nearest first; then from a few open spots of the room, turning on the
-        spot. `log.found` says where it was found; `not_seen` says where it was not."""
+        facing it, nearest first (the pieces under `on`, a named piece's rectangle in the
+        map frame, before all others); then from a few open spots of the room, turning on
+        the spot. `log.found` says where it was found; `not_seen` says where it was not."""
         yield from self.arm_to_pose("stow")
         pieces = furniture_tops(self.map_walls, self.map_origin, self.map_res, bounds)
+        named = [k for k, p in enumerate(pieces) if on is not None and overlaps(p, on[1])]
         margin = self.footprint.circumscribed_radius + 0.1
         views = []
-        for piece in pieces:
+        for index, piece in enumerate(pieces):
             pose = look_pose(piece, self.clearance, self.map_origin, self.map_res, bounds, margin)
             if pose is not None:
-                views.append((piece, pose))
+                views.append((piece, pose, index))
         looks = places = 0
         failed: list[np.ndarray] = []
         here = self.robot.pose()[:2]
+        self.log.not_on = ""
         while views:
-            k = min(range(len(views)), key=lambda i: np.hypot(*(views[i][1][:2] - here)))
-            piece, pose = views.pop(k)
+            first = [i for i, v in enumerate(views) if v[2] in named] or range(len(views))
+            k = min(first, key=lambda i: np.hypot(*(views[i][1][:2] - here)))
+            piece, pose, index = views.pop(k)
+            if on is not None and index not in named and named and not self.log.not_on:
+                self.log.not_on = on[0]  # every view of the named piece was taken
             if not (
                 yield from self._look_from(
                     pose, f"a place to look at furniture in the {room}", failed
@@ -369,8 +380,10 @@ class Skills:
             seen = [s for s in self.look().sightings if s.kind.name == kind.name]
             if seen:
                 best = min(seen, key=lambda s: s.detection.error)
-                self._found(best, pieces, room)
+                self._found(best, pieces, room, on)
                 return best
+        if named and on is not None:
+            self.log.not_on = on[0]
         spots = self._spots(bounds)
         for spot in spots:
             centre = np.mean(np.asarray(bounds), axis=0)
@@ -392,12 +405,13 @@ class Skills:
                 seen = [s for s in self.look().sightings if s.kind.name == kind.name]
                 if seen:
                     best = min(seen, key=lambda s: s.detection.error)
-                    self._found(best, pieces, room)
+                    self._found(best, pieces, room, on)
                     return best
         raise SkillFailed(
             "not_seen",
             f"the {kind.name} is not in the {room}: not on its {len(pieces)} furniture tops "
-            f"the map shows, nor seen in {looks} looks from {places} places",
+            f"the map shows, nor seen in {looks} looks from {places} places"
+            + (f" (the {on[0]} is not on the map in the {room})" if on and not named else ""),
         )
 
     def _look_from(
@@ -411,12 +425,15 @@ class Skills:
             return True
         return (yield from self.reach_stage(pose, why, failed))
 
-    def _found(self, seen: Sighting, pieces: list[np.ndarray], room: str) -> None:
+    def _found(self, seen: Sighting, pieces: list[np.ndarray], room: str, on) -> None:
         """Note where the object was found: on which furniture top of the map (its
-        centre), how high, in which room."""
+        centre; the named one when it lies under `on`), how high, in which room, and
+        whether the named furniture was looked at without it."""
         at = seen.position[:2]
         near = [p for p in pieces if np.min(np.hypot(*(p - at).T)) < ON_TOP]
         self.log.found = {
+            "on": on[0] if on is not None and near and overlaps(near[0], on[1]) else "",
+            "not_on": self.log.not_on,
             "room": room,
             "furniture": near[0].mean(axis=0) if near else None,
             "at": np.array(at, dtype=float),
@@ -1005,6 +1022,19 @@ def furniture_tops(
             xy = np.column_stack([cols + c0 + 0.5, rows + r0 + 0.5]) * res + origin
             pieces.append(xy)
     return pieces
+
+
+def overlaps(piece: np.ndarray, rect: tuple[tuple[float, float], tuple[float, float]]) -> bool:
+    """Whether any cell of a piece of furniture (N, 2) lies in a rectangle grown by
+    ON_TOP (a named piece's outline on the plan, in the map frame)."""
+    (x0, y0), (x1, y1) = rect
+    inside = (
+        (piece[:, 0] >= x0 - ON_TOP)
+        & (piece[:, 0] <= x1 + ON_TOP)
+        & (piece[:, 1] >= y0 - ON_TOP)
+        & (piece[:, 1] <= y1 + ON_TOP)
+    )
+    return bool(inside.any())
 
 
 def look_pose(

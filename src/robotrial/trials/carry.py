@@ -221,6 +221,7 @@ class CarrySetup:
     # 'route': the given route; 'frontier': it explores on its own; 'auto': the route
     # where ROUTES has one for the world, else frontiers
     mapping: str = "auto"
+    on: str = ""  # the furniture the order says the object is on (a body name), or none
 
     def __post_init__(self) -> None:
         if not self.speed > 0:
@@ -308,6 +309,7 @@ class CarryTrial(Node):
         if not found_in:
             raise ValueError(f"carry trial: the {setup.object} stands in no room of the plan")
         self.setup, self.seed, self.world, self.model = setup, seed, world, robot
+        named = self._named(world)
         off = StreamSettings(enabled=False)
         streams = {s.name: off for s in robot.sensors if s.type not in ("lidar",)}
         self.sim = Simulation.create(
@@ -340,7 +342,7 @@ class CarryTrial(Node):
             rooms={r.name: r.bounds for r in world.rooms},
             route=tuple(route),
         )
-        order = CarryOrder(setup.object, found_in[0].name, setup.to, self.room.place)
+        order = CarryOrder(setup.object, found_in[0].name, setup.to, self.room.place, named)
         robot_setup = RobotSetup(
             model=robot,
             footprint=footprint,
@@ -471,15 +473,40 @@ class CarryTrial(Node):
         c, s = np.cos(self.spawn[2]), np.sin(self.spawn[2])
         return self.spawn[:2] + np.array([c * p[0] - s * p[1], s * p[0] + c * p[1]])
 
+    def _named(self, world: World) -> tuple[str, tuple[tuple[float, float], ...]] | None:
+        """The furniture the order names (`setup.on`) with its outline on the plan, or
+        None; a ValueError when the world has no such furniture."""
+        name = self.setup.on
+        if not name:
+            return None
+        body = world.body(name)
+        if body.kind != "furniture":
+            raise ValueError(f"carry trial: {name!r} is not furniture, so nothing stands on it")
+        g = body.geometry
+        half = (
+            (g.size[0] / 2, g.size[1] / 2)
+            if isinstance(g, BoxShape)
+            else (g.radius, g.radius)
+            if isinstance(g, Cylinder)
+            else (0.0, 0.0)
+        )  # type: ignore[union-attr]
+        x, y, yaw = float(body.pose.xyz[0]), float(body.pose.xyz[1]), float(body.pose.yaw)
+        c, s = abs(np.cos(yaw)), abs(np.sin(yaw))
+        hx, hy = c * half[0] + s * half[1], s * half[0] + c * half[1]
+        return name, ((x - hx, y - hy), (x + hx, y + hy))
+
     def _found_words(self, found: dict[str, Any]) -> str:
         """Where the robot found the object, on the plan: its room and the furniture top
-        (the piece's centre as the robot mapped it)."""
+        (the named one, or the piece's centre as the robot mapped it)."""
         top = f"{found['top']:.2f} m high"
+        before = f"not on the {found['not_on']}; " if found["not_on"] else ""
+        if found["on"]:
+            return f"{before}in the {found['room']}, on the {found['on']}, {top}"
         if found["furniture"] is None:
             x, y = self._to_world(found["at"])
-            return f"in the {found['room']}, on a surface {top} at ({x:.2f}, {y:.2f})"
+            return f"{before}in the {found['room']}, on a surface {top} at ({x:.2f}, {y:.2f})"
         x, y = self._to_world(found["furniture"])
-        return f"in the {found['room']}, on the furniture top at ({x:.2f}, {y:.2f}), {top}"
+        return f"{before}in the {found['room']}, on the furniture top at ({x:.2f}, {y:.2f}), {top}"
 
     # --- the result --------------------------------------------------------------------
 

@@ -1,7 +1,9 @@
 """Chores in a buyer's verdict: "take the cup to the bedroom", run as carry trials
 (layer 5).
 
-A chore is an (object, destination room) pair, written `cup:bedroom`. Each runs as the
+A chore is an (object, destination room) pair, written `cup:bedroom`; the object may
+name the furniture it should be on, `cup@kitchen_table:bedroom` (the robot looks there
+first and says whether it was there). Each runs as the
 carry trial (`trials/carry.py`: map, search, navigate, pick, carry, place, with the
 robot side seeing only through its sensors) over a few seeds; the verdict keeps the
 success rate, the simulated time of the successful runs, and the phase each failure
@@ -26,11 +28,25 @@ from robotrial.model.world import World
 
 
 def parse_chore(text: str) -> tuple[str, str]:
-    """`object:room` to (object, room); a clear error for anything else."""
+    """`object:room` (or `object@furniture:room`) to (object, room); a clear error for
+    anything else."""
     obj, sep, room = str(text).partition(":")
     if not sep or not obj.strip() or not room.strip():
         raise ValueError(f"chore {text!r}: write it as OBJECT:ROOM, e.g. cup:bedroom")
+    split_object(obj, text)
     return obj.strip(), room.strip()
+
+
+def split_object(obj: str, chore: str = "") -> tuple[str, str]:
+    """A chore's object, `cup` or `cup@kitchen_table` (the furniture it should be on), to
+    (object, furniture or "")."""
+    name, at, on = obj.partition("@")
+    if at and (not name.strip() or not on.strip()):
+        raise ValueError(
+            f"chore {chore or obj!r}: name the furniture after the object, e.g. "
+            "cup@kitchen_table:bedroom"
+        )
+    return name.strip(), on.strip()
 
 
 def home_chores(world: World, n: int = 3) -> list[tuple[str, str]]:
@@ -182,7 +198,8 @@ def run_chores(
         times = []
         for seed in range(seeds if not unable else 0):
             name = robot if isinstance(robot, str) else robot.name
-            setup = CarrySetup(world=_world_ref(world), object=obj, to=room, robot=name)
+            thing, on = split_object(obj)
+            setup = CarrySetup(world=_world_ref(world), object=thing, to=room, robot=name, on=on)
             done, label = i * seeds + seed, f"chore {obj}:{room}, seed {seed}"
 
             def phase(name: str, _sim_time: float, done: int = done, label: str = label) -> None:
@@ -207,6 +224,7 @@ def run_chores(
                     "reason": r.reason,
                     "sim_time": round(r.sim_time, 2),
                     "shares": time_shares(r.phases),
+                    "found": r.found,
                 }
             )
             if r.success:

@@ -377,10 +377,8 @@ class Skills:
             here = self.robot.pose()[:2]
             looks += 1
             places += 1
-            seen = [s for s in self.look().sightings if s.kind.name == kind.name]
-            if seen:
-                best = min(seen, key=lambda s: s.detection.error)
-                self._found(best, pieces, room, on)
+            best = self._look_for(kind, pieces, room, on)
+            if best is not None:
                 return best
         if named and on is not None:
             self.log.not_on = on[0]
@@ -402,10 +400,8 @@ class Skills:
                 if k:
                     yield from self.turn_to(yaw + 2 * np.pi * k / HEADINGS)
                 looks += 1
-                seen = [s for s in self.look().sightings if s.kind.name == kind.name]
-                if seen:
-                    best = min(seen, key=lambda s: s.detection.error)
-                    self._found(best, pieces, room, on)
+                best = self._look_for(kind, pieces, room, on)
+                if best is not None:
                     return best
         raise SkillFailed(
             "not_seen",
@@ -413,6 +409,17 @@ class Skills:
             f"the map shows, nor seen in {looks} looks from {places} places"
             + (f" (the {on[0]} is not on the map in the {room})" if on and not named else ""),
         )
+
+    def _look_for(
+        self, kind: ObjectKind, pieces: list[np.ndarray], room: str, on
+    ) -> Sighting | None:
+        """One look for an object of `kind`: the best match, noted where found, or None."""
+        seen = [s for s in self.look().sightings if s.kind.name == kind.name]
+        if not seen:
+            return None
+        best = min(seen, key=lambda s: s.detection.error)
+        self._found(best, pieces, room, on)
+        return best
 
     def _look_from(
         self, pose: np.ndarray, why: str, failed: list[np.ndarray]

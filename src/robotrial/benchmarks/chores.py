@@ -6,7 +6,9 @@ the robot's dock at a free spot of a random room. The homes are the first `--hom
 from `--first-home` on that offer a chore (`trials.chores.home_chores`: an object to
 another room with a place); each gets up to `--chores` chores (every home's first chore
 runs before any home's second), each run as the carry
-trial with no route (the robot maps by frontiers, `CarrySetup.mapping='auto'`). Each row:
+trial with no route (the robot maps by frontiers, `CarrySetup.mapping='auto'`). First, in
+the same run, the apartment's trial along its given route (cup to the bedroom), unless
+`--no-apartment`. Each row:
 success, the phase and cause of a failure, the simulated time and its share exploring,
 navigating, searching and manipulating. The JSON is rewritten after every chore, so a
 long run that is stopped keeps what it measured.
@@ -35,6 +37,7 @@ CHORE_HOMES = HomeSpec(
     object_chance=1.0,
 )
 SEARCHED_SEEDS = 200  # home seeds tried for homes that offer a chore
+APARTMENT = ("apartment", "apartment", ("cup", "bedroom"))  # the given-route trial, beside
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -43,6 +46,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--chores", type=int, default=3, help="chores a home")
     parser.add_argument("--seed", type=int, default=0, help="simulation seed")
     parser.add_argument("--time-limit", type=float, default=600.0, help="simulated seconds a chore")
+    parser.add_argument(
+        "--no-apartment",
+        action="store_true",
+        help="leave out the apartment's given-route trial (cup to the bedroom) run first",
+    )
     parser.add_argument("-o", "--output", metavar="JSON", help="write the results there")
     add_json_flag(parser)
 
@@ -80,12 +88,14 @@ def run(args: argparse.Namespace) -> int:
     homes = chore_homes(args.homes, args.first_home, args.chores)
     # every home's first chore before any home's second: a run stopped early covers the homes
     rounds = max(len(chores) for _, _, chores in homes) if homes else 0
-    jobs = [(s, w, chores[k]) for k in range(rounds) for s, w, chores in homes if k < len(chores)]
+    jobs: list[tuple[Any, Any, tuple[str, str]]] = [] if args.no_apartment else [APARTMENT]
+    jobs += [(s, w, chores[k]) for k in range(rounds) for s, w, chores in homes if k < len(chores)]
     with progress("bench chores", total=len(jobs), enabled=not args.json) as advance:
         for seed, world, (obj, room) in jobs:
             row: dict[str, Any] = {
                 "home": seed,
-                "rooms": len(world.rooms),
+                "rooms": 5 if isinstance(world, str) else len(world.rooms),
+                "mapping": "route" if isinstance(world, str) else "frontier",
                 "chore": f"{obj}:{room}",
             }
             setup = CarrySetup(world=world, object=obj, to=room, time_limit=args.time_limit)
@@ -112,9 +122,10 @@ def run(args: argparse.Namespace) -> int:
                 Path(args.output).write_text(json.dumps(result, indent=2, default=float))
             advance()
     rows = result["rows"]
-    result["successes"] = sum(r["success"] for r in rows)
-    result["chores"] = len(rows)
-    result["homes"] = len({r["home"] for r in rows})
+    homes_rows = [r for r in rows if r["home"] != "apartment"]
+    result["successes"] = sum(r["success"] for r in homes_rows)
+    result["chores"] = len(homes_rows)
+    result["homes"] = len({r["home"] for r in rows if r["home"] != "apartment"})
     result["load_average_after"] = list(os.getloadavg())
     if args.output:
         Path(args.output).write_text(json.dumps(result, indent=2, default=float))

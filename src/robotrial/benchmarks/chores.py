@@ -4,14 +4,16 @@ Homes from the home generator with rooms of about 3 x 3 m (`CHORE_HOMES`: 2-4 ro
 8.5-9.5 m2, no side under 2.7 m), furniture along the walls, an object on every table and
 the robot's dock at a free spot of a random room. The homes are the first `--homes` seeds
 from `--first-home` on that offer a chore (`trials.chores.home_chores`: an object to
-another room with a place); each gets up to `--chores` chores (every home's first chore
-runs before any home's second), each run as the carry
+another room with a place, the object one the robot's gripper closes across: the
+generator's 8 cm cups are as wide as the mobile manipulator's gripper opens, so only its
+books and cans are carried; nor an object with a twin of the same shape, size and
+colour in the home, which the camera cannot tell apart); each gets up to `--chores`
+chores (every home's first chore runs before any home's second), each run as the carry
 trial with no route (the robot maps by frontiers, `CarrySetup.mapping='auto'`). First, in
 the same run, the apartment's trial along its given route (cup to the bedroom), unless
-`--no-apartment`. Each row:
-success, the phase and cause of a failure, the simulated time and its share exploring,
-navigating, searching and manipulating. The JSON is rewritten after every chore, so a
-long run that is stopped keeps what it measured.
+`--no-apartment`. Each row: success, the phase and cause of a failure, the simulated
+time and its share exploring, navigating, searching and manipulating. The JSON is
+rewritten after every chore, so a long run that is stopped keeps what it measured.
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ import platform
 import time
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from robotrial.console import add_json_flag, print_json, print_table, progress
 from robotrial.model.homegen import HomeSpec
@@ -36,6 +40,7 @@ CHORE_HOMES = HomeSpec(
     dock_anywhere=True,
     object_chance=1.0,
 )
+ROBOT = "mobile_manipulator"
 SEARCHED_SEEDS = 200  # home seeds tried for homes that offer a chore
 APARTMENT = ("apartment", "apartment", ("cup", "bedroom"))  # the given-route trial, beside
 
@@ -55,10 +60,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_json_flag(parser)
 
 
-def chore_homes(homes: int, first: int = 0, per_home: int = 3) -> list[tuple[int, Any, list]]:
-    """The first `homes` home seeds from `first` on whose home offers a chore: (seed, the
-    World, its chores)."""
+def chore_homes(
+    homes: int, first: int = 0, per_home: int = 3, grip: float = np.inf
+) -> list[tuple[int, Any, list]]:
+    """The first `homes` home seeds from `first` on whose home offers a chore with an
+    object the gripper holds (narrower than `grip`, m) and no twin of it in the home:
+    (seed, the World, its chores)."""
     from robotrial.model.homegen import generate_home
+    from robotrial.trials.carry import catalogue_of
     from robotrial.trials.chores import home_chores
 
     out = []
@@ -66,10 +75,29 @@ def chore_homes(homes: int, first: int = 0, per_home: int = 3) -> list[tuple[int
         if len(out) >= homes:
             break
         world = generate_home(seed, spec=CHORE_HOMES)
-        chores = home_chores(world, per_home)
+        kinds = catalogue_of(world)
+        looks = [_look(kinds.kind(o.name)) for o in world.objects]
+        chores = [
+            (obj, room)
+            for obj, room in home_chores(world, 99)
+            if kinds.kind(obj).grip_width < grip and looks.count(_look(kinds.kind(obj))) == 1
+        ][:per_home]
         if chores:
             out.append((seed, world, chores))
     return out
+
+
+def _look(kind: Any) -> tuple:
+    return (kind.shape, kind.size, kind.rgb)
+
+
+def gripper_opening(robot: str) -> float:
+    """How wide an object the robot's gripper closes across (m; as `Skills.approach`
+    allows, 5 mm under the fingers' full opening)."""
+    from robotrial.model import load_robot
+
+    grip = load_robot(robot).metadata.get("gripper") or {}
+    return 2 * abs(float(grip.get("open", 0.0)) - float(grip.get("closed", 0.0))) - 0.005
 
 
 def run(args: argparse.Namespace) -> int:
@@ -85,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
         "seed": args.seed,
         "rows": [],
     }
-    homes = chore_homes(args.homes, args.first_home, args.chores)
+    homes = chore_homes(args.homes, args.first_home, args.chores, gripper_opening(ROBOT))
     # every home's first chore before any home's second: a run stopped early covers the homes
     rounds = max(len(chores) for _, _, chores in homes) if homes else 0
     jobs: list[tuple[Any, Any, tuple[str, str]]] = [] if args.no_apartment else [APARTMENT]

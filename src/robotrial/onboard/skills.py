@@ -72,7 +72,7 @@ SEARCH_SPOTS = 3  # places in a room to search from
 LOOK_HERE = 0.3  # m: a place to look from this near the robot is looked from where it stands
 WALL_INSET = 0.1  # m in from a room's sides where the map's occupied cells are furniture
 FURNITURE_CELLS = 6  # occupied cells a piece of furniture shows on the map at least
-LOOK_AT = (0.7, 1.6)  # m from a piece of furniture's nearest cell a look at its top is taken
+LOOK_AT = (0.7, 1.8)  # m from a piece of furniture's nearest cell a look at its top is taken
 ON_TOP = 0.3  # m: an object this near a piece's cells stands on it
 NAV_TRIES = 3  # work sites the navigator may fail to reach before a skill gives up
 FAR_LOOK = 1  # pixel stride of a look from afar (every other pixel: none found past 2.2 m)
@@ -1053,8 +1053,9 @@ def look_pose(
     margin: float,
 ) -> np.ndarray | None:
     """A pose (map x, y, yaw) to look at a piece of furniture's top from: a cell of the
-    room with `margin` of clearance, LOOK_AT from the piece's nearest cell (the nearest
-    such to the piece), facing the piece's centre; None when the room has no such cell."""
+    room with `margin` of clearance, LOOK_AT from the piece's nearest cell (of those the
+    one with the most clearance, so the base stops clear of everything), facing the
+    piece's centre; None when the room has no such cell."""
     (x0, y0), (x1, y1) = bounds
     c0, r0 = max(int((x0 - origin[0]) / res), 0), max(int((y0 - origin[1]) / res), 0)
     c1 = min(int(np.ceil((x1 - origin[0]) / res)), clearance.shape[1])
@@ -1067,7 +1068,8 @@ def look_pose(
     ok = (gap >= LOOK_AT[0]) & (gap <= LOOK_AT[1])
     if not ok.any():
         return None
-    i = int(np.flatnonzero(ok)[np.argmin(gap[ok])])
+    room = clearance[r0:r1, c0:c1][rows, cols]
+    i = int(np.flatnonzero(ok)[np.argmax(room[ok])])
     centre = piece.mean(axis=0)
     yaw = float(np.arctan2(centre[1] - xy[i, 1], centre[0] - xy[i, 0]))
     return np.array([xy[i, 0], xy[i, 1], yaw])

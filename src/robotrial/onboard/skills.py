@@ -73,6 +73,7 @@ LOOK_HERE = 0.3  # m: a place to look from this near the robot is looked from wh
 WALL_INSET = 0.1  # m in from a room's sides where the map's occupied cells are furniture
 FURNITURE_CELLS = 6  # occupied cells a piece of furniture shows on the map at least
 LOOK_AT = (0.7, 1.8)  # m from a piece of furniture's nearest cell a look at its top is taken
+LOOK_MARGINS = (0.1, 0.02)  # m of clearance beyond the footprint's turning circle, tried in turn
 ON_TOP = 0.3  # m: an object this near a piece's cells stands on it
 NAV_TRIES = 3  # work sites the navigator may fail to reach before a skill gives up
 FAR_LOOK = 1  # pixel stride of a look from afar (every other pixel: none found past 2.2 m)
@@ -352,12 +353,15 @@ class Skills:
         yield from self.arm_to_pose("stow")
         pieces = furniture_tops(self.map_walls, self.map_origin, self.map_res, bounds)
         named = [k for k, p in enumerate(pieces) if on is not None and overlaps(p, on[1])]
-        margin = self.footprint.circumscribed_radius + 0.1
         views = []
         for index, piece in enumerate(pieces):
-            pose = look_pose(piece, self.clearance, self.map_origin, self.map_res, bounds, margin)
-            if pose is not None:
-                views.append((piece, pose, index))
+            for extra in LOOK_MARGINS:  # room to turn to spare, else just room to turn
+                margin = self.footprint.circumscribed_radius + extra
+                at = (self.clearance, self.map_origin, self.map_res, bounds, margin)
+                pose = look_pose(piece, *at)
+                if pose is not None:
+                    views.append((piece, pose, index))
+                    break
         looks = places = 0
         failed: list[np.ndarray] = []
         here = self.robot.pose()[:2]

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Generator, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -40,6 +40,7 @@ from robotrial.nav.amcl import compose, inverse
 from robotrial.nav.navigator import Status
 from robotrial.nav.tour import open_spot
 from robotrial.onboard.catalogue import Catalogue, ObjectKind
+from robotrial.onboard.explore import MARGIN as EXPLORE_MARGIN
 from robotrial.onboard.explore import Explorer, follow_route
 from robotrial.onboard.perception import (
     MIN_SIDE_POINTS,
@@ -204,7 +205,16 @@ class Skills:
 
     def start_navigation(self) -> Iterator[None]:
         """From mapping to navigating on the built map (AMCL from SLAM's last pose)."""
-        self.robot.start_navigation(xy_tolerance=0.08, yaw_tolerance=0.08)
+        nav = self.robot.setup.navigator
+        assert nav is not None
+        # on SLAM's own cells, as exploring drove (a map coarsened to 5 cm narrows a
+        # doorway of 0.8 m by up to 10 cm, too narrow for the footprint)
+        self.robot.start_navigation(
+            xy_tolerance=0.08,
+            yaw_tolerance=0.08,
+            costmap_resolution=None,
+            hybrid=replace(nav.hybrid, margin=EXPLORE_MARGIN),
+        )
         yield from self.wait(0.05)  # the navigation node hears the odometry first
         self.robot.publish_map()
         grid = self.robot.grid

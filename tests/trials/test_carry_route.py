@@ -1,6 +1,7 @@
 """The carry trial in a home without a hand-drawn mapping route (a home drawn in the
-page, a World YAML): the trial makes its own tour of the rooms (nav/tour.py) and maps the
-home along it."""
+page, a World YAML), asked to map along a route (`mapping='route'`; by default such a
+home is explored by frontiers): the trial makes its own tour of the rooms (nav/tour.py)
+and maps the home along it."""
 
 from __future__ import annotations
 
@@ -58,7 +59,8 @@ def test_the_made_tour_maps_both_rooms_of_a_home_drawn_without_a_route(tmp_path:
     both rooms: most of each room's floor free on its map, the table seen, and its pose
     on that map with the truth. (The rest of the trial is the carry trial's test.)"""
     world = load_world(home(tmp_path))
-    r = run_carry(CarrySetup(world=world, object="cup", to="second"), 0, until="search")
+    setup = CarrySetup(world=world, object="cup", to="second", mapping="route")
+    r = run_carry(setup, 0, until="search")
     assert r.stopped == "search" and not r.cause, (r.failed_phase, r.cause, r.reason)
     assert [p["phase"] for p in r.phases] == ["mapping"]
     assert r.map_image is not None

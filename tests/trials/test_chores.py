@@ -1,5 +1,7 @@
 """Chores in a buyer's verdict (trials/chores.py): `object:room` read from the command
-line, and chores the carry trial cannot do reported with its reason instead of raised.
+line, chores the carry trial cannot do reported with its reason instead of raised, the
+homes and chores of `robotrial bench chores`, a chore's time by what it was spent on,
+and which homes the robot explores on its own.
 A chore the trial does run is the carry trial itself (tests/trials/test_carry.py); the
 whole verdict with chores is measured by `robotrial bench verdict --chores`."""
 
@@ -7,11 +9,13 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from robotrial.cli import main
 from robotrial.model import load_world
-from robotrial.trials.chores import parse_chore, run_chores
+from robotrial.trials.carry import CarrySetup, run_carry
+from robotrial.trials.chores import parse_chore, run_chores, split_object, time_shares
 
 
 def test_a_chore_is_object_colon_room() -> None:
@@ -19,6 +23,17 @@ def test_a_chore_is_object_colon_room() -> None:
     for bad in ("cup", "cup:", ":bedroom", "cup bedroom"):
         with pytest.raises(ValueError, match="OBJECT:ROOM"):
             parse_chore(bad)
+
+
+def test_a_chore_may_name_the_furniture_the_object_is_on() -> None:
+    obj, room = parse_chore("cup@kitchen_table:bedroom")
+    assert (split_object(obj), room) == (("cup", "kitchen_table"), "bedroom")
+    assert split_object("cup") == ("cup", "")
+    for bad in ("cup@:bedroom", "@table:bedroom"):
+        with pytest.raises(ValueError, match="cup@kitchen_table:bedroom"):
+            parse_chore(bad)
+    with pytest.raises(ValueError, match="'cup' is not furniture"):
+        run_carry(CarrySetup(on="cup"), 0)  # an object, not furniture
 
 
 def test_chores_the_trial_cannot_do_are_reported_not_raised() -> None:
@@ -73,3 +88,59 @@ def test_a_chore_naming_no_object_of_the_home_is_refused_in_the_verdict(tmp_path
     assert report["summary"].endswith("chores: 0 of 1")
     assert main(["verdict", "--world", world, "--chore", "cup"]) == 2
     assert "OBJECT:ROOM" in capsys.readouterr().err
+
+
+def test_chore_homes_have_small_rooms_a_dock_anywhere_and_chores_between_rooms() -> None:
+    from robotrial.benchmarks.chores import chore_homes
+    from robotrial.model.homegen import DOCK_CLEAR
+
+    homes = chore_homes(3)
+    docks = set()
+    for seed, world, chores in homes:
+        for room in world.rooms:
+            (x0, y0), (x1, y1) = room.bounds
+            assert min(x1 - x0, y1 - y0) >= 2.7 - 1e-9, (seed, room.name)
+        x, y = world.spawn("default").xyz[:2]
+        assert any(r.contains(x, y) for r in world.rooms)
+        for f in world.obstacles:
+            if f.kind == "furniture":
+                fx, fy = f.pose.xyz[:2]
+                assert np.hypot(x - fx, y - fy) >= DOCK_CLEAR, (seed, f.name)
+        docks.add(next(r.name for r in world.rooms if r.contains(x, y)))
+        assert 1 <= len(chores) <= 3
+        for obj, to in chores:
+            ob = world.body(obj)
+            here = next(r for r in world.rooms if r.contains(*ob.pose.xyz[:2]))
+            assert here.name != to and world.room(to).place is not None
+    assert len(docks) > 1  # not always the first room
+
+
+def test_a_chores_time_is_split_into_exploring_navigating_searching_manipulating() -> None:
+    phases = [
+        {"phase": "mapping", "start": 0.0, "time": 60.0},
+        {"phase": "search", "start": 60.0, "time": 10.0},
+        {"phase": "navigation", "start": 70.0, "time": 20.0},
+        {"phase": "pick", "start": 90.0, "time": 15.0},
+        {"phase": "carry", "start": 105.0, "time": 25.0},
+        {"phase": "place", "start": 130.0, "time": 5.0},
+    ]
+    assert time_shares(phases) == {
+        "exploring": 60.0,
+        "navigating": 45.0,
+        "searching": 10.0,
+        "manipulating": 20.0,
+    }
+    assert sum(time_shares(phases[:2]).values()) == 70.0  # a run that stopped in search
+
+
+def test_a_home_without_a_route_is_explored_and_the_apartment_keeps_its_route() -> None:
+    from robotrial.trials.carry import ROUTES, CarrySetup, mapping_route
+    from robotrial.trials.nav_goals import _footprint, named_world
+
+    home = named_world("home:1:2")
+    apartment = load_world("apartment")
+    fp = _footprint()
+    assert mapping_route(CarrySetup(world=home), home, fp) == []
+    assert mapping_route(CarrySetup(), apartment, fp) == ROUTES["apartment"]
+    assert mapping_route(CarrySetup(mapping="frontier"), apartment, fp) == []
+    assert len(mapping_route(CarrySetup(world=home, mapping="route"), home, fp)) >= 2

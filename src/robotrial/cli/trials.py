@@ -52,9 +52,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     carry.add_argument("--seed", type=int, default=0)
     carry.add_argument(
         "--mapping",
-        choices=["route", "frontier"],
-        default="route",
-        help="map along the given route, or explore by frontiers on its own",
+        choices=["auto", "route", "frontier"],
+        default="auto",
+        help="map along the given route, or explore by frontiers on its own; auto: the "
+        "route where the world has one (the apartment), else frontiers",
     )
     carry.add_argument("-o", "--output", default="carry", help="folder for the MCAP, JSON and plot")
     add_json_flag(carry)

@@ -32,7 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         metavar="OBJECT:ROOM",
-        help="a task to run as the carry trial, e.g. cup:bedroom (repeatable; slow)",
+        help="a task to run as the carry trial, e.g. cup:bedroom, or cup@kitchen_table:bedroom "
+        "naming the furniture the cup should be on (repeatable; slow)",
     )
     parser.add_argument("--seeds", type=int, default=3, help="runs per chore (default 3)")
     parser.add_argument("-o", "--output", type=Path, help="write the figures as JSON here")

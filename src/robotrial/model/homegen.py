@@ -40,6 +40,8 @@ FURNITURE = (
     ("round table", 1.0, 1.0, 0.75),
 )
 OBJECTS = (("cup", 0.08), ("book", 0.06), ("can", 0.07))
+DOCK_WALL = 0.7  # m a dock drawn anywhere keeps from its room's walls
+DOCK_CLEAR = 0.75  # m and from every piece of furniture
 
 
 @dataclass(frozen=True)
@@ -49,7 +51,10 @@ class HomeSpec:
     at least `door_margin` from the ends of their wall, and an extra doorway between
     other neighbours with probability `extra_door`; up to `furniture_per_room` pieces a
     room, kept `furniture_gap` apart and out of `door_clear` in front of doorways; walls
-    `thickness` thick and `height` high."""
+    `thickness` thick and `height` high. The robot's dock (the `default` spawn) is the
+    middle of the first room, kept free of furniture, or with `dock_anywhere` a free spot
+    of a random room, drawn after the furniture. Each piece at table height carries an
+    object with probability `object_chance`."""
 
     rooms: tuple[int, int] = (2, 6)
     room_area: tuple[float, float] = (9.0, 18.0)
@@ -62,6 +67,8 @@ class HomeSpec:
     door_clear: float = 1.3
     thickness: float = 0.1
     height: float = 2.0
+    dock_anywhere: bool = False
+    object_chance: float = 0.5
 
     def __post_init__(self) -> None:
         lo, hi = self.rooms
@@ -188,7 +195,8 @@ def _furnish(
             keep_out.append((x - reach, y - spec.door_clear, x + reach, y + spec.door_clear))
     x0, y0, x1, y1 = rects[0]
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-    keep_out.append((cx - 0.9, cy - 0.7, cx + 0.9, cy + 0.7))  # where the robot starts
+    if not spec.dock_anywhere:
+        keep_out.append((cx - 0.9, cy - 0.7, cx + 0.9, cy + 0.7))  # where the robot starts
     furniture: list[dict] = []
     placed: list[tuple[float, ...]] = []
     counts: dict[str, int] = {}
@@ -230,7 +238,7 @@ def _furnish(
     objects: list[dict] = []
     seen: dict[str, int] = {}
     for f in furniture:
-        if not 0.4 <= f["height"] <= 1.0 or rng.random() < 0.5:
+        if not 0.4 <= f["height"] <= 1.0 or rng.random() < 1.0 - spec.object_chance:
             continue
         name, size = OBJECTS[int(rng.integers(len(OBJECTS)))]
         inset = np.array(f["size"]) / 2 - 0.15
@@ -243,6 +251,29 @@ def _furnish(
             {"name": label, "at": [_snap(at[0], 0.01), _snap(at[1], 0.01)], "size": size}
         )
     return furniture, objects
+
+
+def _dock(
+    rng: np.random.Generator, rects: list[list[float]], furniture: list[dict]
+) -> tuple[float, float]:
+    """A free spot of a random room for the robot's dock: DOCK_WALL from the room's
+    walls and DOCK_CLEAR from every piece of furniture (the first room's middle when
+    none is found)."""
+    boxes = []
+    for f in furniture:
+        (x, y), (w, d) = f["at"], f["size"]
+        boxes.append((x - w / 2, y - d / 2, x + w / 2, y + d / 2))
+    for _ in range(200):
+        x0, y0, x1, y1 = rects[int(rng.integers(len(rects)))]
+        p = (
+            _snap(float(rng.uniform(x0 + DOCK_WALL, x1 - DOCK_WALL))),
+            _snap(float(rng.uniform(y0 + DOCK_WALL, y1 - DOCK_WALL))),
+        )
+        spot = (p[0], p[1], p[0], p[1])
+        if all(_boxes_apart(spot, b, DOCK_CLEAR) for b in boxes):
+            return p
+    x0, y0, x1, y1 = rects[0]
+    return ((x0 + x1) / 2, (y0 + y1) / 2)
 
 
 def _overlaps(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
@@ -270,7 +301,7 @@ def home_plan(seed: int, rooms: int | None = None, spec: HomeSpec = HomeSpec()) 
         "doorways": doors,
         "furniture": furniture,
         "objects": objects,
-        "spawn": None,
+        "spawn": list(_dock(rng, rects, furniture)) if spec.dock_anywhere else None,
     }
     check_home(home)
     return home

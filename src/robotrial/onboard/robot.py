@@ -199,9 +199,9 @@ class Robot(Node):
 
     # --- mapping, then navigation ------------------------------------------------------
 
-    def start_navigation(self, xy_tolerance: float, yaw_tolerance: float) -> None:
+    def start_navigation(self, xy_tolerance: float, yaw_tolerance: float, **changes) -> None:
         """Stop SLAM, start AMCL and the navigator on the map SLAM built, from SLAM's
-        last pose."""
+        last pose (the navigator's settings with `changes`, NavigatorConfig fields)."""
         if self.slam_node is None or self.setup.navigator is None or self.setup.footprint is None:
             raise ValueError(
                 "robot: navigating needs SLAM, the navigator's settings and a footprint"
@@ -223,6 +223,7 @@ class Robot(Node):
                 **self.setup.navigator.__dict__,
                 "xy_tolerance": xy_tolerance,
                 "yaw_tolerance": yaw_tolerance,
+                **changes,
             }
         )
         self.nav_node = NavNode(

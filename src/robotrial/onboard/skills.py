@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Generator, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -40,6 +40,7 @@ from robotrial.nav.amcl import compose, inverse
 from robotrial.nav.navigator import Status
 from robotrial.nav.tour import open_spot
 from robotrial.onboard.catalogue import Catalogue, ObjectKind
+from robotrial.onboard.explore import MARGIN as EXPLORE_MARGIN
 from robotrial.onboard.explore import Explorer, follow_route
 from robotrial.onboard.perception import (
     MIN_SIDE_POINTS,
@@ -73,6 +74,12 @@ KEYFRAME_RADIUS = 4.0  # m, nodes whose scans a work site's scans are matched to
 KEYFRAME_POINTS = 100  # a scan's hits on the nodes' lines, fewer and the map's match stands
 HEADINGS = 6  # looks per turn on the spot while searching
 SEARCH_SPOTS = 3  # places in a room to search from
+LOOK_HERE = 0.3  # m: a place to look from this near the robot is looked from where it stands
+WALL_INSET = 0.1  # m in from a room's sides where the map's occupied cells are furniture
+FURNITURE_CELLS = 6  # occupied cells a piece of furniture shows on the map at least
+LOOK_AT = (0.7, 1.8)  # m from a piece of furniture's nearest cell a look at its top is taken
+LOOK_MARGINS = (0.1, 0.02)  # m of clearance beyond the footprint's turning circle, tried in turn
+ON_TOP = 0.3  # m: an object this near a piece's cells stands on it
 NAV_TRIES = 3  # work sites the navigator may fail to reach before a skill gives up
 FAR_LOOK = 1  # pixel stride of a look from afar (every other pixel: none found past 2.2 m)
 NEAR_LOOK = 1  # pixel stride of a look at the object up close
@@ -143,6 +150,10 @@ class SkillLog:
     target: np.ndarray | None = None  # the object's centre (map) as seen before the grasp
     held_correction: float | None = None  # m the head camera moved the object in the hand
     exploration: list[dict[str, Any]] = field(default_factory=list)  # frontier goals driven
+    # where the search found the object: room, the furniture's centre (map; None when
+    # the map shows none under it), the object (map), the top's height
+    found: dict[str, Any] | None = None
+    not_on: str = ""  # the furniture named in the order, looked at without the object
 
 
 class Skills:
@@ -199,7 +210,16 @@ class Skills:
 
     def start_navigation(self) -> Iterator[None]:
         """From mapping to navigating on the built map (AMCL from SLAM's last pose)."""
-        self.robot.start_navigation(xy_tolerance=0.08, yaw_tolerance=0.08)
+        nav = self.robot.setup.navigator
+        assert nav is not None
+        # on SLAM's own cells, as exploring drove (a map coarsened to 5 cm narrows a
+        # doorway of 0.8 m by up to 10 cm, too narrow for the footprint)
+        self.robot.start_navigation(
+            xy_tolerance=0.08,
+            yaw_tolerance=0.08,
+            costmap_resolution=None,
+            hybrid=replace(nav.hybrid, margin=EXPLORE_MARGIN),
+        )
         yield from self.wait(0.05)  # the navigation node hears the odometry first
         self.robot.publish_map()
         grid = self.robot.grid
@@ -349,35 +369,118 @@ class Skills:
         return Look(base, surfaces, sightings, len(found) - len(sightings))
 
     def search(
-        self, kind: ObjectKind, room: str, bounds: tuple[tuple[float, float], tuple[float, float]]
+        self,
+        kind: ObjectKind,
+        room: str,
+        bounds: tuple[tuple[float, float], tuple[float, float]],
+        on: tuple[str, tuple[tuple[float, float], tuple[float, float]]] | None = None,
     ) -> Generator[None, None, Sighting]:
-        """Find an object of `kind` in a room (bounds in the map frame): from a few open
-        spots of the room, turn on the spot and look around."""
+        """Find an object of `kind` in a room (bounds in the map frame): first on the
+        furniture tops the built map shows in the room, each looked at from a free pose
+        facing it, nearest first (the pieces under `on`, a named piece's rectangle in the
+        map frame, before all others); then from a few open spots of the room, turning on
+        the spot. `log.found` says where it was found; `not_seen` says where it was not."""
         yield from self.arm_to_pose("stow")
-        spots = self._spots(bounds)
-        looks = 0
+        pieces = furniture_tops(self.map_walls, self.map_origin, self.map_res, bounds)
+        named = [k for k, p in enumerate(pieces) if on is not None and overlaps(p, on[1])]
+        views = []
+        for index, piece in enumerate(pieces):
+            for extra in LOOK_MARGINS:  # room to turn to spare, else just room to turn
+                margin = self.footprint.circumscribed_radius + extra
+                at = (self.clearance, self.map_origin, self.map_res, bounds, margin)
+                pose = look_pose(piece, *at)
+                if pose is not None:
+                    views.append((piece, pose, index))
+                    break
+        looks = places = 0
         failed: list[np.ndarray] = []
+        here = self.robot.pose()[:2]
+        self.log.not_on = ""
+        while views:
+            first = [i for i, v in enumerate(views) if v[2] in named] or range(len(views))
+            k = min(first, key=lambda i: np.hypot(*(views[i][1][:2] - here)))
+            piece, pose, index = views.pop(k)
+            if on is not None and index not in named and named and not self.log.not_on:
+                self.log.not_on = on[0]  # every view of the named piece was taken
+            if not (
+                yield from self._look_from(
+                    pose, f"a place to look at furniture in the {room}", failed
+                )
+            ):
+                continue
+            here = self.robot.pose()[:2]
+            looks += 1
+            places += 1
+            best = self._look_for(kind, pieces, room, on)
+            if best is not None:
+                return best
+        if named and on is not None:
+            self.log.not_on = on[0]
+        spots = self._spots(bounds)
         for spot in spots:
             centre = np.mean(np.asarray(bounds), axis=0)
             yaw = float(np.arctan2(centre[1] - spot[1], centre[0] - spot[0]))
             if np.hypot(*(spot - centre)) < 0.3:
                 yaw = self.robot.pose()[2]
-            goal = np.array([spot[0], spot[1], yaw])
             if not (
-                yield from self.reach_stage(goal, f"a place to look from in the {room}", failed)
+                yield from self._look_from(
+                    np.array([spot[0], spot[1], yaw]), f"a place to look from in the {room}", failed
+                )
             ):
                 continue
+            places += 1
+            yaw = float(self.robot.pose()[2])
             for k in range(HEADINGS):
                 if k:
                     yield from self.turn_to(yaw + 2 * np.pi * k / HEADINGS)
                 looks += 1
-                seen = [s for s in self.look().sightings if s.kind.name == kind.name]
-                if seen:
-                    return min(seen, key=lambda s: s.detection.error)
+                best = self._look_for(kind, pieces, room, on)
+                if best is not None:
+                    return best
         raise SkillFailed(
             "not_seen",
-            f"the {kind.name} was not seen in {looks} looks from {len(spots)} places in the {room}",
+            f"the {kind.name} is not in the {room}: not on its {len(pieces)} furniture tops "
+            f"the map shows, nor seen in {looks} looks from {places} places"
+            + (f" (the {on[0]} is not on the map in the {room})" if on and not named else ""),
         )
+
+    def _look_for(
+        self, kind: ObjectKind, pieces: list[np.ndarray], room: str, on
+    ) -> Sighting | None:
+        """One look for an object of `kind`: the best match, noted where found, or None."""
+        seen = [s for s in self.look().sightings if s.kind.name == kind.name]
+        if not seen:
+            return None
+        best = min(seen, key=lambda s: s.detection.error)
+        self._found(best, pieces, room, on)
+        return best
+
+    def _look_from(
+        self, pose: np.ndarray, why: str, failed: list[np.ndarray]
+    ) -> Generator[None, None, bool]:
+        """Go to a pose to look from (map x, y, yaw): drive there, or when it is this
+        near (LOOK_HERE; no motion of the footprint plans so short a move) turn where the
+        robot stands. False when the navigator gave up (`reach_stage`)."""
+        if np.hypot(*(pose[:2] - self.robot.pose()[:2])) < LOOK_HERE:
+            yield from self.turn_to(float(pose[2]))
+            return True
+        return (yield from self.reach_stage(pose, why, failed))
+
+    def _found(self, seen: Sighting, pieces: list[np.ndarray], room: str, on) -> None:
+        """Note where the object was found: on which furniture top of the map (its
+        centre; the named one when it lies under `on`), how high, in which room, and
+        whether the named furniture was looked at without it."""
+        at = seen.position[:2]
+        near = [p for p in pieces if np.min(np.hypot(*(p - at).T)) < ON_TOP]
+        self.log.found = {
+            "on": on[0] if on is not None and near and overlaps(near[0], on[1]) else "",
+            "not_on": self.log.not_on,
+            "room": room,
+            "furniture": near[0].mean(axis=0) if near else None,
+            "at": np.array(at, dtype=float),
+            "top": float(seen.detection.surface),
+        }
+        log.info("found the %s in the %s: %s", seen.kind.name, room, self.log.found)
 
     def _spots(self, bounds) -> list[np.ndarray]:
         """Places to search a room from: its most open spot, then those of its halves
@@ -961,6 +1064,74 @@ class Skills:
             if self._reaches(compose(base, np.array([shift, 0.0, 0.0])), point, kind):
                 yield from self.straight(shift, speed=0.06)
                 return
+
+
+def furniture_tops(
+    occupied: np.ndarray, origin: np.ndarray, res: float, bounds
+) -> list[np.ndarray]:
+    """The pieces of furniture of a room on a built map: the connected occupied cells
+    (`occupied`, rows y) inside the room's rectangle (`bounds`, map frame) shrunk by
+    WALL_INSET, so its walls are left out, each of FURNITURE_CELLS cells or more; each
+    piece as its cells' centres (N, 2)."""
+    (x0, y0), (x1, y1) = bounds
+    c0 = max(int(np.ceil((x0 + WALL_INSET - origin[0]) / res)), 0)
+    r0 = max(int(np.ceil((y0 + WALL_INSET - origin[1]) / res)), 0)
+    c1 = min(int(np.floor((x1 - WALL_INSET - origin[0]) / res)), occupied.shape[1])
+    r1 = min(int(np.floor((y1 - WALL_INSET - origin[1]) / res)), occupied.shape[0])
+    if c1 <= c0 or r1 <= r0:
+        return []
+    labels, n = ndimage.label(occupied[r0:r1, c0:c1], structure=np.ones((3, 3)))
+    pieces = []
+    for k in range(1, n + 1):
+        rows, cols = np.nonzero(labels == k)
+        if len(rows) >= FURNITURE_CELLS:
+            xy = np.column_stack([cols + c0 + 0.5, rows + r0 + 0.5]) * res + origin
+            pieces.append(xy)
+    return pieces
+
+
+def overlaps(piece: np.ndarray, rect: tuple[tuple[float, float], tuple[float, float]]) -> bool:
+    """Whether any cell of a piece of furniture (N, 2) lies in a rectangle grown by
+    ON_TOP (a named piece's outline on the plan, in the map frame)."""
+    (x0, y0), (x1, y1) = rect
+    inside = (
+        (piece[:, 0] >= x0 - ON_TOP)
+        & (piece[:, 0] <= x1 + ON_TOP)
+        & (piece[:, 1] >= y0 - ON_TOP)
+        & (piece[:, 1] <= y1 + ON_TOP)
+    )
+    return bool(inside.any())
+
+
+def look_pose(
+    piece: np.ndarray,
+    clearance: np.ndarray,
+    origin: np.ndarray,
+    res: float,
+    bounds,
+    margin: float,
+) -> np.ndarray | None:
+    """A pose (map x, y, yaw) to look at a piece of furniture's top from: a cell of the
+    room with `margin` of clearance, LOOK_AT from the piece's nearest cell (of those the
+    one with the most clearance, so the base stops clear of everything), facing the
+    piece's centre; None when the room has no such cell."""
+    (x0, y0), (x1, y1) = bounds
+    c0, r0 = max(int((x0 - origin[0]) / res), 0), max(int((y0 - origin[1]) / res), 0)
+    c1 = min(int(np.ceil((x1 - origin[0]) / res)), clearance.shape[1])
+    r1 = min(int(np.ceil((y1 - origin[1]) / res)), clearance.shape[0])
+    rows, cols = np.nonzero(clearance[r0:r1, c0:c1] >= margin)
+    if not len(rows):
+        return None
+    xy = np.column_stack([cols + c0 + 0.5, rows + r0 + 0.5]) * res + origin
+    gap = np.min(np.linalg.norm(xy[:, None, :] - piece[None, ::4, :], axis=2), axis=1)
+    ok = (gap >= LOOK_AT[0]) & (gap <= LOOK_AT[1])
+    if not ok.any():
+        return None
+    room = clearance[r0:r1, c0:c1][rows, cols]
+    i = int(np.flatnonzero(ok)[np.argmax(room[ok])])
+    centre = piece.mean(axis=0)
+    yaw = float(np.arctan2(centre[1] - xy[i, 1], centre[0] - xy[i, 0]))
+    return np.array([xy[i, 0], xy[i, 1], yaw])
 
 
 def arm_reach(planner: TaskPlanner) -> tuple[np.ndarray, float]:

@@ -51,7 +51,11 @@ class Plan:
         if name not in self.rooms:
             have = ", ".join(self.rooms) or "none"
             raise KeyError(f"the plan has no room {name!r}; its rooms: {have}")
-        (x0, y0), (x1, y1) = self.rooms[name]
+        return self.rect_in_map(self.rooms[name])
+
+    def rect_in_map(self, rect: Rect) -> Rect:
+        """A rectangle of the plan in the map frame (the box around its corners)."""
+        (x0, y0), (x1, y1) = rect
         corners = np.array([self.to_map(x, y) for x in (x0, x1) for y in (y0, y1)])
         lo, hi = corners.min(axis=0), corners.max(axis=0)
         return (float(lo[0]), float(lo[1])), (float(hi[0]), float(hi[1]))
@@ -60,12 +64,14 @@ class Plan:
 @dataclass(frozen=True)
 class CarryOrder:
     """Bring the `object` (a kind of the catalogue) from room `find_in` to room `to` and
-    set it down at `place` (plan x, y)."""
+    set it down at `place` (plan x, y); `on`, when the order names it, the furniture the
+    object should be on, with its outline on the plan ("the cup on the kitchen table")."""
 
     object: str
     find_in: str
     to: str
     place: tuple[float, float]
+    on: tuple[str, Rect] | None = None
 
 
 @dataclass
@@ -150,7 +156,9 @@ class CarryTask:
         yield from s.explore(route, self.speed)  # type: ignore[arg-type]
         yield from s.start_navigation()
         self._begin("search")
-        seen = yield from s.search(self.kind, order.find_in, plan.room_in_map(order.find_in))
+        on = None if order.on is None else (order.on[0], plan.rect_in_map(order.on[1]))
+        bounds = plan.room_in_map(order.find_in)
+        seen = yield from s.search(self.kind, order.find_in, bounds, on)
         self._begin("navigation")
         seen = yield from s.approach(seen)
         self._begin("pick")

@@ -11,7 +11,9 @@ for contacts and scores the end against the truth. The robot side is told only:
   `mapping='route'` the mapping route (`ROUTES`, waypoints given in advance, as a
   teleoperated mapping run would; for a world without one, a tour of its rooms made from
   its plan, `exploration_route`); with `mapping='frontier'` no route: the robot explores
-  on its own (`onboard.explore`);
+  on its own (`onboard.explore`). The default, `mapping='auto'`, takes the given route
+  where `ROUTES` has one (the apartment) and explores by frontiers everywhere else (a
+  drawn or generated home);
 - the order: the object's kind, the room it is in, the room to take it to and the point
   there to set it down (the room's `place`);
 - the catalogue of object kinds (shape, size, colour; no poses).
@@ -71,9 +73,17 @@ from robotrial.sim.controllers import DriveLimits
 from robotrial.trials.nav import ContactWatch, footprint_of, navigator_config
 from robotrial.trials.slam import make_slam
 
-__all__ = ["PHASES", "ROUTES", "CarryResult", "CarrySetup", "exploration_route", "run_carry"]
+__all__ = [
+    "PHASES",
+    "ROUTES",
+    "CarryResult",
+    "CarrySetup",
+    "exploration_route",
+    "mapping_route",
+    "run_carry",
+]
 
-MAPPINGS = ("route", "frontier")
+MAPPINGS = ("auto", "route", "frontier")
 PLACE_TOLERANCE = 0.03  # m, object centre to the place point, in the plane
 UPRIGHT = np.deg2rad(10.0)  # largest tilt of an object that stood upright
 OBJECTS_TOPIC = "/ground_truth/objects"  # the objects' true poses, for scoring and plots
@@ -149,6 +159,21 @@ def exploration_route(world: World, footprint: Footprint) -> list[tuple[float, f
     return route
 
 
+def mapping_route(
+    setup: CarrySetup, world: World, footprint: Footprint
+) -> list[tuple[float, float]]:
+    """The route the robot is given to map the home along (world x, y), or none (it
+    explores by frontiers): `setup.mapping` 'route' gives the world's route in ROUTES or a
+    tour made from its plan, 'frontier' none, 'auto' the route in ROUTES if there is one,
+    else none."""
+    given = isinstance(setup.world, str) and setup.world in ROUTES
+    if setup.mapping == "frontier" or (setup.mapping == "auto" and not given):
+        return []
+    if given:
+        return list(ROUTES[setup.world])  # type: ignore[index]
+    return exploration_route(world, footprint)
+
+
 def object_kind(ob: Obstacle) -> ObjectKind:
     """An object of the world as a kind of the catalogue: its shape, size and colour
     (never its pose)."""
@@ -193,7 +218,10 @@ class CarrySetup:
     robot: str = "mobile_manipulator"
     planner: str = "rrt_connect"
     time_limit: float = 600.0  # s, simulated
-    mapping: str = "route"  # 'route': the given route; 'frontier': it explores on its own
+    # 'route': the given route; 'frontier': it explores on its own; 'auto': the route
+    # where ROUTES has one for the world, else frontiers
+    mapping: str = "auto"
+    on: str = ""  # the furniture the order says the object is on (a body name), or none
 
     def __post_init__(self) -> None:
         if not self.speed > 0:
@@ -208,8 +236,8 @@ class CarrySetup:
 class CarryResult:
     """What a run gave: success, the phase that failed with its cause and reason, each
     phase's simulated and wall time, the final object error, contacts, what the robot saw
-    and how far that was from the truth, the paths and joint curves, the oracles used
-    (none)."""
+    and how far that was from the truth, where it found the object (`found`, on the
+    plan), the paths and joint curves, the oracles used (none)."""
 
     seed: int
     success: bool
@@ -225,6 +253,7 @@ class CarryResult:
     collision: str = ""
     grasp: str = ""
     looks: int = 0
+    found: str = ""
     stopped: str = ""
     oracles: list[str] = field(default_factory=list)
     arm_plans: list[dict[str, Any]] = field(default_factory=list)
@@ -257,6 +286,7 @@ class CarryResult:
             "collision": self.collision,
             "grasp": self.grasp,
             "looks": self.looks,
+            "found": self.found,
             "stopped": self.stopped,
             "arm_plans": self.arm_plans,
         }
@@ -279,6 +309,7 @@ class CarryTrial(Node):
         if not found_in:
             raise ValueError(f"carry trial: the {setup.object} stands in no room of the plan")
         self.setup, self.seed, self.world, self.model = setup, seed, world, robot
+        named = self._named(world)
         off = StreamSettings(enabled=False)
         streams = {s.name: off for s in robot.sensors if s.type not in ("lidar",)}
         self.sim = Simulation.create(
@@ -305,18 +336,13 @@ class CarryTrial(Node):
         limits = DriveLimits.from_metadata(robot.metadata.get("drive", {}) or {})
         speed = min(setup.speed, limits.max_speed)
         footprint = footprint_of(self.sim)
-        if setup.mapping == "frontier":
-            route: list[tuple[float, float]] = []
-        elif isinstance(setup.world, str) and setup.world in ROUTES:
-            route = list(ROUTES[setup.world])
-        else:
-            route = exploration_route(world, footprint)
+        route = mapping_route(setup, world, footprint)
         plan = Plan(
             start=(float(spawn.xyz[0]), float(spawn.xyz[1]), float(spawn.yaw)),
             rooms={r.name: r.bounds for r in world.rooms},
             route=tuple(route),
         )
-        order = CarryOrder(setup.object, found_in[0].name, setup.to, self.room.place)
+        order = CarryOrder(setup.object, found_in[0].name, setup.to, self.room.place, named)
         robot_setup = RobotSetup(
             model=robot,
             footprint=footprint,
@@ -447,6 +473,41 @@ class CarryTrial(Node):
         c, s = np.cos(self.spawn[2]), np.sin(self.spawn[2])
         return self.spawn[:2] + np.array([c * p[0] - s * p[1], s * p[0] + c * p[1]])
 
+    def _named(self, world: World) -> tuple[str, tuple[tuple[float, float], ...]] | None:
+        """The furniture the order names (`setup.on`) with its outline on the plan, or
+        None; a ValueError when the world has no such furniture."""
+        name = self.setup.on
+        if not name:
+            return None
+        body = world.body(name)
+        if body.kind != "furniture":
+            raise ValueError(f"carry trial: {name!r} is not furniture, so nothing stands on it")
+        g = body.geometry
+        half = (
+            (g.size[0] / 2, g.size[1] / 2)
+            if isinstance(g, BoxShape)
+            else (g.radius, g.radius)
+            if isinstance(g, Cylinder)
+            else (0.0, 0.0)
+        )  # type: ignore[union-attr]
+        x, y, yaw = float(body.pose.xyz[0]), float(body.pose.xyz[1]), float(body.pose.yaw)
+        c, s = abs(np.cos(yaw)), abs(np.sin(yaw))
+        hx, hy = c * half[0] + s * half[1], s * half[0] + c * half[1]
+        return name, ((x - hx, y - hy), (x + hx, y + hy))
+
+    def _found_words(self, found: dict[str, Any]) -> str:
+        """Where the robot found the object, on the plan: its room and the furniture top
+        (the named one, or the piece's centre as the robot mapped it)."""
+        top = f"{found['top']:.2f} m high"
+        before = f"not on the {found['not_on']}; " if found["not_on"] else ""
+        if found["on"]:
+            return f"{before}in the {found['room']}, on the {found['on']}, {top}"
+        if found["furniture"] is None:
+            x, y = self._to_world(found["at"])
+            return f"{before}in the {found['room']}, on a surface {top} at ({x:.2f}, {y:.2f})"
+        x, y = self._to_world(found["furniture"])
+        return f"{before}in the {found['room']}, on the furniture top at ({x:.2f}, {y:.2f}), {top}"
+
     # --- the result --------------------------------------------------------------------
 
     def _score(self) -> None:
@@ -500,6 +561,8 @@ class CarryTrial(Node):
         r.phases = out.phases
         r.sim_time = self.sim.world.time
         r.grasp, r.arm_plans, r.looks = log.grasp, log.arm_plans, len(log.looks)
+        if log.found is not None:
+            r.found = self._found_words(log.found)
         if log.target is not None:
             seen = self._to_world(log.target)
             truth = self.start_poses[self.setup.object]

@@ -1,7 +1,9 @@
 """Chores in a buyer's verdict: "take the cup to the bedroom", run as carry trials
 (layer 5).
 
-A chore is an (object, destination room) pair, written `cup:bedroom`. Each runs as the
+A chore is an (object, destination room) pair, written `cup:bedroom`; the object may
+name the furniture it should be on, `cup@kitchen_table:bedroom` (the robot looks there
+first and says whether it was there). Each runs as the
 carry trial (`trials/carry.py`: map, search, navigate, pick, carry, place, with the
 robot side seeing only through its sensors) over a few seeds; the verdict keeps the
 success rate, the simulated time of the successful runs, and the phase each failure
@@ -26,18 +28,72 @@ from robotrial.model.world import World
 
 
 def parse_chore(text: str) -> tuple[str, str]:
-    """`object:room` to (object, room); a clear error for anything else."""
+    """`object:room` (or `object@furniture:room`) to (object, room); a clear error for
+    anything else."""
     obj, sep, room = str(text).partition(":")
     if not sep or not obj.strip() or not room.strip():
         raise ValueError(f"chore {text!r}: write it as OBJECT:ROOM, e.g. cup:bedroom")
+    split_object(obj, text)
     return obj.strip(), room.strip()
+
+
+def split_object(obj: str, chore: str = "") -> tuple[str, str]:
+    """A chore's object, `cup` or `cup@kitchen_table` (the furniture it should be on), to
+    (object, furniture or "")."""
+    name, at, on = obj.partition("@")
+    if at and (not name.strip() or not on.strip()):
+        raise ValueError(
+            f"chore {chore or obj!r}: name the furniture after the object, e.g. "
+            "cup@kitchen_table:bedroom"
+        )
+    return name.strip(), on.strip()
+
+
+def home_chores(world: World, n: int = 3) -> list[tuple[str, str]]:
+    """Up to `n` chores a world offers: each movable object standing in a room, to
+    another room with a place to set it down; one chore per object before any object
+    gets a second (objects and rooms in the world's order)."""
+    options: list[list[tuple[str, str]]] = []
+    for ob in world.objects:
+        x, y = ob.pose.xyz[:2]
+        inside = [r.name for r in world.rooms if r.contains(x, y)]
+        if inside:
+            to = [r.name for r in world.rooms if r.place is not None and r.name != inside[0]]
+            options.append([(ob.name, room) for room in to])
+    out: list[tuple[str, str]] = []
+    for k in range(max((len(o) for o in options), default=0)):
+        out += [o[k] for o in options if k < len(o)]
+    return out[:n]
+
+
+PHASE_SHARES = {
+    "mapping": "exploring",
+    "search": "searching",
+    "navigation": "navigating",
+    "carry": "navigating",
+    "pick": "manipulating",
+    "place": "manipulating",
+}
+
+
+def time_shares(phases: Sequence[dict[str, Any]]) -> dict[str, float]:
+    """A run's simulated time (s) spent exploring, navigating, searching and
+    manipulating, from its phases (`PHASE_SHARES`: the carry phase, driving to the place
+    with the object held, counts as navigating)."""
+    shares = dict.fromkeys(("exploring", "navigating", "searching", "manipulating"), 0.0)
+    for p in phases:
+        what = PHASE_SHARES.get(p["phase"])
+        if what is not None:
+            shares[what] = round(shares[what] + float(p["time"]), 2)
+    return shares
 
 
 @dataclass
 class ChoreVerdict:
     """One chore over its seeds: successes of runs, mean simulated time (s) of the
-    successful runs, the failed phases by count, each run's outcome, or why the trial
-    refused it (`refused`)."""
+    successful runs and its mean share exploring, navigating, searching, manipulating
+    (`shares`, s; `time_shares`), the failed phases by count, each run's outcome, or why
+    the trial refused it (`refused`)."""
 
     object: str
     room: str
@@ -48,6 +104,7 @@ class ChoreVerdict:
     outcomes: list[dict[str, Any]] = field(default_factory=list)
     refused: str = ""
     wall_time: float = 0.0
+    shares: dict[str, float] | None = None
 
     @property
     def name(self) -> str:
@@ -72,6 +129,7 @@ class ChoreVerdict:
             "success_rate": round(self.rate, 3),
             "done": self.done,
             "mean_time": None if self.mean_time is None else round(self.mean_time, 2),
+            "shares": self.shares,
             "failed_phases": self.failed_phases,
             "outcomes": self.outcomes,
             "refused": self.refused,
@@ -140,7 +198,8 @@ def run_chores(
         times = []
         for seed in range(seeds if not unable else 0):
             name = robot if isinstance(robot, str) else robot.name
-            setup = CarrySetup(world=_world_ref(world), object=obj, to=room, robot=name)
+            thing, on = split_object(obj)
+            setup = CarrySetup(world=_world_ref(world), object=thing, to=room, robot=name, on=on)
             done, label = i * seeds + seed, f"chore {obj}:{room}, seed {seed}"
 
             def phase(name: str, _sim_time: float, done: int = done, label: str = label) -> None:
@@ -164,6 +223,8 @@ def run_chores(
                     "cause": r.cause,
                     "reason": r.reason,
                     "sim_time": round(r.sim_time, 2),
+                    "shares": time_shares(r.phases),
+                    "found": r.found,
                 }
             )
             if r.success:
@@ -173,6 +234,9 @@ def run_chores(
                 v.failed_phases[r.failed_phase] = v.failed_phases.get(r.failed_phase, 0) + 1
         v.refused = v.refused or unable
         v.mean_time = float(np.mean(times)) if times else None
+        done = [o["shares"] for o in v.outcomes if o["success"]]
+        if done:
+            v.shares = {k: round(float(np.mean([d[k] for d in done])), 2) for k in done[0]}
         v.wall_time = time.perf_counter() - t0
         out.append(v)
     return out

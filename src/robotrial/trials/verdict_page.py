@@ -262,12 +262,18 @@ def _tables(v: HomeVerdict) -> str:
                 COLOURS["green" if c.done else "red"],
             )
             + _cell("" if c.mean_time is None else f"{c.mean_time:.0f}")
+            + _cell(
+                ""
+                if c.shares is None
+                else ", ".join(f"{what} {t:.0f}" for what, t in c.shares.items())
+            )
             + _cell(", ".join(f"{p} ({n})" for p, n in c.failed_phases.items()))
             + "</tr>"
             for c in v.chores
         )
         out.append(
             "<table><tr><th>chore</th><th>succeeded</th><th>time (s, simulated)</th>"
+            "<th>of which (s)</th>"
             f"<th>failed in</th></tr>{chores}</table>"
         )
     return "\n".join(out)

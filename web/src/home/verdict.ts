@@ -111,7 +111,8 @@ function differences(a: RobotVerdict, b: RobotVerdict): { lines: string[]; rooms
   return { lines: lines.length ? lines : [W.same], rooms };
 }
 
-/** One chore's result as a sentence: done x of n, the time, or where and why it failed. */
+/** One chore's result as a sentence: done x of n, the time and where it went (exploring,
+ * navigating, searching, manipulating), or where and why it failed. */
 export function choreText(c: Record<string, unknown>): string {
   const name = W.chore(String(c.object ?? ""), String(c.room ?? ""));
   if (c.refused) return W.choreRefused(name, String(c.refused));
@@ -122,7 +123,9 @@ export function choreText(c: Record<string, unknown>): string {
     .map((o) => o as Record<string, unknown>)
     .filter((o) => !o.success)
     .map((o) => W.choreFailure(Number(o.seed), String(o.failed_phase ?? ""), String(o.reason ?? "")));
-  return [W.choreDone(name, ok, runs, time), ...failures].join(" ");
+  const shares = c.shares && typeof c.shares === "object" ? (c.shares as Record<string, number>) : null;
+  const parts = shares ? [W.choreShares(shares)] : [];
+  return [W.choreDone(name, ok, runs, time), ...parts, ...failures].join(" ");
 }
 
 /** The parts the editor lends the view. */

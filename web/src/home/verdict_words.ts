@@ -58,6 +58,12 @@ export const VERDICT_WORDS = {
   choreDone: (name: string, ok: number, runs: number, time: number | null) =>
     `${name}: ${ok === runs && runs > 0 ? "done" : "not done"}, ${ok} of ${runs} runs` +
     (time === null ? "." : `, ${time.toFixed(0)} s on average.`),
+  choreShares: (shares: Record<string, number>) =>
+    "Of that: " +
+    Object.entries(shares)
+      .map(([what, t]) => `${what} ${t.toFixed(0)} s`)
+      .join(", ") +
+    ".",
   choreFailure: (seed: number, phase: string, reason: string) =>
     `Run ${seed + 1} stopped in ${phase || "an unknown phase"}: ${reason}.`,
   choreRefused: (name: string, why: string) => `${name}: not tried: ${why}.`,

@@ -1,0 +1,179 @@
+"""`robotrial bench chores`: chores in generated homes, mapped by exploration (layer 5).
+
+Homes from the home generator with rooms of about 3 x 3 m (`CHORE_HOMES`: 2-4 rooms of
+8.5-9.5 m2, no side under 2.7 m), furniture along the walls, an object on every table and
+the robot's dock at a free spot of a random room. The homes are the first `--homes` seeds
+from `--first-home` on that offer a chore (`trials.chores.home_chores`: an object to
+another room with a place, the object one the robot's gripper closes across: the
+generator's 8 cm cups are as wide as the mobile manipulator's gripper opens, so only its
+books and cans are carried; nor an object with a twin of the same shape, size and
+colour in the home, which the camera cannot tell apart); each gets up to `--chores`
+chores (every home's first chore runs before any home's second), each run as the carry
+trial with no route (the robot maps by frontiers, `CarrySetup.mapping='auto'`). First, in
+the same run, the apartment's trial along its given route (cup to the bedroom), unless
+`--no-apartment`. Each row: success, the phase and cause of a failure, the simulated
+time and its share exploring, navigating, searching and manipulating. The JSON is
+rewritten after every chore, so a long run that is stopped keeps what it measured.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robotrial.console import add_json_flag, print_json, print_table, progress
+from robotrial.model.homegen import HomeSpec
+
+HELP = "chores in generated 3 x 3 m-room homes, mapped by frontiers: success, causes, time shares"
+
+CHORE_HOMES = HomeSpec(
+    rooms=(2, 4),
+    room_area=(8.5, 9.5),
+    min_side=2.7,
+    dock_anywhere=True,
+    object_chance=1.0,
+)
+ROBOT = "mobile_manipulator"
+SEARCHED_SEEDS = 200  # home seeds tried for homes that offer a chore
+APARTMENT = ("apartment", "apartment", ("cup", "bedroom"))  # the given-route trial, beside
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--homes", type=int, default=20, help="homes to run chores in")
+    parser.add_argument("--first-home", type=int, default=0, help="the first home seed tried")
+    parser.add_argument("--chores", type=int, default=3, help="chores a home")
+    parser.add_argument("--seed", type=int, default=0, help="simulation seed")
+    parser.add_argument("--time-limit", type=float, default=600.0, help="simulated seconds a chore")
+    parser.add_argument(
+        "--no-apartment",
+        action="store_true",
+        help="leave out the apartment's given-route trial (cup to the bedroom) run first",
+    )
+    parser.add_argument("-o", "--output", metavar="JSON", help="write the results there")
+    add_json_flag(parser)
+
+
+def chore_homes(
+    homes: int, first: int = 0, per_home: int = 3, grip: float = np.inf
+) -> list[tuple[int, Any, list]]:
+    """The first `homes` home seeds from `first` on whose home offers a chore with an
+    object the gripper holds (narrower than `grip`, m) and no twin of it in the home:
+    (seed, the World, its chores)."""
+    from robotrial.model.homegen import generate_home
+    from robotrial.trials.carry import catalogue_of
+    from robotrial.trials.chores import home_chores
+
+    out = []
+    for seed in range(first, first + SEARCHED_SEEDS):
+        if len(out) >= homes:
+            break
+        world = generate_home(seed, spec=CHORE_HOMES)
+        kinds = catalogue_of(world)
+        looks = [_look(kinds.kind(o.name)) for o in world.objects]
+        chores = [
+            (obj, room)
+            for obj, room in home_chores(world, 99)
+            if kinds.kind(obj).grip_width < grip and looks.count(_look(kinds.kind(obj))) == 1
+        ][:per_home]
+        if chores:
+            out.append((seed, world, chores))
+    return out
+
+
+def _look(kind: Any) -> tuple:
+    return (kind.shape, kind.size, kind.rgb)
+
+
+def gripper_opening(robot: str) -> float:
+    """How wide an object the robot's gripper closes across (m; as `Skills.approach`
+    allows, 5 mm under the fingers' full opening)."""
+    from robotrial.model import load_robot
+
+    grip = load_robot(robot).metadata.get("gripper") or {}
+    return 2 * abs(float(grip.get("open", 0.0)) - float(grip.get("closed", 0.0))) - 0.005
+
+
+def run(args: argparse.Namespace) -> int:
+    from robotrial.trials.carry import CarrySetup, run_carry
+    from robotrial.trials.chores import time_shares
+
+    if args.homes < 1 or args.chores < 1:
+        raise SystemExit("robotrial bench chores: --homes and --chores must be at least 1")
+    result: dict = {
+        "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
+        "date": time.strftime("%Y-%m-%d"),
+        "load_average": list(os.getloadavg()),
+        "seed": args.seed,
+        "rows": [],
+    }
+    homes = chore_homes(args.homes, args.first_home, args.chores, gripper_opening(ROBOT))
+    # every home's first chore before any home's second: a run stopped early covers the homes
+    rounds = max(len(chores) for _, _, chores in homes) if homes else 0
+    jobs: list[tuple[Any, Any, tuple[str, str]]] = [] if args.no_apartment else [APARTMENT]
+    jobs += [(s, w, chores[k]) for k in range(rounds) for s, w, chores in homes if k < len(chores)]
+    with progress("bench chores", total=len(jobs), enabled=not args.json) as advance:
+        for seed, world, (obj, room) in jobs:
+            row: dict[str, Any] = {
+                "home": seed,
+                "rooms": 5 if isinstance(world, str) else len(world.rooms),
+                "mapping": "route" if isinstance(world, str) else "frontier",
+                "chore": f"{obj}:{room}",
+            }
+            setup = CarrySetup(world=world, object=obj, to=room, time_limit=args.time_limit)
+            try:
+                r = run_carry(setup, args.seed)
+            except ValueError as exc:
+                row.update(success=False, failed_phase="setup", cause="refused", reason=str(exc))
+            else:
+                row.update(
+                    success=r.success,
+                    failed_phase=r.failed_phase,
+                    cause=r.cause,
+                    reason=r.reason,
+                    sim_time=round(r.sim_time, 1),
+                    shares=time_shares(r.phases),
+                    place_error=None if r.place_error is None else round(r.place_error, 4),
+                    looks=r.looks,
+                    found=r.found,
+                    wall_time=round(r.wall_time, 1),
+                )
+            row["load_average"] = round(os.getloadavg()[0], 2)
+            result["rows"].append(row)
+            if args.output:
+                Path(args.output).write_text(json.dumps(result, indent=2, default=float))
+            advance()
+    rows = result["rows"]
+    homes_rows = [r for r in rows if r["home"] != "apartment"]
+    result["successes"] = sum(r["success"] for r in homes_rows)
+    result["chores"] = len(homes_rows)
+    result["homes"] = len({r["home"] for r in rows if r["home"] != "apartment"})
+    result["load_average_after"] = list(os.getloadavg())
+    if args.output:
+        Path(args.output).write_text(json.dumps(result, indent=2, default=float))
+    if args.json:
+        print_json(result)
+        return 0
+    print_table(
+        f"bench chores ({result['successes']} of {result['chores']} in {result['homes']} homes, "
+        f"seed {args.seed}, load {result['load_average'][0]:.1f})",
+        ["home", "chore", "result", "time s", "explore/nav/search/manip s", "wall s"],
+        [
+            [
+                r["home"],
+                r["chore"],
+                "success" if r["success"] else f"{r['failed_phase']}: {r['cause']}",
+                r.get("sim_time", ""),
+                "/".join(f"{v:.0f}" for v in r["shares"].values()) if "shares" in r else "",
+                r.get("wall_time", ""),
+            ]
+            for r in rows
+        ],
+    )
+    return 0

@@ -179,9 +179,9 @@ class Simulation:
         base: str = "auto",
         options: SimOptions | None = None,
     ) -> Simulation:
-        """Build from a world and a robot (objects, built-in names or files). `base`:
-        "planar", "free", "fixed", or "auto": planar for a robot with a `<drive>`, else
-        fixed."""
+        """Build from a world and a robot (objects, built-in names or files). `spawn`: a
+        spawn's name in the world, or the root's pose used as given. `base`: "planar",
+        "free", "fixed", or "auto": planar for a robot with a `<drive>`, else fixed."""
         from robotrial.model import load_robot, load_world
 
         w = load_world(world) if isinstance(world, str) else world
@@ -189,7 +189,9 @@ class Simulation:
         if base == "auto":
             base = "planar" if r.metadata.get("drive") else "fixed"
         pose = w.spawn(spawn) if isinstance(spawn, str) else spawn
-        if base == "fixed":  # on the floor if its legs reach below it (model/stand.py)
+        if base == "fixed" and isinstance(spawn, str):
+            # at a world's spawn, on the floor if its legs reach below it (model/stand.py);
+            # a pose given as such is where the caller puts the root
             pose = pose @ stand(r, w, pose)
         model = compile_world(w, r, base=base, spawn=pose)
         sw = SimWorld(model, seed=seed, base_body=r.root)

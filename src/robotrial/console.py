@@ -3,10 +3,13 @@ the command line and the benchmarks alike (it imports nothing from the project).
 
 from __future__ import annotations
 
+import argparse
 import json
+import os
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -41,6 +44,26 @@ def _plain(value: Any) -> Any:
 def print_json(data: Any) -> None:
     """Machine-readable result on stdout."""
     sys.stdout.write(json.dumps(_plain(data), indent=2) + "\n")
+
+
+def write_result(result: Mapping[str, Any], path: str | Path | None) -> None:
+    """Write a result as JSON to `path`, its folder made if missing (nothing when no path
+    was given): what `-o/--output` asks of every benchmark."""
+    if path:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        Path(path).write_text(json.dumps(_plain(result), indent=2))
+
+
+def emit(result: dict[str, Any], args: argparse.Namespace, *, load_after: bool = False) -> bool:
+    """Write a benchmark's result to `--output` and print it when `--json` asks; True when
+    printed, so the caller ends there instead of printing its table. `load_after` adds the
+    load average at the end of the run, beside the one taken at its start."""
+    if load_after:
+        result["load_average_after"] = list(os.getloadavg())
+    write_result(result, args.output)
+    if args.json:
+        print_json(result)
+    return bool(args.json)
 
 
 def print_table(title: str, columns: Sequence[str], rows: Iterable[Sequence[Any]]) -> None:

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import io
-import json
 import os
 import platform
 import statistics
@@ -43,7 +42,14 @@ from typing import Any
 
 import numpy as np
 
-from robotrial.console import add_json_flag, console, print_json, print_table, progress
+from robotrial.console import (
+    add_json_flag,
+    console,
+    print_json,
+    print_table,
+    progress,
+    write_result,
+)
 
 HELP = "every arm of example-robot-data uploaded and planned: solved, colliding, times"
 STEP = 0.005  # rad (or m): the dense check's step along a trajectory
@@ -402,8 +408,7 @@ def write(args: argparse.Namespace, results: list[ArmResult], load: float) -> di
         "arms": [asdict(r) for r in results],
         "not_arms": [list(x) for x in NOT_ARMS],
     }
-    if args.output:
-        args.output.write_text(json.dumps(report, indent=1))
+    write_result(report, args.output)
     if args.md:
         args.md.parent.mkdir(parents=True, exist_ok=True)
         args.md.write_text(markdown(results, report))

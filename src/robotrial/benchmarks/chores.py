@@ -19,16 +19,14 @@ rewritten after every chore, so a long run that is stopped keeps what it measure
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from robotrial.console import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, emit, print_table, progress, write_result
 from robotrial.model.homegen import HomeSpec
 
 HELP = "chores in generated 3 x 3 m-room homes, mapped by frontiers: success, causes, time shares"
@@ -146,19 +144,14 @@ def run(args: argparse.Namespace) -> int:
                 )
             row["load_average"] = round(os.getloadavg()[0], 2)
             result["rows"].append(row)
-            if args.output:
-                Path(args.output).write_text(json.dumps(result, indent=2, default=float))
+            write_result(result, args.output)
             advance()
     rows = result["rows"]
     homes_rows = [r for r in rows if r["home"] != "apartment"]
     result["successes"] = sum(r["success"] for r in homes_rows)
     result["chores"] = len(homes_rows)
     result["homes"] = len({r["home"] for r in rows if r["home"] != "apartment"})
-    result["load_average_after"] = list(os.getloadavg())
-    if args.output:
-        Path(args.output).write_text(json.dumps(result, indent=2, default=float))
-    if args.json:
-        print_json(result)
+    if emit(result, args, load_after=True):
         return 0
     print_table(
         f"bench chores ({result['successes']} of {result['chores']} in {result['homes']} homes, "

@@ -12,13 +12,12 @@ one PNG per world with both maps.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import time
 from pathlib import Path
 
-from robotrial.console import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, emit, print_table, progress
 
 HELP = "frontier exploration beside the given route: share mapped, ATE, time, path, contacts"
 
@@ -68,11 +67,7 @@ def run(args: argparse.Namespace) -> int:
             if args.plot and runs:
                 name = world.replace(":", "_").replace("/", "_")
                 plot_explore(Path(args.plot) / f"explore_{name}.png", runs)
-    result["load_average_after"] = list(os.getloadavg())
-    if args.output:
-        Path(args.output).write_text(json.dumps(result, indent=2, default=float))
-    if args.json:
-        print_json(result)
+    if emit(result, args, load_after=True):
         return 0
     print_table(
         f"bench explore (seed {args.seed}, load {result['load_average'][0]:.1f})",

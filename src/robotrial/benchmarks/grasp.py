@@ -25,12 +25,11 @@ import argparse
 import os
 import platform
 import time
-from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from robotrial.console import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, emit, print_table, progress
 
 HELP = "friction grasps of each catalogue object by the mobile manipulator's hand: success, slip"
 
@@ -287,12 +286,7 @@ def run(args: argparse.Namespace) -> int:
         "wall_time": time.perf_counter() - t0,
         "objects": out,
     }
-    if args.output:
-        import json
-
-        Path(args.output).write_text(json.dumps(result, indent=2))
-    if args.json:
-        print_json(result)
+    if emit(result, args):
         return 0
     print_table(
         f"friction grasps, aim error {args.error:g} mm per axis",

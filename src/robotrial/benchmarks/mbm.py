@@ -348,7 +348,7 @@ def run(args: argparse.Namespace) -> int:
     import platform
 
     from robotrial.benchmarks.planning import panda_path
-    from robotrial.console import console, print_json, print_table, progress
+    from robotrial.console import console, print_json, print_table, progress, write_result
     from robotrial.model import load_robot
 
     show = not args.json
@@ -383,9 +383,7 @@ def run(args: argparse.Namespace) -> int:
         "source": f"{VAMP_SDIST} source distribution on PyPI, {PROBLEMS_MEMBER} (Apache-2.0)",
         "scenes": results,
     }
-    if args.output:
-        args.output.parent.mkdir(parents=True, exist_ok=True)
-        args.output.write_text(json.dumps(report, indent=2))
+    write_result(report, args.output)
     if args.md:
         args.md.parent.mkdir(parents=True, exist_ok=True)
         args.md.write_text(markdown(report))

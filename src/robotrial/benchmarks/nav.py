@@ -30,20 +30,15 @@ time along its plan; and how many drawn goals the planner refused (unreachable).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robotrial.cli.nav import CONTROLLERS, PLANNERS, add_planner_argument
-from robotrial.console import add_json_flag, print_json, print_table, progress
-
-if TYPE_CHECKING:
-    pass
+from robotrial.console import add_json_flag, emit, print_table, progress
 
 HELP = (
     "Table 1 of the platform paper (rooms A, B, C; apartment), planner times, and random "
@@ -195,11 +190,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.goals:
         result["goals"] = _random_goals(args)
-    result["load_average_after"] = list(os.getloadavg())
-    if args.output:
-        Path(args.output).write_text(json.dumps(result, indent=2, default=float))
-    if args.json:
-        print_json(result)
+    if emit(result, args, load_after=True):
         return 0
     if "rows" in result:
         _print_table(result["rows"], result["planning"])

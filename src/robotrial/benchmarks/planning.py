@@ -27,7 +27,7 @@ import numpy as np
 from robotrial.benchmarks import mbm
 from robotrial.collision.exact import ExactChecker
 from robotrial.collision.sphere_model import CollisionChecker, Environment
-from robotrial.console import print_json, print_table, progress
+from robotrial.console import print_json, print_table, progress, write_result
 from robotrial.geometry import Box, Pose
 from robotrial.model import load_robot, load_world
 from robotrial.planning import PLANNERS, Problem
@@ -607,9 +607,7 @@ def run_cold(args: argparse.Namespace) -> int:
         "cold_plan": cold_plan(args.cold_runs, args.baseline_src),
         "load": f"{load_before:.2f}, {os.getloadavg()[0]:.2f}",
     }
-    if args.output:
-        args.output.parent.mkdir(parents=True, exist_ok=True)
-        args.output.write_text(json.dumps(report, indent=2))
+    write_result(report, args.output)
     if args.json:
         print_json(report)
     else:
@@ -634,9 +632,7 @@ def run_service(args: argparse.Namespace) -> int:
         "cold_plan": cold_plan(args.cold_runs, args.baseline_src),
     }
     report["load"] = f"{load_before:.2f}, {os.getloadavg()[0]:.2f}"
-    if args.output:
-        args.output.parent.mkdir(parents=True, exist_ok=True)
-        args.output.write_text(json.dumps(report, indent=2))
+    write_result(report, args.output)
     if args.md:
         args.md.parent.mkdir(parents=True, exist_ok=True)
         args.md.write_text(service_markdown(report))
@@ -822,9 +818,7 @@ def run(args: argparse.Namespace) -> int:
         "speedups": _speedups(results),
         "validation": validation,
     }
-    if args.output:
-        args.output.parent.mkdir(parents=True, exist_ok=True)
-        args.output.write_text(json.dumps(report, indent=2))
+    write_result(report, args.output)
     if args.md:
         args.md.parent.mkdir(parents=True, exist_ok=True)
         args.md.write_text(markdown(report))

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from robotrial.console import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, print_json, print_table, progress, write_result
 
 HELP = "rosbridge: service round trip and /joint_states fan-out to 1, 10, 50 clients"
 RATE_HZ = 100.0
@@ -407,9 +407,7 @@ def run(args: argparse.Namespace) -> int:
                 )
         except RuntimeError as exc:
             results["rosbridge_server_rs"] = {"skipped": f"rosbridge-server-rs did not run: {exc}"}
-    if args.output is not None:
-        args.output.parent.mkdir(parents=True, exist_ok=True)
-        args.output.write_text(json.dumps(results, indent=2))
+    write_result(results, args.output)
     if args.json:
         print_json(results)
         return 0

@@ -30,7 +30,7 @@ import numpy as np
 
 from robotrial.benchmarks.planning import DESK_REQUEST
 from robotrial.benchmarks.rosbridge import free_port, server_process
-from robotrial.console import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, print_json, print_table, progress, write_result
 from robotrial.ros.planning_node import robot_service
 
 HELP = "the server under load: /points to compressing and stalled clients, page and plan timed"
@@ -290,9 +290,7 @@ def run(args: argparse.Namespace) -> int:
     with server_process(cmd, port, timeout=120.0) as proc:
         measured = asyncio.run(_measure(args, port, proc))
     result = summarize(measured, args)
-    if args.output is not None:
-        args.output.parent.mkdir(parents=True, exist_ok=True)
-        args.output.write_text(json.dumps({**result, "rows": measured["rows"]}, indent=1))
+    write_result({**result, "rows": measured["rows"]}, args.output)
     if args.plot is not None:
         _plot(measured, args.plot)
     if args.json:

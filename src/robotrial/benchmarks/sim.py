@@ -13,7 +13,6 @@ paper's Gazebo, which runs this platform near real time (factor 1).
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import platform
@@ -22,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robotrial.console import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, emit, print_table, progress
 
 HELP = "real-time factor of the mobile manipulator in room C, sensors off and on; sensor costs"
 
@@ -253,10 +252,7 @@ def run(args: argparse.Namespace) -> int:
         "odometry_drift_10m": drift,
         "arm_tracking": tracking,
     }
-    if args.output:
-        Path(args.output).write_text(json.dumps(result, indent=2))
-    if args.json:
-        print_json(result)
+    if emit(result, args):
         return 0
     print_table(
         "real-time factor, mobile manipulator in room C (Gazebo: ~1)",

@@ -14,13 +14,12 @@ OBJECT:ROOM`, the chores run too (`--seeds` each), timed apart.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import time
 from pathlib import Path
 
-from robotrial.console import add_json_flag, print_json, print_table, progress
+from robotrial.console import add_json_flag, emit, print_table, progress
 
 HELP = "the home verdict's time per part (target 10 s) and its rooms checked by driving"
 TARGET = 10.0  # s, the whole verdict without chores
@@ -117,10 +116,7 @@ def run(args: argparse.Namespace) -> int:
             entry["chores_s"] = round(time.perf_counter() - t, 1)
         results["robots"][robot] = entry
     results["driving_agrees"] = agree
-    if args.output:
-        Path(args.output).write_text(json.dumps(results, indent=2))
-    if args.json:
-        print_json(results)
+    if emit(results, args):
         return 0 if agree else 1
     print_table(
         f"verdict time in {world.name} (median of {args.repeats}, s; target {TARGET:g} s)",

@@ -712,15 +712,17 @@ class Skills:
 
     def _reaches(self, base: np.ndarray, target: np.ndarray, kind: ObjectKind) -> bool:
         """Whether the arm finds the way in at a work site with the base at `base`: to
-        grasp an object of `kind` centred at `target` (map frame), or, holding one, to
-        set it down there (through the point LIFT above), in the voxels seen so far."""
+        grasp an object of `kind` centred at `target` (map frame) and lift it LIFT, or,
+        holding one, to set it down there (through the point LIFT above), in the voxels
+        seen so far."""
         local = to_base(base, target)
         if self.held is not None:
             hand = local - self.orientation(local).apply(self.held.in_hand)
             points = (hand + np.array([0.0, 0.0, LIFT]), hand)
             obstacles = self._obstacles(base)
         else:
-            points = self._grasp_points(local, kind)
+            pre, grasp = self._grasp_points(local, kind)
+            points = (pre, grasp, grasp + np.array([0.0, 0.0, LIFT]))
             obstacles = self._obstacles(base, self._keep_out(local, kind))
         q = self.arm_q()
         for point in points:

@@ -49,6 +49,7 @@ MIN_SIDE_POINTS = 20  # fewer, and the top face's middle stands for the axis
 SIZE_TOLERANCE = (0.1, 0.012)  # relative and absolute (m): a size within either matches
 COLOUR_TOLERANCE = 0.09  # chromaticity distance that still matches
 BLUR_PIXELS = 2.5  # pixels a size may be off where the object is (edges, noise)
+MIN_SLANT = 0.1  # sine of the flattest view of a top face whose sides are still measured
 
 
 @dataclass(frozen=True)
@@ -250,14 +251,24 @@ class ObjectDetector:
         spacing: float = 0.0,
     ) -> Detection:
         height = float(np.percentile(above, 99))
-        blur = BLUR_PIXELS * spacing * float(np.linalg.norm(pts.mean(axis=0) - viewpoint))
+        eye = np.asarray(viewpoint, dtype=float)
+        distance = float(np.linalg.norm(pts.mean(axis=0) - eye))
+        blur = BLUR_PIXELS * spacing * distance
         xy = pts[:, :2]
-        view = xy.mean(axis=0) - np.asarray(viewpoint, dtype=float)[:2]
+        view = xy.mean(axis=0) - eye[:2]
         view /= max(float(np.linalg.norm(view)), 1e-9)
         across = xy @ np.array([-view[1], view[0]])
         width = float(np.percentile(across, 99) - np.percentile(across, 1))
         top = above >= height - TOP_BAND
         sides = _box_sides(xy[top]) if top.sum() >= 8 else (width, width, 0.0, xy.mean(axis=0))
+        # the top face seen from above at a slant: along the view its pixels lie 1 / slant
+        # farther apart than across it (a 7 cm top 2 m off and 0.5 m down: 4 rows of pixels)
+        slant = max((eye[2] - surface.height - height) / max(distance, 1e-9), MIN_SLANT)
+        along = abs(float(np.cos(sides[2] - np.arctan2(view[1], view[0]))))
+        top_blur = (
+            blur * float(np.hypot(along, np.sqrt(1 - along**2) / slant)),  # the shorter side
+            blur * float(np.hypot(np.sqrt(1 - along**2), along / slant)),  # the longer side
+        )
         rgb = (
             np.zeros(3)
             if colours is None or len(colours) == 0
@@ -265,7 +276,9 @@ class ObjectDetector:
         )
         best, best_err = None, np.inf
         for kind in self.catalogue:
-            err = _mismatch(kind, height, width, sides[:2], None if colours is None else rgb, blur)
+            err = _mismatch(
+                kind, height, width, sides[:2], None if colours is None else rgb, blur, top_blur
+            )
             if err < best_err:
                 best, best_err = kind, err
         kind = best if best is not None and best_err <= 1.0 else None
@@ -327,12 +340,18 @@ def _mismatch(
     top_sides: tuple[float, float],
     rgb: np.ndarray | None,
     blur: float = 0.0,
+    top_blur: tuple[float, float] = (0.0, 0.0),
 ) -> float:
-    """The worst of the size and colour mismatches, in tolerances (<= 1 matches)."""
+    """The worst of the size and colour mismatches, in tolerances (<= 1 matches); `blur`
+    (m): what a pixel's blur spans at the object, `top_blur` along the top face's shorter
+    and longer side (more where a side lies along a slanted view)."""
     errs = [_off(height, kind.height, blur)]
     if kind.shape == "box":
         small, large = sorted(kind.size[:2])
-        errs += [_off(top_sides[0], small, blur), _off(top_sides[1], large, blur)]
+        errs += [
+            _off(top_sides[0], small, max(blur, top_blur[0])),
+            _off(top_sides[1], large, max(blur, top_blur[1])),
+        ]
     else:
         errs.append(_off(width, kind.width, blur))
     if rgb is not None and rgb.sum() > 0.05:

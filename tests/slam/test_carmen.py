@@ -238,3 +238,41 @@ def test_range_limits_leave_no_return_out_and_cut_long_beams():
     assert limits == pytest.approx((0.0, 49.99, 30.0))
     # Hector leaves out everything past laser_max_dist.
     assert make_slam("hector").range_limits(80.0) == pytest.approx((0.4, 30.0, 30.0))
+
+
+def _g2o(truth: np.ndarray, poses: np.ndarray, loops: list[tuple[int, int]]) -> list[str]:
+    """A g2o file as the rtb-data logs are: vertices at `poses`, sequential and
+    loop-closure edges measuring the motion along `truth`, and one ROBOTLASER1 line a
+    vertex carrying its pose (3 beams of 2 m)."""
+    out = [f"VERTEX_SE2 {i} {x} {y} {t}" for i, (x, y, t) in enumerate(poses)]
+    for a, b in [(i, i + 1) for i in range(len(truth) - 1)] + loops:
+        z = relative(truth[a], truth[b])
+        out.append(f"EDGE_SE2 {a} {b} {z[0]} {z[1]} {z[2]} 500 0 0 500 0 5000")
+    for i, (x, y, t) in enumerate(poses):
+        out.append(
+            f"ROBOTLASER1 0 -1.57 3.14 1.57 50 0.1 0 3 2 2 2 0 {x} {y} {t} {x} {y} {t} "
+            f"0 0 0 0 0 {100 + 1.7 * i} host {100 + 1.7 * i}"
+        )
+    return out
+
+
+def test_a_g2o_log_whose_poses_meet_its_loop_closures_declares_a_corrected_trajectory():
+    """The Killian Court log of rtb-data carries the corrected trajectory on its laser
+    lines: the reader says so, and GMapping is then run with a motion model for such
+    poses; a log whose poses miss its loop closures (raw odometry) declares nothing."""
+    from robotrial.slam.scan import compose
+    from robotrial.trials.carmen import CORRECTED_MOTION, declared_params
+
+    a = np.linspace(0, 4 * np.pi, 60, endpoint=False)
+    truth = np.stack([5 * np.cos(a), 5 * np.sin(a), a + np.pi / 2], axis=1)
+    loops = [(i, i + 30) for i in range(0, 30, 2)]
+    log = parse_carmen(_g2o(truth, truth, loops), "killian.g2o")
+    assert "15 loop closures" in log.corrected_odometry
+    assert declared_params(log, "gmapping") == CORRECTED_MOTION
+    assert declared_params(log, "graph") == {} and declared_params(log, "hector") == {}
+    # Odometry that turns 0.004 rad a step too far: 0.12 rad off at the next lap.
+    raw = [truth[0]]
+    for i in range(59):
+        raw.append(compose(raw[-1], relative(truth[i], truth[i + 1]) + np.array([0, 0, 0.004])))
+    log = parse_carmen(_g2o(truth, np.array(raw), loops), "raw.g2o")
+    assert log.corrected_odometry == "" and declared_params(log, "gmapping") == {}

@@ -30,6 +30,14 @@ def run_log(args: argparse.Namespace, params: dict[str, str]) -> int:
     except (CarmenError, FileNotFoundError) as exc:
         console.print(f"[red]robotrial slam: {exc}")
         return 2
+    declared = carmen.declared_params(log, args.method)
+    if declared and not args.json:
+        told = ", ".join(f"{k}={v:g}" for k, v in declared.items() if k not in params)
+        console.print(
+            f"{Path(args.log).name}: {log.corrected_odometry}; {args.method} is run with "
+            f"{told or 'your values'} (--param overrides)"
+        )
+    params = {**declared, **params}
     if log.skipped and not args.json:
         number, why = log.skipped[0]
         console.print(
@@ -48,6 +56,7 @@ def run_log(args: argparse.Namespace, params: dict[str, str]) -> int:
     result: dict[str, Any] = {"method": args.method, "source": str(args.log)}
     result.update(carmen.summary(run_, scores))
     result["skipped_lines"] = len(log.skipped)
+    result["declared_params"] = {k: v for k, v in declared.items() if params[k] == v}
     result["duration_s"] = rec.duration
     result["files"] = slam.write_outputs(run_, rec, None, output_stem(args.output))
     if args.json:

@@ -15,9 +15,14 @@ log is a recording format, so it is read here at the edge, beside the map files;
   timestamp host logger_ts`` (a scan without poses);
 - ``ODOM x y theta tv rv accel timestamp host logger_ts``.
 
-Every other message type (PARAM, TRUEPOS, SYNC, a g2o file's VERTEX_SE2 ...) is passed
-over and counted. A line of a known type that cannot be read is an error naming the
-file and the line (``strict=True``) or is skipped and listed in `CarmenLog.skipped`.
+Every other message type (PARAM, TRUEPOS, SYNC ...) is passed over and counted. A g2o
+file's pose graph (VERTEX_SE2, EDGE_SE2) is read only to say what its laser lines' robot
+poses are (`corrected_odometry`): when they are the graph's vertices and already agree
+with its loop-closure edges (an edge between vertices more than one apart), they are a
+trajectory corrected with those closures, not raw odometry, and a SLAM method's motion
+model should say so. The MIT Killian Court log of the rtb-data package is such a file.
+A line of a known type that cannot be read is an error naming the file and the line
+(``strict=True``) or is skipped and listed in `CarmenLog.skipped`.
 
 What a reading means depends on the format. A new-style line carries the scanner's
 maximum range: a reading at or past it is "no return". An old-style FLASER line carries
@@ -55,6 +60,13 @@ FLASER_MAX_RANGE = 80.0
 # A log's largest reading is its "no return" code when at least this share of all its
 # readings carry exactly that value (measured distances spread over millimetres).
 CODE_SHARE = 1e-3
+# The laser lines' robot poses are a corrected trajectory when, as vertices of the file's
+# pose graph, they meet its loop-closure edges this well on average (m, rad): raw wheel
+# odometry misses a loop closed hundreds of metres later by metres.
+CORRECTED_LOOP_TRANS = 0.1
+CORRECTED_LOOP_ROT = 0.02
+# At least this many loop-closure edges, so that the test means something.
+CORRECTED_MIN_LOOPS = 10
 
 
 class CarmenError(ValueError):
@@ -88,6 +100,9 @@ class CarmenLog:
     source: str = ""
     skipped: list[tuple[int, str]] = field(default_factory=list)
     other_lines: int = 0
+    # Why the scans' odometry poses are an already corrected trajectory (the reader found
+    # so), or "" when they are taken for raw odometry.
+    corrected_odometry: str = ""
 
     @property
     def duration(self) -> float:
@@ -157,6 +172,53 @@ class _Parsed:
     odom: list[tuple[float, float, float, float]] = field(default_factory=list)
     scan_odom: list[tuple[float, float, float, float]] = field(default_factory=list)
     mounts: list[tuple[float, float, float]] = field(default_factory=list)
+    vertices: dict[int, tuple[float, float, float]] = field(default_factory=dict)
+    edges: list[tuple[int, int, float, float, float]] = field(default_factory=list)
+
+
+def _graph_line(kind: str, tokens: list[str], out: _Parsed) -> None:
+    """A g2o pose graph's vertex or edge (id, x, y, yaw; from, to, dx, dy, dyaw)."""
+    try:
+        if kind == "VERTEX_SE2":
+            out.vertices[int(tokens[1])] = (float(tokens[2]), float(tokens[3]), float(tokens[4]))
+        else:
+            out.edges.append((int(tokens[1]), int(tokens[2]), *map(float, tokens[3:6])))
+    except (IndexError, ValueError):
+        pass  # a graph line says nothing about the scans: one that cannot be read is left
+
+
+def corrected_reason(out: _Parsed) -> str:
+    """Why the laser lines' robot poses are an already corrected trajectory, or "": they
+    must be the pose graph's vertices (same count, within 1 mm and 1 mrad) and meet its
+    loop-closure edges within `CORRECTED_LOOP_TRANS` m and `CORRECTED_LOOP_ROT` rad on
+    average."""
+    loops = [e for e in out.edges if abs(e[1] - e[0]) > 1]
+    ids = sorted(out.vertices)
+    if len(loops) < CORRECTED_MIN_LOOPS or len(ids) != len(out.scan_odom):
+        return ""
+    v = np.array([out.vertices[i] for i in ids])
+    laser = np.array([p[1:] for p in out.scan_odom])
+    dyaw = np.abs((laser[:, 2] - v[:, 2] + math.pi) % (2 * math.pi) - math.pi)
+    if np.abs(laser[:, :2] - v[:, :2]).max() > 1e-3 or dyaw.max() > 1e-3:
+        return ""
+    at = {i: k for k, i in enumerate(ids)}
+    err_t, err_r = [], []
+    for a, b, dx, dy, dth in loops:
+        if a not in at or b not in at:
+            return ""
+        pa, pb = v[at[a]], v[at[b]]
+        c, s = math.cos(pa[2]), math.sin(pa[2])
+        ex, ey = pb[0] - pa[0], pb[1] - pa[1]
+        err_t.append(math.hypot(c * ex + s * ey - dx, -s * ex + c * ey - dy))
+        err_r.append(abs((pb[2] - pa[2] - dth + math.pi) % (2 * math.pi) - math.pi))
+    t, r = float(np.mean(err_t)), float(np.mean(err_r))
+    if t > CORRECTED_LOOP_TRANS or r > CORRECTED_LOOP_ROT:
+        return ""
+    return (
+        f"its robot poses are its pose graph's vertices and meet its {len(loops)} "
+        f"loop closures within {t:.3f} m and {math.degrees(r):.2f} deg on average: "
+        "a trajectory already corrected, not raw odometry"
+    )
 
 
 def _mount(laser: list[float], robot: list[float]) -> tuple[float, float, float]:
@@ -248,6 +310,8 @@ def parse_carmen(
         kind = tokens[0]
         if kind not in KNOWN:
             other += 1
+            if kind in ("VERTEX_SE2", "EDGE_SE2"):
+                _graph_line(kind, tokens, out)
             continue
         try:
             _line(kind, tokens, out)
@@ -271,7 +335,7 @@ def parse_carmen(
         scans = sorted(scans, key=lambda s: s.stamp)
     # A laser pose far from the odometry is a corrected pose, not the mount: leave it.
     mount = next((m for m in out.mounts if math.hypot(m[0], m[1]) < 1.0), (0.0, 0.0, 0.0))
-    return CarmenLog(scans, odom, mount, source, skipped, other)
+    return CarmenLog(scans, odom, mount, source, skipped, other, corrected_reason(out))
 
 
 def _text_lines(path: Path) -> list[str]:

@@ -41,6 +41,24 @@ def recording_from_log(log: CarmenLog) -> Recording:
     )
 
 
+# GMapping's odometry error model (srr, srt, str, stt: m per m, m per rad, rad per m, rad
+# per rad) for a log whose odometry is an already corrected trajectory: about 1 mm per m.
+# Its defaults (0.1-0.2) are for raw wheel odometry; drawn around a trajectory that is
+# already right, that noise bends each particle off it by about 0.03 rad per 20 m, and
+# the scan match pulls it only part of the way back (docs/benchmarks/slam.md).
+CORRECTED_MOTION = {"srr": 0.001, "srt": 0.001, "str": 0.001, "stt": 0.001}
+
+
+def declared_params(log: CarmenLog, method: str) -> dict[str, float]:
+    """Parameters a log's reader sets for a method because of what the log is (a user's
+    own parameters override them): GMapping's motion model for a corrected trajectory
+    (`CarmenLog.corrected_odometry`). The pose graph and Hector weigh odometry only as
+    their matches' start and prior, so they keep their defaults."""
+    if method == "gmapping" and log.corrected_odometry:
+        return dict(CORRECTED_MOTION)
+    return {}
+
+
 def load_log(
     path: str | Path, strict: bool = False, order: str = "file"
 ) -> tuple[Recording, CarmenLog]:

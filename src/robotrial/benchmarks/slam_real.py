@@ -62,8 +62,8 @@ COLUMNS = [
     "peak MB",
     "published (same method class)",
 ]
-# GMapping's odometry error model (srr, srt, str, stt).
-CORRECTED = ("srr", "srt", "str", "stt")
+# GMapping's odometry error model (srr, srt, str, stt) as slam_gmapping's defaults.
+RAW_MOTION = {"srr": 0.1, "srt": 0.2, "str": 0.1, "stt": 0.2}
 PUBLISHED_CLASS = {"gmapping": "RBPF", "hector": "scan matching", "graph": "graph mapping"}
 
 
@@ -102,14 +102,16 @@ def data_sets() -> list[DataSet]:
                 "RBPF": (0.122, 0.386),
                 "graph mapping": (0.050, 0.056),
             },
-            # This log's poses are an already corrected trajectory, not raw odometry: a
-            # motion model that says so (GMapping's defaults expect 0.1 m per m).
-            (("gmapping", "motion model for corrected poses", dict.fromkeys(CORRECTED, 0.001)),),
+            # The log's reader finds its poses an already corrected trajectory and sets
+            # GMapping's motion model for it (trials.carmen.declared_params); beside it,
+            # slam_gmapping's defaults, which are for raw wheel odometry.
+            (("gmapping", "ROS defaults (raw odometry)", RAW_MOTION),),
         )
     )
-    # The robot's raw odometry errs by up to 0.5 rad over a 5 s spin: a motion model that
-    # says so (the defaults expect 10 % of a turn and 0.05 rad per m).
-    raw = {"odom_rot_per_rot": 2.0, "odom_rot_per_trans": 0.3}
+    # The odometry poses of its laser lines are now and then a scan period off the
+    # scan's instant (0.2-0.4 rad on a fast turn): beside the defaults, the pose graph
+    # with the motion model for exact stamps.
+    exact = {"odom_time_sigma": 0.0}
     out.append(
         DataSet(
             "csail",
@@ -117,7 +119,7 @@ def data_sets() -> list[DataSet]:
             ("mit-csail.clf.gz", "mit-csail.clf"),
             (),
             {},
-            (("graph", "motion model for its raw odometry", raw),),
+            (("graph", "odom_time_sigma=0 (exact stamps)", exact),),
         )
     )
     return out
@@ -206,9 +208,13 @@ def _one_run(
     from robotrial.trials import carmen
     from robotrial.trials.slam import run_slam, write_outputs
 
-    rec, _ = carmen.load_log(log)
+    rec, read = carmen.load_log(log)
     rel = read_relations(relations) if relations else None
     out: dict[str, Any] = {"scans": len(rec.scans)}
+    declared = {k: v for k, v in carmen.declared_params(read, method).items() if k not in params}
+    if declared:
+        out["declared"] = {"params": declared, "why": read.corrected_odometry}
+    params = {**declared, **params}
     if method == "odometry":
         stamps = np.array([s.stamp for s in rec.scans])
         odom = rec.scan_odom
@@ -346,5 +352,8 @@ def _row(ds: DataSet, method: str, s: dict[str, Any], label: str = "") -> list[A
     cls = PUBLISHED_CLASS.get(method)
     paper = f"{cls} {_pm(ds.published.get(cls))}" if cls and cls in ds.published else "-"
     name = "odometry alone" if method == "odometry" else method
+    if s.get("declared") and not label:
+        told = ", ".join(f"{k}={v:g}" for k, v in s["declared"]["params"].items())
+        label = f"as the log declares ({told})"
     name = f"{name}, {label}" if label else name
     return [ds.title, name, s.get("scans", "-"), trans, top, rot, ms, peak, paper]

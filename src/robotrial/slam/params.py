@@ -147,7 +147,9 @@ class PoseGraphParams(OdometryModel):
     scans are matched against the last `scan_buffer_size` nodes' scans within
     `scan_buffer_maximum_scan_distance` m of path, from the odometry's prediction, over a
     window of 3 standard deviations of the odometry motion model (`odom_*`: standard
-    deviation per m or rad moved, at least `odom_min_sigma_*`), at most
+    deviation per m or rad moved, plus, in heading, the turn made in `odom_time_sigma` s
+    at the rate the robot turned, for an odometry pose not taken at the scan's instant;
+    at least `odom_min_sigma_*`), at most
     +-`correlation_search_space` m and +-`correlation_search_angle` rad (the whole window
     without odometry); the search is skipped when the window lies within Gauss-Newton's
     reach (its coarsest cell, `gauss_newton_reach_angle`). A match's covariance is its
@@ -189,6 +191,7 @@ class PoseGraphParams(OdometryModel):
     correlation_search_angle: float = 0.35
     correlation_points: int = 150
     gauss_newton_reach_angle: float = 0.1
+    odom_time_sigma: float = 0.4
     match_prior_scale: float = 1.0
     match_variance_scale: float = 30.0
     match_min_sigma_xy: float = 0.005

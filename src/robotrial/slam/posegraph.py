@@ -568,7 +568,10 @@ class PoseGraphSlam:
         self._last_info = np.eye(3)
         self._residual = 0.1
         self._last_odom: np.ndarray | None = None
+        # How fast the last match found the robot turning (rad/s).
+        self._turn_rate = 0.0
         self._node_odom: list[np.ndarray | None] = []
+        self._node_stamps: list[float] = []
         self._path = [0.0]
         self.stamps: list[float] = []
         # Every scan's pose as (node index, pose relative to that node).
@@ -626,32 +629,44 @@ class PoseGraphSlam:
         if not self.params.lockstep:
             self._adopt()
         odom = None if odom is None else np.asarray(odom, dtype=np.float64)
-        guess, sigma = self._predict(odom)
+        guess, sigma = self._predict(odom, float(stamp))
         self._last_odom = odom
-        self.pose = guess
+        before, self.pose = self.pose, guess
         if self.nodes and scan.hit.any():
             self.pose, self._last_info = self._match(scan.hits, guess, sigma)
+            if self.stamps and stamp != self.stamps[-1]:
+                turned = abs(float(wrap(self.pose[2] - before[2])))
+                self._turn_rate = turned / abs(float(stamp) - self.stamps[-1])
         if self._moved_enough():
-            self._add_node(scan, odom)
+            self._add_node(scan, odom, float(stamp))
         self.stamps.append(float(stamp))
         self._anchors.append(len(self.nodes) - 1)
         self._offsets.append(relative(self.nodes[-1], self.pose))
         return self.pose.copy()
 
-    def _motion_sigma(self, d: np.ndarray) -> np.ndarray:
+    def _motion_sigma(self, d: np.ndarray, dt: float) -> np.ndarray:
+        """The standard deviations of an odometry motion `d` over `dt` s: the motion
+        model's, plus the turn the robot makes in `odom_time_sigma` s at the rate it
+        turns (by the odometry, or by the last match when that was faster: a stale
+        odometry pose shows no turn). The odometry pose that comes with a scan may not
+        be the one at the scan's instant; a heading off spoils a match far more than a
+        position off."""
         p = self.params
-        s = motion_sigma(d, p.odom_trans_per_trans, p.odom_trans_per_rot, p.odom_rot_per_trans,
-                         p.odom_rot_per_rot)  # fmt: skip
-        return np.maximum(np.array(s), [p.odom_min_sigma_xy, p.odom_min_sigma_xy,
-                                        p.odom_min_sigma_yaw])  # fmt: skip
+        s = np.array(motion_sigma(d, p.odom_trans_per_trans, p.odom_trans_per_rot,
+                                  p.odom_rot_per_trans, p.odom_rot_per_rot))  # fmt: skip
+        if abs(dt) > 1e-6:
+            s[2] += p.odom_time_sigma * max(abs(float(d[2])) / abs(dt), self._turn_rate)
+        return np.maximum(s, [p.odom_min_sigma_xy, p.odom_min_sigma_xy, p.odom_min_sigma_yaw])
 
-    def _predict(self, odom: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    def _predict(
+        self, odom: np.ndarray | None, stamp: float
+    ) -> tuple[np.ndarray, np.ndarray | None]:
         """Where the odometry puts the robot now, and how uncertain that is (x, y, yaw
         standard deviations, in the frame of the last pose); None without odometry."""
         if odom is None or self._last_odom is None:
             return self.pose.copy(), None
         d = relative(self._last_odom, odom)
-        return compose(self.pose, d), self._motion_sigma(d)
+        return compose(self.pose, d), self._motion_sigma(d, stamp - self.stamps[-1])
 
     def _match(
         self, pts: np.ndarray, guess: np.ndarray, sigma: np.ndarray | None
@@ -721,7 +736,7 @@ class PoseGraphSlam:
             or abs(d[2]) >= p.minimum_travel_heading
         )
 
-    def _add_node(self, scan: Beams, odom: np.ndarray | None) -> None:
+    def _add_node(self, scan: Beams, odom: np.ndarray | None, stamp: float) -> None:
         if self.params.lockstep and self._job is not None:
             job, self._job = self._job, None
             job.result()
@@ -731,6 +746,7 @@ class PoseGraphSlam:
             self.nodes.append(self.pose.copy())
             self.scans.append(scan)
             self._node_odom.append(None if odom is None else odom.copy())
+            self._node_stamps.append(stamp)
             if k > 0:
                 prev = self.nodes[k - 1]
                 self._path.append(self._path[-1] + float(np.hypot(*(self.pose - prev)[:2])))
@@ -740,7 +756,8 @@ class PoseGraphSlam:
                 before = self._node_odom[k - 1]
                 if odom is not None and before is not None:
                     d = relative(before, odom)
-                    info = np.diag(1.0 / self._motion_sigma(d) ** 2)
+                    dt = stamp - self._node_stamps[k - 1]
+                    info = np.diag(1.0 / self._motion_sigma(d, dt) ** 2)
                     self.edges.append(Edge(k - 1, k, d, info))
                 self._queue.append(k)
         self._window.append((k, self.pose.copy()))

@@ -268,11 +268,36 @@ def test_a_g2o_log_whose_poses_meet_its_loop_closures_declares_a_corrected_traje
     loops = [(i, i + 30) for i in range(0, 30, 2)]
     log = parse_carmen(_g2o(truth, truth, loops), "killian.g2o")
     assert "15 loop closures" in log.corrected_odometry
-    assert declared_params(log, "gmapping") == CORRECTED_MOTION
-    assert declared_params(log, "graph") == {} and declared_params(log, "hector") == {}
+    assert declared_params(log, "gmapping") == (CORRECTED_MOTION, log.corrected_odometry)
+    assert declared_params(log, "graph")[0] == {} and declared_params(log, "hector")[0] == {}
     # Odometry that turns 0.004 rad a step too far: 0.12 rad off at the next lap.
     raw = [truth[0]]
     for i in range(59):
         raw.append(compose(raw[-1], relative(truth[i], truth[i + 1]) + np.array([0, 0, 0.004])))
     log = parse_carmen(_g2o(truth, np.array(raw), loops), "raw.g2o")
-    assert log.corrected_odometry == "" and declared_params(log, "gmapping") == {}
+    assert log.corrected_odometry == "" and declared_params(log, "gmapping")[0] == {}
+
+
+def test_a_log_whose_odometry_turns_faster_than_a_base_declares_its_timing():
+    """Odometry poses that turn 0.8 rad in a 0.2 s step (4 rad/s) and give it back, three
+    times: the poses are not all taken at their scans' instants, and the pose graph is
+    run with a timing uncertainty; a steady 1 rad/s spin declares nothing."""
+    from robotrial.trials.carmen import TIMING, declared_params
+
+    def flaser(turns: list[float]) -> list[str]:
+        yaw, out, r = 0.0, [], " ".join(["3"] * 181)
+        for i, d in enumerate(turns):
+            yaw += d
+            t = 100 + 0.2 * i
+            out.append(f"FLASER 181 {r} 1 2 {yaw} 1 2 {yaw} {t} host {t}")
+        return out
+
+    steady = [0.2] * 30
+    log = parse_carmen(flaser(steady))
+    assert log.odometry_timing == "" and declared_params(log, "graph")[0] == {}
+    jumpy = steady.copy()
+    for i in (5, 15, 25):
+        jumpy[i], jumpy[i + 1] = 0.8, -0.4
+    log = parse_carmen(flaser(jumpy))
+    assert "3 times" in log.odometry_timing
+    assert declared_params(log, "graph") == (TIMING, log.odometry_timing)

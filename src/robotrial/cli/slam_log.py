@@ -30,11 +30,11 @@ def run_log(args: argparse.Namespace, params: dict[str, str]) -> int:
     except (CarmenError, FileNotFoundError) as exc:
         console.print(f"[red]robotrial slam: {exc}")
         return 2
-    declared = carmen.declared_params(log, args.method)
+    declared, why = carmen.declared_params(log, args.method)
     if declared and not args.json:
         told = ", ".join(f"{k}={v:g}" for k, v in declared.items() if k not in params)
         console.print(
-            f"{Path(args.log).name}: {log.corrected_odometry}; {args.method} is run with "
+            f"{Path(args.log).name}: {why}; {args.method} is run with "
             f"{told or 'your values'} (--param overrides)"
         )
     params = {**declared, **params}

@@ -21,6 +21,8 @@ poses are (`corrected_odometry`): when they are the graph's vertices and already
 with its loop-closure edges (an edge between vertices more than one apart), they are a
 trajectory corrected with those closures, not raw odometry, and a SLAM method's motion
 model should say so. The MIT Killian Court log of the rtb-data package is such a file.
+Likewise a log whose odometry turns between two scans faster than a base turns has
+poses not all taken at their scans' instants (`odometry_timing`; MIT CSAIL's log).
 A line of a known type that cannot be read is an error naming the file and the line
 (``strict=True``) or is skipped and listed in `CarmenLog.skipped`.
 
@@ -67,6 +69,11 @@ CORRECTED_LOOP_TRANS = 0.1
 CORRECTED_LOOP_ROT = 0.02
 # At least this many loop-closure edges, so that the test means something.
 CORRECTED_MIN_LOOPS = 10
+# A log whose odometry turns faster than this between two scans (rad/s), at least
+# `FAST_TURNS` times, has poses not taken at their scans' instants: wheeled indoor bases
+# turn at 1-2 rad/s at most.
+FAST_TURN_RATE = 3.0
+FAST_TURNS = 3
 
 
 class CarmenError(ValueError):
@@ -103,6 +110,8 @@ class CarmenLog:
     # Why the scans' odometry poses are an already corrected trajectory (the reader found
     # so), or "" when they are taken for raw odometry.
     corrected_odometry: str = ""
+    # Why the odometry poses are not all taken at their scans' instants, or "".
+    odometry_timing: str = ""
 
     @property
     def duration(self) -> float:
@@ -174,6 +183,27 @@ class _Parsed:
     mounts: list[tuple[float, float, float]] = field(default_factory=list)
     vertices: dict[int, tuple[float, float, float]] = field(default_factory=dict)
     edges: list[tuple[int, int, float, float, float]] = field(default_factory=list)
+
+
+def timing_reason(scans: list[CarmenScan]) -> str:
+    """Why the scans' odometry poses are not all taken at the scans' instants, or "":
+    between consecutive scans (in the order given) the odometry turns faster than
+    `FAST_TURN_RATE` at least `FAST_TURNS` times."""
+    poses = [(s.stamp, s.odom[2]) for s in scans if s.odom is not None]
+    if len(poses) < 2:
+        return ""
+    t, yaw = np.array(poses).T
+    dt, turn = np.diff(t), np.abs((np.diff(yaw) + math.pi) % (2 * math.pi) - math.pi)
+    ok = dt > 0
+    rates = turn[ok] / dt[ok]
+    fast = int(np.count_nonzero(rates > FAST_TURN_RATE))
+    if fast < FAST_TURNS:
+        return ""
+    return (
+        f"its odometry turns faster than {FAST_TURN_RATE:g} rad/s between two scans "
+        f"{fast} times (up to {rates.max():.1f} rad/s), faster than a base turns: its "
+        "poses are not all taken at their scans' instants"
+    )
 
 
 def _graph_line(kind: str, tokens: list[str], out: _Parsed) -> None:
@@ -335,7 +365,8 @@ def parse_carmen(
         scans = sorted(scans, key=lambda s: s.stamp)
     # A laser pose far from the odometry is a corrected pose, not the mount: leave it.
     mount = next((m for m in out.mounts if math.hypot(m[0], m[1]) < 1.0), (0.0, 0.0, 0.0))
-    return CarmenLog(scans, odom, mount, source, skipped, other, corrected_reason(out))
+    timing = timing_reason(scans)
+    return CarmenLog(scans, odom, mount, source, skipped, other, corrected_reason(out), timing)
 
 
 def _text_lines(path: Path) -> list[str]:

@@ -191,7 +191,7 @@ class PoseGraphParams(OdometryModel):
     correlation_search_angle: float = 0.35
     correlation_points: int = 150
     gauss_newton_reach_angle: float = 0.1
-    odom_time_sigma: float = 0.2
+    odom_time_sigma: float = 0.0
     match_prior_scale: float = 1.0
     match_variance_scale: float = 30.0
     match_min_sigma_xy: float = 0.005

@@ -192,7 +192,6 @@ class PoseGraphParams(OdometryModel):
     correlation_points: int = 150
     gauss_newton_reach_angle: float = 0.1
     odom_time_sigma: float = 0.0
-    match_prior_scale: float = 1.0
     match_variance_scale: float = 30.0
     match_min_sigma_xy: float = 0.005
     match_min_sigma_yaw: float = 0.002

@@ -133,7 +133,9 @@ def _shared_spheres(robot) -> RobotSpheres:
 def test_a_board_the_mesh_clears_by_a_centimetre_is_not_a_contact() -> None:
     """The Panda's forearm (link 5) 8 mm above a board: its coarse spheres reach the
     board, the mesh does not (MuJoCo); the checker on the fine covers calls the
-    configuration free and plans from it. 2 mm into the board it is a contact for both."""
+    configuration free and plans from it, with only the links touching there given their
+    fine covers when asked at that configuration. 2 mm into the board it is a contact for
+    both."""
     import trimesh
 
     from robotrial.benchmarks.planning import panda_path
@@ -160,6 +162,12 @@ def test_a_board_the_mesh_clears_by_a_centimetre_is_not_a_contact() -> None:
         )
         env = Environment()
         env.add(*board)
+        # asked at q, only the links touching there get fine covers (before the others)
+        at_q = CollisionChecker(spheres, env, fine=False).finer(q)
+        assert at_q is not None and bool(at_q.valid(q)[0]) == free
+        if free:
+            assert "panda_link5" in spheres.fine_links()
+            assert len(spheres.fine_links()) < len(spheres.bodies)
         checker = CollisionChecker(spheres, env, fine=False)
         finer = checker.finer()
         assert finer is not None and finer.fine and finer.finer() is finer

@@ -425,7 +425,7 @@ class TaskPlanner:
         # the first sphere cover is the fast path; where it refuses an end, the fine one
         # decides (`CollisionChecker.finer`), and the whole request goes on with it
         if not checker.valid(start[None])[0]:
-            finer = checker.finer()
+            finer = checker.finer(start)
             if finer is None or not finer.valid(start[None])[0]:
                 touching = sorted((finer or checker).contacts(start))
                 self._fail(

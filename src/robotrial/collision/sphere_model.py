@@ -23,6 +23,20 @@ from robotrial.kinematics.chain import PRISMATIC, Kinematics
 from robotrial.model.robot import CollisionSphere
 
 OBJECT = "object"  # the body name of the object held in the hand
+WALL_SAMPLES = 512  # grid values of a joint's range where its walls are looked for
+
+
+@dataclass(frozen=True)
+class Wall:
+    """Values `low`..`high` of planning joint `joint` (an index) that no motion passes:
+    at each of them `body`, which no other planning joint moves, is inside `obstacle`
+    (its fine cover, by more than it moves between grid values)."""
+
+    joint: int
+    low: float
+    high: float
+    body: str
+    obstacle: str
 
 
 @dataclass(frozen=True)
@@ -373,6 +387,7 @@ class CollisionChecker:
         )
         self._travel = self._travel_bounds()
         env_arrays = self._reachable_env()
+        self._walls: list[Wall] | None = None
         self.never_touching = self._never_touching(env_arrays)
         every, reachable = kernels.item_lists(self.never_touching, len(self.pairs))
         self._packed = kernels.pack(
@@ -429,6 +444,64 @@ class CollisionChecker:
             out[e] = np.min(gaps - radii[:, None], axis=0) > margin
         return out
 
+    def walls(self) -> list[Wall]:
+        """The joint ranges no path crosses (`Wall`), found once per checker: a body
+        that only one planning joint moves (a hand the turning torso carries while its
+        own arm is held) and that reaches into an obstacle over part of that joint's
+        range splits the joint space in two."""
+        if self._walls is not None:
+            return self._walls
+        env = self.env.arrays()
+        names = [  # in the kernels' order
+            self.env.names[i]
+            for kind in ("box", "cylinder", "sphere")
+            for i, k in enumerate(self.env.kinds)
+            if k == kind
+        ]
+        rates = self._travel[0]
+        self._walls = []
+        for bi in self.env_bodies if names else []:
+            body = self.bodies[bi]
+            joints = np.nonzero(rates[bi])[0]
+            if body.name == OBJECT or len(joints) != 1:
+                continue
+            # the first cover (its sweep kept from `_never_touching`) tells where to look
+            # with the fine one
+            if not self._inside(body, joints, env).any():
+                continue
+            self.robot.refine({body.link})
+            own = next(b for b in self.robot.bodies if b.name == body.name)
+            if own.fine_centres is None:
+                continue
+            fine = replace(
+                own, name=f"{own.name} (fine)", centres=own.fine_centres, radii=own.fine_radii
+            )
+            inside = self._inside(fine, joints, env)  # (grid values, obstacles)
+            values = np.linspace(self.kin.lower[joints[0]], self.kin.upper[joints[0]], WALL_SAMPLES)
+            edges = np.flatnonzero(np.diff(np.r_[0, inside.any(axis=1).astype(int), 0]))
+            for lo, hi in zip(edges[::2], edges[1::2] - 1, strict=True):
+                which = names[int(np.argmax(inside[lo : hi + 1].sum(axis=0)))]
+                self._walls.append(Wall(int(joints[0]), values[lo], values[hi], body.name, which))
+        return self._walls
+
+    def _inside(self, body: Body, joints: np.ndarray, env: kernels.Shapes) -> np.ndarray:
+        """(grid values, obstacles) True where `body`, its one joint swept over its range,
+        is inside an obstacle by more than it moves between grid values."""
+        rates = self.robot.arms(body, self.padding) @ self._to_joint
+        pts, radii, margin = self.robot.sweep(body, joints, rates, self.padding, WALL_SAMPLES)
+        depth = radii[:, None] - _shape_gaps(pts, *env)
+        return depth.reshape(WALL_SAMPLES, len(body.radii), -1).max(axis=1) > margin
+
+    def beyond_walls(self, a: np.ndarray, qs: np.ndarray) -> np.ndarray:
+        """(N,) bool: which configurations of `qs` lie past a wall (`walls`) from `a`:
+        no path reaches them from `a`."""
+        qs = np.atleast_2d(qs)
+        out = np.zeros(len(qs), dtype=bool)
+        for w in self.walls():
+            lo, hi = np.minimum(qs[:, w.joint], a[w.joint]), np.maximum(qs[:, w.joint], a[w.joint])
+            out |= (lo <= w.high) & (hi >= w.low)
+        return out
+
     def _travel_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(bodies, d) and (pairs, d): metres per unit of each planning joint that a body
         may move in the world, and that two bodies may move toward each other (joints
@@ -439,6 +512,7 @@ class CollisionChecker:
         for k in range(len(kin.link_names)):
             if kin.src[k] >= 0:
                 to_joint[k, kin.src[k]] = 1.0
+        self._to_joint = to_joint
         links = [kin.link_index[b.link] for b in self.bodies]
         pair = np.array(
             [

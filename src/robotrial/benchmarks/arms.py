@@ -479,8 +479,9 @@ def failures(r: ArmResult) -> list[str]:
     out = []
     for k, q in enumerate(r.requests):
         goal = ", ".join(f"{v:.2f}" for v in q.goal)
+        k %= max(r.asked(q.setting), 1)
         if not q.solved:
-            out.append(f"{q.setting} #{k % max(r.asked(q.setting), 1)} ({goal}): {q.message}")
+            out.append(f"{q.setting} #{k} ({goal}): {q.message}")
         if q.colliding:
             out.append(f"{q.setting} #{k} path touches (planner's rules): {q.colliding}")
         if q.strict and not q.colliding:
@@ -505,7 +506,9 @@ def markdown(results: list[ArmResult], report: dict[str, Any]) -> str:
         "Each arm's URDF and meshes are zipped as a package, uploaded through the page's "
         "route to a fresh server (empty robot cache) and loaded as `--robot FILE` does; "
         f"{report['goals']} goal positions reached by forward kinematics from random "
-        "collision-free configurations are planned from one free start in the desk world, "
+        "collision-free configurations (those past a wall of the planner's, a joint range "
+        "no path crosses, drawn again and counted per arm) "
+        "are planned from one free start in the desk world, "
         "without and then with two random boxes. Every path is checked with MuJoCo every "
         f"{STEP} rad: *colliding* by the planner's rules, *strict* counting every link "
         "pair but rigid, adjacent and zero-pose ones (pairs the self-collision matrix "

@@ -133,7 +133,9 @@ def _shared_spheres(robot) -> RobotSpheres:
 def test_a_board_the_mesh_clears_by_a_centimetre_is_not_a_contact() -> None:
     """The Panda's forearm (link 5) 8 mm above a board: its coarse spheres reach the
     board, the mesh does not (MuJoCo); the checker on the fine covers calls the
-    configuration free and plans from it. 2 mm into the board it is a contact for both."""
+    configuration free and plans from it, with only the links touching there given their
+    fine covers when asked at that configuration. 2 mm into the board it is a contact for
+    both."""
     import trimesh
 
     from robotrial.benchmarks.planning import panda_path
@@ -160,6 +162,12 @@ def test_a_board_the_mesh_clears_by_a_centimetre_is_not_a_contact() -> None:
         )
         env = Environment()
         env.add(*board)
+        # asked at q, only the links touching there get fine covers (before the others)
+        at_q = CollisionChecker(spheres, env, fine=False).finer(q)
+        assert at_q is not None and bool(at_q.valid(q)[0]) == free
+        if free:
+            assert "panda_link5" in spheres.fine_links()
+            assert len(spheres.fine_links()) < len(spheres.bodies)
         checker = CollisionChecker(spheres, env, fine=False)
         finer = checker.finer()
         assert finer is not None and finer.fine and finer.finer() is finer
@@ -176,3 +184,29 @@ def test_a_board_the_mesh_clears_by_a_centimetre_is_not_a_contact() -> None:
         if free:
             assert ExactChecker(finer, None, [board]).path_valid(res.path)[0]
         assert CollisionChecker(coarse_only, env).finer() is None
+
+
+def test_a_post_the_first_link_sweeps_into_is_a_wall_no_goal_past_it_is_reached(desk_arm) -> None:
+    """A post where the first link (moved by joint 1 alone; here one sphere on a 15 cm
+    lever) passes at joint 1 = 1.5 rad: the checker names the joint range it blocks,
+    and configurations on the far side of it are past the wall, those on the near side
+    are not."""
+    from robotrial.model.robot import CollisionSphere
+
+    kin = desk_arm[1].kin
+    lever = [CollisionSphere("link1", (0.15, 0.0, 0.05), 0.03)]
+    spheres = RobotSpheres(kin, lever, samples=100, fine=lever)
+    q = np.clip(np.zeros(kin.d), kin.lower, kin.upper)
+    q[0] = 1.5
+    m = kin.fk(q)[kin.link_index["link1"]]
+    post = m[:3, :3] @ np.array([0.15, 0.0, 0.05]) + m[:3, 3]
+    env = Environment()
+    env.add("post", Box((0.03, 0.03, 0.03)), Pose(tuple(map(float, post))))
+    checker = CollisionChecker(spheres, env)
+    (wall,) = checker.walls()
+    assert wall.joint == 0 and wall.obstacle == "post" and wall.body == "link1"
+    assert 1.0 < wall.low < 1.5 < wall.high < 2.0
+    near, past = q.copy(), q.copy()
+    near[0], past[0] = 0.0, 2.5
+    assert list(checker.beyond_walls(near, np.stack([near, past]))) == [False, True]
+    assert CollisionChecker(spheres, Environment()).walls() == []

@@ -63,11 +63,14 @@ def _coarse_spheres_touch(spheres: RobotSpheres, q: np.ndarray, a: str, b: str) 
 
 def test_ur5_forearm_near_its_wrist_is_free_and_in_it_is_not(ur5: RobotSpheres) -> None:
     """The forearm and wrist 2 pass 1-2 cm apart over a share of the UR5's free space,
-    where their coarse spheres already touch: the fine covers decide there."""
+    where their coarse spheres already touch: the fine covers decide there, once a
+    request starting there has made them (those two links' only)."""
     pair = ("forearm_link", "wrist_2_link")
     assert pair in ur5.close
     assert _coarse_spheres_touch(ur5, FOREARM_BY_WRIST, *pair)
-    checker = CollisionChecker(ur5)
+    CollisionChecker(ur5).finer(FOREARM_BY_WRIST)
+    assert set(pair) <= ur5.fine_links()
+    checker = CollisionChecker(ur5)  # a plain checker asks the close pairs' fine covers
     exact = ExactChecker(checker)
     assert exact.valid(FOREARM_BY_WRIST)
     assert checker.valid(FOREARM_BY_WRIST[None])[0], checker.contacts(FOREARM_BY_WRIST)

@@ -348,6 +348,7 @@ def test_no_path_within_the_time_limit(planner) -> None:
         ]
     ]
     answer(planner, _request())  # loads the compiled kernels, as a running server has
+    planner.spheres.refine()  # and every fine cover, as `robotrial warm` leaves them
     resp, res = answer(planner, _request(obstacles=walls, time_limit=2.0))
     assert res.failure == "timeout", resp.message
     assert not resp.success

@@ -12,7 +12,8 @@ one or two folders off, as a user's zip often is) and:
 2. loaded as `--robot FILE` reads it (`cli/robot_source.py`); its tool, arm group and
    joints must equal the upload's;
 3. asked `--goals` positions (reached by forward kinematics from random collision-free
-   configurations) from one free start, standing in the page's desk world, without and
+   configurations on the start's side of the planner's walls, joint ranges no path
+   crosses) from one free start, standing in the page's desk world, without and
    then with two random boxes (placed clear of the start and of the configuration that
    reached the goal); each request is answered in process by the uploaded robot's
    TaskPlanner and timed;
@@ -143,6 +144,7 @@ class ArmResult:
     first_plan_cpu_s: float = 0.0  # the process's CPU time: what an idle core would take
     first_plan_file_s: float = 0.0
     pairs_checked: int = 0
+    past_walls: int = 0  # goals drawn again: past a joint range no path crosses
     pairs_left_out: dict[str, int] = field(default_factory=dict)
     requests: list[Request] = field(default_factory=list)
 
@@ -202,6 +204,24 @@ def _free_configurations(planner, rng: np.random.Generator, n: int) -> np.ndarra
     qs = qs[checker.valid(qs)]
     free = [q for q in qs[: 4 * n] if exact.valid(q)]
     return np.array(free[:n]).reshape(-1, planner.kin.d)
+
+
+def _reachable_goals(planner, rng, free: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """The start (the first of `free`) and up to `n` goal configurations on its side of
+    the planner's walls (`CollisionChecker.walls`: joint ranges no path crosses), those
+    past a wall drawn again; and how many were."""
+    from robotrial.collision.sphere_model import CollisionChecker
+
+    checker = CollisionChecker(planner.spheres, planner.world_env, planner.padding)
+    start, reached = free[0], free[1:]
+    past = checker.beyond_walls(start, reached)
+    reached, dropped = reached[~past], int(past.sum())
+    for _ in range(5):
+        if len(reached) >= n or not dropped:
+            break
+        more = _free_configurations(planner, rng, n)
+        reached = np.vstack([reached, more[~checker.beyond_walls(start, more)]])
+    return start, reached[:n], dropped
 
 
 def _boxes(planner, rng, configurations, region) -> list:
@@ -320,7 +340,7 @@ def bench_arm(name: str, rel: str, planned: str, root: Path, args, server) -> Ar
     if len(free) < 2:
         out.refused = f"fewer than 2 free configurations in {STARTS_TRIED} draws"
         return out
-    start, reached = free[0], free[1:]
+    start, reached, out.past_walls = _reachable_goals(planner, rng, free, args.goals)
     goals = kin.link_pose(reached)[:, :3, 3]
     strict = _strict_pairs(planner.spheres)
     region = (goals.min(axis=0), goals.max(axis=0))
@@ -459,8 +479,9 @@ def failures(r: ArmResult) -> list[str]:
     out = []
     for k, q in enumerate(r.requests):
         goal = ", ".join(f"{v:.2f}" for v in q.goal)
+        k %= max(r.asked(q.setting), 1)
         if not q.solved:
-            out.append(f"{q.setting} #{k % max(r.asked(q.setting), 1)} ({goal}): {q.message}")
+            out.append(f"{q.setting} #{k} ({goal}): {q.message}")
         if q.colliding:
             out.append(f"{q.setting} #{k} path touches (planner's rules): {q.colliding}")
         if q.strict and not q.colliding:
@@ -485,7 +506,9 @@ def markdown(results: list[ArmResult], report: dict[str, Any]) -> str:
         "Each arm's URDF and meshes are zipped as a package, uploaded through the page's "
         "route to a fresh server (empty robot cache) and loaded as `--robot FILE` does; "
         f"{report['goals']} goal positions reached by forward kinematics from random "
-        "collision-free configurations are planned from one free start in the desk world, "
+        "collision-free configurations (those past a wall of the planner's, a joint range "
+        "no path crosses, drawn again and counted per arm) "
+        "are planned from one free start in the desk world, "
         "without and then with two random boxes. Every path is checked with MuJoCo every "
         f"{STEP} rad: *colliding* by the planner's rules, *strict* counting every link "
         "pair but rigid, adjacent and zero-pose ones (pairs the self-collision matrix "
@@ -507,7 +530,12 @@ def markdown(results: list[ArmResult], report: dict[str, Any]) -> str:
         lines += [
             "",
             f"Tool `{r.tool}`; joints {', '.join(r.joints)}. Self-collision pairs checked: "
-            f"{r.pairs_checked}; left out: {left}.",
+            f"{r.pairs_checked}; left out: {left}."
+            + (
+                f" Goals drawn again because no path reaches them (past a wall): {r.past_walls}."
+                if r.past_walls
+                else ""
+            ),
             "",
         ]
         named = failures(r)

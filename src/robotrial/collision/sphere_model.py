@@ -9,7 +9,7 @@ and answers the planners' batched questions `valid(qs)` and `motion_valid(a, b)`
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -23,6 +23,20 @@ from robotrial.kinematics.chain import PRISMATIC, Kinematics
 from robotrial.model.robot import CollisionSphere
 
 OBJECT = "object"  # the body name of the object held in the hand
+WALL_SAMPLES = 512  # grid values of a joint's range where its walls are looked for
+
+
+@dataclass(frozen=True)
+class Wall:
+    """Values `low`..`high` of planning joint `joint` (an index) that no motion passes:
+    at each of them `body`, which no other planning joint moves, is inside `obstacle`
+    (its fine cover, by more than it moves between grid values)."""
+
+    joint: int
+    low: float
+    high: float
+    body: str
+    obstacle: str
 
 
 @dataclass(frozen=True)
@@ -47,10 +61,11 @@ class RobotSpheres:
 
     `spheres` cover the links (default `link_spheres`); `fine`, a tighter cover asked
     only where those touch an obstacle (default `link_fine_spheres` when `spheres` is
-    not given, else none), made on first use by `refine()` (seconds for a robot).
-    The links of close pairs (`self_pairs.CLOSE`: pairs whose spheres touch where the
-    links do not, as a forearm passing a wrist) get theirs at once, in `fine_self`:
-    every check asks them where their coarse spheres touch another link's.
+    not given, else none), made on first use by `refine()`, link by link (a second
+    for a link of many faces): a request makes those of the links its start touches
+    with. `fine_self` names the links of close pairs (`self_pairs.CLOSE`: pairs whose
+    spheres touch where the links do not, as a forearm passing a wrist): every check
+    asks their fine covers, once made, where their coarse spheres touch another link's.
     """
 
     def __init__(
@@ -78,16 +93,27 @@ class RobotSpheres:
         self.fine_self: set[str] = set()
         if self.has_fine:
             self.fine_self = {link for pair in self.close for link in pair}
-            self._add_fine(self.fine_self)
         self.step = float(step)
         self.resolution = self._resolution(step, seed)
 
-    def refine(self) -> None:
-        """Give each body its fine cover (made here unless given), once."""
+    def refine(self, links: Collection[str] | None = None) -> None:
+        """Give the bodies of `links` (default: every body) their fine covers (made here
+        unless given), once each."""
         if self.refined or not self.has_fine:
             return
-        self._add_fine({b.link for b in self.bodies if b.fine_centres is None})
-        self.refined = True
+        wanted = None if links is None else set(links)
+        self._add_fine(
+            {
+                b.link
+                for b in self.bodies
+                if b.fine_centres is None and (wanted is None or b.link in wanted)
+            }
+        )
+        self.refined = all(b.fine_centres is not None for b in self.bodies)
+
+    def fine_links(self) -> frozenset[str]:
+        """The links whose fine covers are made."""
+        return frozenset(b.link for b in self.bodies if b.fine_centres is not None)
 
     def _add_fine(self, links: set[str]) -> None:
         """Give the bodies of `links` their fine covers."""
@@ -299,8 +325,9 @@ class CollisionChecker:
     `padding` (m) inflates the robot's spheres against the environment. `held` is an
     object carried by the hand; the links it touches at `held_touch_at` may touch it.
     With `fine` (default: when the robot's fine covers are made), each link's fine cover
-    is asked where its first cover touches an obstacle or another link; `finer()` gives
-    that checker. The links of the robot's `fine_self` have theirs asked always.
+    is asked where its first cover touches an obstacle or another link (every link's
+    made first, unless `refine` is False: then those made); `finer()` gives that
+    checker. The links of the robot's `fine_self` have theirs, once made, asked always.
     """
 
     def __init__(
@@ -312,12 +339,14 @@ class CollisionChecker:
         held_touch_at: np.ndarray | None = None,
         resolution_scale: float = 1.0,
         fine: bool | None = None,
+        refine: bool = True,
     ) -> None:
         self._settings = (robot, env, padding, held, held_touch_at, resolution_scale)
         self.fine = robot.refined if fine is None else bool(fine) and robot.has_fine
-        if self.fine:
+        if self.fine and refine:
             robot.refine()
-        self._finer: CollisionChecker | None = self if self.fine else None
+        self._made = robot.fine_links()
+        self._finer: CollisionChecker | None = self if self.fine and robot.refined else None
         self.robot = robot
         self.kin = robot.kin
         self.env = env if env is not None else Environment()
@@ -358,6 +387,7 @@ class CollisionChecker:
         )
         self._travel = self._travel_bounds()
         env_arrays = self._reachable_env()
+        self._walls: list[Wall] | None = None
         self.never_touching = self._never_touching(env_arrays)
         every, reachable = kernels.item_lists(self.never_touching, len(self.pairs))
         self._packed = kernels.pack(
@@ -414,6 +444,64 @@ class CollisionChecker:
             out[e] = np.min(gaps - radii[:, None], axis=0) > margin
         return out
 
+    def walls(self) -> list[Wall]:
+        """The joint ranges no path crosses (`Wall`), found once per checker: a body
+        that only one planning joint moves (a hand the turning torso carries while its
+        own arm is held) and that reaches into an obstacle over part of that joint's
+        range splits the joint space in two."""
+        if self._walls is not None:
+            return self._walls
+        env = self.env.arrays()
+        names = [  # in the kernels' order
+            self.env.names[i]
+            for kind in ("box", "cylinder", "sphere")
+            for i, k in enumerate(self.env.kinds)
+            if k == kind
+        ]
+        rates = self._travel[0]
+        self._walls = []
+        for bi in self.env_bodies if names else []:
+            body = self.bodies[bi]
+            joints = np.nonzero(rates[bi])[0]
+            if body.name == OBJECT or len(joints) != 1:
+                continue
+            # the first cover (its sweep kept from `_never_touching`) tells where to look
+            # with the fine one
+            if not self._inside(body, joints, env).any():
+                continue
+            self.robot.refine({body.link})
+            own = next(b for b in self.robot.bodies if b.name == body.name)
+            if own.fine_centres is None:
+                continue
+            fine = replace(
+                own, name=f"{own.name} (fine)", centres=own.fine_centres, radii=own.fine_radii
+            )
+            inside = self._inside(fine, joints, env)  # (grid values, obstacles)
+            values = np.linspace(self.kin.lower[joints[0]], self.kin.upper[joints[0]], WALL_SAMPLES)
+            edges = np.flatnonzero(np.diff(np.r_[0, inside.any(axis=1).astype(int), 0]))
+            for lo, hi in zip(edges[::2], edges[1::2] - 1, strict=True):
+                which = names[int(np.argmax(inside[lo : hi + 1].sum(axis=0)))]
+                self._walls.append(Wall(int(joints[0]), values[lo], values[hi], body.name, which))
+        return self._walls
+
+    def _inside(self, body: Body, joints: np.ndarray, env: kernels.Shapes) -> np.ndarray:
+        """(grid values, obstacles) True where `body`, its one joint swept over its range,
+        is inside an obstacle by more than it moves between grid values."""
+        rates = self.robot.arms(body, self.padding) @ self._to_joint
+        pts, radii, margin = self.robot.sweep(body, joints, rates, self.padding, WALL_SAMPLES)
+        depth = radii[:, None] - _shape_gaps(pts, *env)
+        return depth.reshape(WALL_SAMPLES, len(body.radii), -1).max(axis=1) > margin
+
+    def beyond_walls(self, a: np.ndarray, qs: np.ndarray) -> np.ndarray:
+        """(N,) bool: which configurations of `qs` lie past a wall (`walls`) from `a`:
+        no path reaches them from `a`."""
+        qs = np.atleast_2d(qs)
+        out = np.zeros(len(qs), dtype=bool)
+        for w in self.walls():
+            lo, hi = np.minimum(qs[:, w.joint], a[w.joint]), np.maximum(qs[:, w.joint], a[w.joint])
+            out |= (lo <= w.high) & (hi >= w.low)
+        return out
+
     def _travel_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(bodies, d) and (pairs, d): metres per unit of each planning joint that a body
         may move in the world, and that two bodies may move toward each other (joints
@@ -424,6 +512,7 @@ class CollisionChecker:
         for k in range(len(kin.link_names)):
             if kin.src[k] >= 0:
                 to_joint[k, kin.src[k]] = 1.0
+        self._to_joint = to_joint
         links = [kin.link_index[b.link] for b in self.bodies]
         pair = np.array(
             [
@@ -545,13 +634,22 @@ class CollisionChecker:
     def motion_valid(self, a: np.ndarray, b: np.ndarray) -> bool:
         return bool(self.motions_valid(a, b)[0])
 
-    def finer(self) -> CollisionChecker | None:
-        """This checker with the robot's fine cover asked too (built once, then kept), or
-        None when the robot has no fine cover. For the configurations the first cover
-        calls touching although the links are 1-2 cm clear: a start or goal close to a
-        shelf board or a table top."""
-        if self._finer is None and self.robot.has_fine:
-            self._finer = CollisionChecker(*self._settings, fine=True)
+    def finer(self, q: np.ndarray | None = None) -> CollisionChecker | None:
+        """This checker with the robot's fine covers asked too, or None when the robot has
+        none. For the configurations the first cover calls touching although the links
+        are 1-2 cm clear: a start or goal close to a shelf board or a table top. With
+        `q`, only the links whose first cover touches something there get theirs made
+        (the others keep their first cover, which holds them as well); else every link.
+        Kept until more fine covers are made."""
+        if not self.robot.has_fine:
+            return None
+        if q is None:
+            self.robot.refine()
+        else:
+            touching = {name for pair in self.contacts(q, fine=False) for name in pair}
+            self.robot.refine(touching & {b.link for b in self.robot.bodies})
+        if self._finer is None or self._finer._made != self.robot.fine_links():
+            self._finer = type(self)(*self._settings, fine=True, refine=False)
         return self._finer
 
     def contacts(

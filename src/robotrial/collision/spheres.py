@@ -21,6 +21,7 @@ link share one tolerance and one budget.
 from __future__ import annotations
 
 import hashlib
+import math
 from collections.abc import Collection
 from functools import lru_cache
 from typing import NamedTuple
@@ -74,7 +75,7 @@ class _Convex:
         margin: float,
         lo: np.ndarray,
         hi: np.ndarray,
-        depth,
+        depth: _Solid,
         grid: _Grid = COARSE,
     ) -> None:
         tris = np.asarray(vertices, dtype=float)[np.asarray(faces)]
@@ -134,31 +135,101 @@ def _split(tris: np.ndarray, edge: float) -> np.ndarray:
     return np.concatenate(done)
 
 
-def _polyhedron_depth(normals: np.ndarray, offsets: np.ndarray):
-    """Depth function of the convex polyhedron {x : normals @ x <= offsets}."""
-    normals = np.ascontiguousarray(normals, dtype=np.float64)
-    offsets = np.ascontiguousarray(offsets, dtype=np.float64)
+class _Solid(NamedTuple):
+    """A convex solid as its depth function needs it: the polyhedron {x : normals @ x <=
+    offsets}, cut by the cylinder along z of `cyl` (radius, half length) when its radius
+    is positive. Called with points (N, 3), gives their depths (negative outside)."""
 
-    def depth(p: np.ndarray) -> np.ndarray:
+    normals: np.ndarray
+    offsets: np.ndarray
+    cyl: np.ndarray
+
+    def __call__(self, p: np.ndarray) -> np.ndarray:
         out = np.empty(len(p))
-        _plane_depth(normals, offsets, np.ascontiguousarray(p, dtype=np.float64), out)
+        _depth_into(*self, np.ascontiguousarray(p, dtype=np.float64), out)
         return out
 
-    return depth
+
+def _polyhedron(normals: np.ndarray, offsets: np.ndarray) -> _Solid:
+    return _Solid(
+        np.ascontiguousarray(normals, dtype=np.float64),
+        np.ascontiguousarray(offsets, dtype=np.float64),
+        np.zeros(2),
+    )
 
 
 @nb.njit(cache=True)
-def _plane_depth(normals, offsets, points, out) -> None:
-    """out[i] = min over planes of offsets - normals . points[i], without the (points,
-    planes) matrix (a hull has thousands of faces, a grid thousands of points)."""
+def _depth_at(normals, offsets, cyl, x, y, z) -> float:
+    """The depth of one point in a `_Solid` (min over its planes and its cylinder)."""
+    best = np.inf
+    for f in range(offsets.shape[0]):
+        best = min(best, offsets[f] - (normals[f, 0] * x + normals[f, 1] * y + normals[f, 2] * z))
+    if cyl[0] > 0.0:
+        best = min(best, cyl[0] - math.hypot(x, y), cyl[1] - abs(z))
+    return best
+
+
+@nb.njit(cache=True)
+def _depth_into(normals, offsets, cyl, points, out) -> None:
+    # point by point, without the (points, planes) matrix: a hull has thousands of faces
     for i in range(points.shape[0]):
-        x, y, z = points[i, 0], points[i, 1], points[i, 2]
-        best = np.inf
-        for f in range(offsets.shape[0]):
-            best = min(
-                best, offsets[f] - (normals[f, 0] * x + normals[f, 1] * y + normals[f, 2] * z)
-            )
-        out[i] = best
+        out[i] = _depth_at(normals, offsets, cyl, points[i, 0], points[i, 1], points[i, 2])
+
+
+@nb.njit(cache=True)
+def _bulge(normals, offsets, cyl, pts, pad, x, y, z) -> float:
+    """How far a sphere at (x, y, z) holding `pts` (each grown by its `pad`) stands out
+    of the solid: its radius less the centre's depth; infinite outside."""
+    h = _depth_at(normals, offsets, cyl, x, y, z)
+    if h < 0.0:
+        return np.inf
+    far = -np.inf
+    for j in range(pts.shape[0]):
+        dx, dy, dz = pts[j, 0] - x, pts[j, 1] - y, pts[j, 2] - z
+        far = max(far, np.sqrt(dx * dx + dy * dy + dz * dz) + pad[j])
+    return far - h
+
+
+@nb.njit(cache=True)
+def _polish(normals, offsets, cyl, centres, owner, points, start, margin, step, finest):
+    """Pattern search for each centre k: from where it is, the point inside the solid
+    where a sphere holding the groups `owner` gives it bulges least (moves of `step`
+    along the axes, halved when none helps, down to `finest`)."""
+    out = centres.copy()
+    for k in range(centres.shape[0]):
+        m = 0
+        for g in range(owner.shape[0]):
+            if owner[g] == k:
+                m += start[g + 1] - start[g]
+        if m == 0:
+            continue
+        pts = np.empty((m, 3))
+        pad = np.empty(m)
+        n = 0
+        for g in range(owner.shape[0]):
+            if owner[g] == k:
+                for j in range(start[g], start[g + 1]):
+                    pts[n] = points[j]
+                    pad[n] = margin[g]
+                    n += 1
+        c = out[k].copy()
+        best = _bulge(normals, offsets, cyl, pts, pad, c[0], c[1], c[2])
+        s = step
+        while s > finest:
+            move, score = -1, np.inf
+            for i in range(6):
+                t = c.copy()
+                t[i % 3] += s if i < 3 else -s
+                b = _bulge(normals, offsets, cyl, pts, pad, t[0], t[1], t[2])
+                if b < score:
+                    move, score = i, b
+            if score < best:
+                c[move % 3] += s if move < 3 else -s
+                best = score
+            else:
+                s *= 0.5
+        out[k] = c
+    return out
 
 
 def _group_need(centres, points, start, margin, dtype=np.float64) -> np.ndarray:
@@ -305,42 +376,25 @@ class _Fit:
         sphere shrunk to what its groups need."""
         idx, _ = _refine(self.need, self.depth, chosen, REFINE_ROUNDS)
         centres = self.centres[idx]
+        solid = self.shape.depth_of
         for _ in range(POLISH_ROUNDS):
             need = _group_need(centres, self.points, self.start, self.margin)
-            owner = np.argmin(need - self.shape.depth_of(centres)[None, :], axis=1)
-            for k in range(len(centres)):
-                mine = np.flatnonzero(owner == k)
-                if len(mine):
-                    centres[k] = self._polish(centres[k], mine)
+            owner = np.argmin(need - solid(centres)[None, :], axis=1)
+            centres = _polish(
+                *solid,
+                centres,
+                owner,
+                self.points,
+                self.start,
+                self.margin,
+                0.5 * self.shape.step,
+                POLISH_STEP,
+            )
         need = _group_need(centres, self.points, self.start, self.margin)
-        owner = np.argmin(need - self.shape.depth_of(centres)[None, :], axis=1)
+        owner = np.argmin(need - solid(centres)[None, :], axis=1)
         radii = np.array([np.max(need[owner == k, k], initial=0.0) for k in range(len(centres))])
         keep = radii > 0.0
         return centres[keep], radii[keep]
-
-    def _polish(self, centre: np.ndarray, groups: np.ndarray) -> np.ndarray:
-        """Pattern search from `centre` for the point inside the shape where a sphere
-        holding `groups` bulges least."""
-        pts = np.concatenate([self.points[self.start[g] : self.start[g + 1]] for g in groups])
-        pad = np.repeat(self.margin[groups], np.diff(self.start)[groups])
-        moves = np.vstack([np.eye(3), -np.eye(3)])
-
-        def bulge(c: np.ndarray) -> np.ndarray:
-            d = np.sqrt(((pts[None, :, :] - c[:, None, :]) ** 2).sum(-1)) + pad[None, :]
-            h = self.shape.depth_of(c)
-            return np.where(h >= 0.0, d.max(axis=1) - h, np.inf)
-
-        best = float(bulge(centre[None])[0])
-        step = 0.5 * self.shape.step
-        while step > POLISH_STEP:
-            trial = centre[None, :] + step * moves
-            score = bulge(trial)
-            i = int(np.argmin(score))
-            if score[i] < best:
-                centre, best = trial[i], float(score[i])
-            else:
-                step *= 0.5
-        return centre
 
 
 def _shared_cover(
@@ -393,9 +447,7 @@ def _box(size: tuple[float, float, float], grid: _Grid) -> _Convex:
     tm = trimesh.creation.box(extents=extent)
     normals = np.vstack([np.eye(3), -np.eye(3)])
     offsets = np.concatenate([half, half])
-    return _Convex(
-        tm.vertices, tm.faces, 0.0, -half, half, _polyhedron_depth(normals, offsets), grid
-    )
+    return _Convex(tm.vertices, tm.faces, 0.0, -half, half, _polyhedron(normals, offsets), grid)
 
 
 def _cylinder(radius: float, length: float, grid: _Grid) -> _Convex:
@@ -407,18 +459,16 @@ def _cylinder(radius: float, length: float, grid: _Grid) -> _Convex:
     sag = radius * (1.0 - np.cos(np.pi / sections))
     tm = trimesh.creation.cylinder(radius=radius, height=length, sections=sections)
 
-    def depth(p: np.ndarray) -> np.ndarray:
-        return np.minimum(radius - np.hypot(p[:, 0], p[:, 1]), length / 2 - np.abs(p[:, 2]))
-
+    solid = _Solid(np.zeros((0, 3)), np.zeros(0), np.array([radius, length / 2]))
     half = np.array([radius, radius, length / 2])
-    return _Convex(tm.vertices, tm.faces, float(sag), -half, half, depth, grid)
+    return _Convex(tm.vertices, tm.faces, float(sag), -half, half, solid, grid)
 
 
 def _hull(mesh: Mesh, grid: _Grid) -> _Convex:
     """The (scaled) convex hull of a mesh: what MuJoCo collides with."""
     vertices, faces, normals, offsets = _hull_planes(_key(mesh))
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    return _Convex(vertices, faces, 0.0, lo, hi, _polyhedron_depth(normals, offsets), grid)
+    return _Convex(vertices, faces, 0.0, lo, hi, _polyhedron(normals, offsets), grid)
 
 
 @lru_cache(maxsize=64)

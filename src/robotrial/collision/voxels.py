@@ -39,12 +39,6 @@ def box_gaps(points: np.ndarray, box_inv: np.ndarray, box_half: np.ndarray) -> n
 class VoxelChecker(CollisionChecker):
     """A `CollisionChecker` whose set-up measures against all boxes at once."""
 
-    def finer(self) -> CollisionChecker | None:
-        """This checker with the fine covers asked too, itself a `VoxelChecker`."""
-        if self._finer is None and self.robot.has_fine:
-            self._finer = VoxelChecker(*self._settings, fine=True)
-        return self._finer
-
     def _reachable_env(self) -> kernels.Shapes:
         if any(k != "box" for k in self.env.kinds):
             return super()._reachable_env()

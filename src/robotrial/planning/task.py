@@ -328,10 +328,11 @@ class TaskPlanner:
         if free_ik is None:
             return planner.solve(problem, checker)
         t0 = time.perf_counter()
+        reachable = _reachable(checker, problem.start)
         if not checker.motion_valid(problem.start, problem.goals[0]):
             # a goal the start reaches in a straight line, if other IK solutions give one
             # (milliseconds, where a search into the nearest one's pocket takes seconds)
-            others = free_ik(accept=checker.valid, wanted=8, batch=8).solutions
+            others = free_ik(accept=reachable, wanted=8, batch=8).solutions
             if others:
                 others = np.asarray(others)
                 direct = others[
@@ -344,7 +345,7 @@ class TaskPlanner:
         res = planner.solve(half, checker)
         if res.success or res.status != "timeout":
             return res
-        more = free_ik(accept=checker.valid, wanted=8, batch=8).solutions
+        more = free_ik(accept=reachable, wanted=8, batch=8).solutions
         left = problem.time_limit - (time.perf_counter() - t0)
         if not more or left <= 0:
             return res
@@ -425,7 +426,7 @@ class TaskPlanner:
         # the first sphere cover is the fast path; where it refuses an end, the fine one
         # decides (`CollisionChecker.finer`), and the whole request goes on with it
         if not checker.valid(start[None])[0]:
-            finer = checker.finer()
+            finer = checker.finer(start)
             if finer is None or not finer.valid(start[None])[0]:
                 touching = sorted((finer or checker).contacts(start))
                 self._fail(
@@ -546,12 +547,24 @@ class TaskPlanner:
         # joints first): over 150 random desk requests, trajectories 1 % longer in time
         # than the nearest of four from batches of eight, for half the IK time
         free_ik = partial(solve_ik, self.kin, ik_target, start, rng=rng, batch=4, wanted=2)
-        ik = free_ik(accept=checker.valid)
+        ik = free_ik(accept=_reachable(checker, start))
         if not ik.success and (finer := checker.finer()) not in (None, checker):
-            ik = free_ik(accept=finer.valid)
+            ik = free_ik(accept=_reachable(finer, start))
             if ik.success:
                 checker = finer
         stats["ik_time"] = time.perf_counter() - t_ik
+        if not ik.success and (walls := (finer or checker).walls()):
+            past = free_ik(accept=(finer or checker).valid)
+            if past.success:
+                w = next(w for w in walls if (finer or checker).beyond_walls(start, past.q)[0])
+                self._fail(
+                    result,
+                    "unreachable",
+                    f"goal out of reach from the start: its free IK solutions have "
+                    f"{self.kin.joint_names[w.joint]} past {w.low:.2f} to {w.high:.2f}, "
+                    f"where {w.body} runs into {w.obstacle} whatever the other joints do",
+                )
+                return None
         if not ik.success:
             free = solve_ik(self.kin, ik_target, start, rng=rng, wanted=1)
             if not free.success:
@@ -620,6 +633,12 @@ def time_limit(asked: float) -> float | None:
             f"{MAX_TIME_LIMIT:g} s, got {float(asked):g}"
         )
     return float(asked) if asked > 0 else None
+
+
+def _reachable(checker: CollisionChecker, start: np.ndarray) -> Callable:
+    """IK's filter: configurations `checker` calls free that lie on the start's side of
+    its walls (`CollisionChecker.walls`)."""
+    return lambda qs: checker.valid(qs) & ~checker.beyond_walls(start, qs)
 
 
 def _describe(pairs: list[tuple[str, str]]) -> str:

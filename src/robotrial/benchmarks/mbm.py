@@ -271,7 +271,7 @@ def run_scene(probs: list[Any], time_limit: float, ompl: bool, on_problem=None) 
     ours = RRTConnect()
     # OMPL's RRTConnect on our checks: its alternation of the trees and its default range
     ompl_range = default_range(probs[0].checker()) if probs else 0.0
-    alternating = RRTConnect(ompl_range, balance=False, dynamic_domain=False)
+    alternating = RRTConnect(ompl_range, balance=False, dynamic_domain=False, unstick=False)
     ours_t, cpu_t, alt_t, ompl_t, rows = [], [], [], [], []
     if probs:  # untimed: numba compiles (or loads its cache) on the first call
         ours.solve(Problem(probs[0].start, probs[0].goal[None], 0.05, 0), probs[0].checker())

@@ -1,7 +1,7 @@
 """RRTConnect (Kuffner and LaValle 2000): two trees, one from the start and one from the
 goals, each extending toward a random sample and the other greedily connecting to it.
 
-Three refinements OMPL's RRTConnect does not make, both on by default:
+Three refinements OMPL's RRTConnect does not make, all on by default:
 - balanced trees: the smaller tree is the one extended (on ties they alternate), so a
   goal tree boxed in by a shelf or a box keeps growing instead of waiting its turn while
   the start tree fills the open space;
@@ -125,9 +125,9 @@ def _halton_start(i, base, digits) -> float:
 @nb.njit(cache=True, inline="always")
 def _halton_next(r, base, digits) -> float:
     """The element after `r` in the sequence whose digits are `digits` (updated): a
-    carry through the digits, one division in `base` - 1 steps on average, where
-    computing an element anew takes one per digit (a quarter of a microsecond for a
-    Panda sample)."""
+    carry through the digits, 1 / (`base` - 1) of a digit an element on average, where
+    computing an element anew takes a division per digit (a quarter of a microsecond
+    for a Panda sample)."""
     k = 0
     f = 1.0 / base
     cleared = 0.0  # the value of the digits carried over, base - 1 each
@@ -303,7 +303,8 @@ def _workspace(d: int, goals: int) -> _Workspace:
 
 class RRTConnect(Planner):
     """`balance`: extend the smaller tree; `dynamic_domain`: limit where a node that hit an
-    obstacle takes samples (see the module's docstring). Both off is OMPL's RRTConnect."""
+    obstacle takes samples; `unstick`: help a boxed-in tree out (see the module's
+    docstring). All three off is OMPL's RRTConnect."""
 
     name = "rrt_connect"
 

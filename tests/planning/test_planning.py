@@ -119,7 +119,7 @@ def test_a_goal_inside_a_shelf_takes_fewer_nodes_with_balanced_trees() -> None:
     nodes = {}
     for label, planner in (
         ("ours", RRTConnect()),
-        ("alternating", RRTConnect(balance=False, dynamic_domain=False)),
+        ("alternating", RRTConnect(balance=False, dynamic_domain=False, unstick=False)),
     ):
         nodes[label] = []
         for seed in range(20):

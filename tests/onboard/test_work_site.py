@@ -11,6 +11,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from robotrial.model import load_robot
 from robotrial.onboard.catalogue import Catalogue, ObjectKind
@@ -71,3 +72,25 @@ def test_a_can_45_cm_in_on_a_counter_is_out_of_the_arm_s_reach(
     _top_seen(skills, 0.9)
     can = np.array([skills.footprint.length / 2 + EDGE_GAP + 0.45, 0.0, 0.935])
     assert skills._reaches(np.zeros(3), can, CAN) is None
+
+
+def test_a_work_site_is_offered_where_its_stage_has_no_room_to_turn(skills: Skills) -> None:
+    # home 23's can stands 0.21 m in from a sofa's free side and 0.27 m from its end,
+    # which is 0.3 m from a wall: a stage behind a site facing it is 0.57 m from that
+    # wall, less than the footprint's turning circle
+    from robotrial.benchmarks.chores import CHORE_HOMES
+    from robotrial.model.gridmap import world_map
+    from robotrial.model.homegen import generate_home
+
+    world = generate_home(23, spec=CHORE_HOMES)
+    grid = world_map(world, 0.025)
+    skills.map_blocked = skills.map_walls = np.asarray(grid.occupied, dtype=bool)
+    skills.map_origin, skills.map_res = np.asarray(grid.origin, dtype=float), grid.resolution
+    skills.clearance = ndimage.distance_transform_edt(~skills.map_blocked) * grid.resolution
+    can = next(o for o in world.objects if o.name == "can").pose.xyz
+    sites = skills.base_candidates(np.array(can[:2]))
+    assert sites
+    for base, stage in sites:
+        ahead = base[:2] - stage[:2]
+        towards = np.array(can[:2]) - base[:2]
+        assert np.dot(ahead, towards) > 0  # the stage is behind the site, facing the can

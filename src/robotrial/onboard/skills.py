@@ -698,8 +698,8 @@ class Skills:
         self, xy: np.ndarray, reaches: Sequence[float] = REACHES
     ) -> list[tuple[np.ndarray, np.ndarray]]:
         """Base poses (and their staging poses STANDOFF behind) that face `xy` from one of
-        `reaches` (arm base to `xy`), free on the built map: by reach in the order given,
-        the most clearance first."""
+        `reaches` (arm base to `xy`), free on the built map: those whose stage has room to
+        turn first, then by reach in the order given, the most clearance first."""
         half_l, half_w = self.footprint.length / 2, self.footprint.width / 2
         u = np.linspace(-1, 1, 9)
         outline = np.concatenate(
@@ -723,6 +723,7 @@ class Skills:
                 return -1.0
             return float(self.clearance[row, col].min())
 
+        turn = self.footprint.circumscribed_radius + 0.1  # room to turn at a stage
         out = []
         for k, reach in enumerate(reaches):
             for th in np.deg2rad(np.arange(0, 360, 10)):
@@ -731,11 +732,13 @@ class Skills:
                 base = np.array([centre[0], centre[1], th])
                 stage = np.array([*(centre - STANDOFF * d), th])
                 c1, c2 = clearance(base), clearance(stage)
-                turn = self.footprint.circumscribed_radius + 0.1  # room to turn at the stage
-                if c1 >= 0.04 and c2 >= 0.15 and self._clear_at(stage[:2]) >= turn:
-                    out.append((k, -min(c1, 0.2) - 0.5 * min(c2, 0.5), base, stage))
-        out.sort(key=lambda r: (r[0], r[1]))
-        return [(b, s) for _, _, b, s in out]
+                if c1 >= 0.04 and c2 >= 0.15:
+                    # a stage without room to turn on the spot comes after every other:
+                    # the navigator gets there and away by arcs, where the room allows
+                    cramped = self._clear_at(stage[:2]) < turn
+                    out.append((cramped, k, -min(c1, 0.2) - 0.5 * min(c2, 0.5), base, stage))
+        out.sort(key=lambda r: r[:3])
+        return [(b, s) for *_, b, s in out]
 
     def _out_of_reach(self, xy: np.ndarray, what: str) -> str:
         """Why no base pose serves `xy` (map): how far from the arm's base the nearest

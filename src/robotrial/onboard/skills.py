@@ -25,7 +25,7 @@ The arm moves through `planning.task.TaskPlanner` with the voxels as its obstacl
 from __future__ import annotations
 
 import logging
-from collections.abc import Generator, Iterator
+from collections.abc import Generator, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -62,10 +62,16 @@ from robotrial.slam.scan import wrap
 log = logging.getLogger(__name__)
 
 STANDOFF = 0.35  # m driven straight in to a work site and back out
-REACHES = (0.5, 0.45, 0.55)  # m, arm base to the object, in the plane, in this order
+# m, arm base to the object, in the plane, in this order: the side grasp and its lift
+# reach 0.6 m over a 0.75 m top, 0.575 m over 0.8 and 0.5 m over 0.9
+REACHES = (0.5, 0.45, 0.55, 0.6)
+FAR_REACHES = np.arange(0.65, 1.3, 0.05)  # m, tried to say how far the nearest free pose is
 GRASP_BACKOFF = 0.1  # m, pre-grasp distance along the approach
 GRASP_MARGIN = 0.003  # m kept between the object and the palm
 LIFT = 0.06  # m
+# m the hand draws back towards the arm while it lifts: straight up from a grasp at the
+# edge of reach is out of reach (over a 0.9 m top, from 0.45 m out)
+LIFT_BACK = 0.1
 SETTLE = 0.3  # s after each arm motion
 RELEASE_HEIGHTS = (0.005, 0.015, 0.025)  # m above the surface the object is let go, in turn
 MAPPING_SPEED = 0.3  # m/s, the top speed while the map is being built
@@ -94,6 +100,12 @@ HELD_CUT = 0.01  # m, the robot's body grown by this when the held object is mea
 TOP_FACE = 0.006  # m below the highest points that are still the top face
 FLOOR_THICKNESS = 0.1  # m
 COLUMN_HEIGHT = 2.0  # m, how tall what the LiDAR mapped is taken to be
+
+# The side grasp's approach pitched down (rad), tried in turn: level, the wrist behind the
+# hand hangs below an object's centre and meets the top it stands on when the object is
+# more than 5 cm in from the top's edge; pitched 15 degrees, the arm grasps a can 20 cm in
+# over a 0.75 or 0.8 m top
+PITCHES = (0.0, np.deg2rad(15.0), np.deg2rad(30.0))
 
 # The hand's orientation for a side grasp approaching along base +x: the gripper's
 # approach axis (z) forward, its x axis up, fingers closing sideways.
@@ -131,11 +143,13 @@ class Look:
 
 @dataclass
 class Held:
-    """What the hand holds: its kind and its centre in the tool frame (m)."""
+    """What the hand holds: its kind, its centre in the tool frame (m), the fingers'
+    opening on it and the pitch of the grasp."""
 
     kind: ObjectKind
     in_hand: np.ndarray
     width: float
+    pitch: float = 0.0  # rad the grasp's approach was pitched down (placed so again)
 
 
 @dataclass
@@ -531,10 +545,13 @@ class Skills:
 
     def _held_pose(self, q: np.ndarray) -> np.ndarray:
         """The held object's pose (4x4, base frame) with the arm at `q`: the tool's
-        orientation, its centre where it sits in the hand."""
+        orientation with the grasp's pitch taken out (the object stood upright when
+        grasped), its centre where it sits in the hand."""
         assert self.held is not None
         tcp = self.planner.kin.link_pose(q)
         pose = tcp.copy()
+        upright = SIDE_GRASP.inv() * Rotation.from_euler("y", -self.held.pitch) * SIDE_GRASP
+        pose[:3, :3] = tcp[:3, :3] @ upright.as_matrix()
         pose[:3, 3] = tcp[:3, :3] @ self.held.in_hand + tcp[:3, 3]
         return pose
 
@@ -658,21 +675,31 @@ class Skills:
             out.append((f"map/{len(out)}", Box((*map(float, size), COLUMN_HEIGHT)), pose))
         return out
 
-    def orientation(self, local: np.ndarray) -> Rotation:
-        """A side grasp facing the point `local` (base frame) from the arm's base."""
+    def orientation(self, local: np.ndarray, pitch: float = 0.0) -> Rotation:
+        """A side grasp facing the point `local` (base frame) from the arm's base, its
+        approach pitched down by `pitch` (rad)."""
         d = np.asarray(local[:2]) - np.array([self.arm_offset, 0.0])
-        return Rotation.from_euler("z", float(np.arctan2(d[1], d[0]))) * SIDE_GRASP
+        yaw = Rotation.from_euler("z", float(np.arctan2(d[1], d[0])))
+        return yaw * Rotation.from_euler("y", pitch) * SIDE_GRASP
 
     def _approach(self, local: np.ndarray, back: float) -> np.ndarray:
         d = np.asarray(local[:2]) - np.array([self.arm_offset, 0.0])
         d = d / max(float(np.linalg.norm(d)), 1e-9)
         return np.array([local[0] - back * d[0], local[1] - back * d[1], local[2]])
 
+    def _lifted(self, local: np.ndarray) -> np.ndarray:
+        """The point LIFT above `local` (base frame) and LIFT_BACK nearer the arm: where a
+        grasped object is lifted to, and a held one is lowered from."""
+        return self._approach(local, LIFT_BACK) + np.array([0.0, 0.0, LIFT])
+
     # --- going to a work site ----------------------------------------------------------
 
-    def base_candidates(self, xy: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Base poses (and their staging poses STANDOFF behind) that face `xy` from the
-        arm's reach, free on the built map, the most clearance first."""
+    def base_candidates(
+        self, xy: np.ndarray, reaches: Sequence[float] = REACHES
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Base poses (and their staging poses STANDOFF behind) that face `xy` from one of
+        `reaches` (arm base to `xy`), free on the built map: those whose stage has room to
+        turn first, then by reach in the order given, the most clearance first."""
         half_l, half_w = self.footprint.length / 2, self.footprint.width / 2
         u = np.linspace(-1, 1, 9)
         outline = np.concatenate(
@@ -696,47 +723,83 @@ class Skills:
                 return -1.0
             return float(self.clearance[row, col].min())
 
+        turn = self.footprint.circumscribed_radius + 0.1  # room to turn at a stage
         out = []
-        for reach in REACHES:
+        for k, reach in enumerate(reaches):
             for th in np.deg2rad(np.arange(0, 360, 10)):
                 d = np.array([np.cos(th), np.sin(th)])
                 centre = xy - (self.arm_offset + reach) * d
                 base = np.array([centre[0], centre[1], th])
                 stage = np.array([*(centre - STANDOFF * d), th])
                 c1, c2 = clearance(base), clearance(stage)
-                turn = self.footprint.circumscribed_radius + 0.1  # room to turn at the stage
-                if c1 >= 0.04 and c2 >= 0.15 and self._clear_at(stage[:2]) >= turn:
-                    out.append((reach, -min(c1, 0.2) - 0.5 * min(c2, 0.5), base, stage))
-        out.sort(key=lambda r: (REACHES.index(r[0]), r[1]))
-        return [(b, s) for _, _, b, s in out]
+                if c1 >= 0.04 and c2 >= 0.15:
+                    # a stage without room to turn on the spot comes after every other:
+                    # the navigator gets there and away by arcs, where the room allows
+                    cramped = self._clear_at(stage[:2]) < turn
+                    out.append((cramped, k, -min(c1, 0.2) - 0.5 * min(c2, 0.5), base, stage))
+        out.sort(key=lambda r: r[:3])
+        return [(b, s) for *_, b, s in out]
 
-    def _reaches(self, base: np.ndarray, target: np.ndarray, kind: ObjectKind) -> bool:
-        """Whether the arm finds the way in at a work site with the base at `base`: to
-        grasp an object of `kind` centred at `target` (map frame) and lift it LIFT, or,
-        holding one, to set it down there (through the point LIFT above), in the voxels
-        seen so far."""
+    def _out_of_reach(self, xy: np.ndarray, what: str) -> str:
+        """Why no base pose serves `xy` (map): how far from the arm's base the nearest
+        free pose facing it would leave it."""
+        reach = next((r for r in FAR_REACHES if self.base_candidates(xy, (float(r),))), None)
+        where = (
+            f"the nearest free base pose facing it leaves it {reach:.2f} m from the arm's base"
+            if reach is not None
+            else f"no free base pose faces it from within {FAR_REACHES[-1]:.2f} m"
+        )
+        return (
+            f"no free base pose on the map within the arm's reach of the {what}: {where}; "
+            f"the arm reaches {min(REACHES):.2f}-{max(REACHES):.2f} m"
+        )
+
+    def _reaches(self, base: np.ndarray, target: np.ndarray, kind: ObjectKind) -> float | None:
+        """The pitch (rad, of PITCHES) with which the arm finds the way in at a work site
+        with the base at `base`: to grasp an object of `kind` centred at `target` (map
+        frame) and lift it (`_lifted`), or, holding one, to set it down there (from its
+        `_lifted` point, at the pitch it was grasped with), in the voxels seen so far;
+        None when with none."""
         local = to_base(base, target)
         if self.held is not None:
-            hand = local - self.orientation(local).apply(self.held.in_hand)
-            points = (hand + np.array([0.0, 0.0, LIFT]), hand)
             obstacles = self._obstacles(base)
+            pitches: tuple[float, ...] = (self.held.pitch,)
         else:
-            pre, grasp = self._grasp_points(local, kind)
-            points = (pre, grasp, grasp + np.array([0.0, 0.0, LIFT]))
             obstacles = self._obstacles(base, self._keep_out(local, kind))
+            pitches = PITCHES
+        for pitch in pitches:
+            orientation = self.orientation(local, pitch)
+            if self.held is not None:  # let go from as high as the place may
+                hand = local - orientation.apply(self.held.in_hand)
+                hand[2] += RELEASE_HEIGHTS[-1]
+                points = (self._lifted(hand), hand)
+            else:
+                pre, grasp = self._grasp_points(local, kind, pitch)
+                points = (pre, grasp, self._lifted(grasp))
+            if self._plans_through(points, orientation, obstacles):
+                return pitch
+        return None
+
+    def _plans_through(self, points, orientation: Rotation, obstacles: Obstacles) -> bool:
+        """Whether the arm, from where it is, gets to each of `points` (base frame) in
+        turn with the hand at `orientation`."""
         q = self.arm_q()
         for point in points:
-            res = self.plan(q, obstacles, point, check_only=True)
+            res = self.plan(q, obstacles, point, orientation, check_only=True)
             if not res.success:
                 return False
             q = res.trajectory.q[-1]
         return True
 
-    def _grasp_points(self, local: np.ndarray, kind: ObjectKind) -> tuple[np.ndarray, np.ndarray]:
+    def _grasp_points(
+        self, local: np.ndarray, kind: ObjectKind, pitch: float = 0.0
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The pre-grasp and grasp positions of the tool point for an object of `kind`
-        centred at `local` (base frame): the palm stops GRASP_MARGIN short of it."""
-        grasp = self._approach(local, kind.grip_width / 2 + self.palm + GRASP_MARGIN)
-        return self._approach(grasp, GRASP_BACKOFF), grasp
+        centred at `local` (base frame), along the approach pitched down by `pitch`: the
+        palm stops GRASP_MARGIN short of it."""
+        along = self.orientation(local, pitch).apply([0.0, 0.0, 1.0])
+        grasp = local - (kind.grip_width / 2 + self.palm + GRASP_MARGIN) * along
+        return grasp - GRASP_BACKOFF * along, grasp
 
     # --- pick --------------------------------------------------------------------------
 
@@ -759,11 +822,14 @@ class Skills:
             )
         candidates = self.base_candidates(target.position[:2])
         if not candidates:
-            raise SkillFailed("no_base_pose", "no free base pose on the map within the arm's reach")
+            raise SkillFailed("no_base_pose", self._out_of_reach(target.position[:2], kind.name))
         failed: list[np.ndarray] = []
         reached = 0
         for base, stage in candidates:
-            if self._near_failed(stage, failed) or not self._reaches(base, target.position, kind):
+            if (
+                self._near_failed(stage, failed)
+                or self._reaches(base, target.position, kind) is None
+            ):
                 continue
             reached += 1
             if not (yield from self.reach_stage(stage, f"the pose before the {kind.name}", failed)):
@@ -827,7 +893,8 @@ class Skills:
                     f"the {target.kind.name} seen from the approach is not in view at the "
                     f"work site, nor from {100 * LOOK_BACK[-1]:.0f} cm behind it",
                 )
-            if moves == len(REACHES) or self._reaches(base, seen.position, seen.kind):
+            pitch = self._reaches(base, seen.position, seen.kind)
+            if moves == len(REACHES) or pitch is not None:
                 break
             yield from self._reach(to_base(base, seen.position), base, seen.kind)
             target = seen
@@ -835,8 +902,9 @@ class Skills:
         self.log.target = seen.position.copy()
         local = to_base(base, seen.position)
         keep_out = self._keep_out(local, kind)
-        pre, grasp = self._grasp_points(local, kind)
-        orientation = self.orientation(local)
+        pitch = pitch or 0.0
+        pre, grasp = self._grasp_points(local, kind, pitch)
+        orientation = self.orientation(local, pitch)
         self.robot.grip(self.finger_open, self.robot.setup.grip_force)
         yield from self.move_arm(base, "no_grasp_pose", pre, orientation, keep_out=keep_out)
         yield from self.move_arm(base, "no_grasp_pose", grasp, orientation, keep_out=keep_out)
@@ -853,16 +921,14 @@ class Skills:
         centre = np.linalg.inv(tcp) @ np.append(local, 1.0)
         in_hand = centre[:3].copy()
         in_hand[1] = 0.0
-        self.held = Held(kind, in_hand, width)
+        self.held = Held(kind, in_hand, width, pitch)
         self.log.grasp = (
             f"by friction: the fingers closed on the {kind.name} with "
             f"{self.robot.setup.grip_force:g} N at {100 * width:.1f} cm; it sits "
             f"{100 * in_hand[2]:.1f} cm beyond the tool point"
         )
         self.voxels.remove(seen.position, kind.width / 2 + 0.03, (-1.0, 5.0))
-        yield from self.move_arm(
-            base, "arm_planning", grasp + np.array([0.0, 0.0, LIFT]), orientation
-        )
+        yield from self.move_arm(base, "arm_planning", self._lifted(grasp), orientation)
         self.check_grip("lifting")
         yield from self.straight(-STANDOFF)
         yield from self.arm_to_pose("carry")
@@ -915,7 +981,7 @@ class Skills:
                 continue
             if height is not None:
                 target = np.array([point[0], point[1], height + kind.height / 2])
-                if not self._reaches(base, target, kind):
+                if self._reaches(base, target, kind) is None:
                     continue
             tried += 1
             if not (yield from self.reach_stage(stage, "the pose before the place", failed)):
@@ -928,7 +994,7 @@ class Skills:
                 continue
             height = surface
             target = np.array([point[0], point[1], height + kind.height / 2])
-            if self._reaches(base, target, kind):
+            if self._reaches(base, target, kind) is not None:
                 yield from self.drive_in(base)
                 return height
         if height is None:
@@ -1005,8 +1071,7 @@ class Skills:
         for moves in range(len(REACHES) + 1):
             base = yield from self.docked_pose()
             local = to_base(base, target)
-            hand = local - self.orientation(local).apply(held.in_hand)
-            if moves == len(REACHES) or self._reaches(base, target, held.kind):
+            if moves == len(REACHES) or self._reaches(base, target, held.kind) is not None:
                 break
             yield from self._reach(local, base, held.kind)
         look = self.look(base)
@@ -1014,11 +1079,9 @@ class Skills:
         if seen is not None and abs(seen - height) < 0.03:
             target[2] = seen + held.kind.height / 2
             local = to_base(base, target)
-        orientation = self.orientation(local)
+        orientation = self.orientation(local, held.pitch)
         hand = local - orientation.apply(held.in_hand)
-        yield from self.move_arm(
-            base, "arm_planning", hand + np.array([0.0, 0.0, LIFT]), orientation
-        )
+        yield from self.move_arm(base, "arm_planning", self._lifted(hand), orientation)
         self.check_grip("lowering it")
         # above the point, the head camera sees the object's top: where it truly sits in
         # the hand, and so where the hand must go
@@ -1039,7 +1102,7 @@ class Skills:
         yield from self.wait(0.6)
         self.held = None
         self.voxels.remove(target, held.kind.width / 2 + 0.03, (-1.0, 5.0))
-        back = self._approach(hand, GRASP_BACKOFF)
+        back = hand - GRASP_BACKOFF * orientation.apply([0.0, 0.0, 1.0])
         res = self.plan(
             self.arm_q(), self._obstacles(base, self._keep_out(local, held.kind)), back, orientation
         )
@@ -1047,7 +1110,7 @@ class Skills:
             res = self.plan(
                 self.arm_q(),
                 self._obstacles(base, self._keep_out(local, held.kind)),
-                hand + np.array([0.0, 0.0, LIFT]),
+                self._lifted(hand),
                 orientation,
             )
         if res.success:
@@ -1063,7 +1126,7 @@ class Skills:
         for shift in (ahead - r for r in REACHES):
             if abs(shift) < 0.005:
                 continue
-            if self._reaches(compose(base, np.array([shift, 0.0, 0.0])), point, kind):
+            if self._reaches(compose(base, np.array([shift, 0.0, 0.0])), point, kind) is not None:
                 yield from self.straight(shift, speed=0.06)
                 return
 

@@ -80,7 +80,10 @@ def _pose_error(q, target, r_target, with_rotation, kin_arrays, tip, poses, err)
         er = _rotation_error(r_target, np.ascontiguousarray(poses[tip, :3, :3]))
         for i in range(3):
             err[3 + i] = ROT_WEIGHT * er[i]
-    return err @ err
+    e2 = 0.0
+    for i in range(err.shape[0]):  # not err @ err: that is a BLAS call, which loads scipy
+        e2 += err[i] * err[i]
+    return e2
 
 
 @nb.njit(cache=True, inline="always")

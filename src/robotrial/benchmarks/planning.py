@@ -18,6 +18,7 @@ import platform
 import subprocess
 import sys
 import time
+from collections.abc import Mapping
 from datetime import date
 from pathlib import Path
 from typing import Any
@@ -407,6 +408,14 @@ def _toppra_time(path: np.ndarray, vmax: np.ndarray, amax: np.ndarray) -> tuple[
     return time.perf_counter() - t0, float(traj.duration)
 
 
+def _own_numba_cache(env: Mapping[str, str]) -> dict[str, str]:
+    """`env` for another checkout's process: without the NUMBA_CACHE_DIR this process set
+    for its own source, so that the other code keeps its kernels in its own folder (else
+    each change here would have it compile them again)."""
+    mine = os.environ.get("NUMBA_CACHE_DIR")
+    return {k: v for k, v in env.items() if not (k == "NUMBA_CACHE_DIR" and v == mine)}
+
+
 _ANSWERER = """
 import json, sys, time
 try:
@@ -437,7 +446,7 @@ class _Answerer:
     def __init__(self, src: Path) -> None:
         if not (src / "robotrial" / "planning" / "task.py").is_file():
             raise SystemExit(f"--baseline-src {src}: no robotrial package there")
-        env = {**os.environ, "PYTHONPATH": str(src.resolve())}
+        env = {**_own_numba_cache(os.environ), "PYTHONPATH": str(src.resolve())}
         self.proc = subprocess.Popen(
             [sys.executable, "-c", _ANSWERER, json.dumps(DESK_REQUEST)],
             env=env,
@@ -649,7 +658,7 @@ def cold_plan(runs: int = 3, baseline: Path | None = None) -> dict[str, Any]:
     if baseline is not None:
         if not (baseline / "robotrial" / "cli" / "__init__.py").is_file():
             raise SystemExit(f"--baseline-src {baseline}: no robotrial package there")
-        variants["baseline"] = {**env, "PYTHONPATH": str(baseline.resolve())}
+        variants["baseline"] = {**_own_numba_cache(env), "PYTHONPATH": str(baseline.resolve())}
     for settings in variants.values():
         _fresh_run(argv, settings)
     times: dict[str, list[tuple[float, float]]] = {name: [] for name in variants}

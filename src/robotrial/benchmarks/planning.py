@@ -101,8 +101,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--baseline-src",
         type=Path,
         metavar="DIR",
-        help="the src folder of another checkout: its fresh `robotrial plan` is timed in "
-        "turns with this one (--cold, --service)",
+        help="the src folder of another checkout: its fresh `robotrial plan` (--cold, "
+        "--service) and its PlanTask answer (--service) are timed in turns with this one's",
     )
     parser.add_argument(
         "--suite",

@@ -42,3 +42,17 @@ def test_every_example_in_the_docs_runs(code: str, tmp_path: Path) -> None:
         timeout=600,
     )
     assert done.returncode == 0, done.stderr[-2000:]
+
+
+def test_numba_starts_without_scipy_linalg_and_still_compiles_blas_calls() -> None:
+    # numba's array module probes BLAS by importing the whole of scipy.linalg; robotrial
+    # answers the probe, and a kernel that calls BLAS loads it when it compiles
+    code = (
+        "import sys, robotrial, numba, numpy as np\n"
+        "import numba.np.arraymath as am\n"
+        "print('scipy.linalg' in sys.modules, am._HAVE_BLAS)\n"
+        "f = numba.njit(lambda a: a @ a)\n"
+        "print(f(2 * np.eye(3))[1, 1], 'scipy.linalg' in sys.modules)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.stdout.split() == ["False", "True", "4.0", "True"], done.stderr[-500:]

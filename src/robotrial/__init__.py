@@ -8,7 +8,10 @@ name loads its module (and MuJoCo, numba) on first use.
 from __future__ import annotations
 
 import hashlib
+import importlib.abc
+import importlib.machinery
 import os
+import sys
 from importlib import import_module
 from pathlib import Path
 from typing import Any
@@ -62,6 +65,44 @@ def _numba_cache_dir() -> None:
 
 
 _numba_cache_dir()
+
+
+class _NumbaArraymath(importlib.abc.MetaPathFinder):
+    """Numba's array module imports the whole of scipy.linalg (and through it numpy's
+    f2py and testing: 150 ms, a sixth of a fresh `robotrial plan`) only to see whether
+    BLAS is there. scipy is a dependency, so it is: the module is loaded with that
+    answer given, and scipy comes in when a kernel compiles a BLAS call (numba's own
+    check then runs, unchanged)."""
+
+    def find_spec(
+        self, name: str, path: Any, target: Any = None
+    ) -> importlib.machinery.ModuleSpec | None:
+        if name != "numba.np.arraymath":
+            return None
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        if spec is None or spec.loader is None:
+            return spec
+        run = spec.loader.exec_module
+
+        def exec_module(module: Any) -> None:
+            import numba.np.linalg as linalg
+
+            check = getattr(linalg, "ensure_blas", None)
+            if check is None:
+                run(module)
+                return
+            linalg.ensure_blas = lambda: None
+            try:
+                run(module)
+            finally:
+                linalg.ensure_blas = check
+
+        spec.loader.exec_module = exec_module  # type: ignore[method-assign]
+        return spec
+
+
+if "numba.np.arraymath" not in sys.modules:
+    sys.meta_path.insert(0, _NumbaArraymath())
 
 
 def __getattr__(name: str) -> Any:

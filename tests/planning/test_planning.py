@@ -429,6 +429,24 @@ def test_cli_plan_prints_json_and_writes_plots(tmp_path) -> None:
     assert png.read_bytes().endswith(b"IEND\xaeB`\x82")  # the PNG's closing chunk
 
 
+def test_a_fresh_cli_plan_loads_neither_scipy_linalg_nor_mujoco() -> None:
+    # the desk request needs neither: numba's BLAS probe is answered without scipy, and
+    # MuJoCo comes in only for a sample the spheres do not clear (none here)
+    from robotrial.benchmarks.planning import PLAN_COMMAND
+
+    code = "import sys; from robotrial.cli import main; sys.exit(main())"
+    proc = subprocess.run(
+        [sys.executable, "-X", "importtime", "-c", code, *PLAN_COMMAND, "--json"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 0 and json.loads(proc.stdout)["success"], proc.stderr[-500:]
+    loaded = {line.rsplit("|", 1)[-1].strip() for line in proc.stderr.splitlines()}
+    assert "numba.np.arraymath" in loaded
+    assert "scipy.linalg" not in loaded and "mujoco" not in loaded
+
+
 def test_cli_plan_reads_a_rosbridge_request(tmp_path, capsys) -> None:
     req = tmp_path / "req.json"
     req.write_text(json.dumps(_request(goal=(1.5, 0, 0)).to_dict()))

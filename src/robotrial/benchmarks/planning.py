@@ -18,6 +18,7 @@ import platform
 import subprocess
 import sys
 import time
+from collections.abc import Mapping
 from datetime import date
 from pathlib import Path
 from typing import Any
@@ -100,8 +101,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--baseline-src",
         type=Path,
         metavar="DIR",
-        help="the src folder of another checkout: its fresh `robotrial plan` is timed in "
-        "turns with this one (--cold, --service)",
+        help="the src folder of another checkout: its fresh `robotrial plan` (--cold, "
+        "--service) and its PlanTask answer (--service) are timed in turns with this one's",
     )
     parser.add_argument(
         "--suite",
@@ -407,13 +408,80 @@ def _toppra_time(path: np.ndarray, vmax: np.ndarray, amax: np.ndarray) -> tuple[
     return time.perf_counter() - t0, float(traj.duration)
 
 
-def service_breakdown(calls: int, show: bool = True) -> dict[str, Any]:
+def _own_numba_cache(env: Mapping[str, str]) -> dict[str, str]:
+    """`env` for another checkout's process: without the NUMBA_CACHE_DIR this process set
+    for its own source, so that the other code keeps its kernels in its own folder (else
+    each change here would have it compile them again)."""
+    mine = os.environ.get("NUMBA_CACHE_DIR")
+    return {k: v for k, v in env.items() if not (k == "NUMBA_CACHE_DIR" and v == mine)}
+
+
+_ANSWERER = """
+import json, sys, time
+try:
+    from robotrial.ros.plan_task import plan_task_response, task_request
+except ImportError:  # older code kept them beside the bus
+    from robotrial.ros.planning_node import plan_task_response, task_request
+from robotrial.model import load_robot, load_world
+from robotrial.msgs.robotrial_msgs import PlanTaskRequest
+from robotrial.planning.task import TaskPlanner
+from robotrial.ros.rosbridge.encoding import dumps
+planner = TaskPlanner(load_robot("desk_arm"), load_world("desk"))
+wire = sys.argv[1]
+for _ in sys.stdin:
+    c0, t0 = time.thread_time(), time.perf_counter()
+    result = planner.plan(task_request(PlanTaskRequest.from_dict(json.loads(wire))))
+    dumps({"op": "service_response", "values": plan_task_response(result).to_dict()})
+    t1, c1 = time.perf_counter(), time.thread_time()
+    print(json.dumps([result.success, t1 - t0, c1 - c0]), flush=True)
+"""
+"""The desk request answered on each line read, by whatever code is first on the path
+(another checkout's, for `--baseline-src`): success, wall s, CPU s of the answer."""
+
+
+class _Answerer:
+    """Another checkout's code answering the desk request in its own process, one
+    answer per `answer()` call, so that it runs in turns with this code's."""
+
+    def __init__(self, src: Path) -> None:
+        if not (src / "robotrial" / "planning" / "task.py").is_file():
+            raise SystemExit(f"--baseline-src {src}: no robotrial package there")
+        env = {**_own_numba_cache(os.environ), "PYTHONPATH": str(src.resolve())}
+        self.proc = subprocess.Popen(
+            [sys.executable, "-c", _ANSWERER, json.dumps(DESK_REQUEST)],
+            env=env,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+
+    def answer(self) -> tuple[bool, float, float]:
+        """(success, wall s, CPU s) of one answer."""
+        assert self.proc.stdin is not None and self.proc.stdout is not None
+        self.proc.stdin.write("\n")
+        self.proc.stdin.flush()
+        line = self.proc.stdout.readline()
+        if not line:
+            raise RuntimeError("the baseline's answering process ended")
+        ok, wall, cpu = json.loads(line)
+        return bool(ok), float(wall), float(cpu)
+
+    def close(self) -> None:
+        if self.proc.stdin is not None:
+            self.proc.stdin.close()
+        self.proc.wait(timeout=30)
+
+
+def service_breakdown(
+    calls: int, show: bool = True, baseline: Path | None = None
+) -> dict[str, Any]:
     """The desk request answered in this process as the node answers it, `calls` times
     by the compiled answer and by the reference one (`TaskPlanner(reference=True)`: NumPy
     shortcuts, scipy's spline, MuJoCo on every validation sample) in turns, so that both
     see the same load: medians of each step, of the conversions from and to rosbridge
     JSON, of the whole answer, and toppra on the same paths for comparison with the
-    compiled time parameterization."""
+    compiled time parameterization. With `baseline` (another checkout's `src`), that
+    code answers too, in its own process, in turns with the two."""
     from robotrial.msgs.robotrial_msgs import PlanTaskRequest
     from robotrial.planning.task import TaskPlanner
     from robotrial.planning.timing import time_parameterize
@@ -426,21 +494,36 @@ def service_breakdown(calls: int, show: bool = True) -> dict[str, Any]:
         "reference": TaskPlanner(robot, world, reference=True),
     }
     wire = json.dumps(DESK_REQUEST)
-    names = [*PARTS, "decode + convert", "convert + encode"]
+    rest = "the rest (the ends' checks, glue)"
+    names = [*PARTS, "decode + convert", "convert + encode", rest]
     rows = {k: {n: [] for n in names} for k in planners}
     total: dict[str, list[float]] = {k: [] for k in planners}
     cpu: dict[str, list[float]] = {k: [] for k in planners}
     toppra, ours, durations = [], [], []
+    other = None if baseline is None else _Answerer(baseline)
+    old_total: list[float] = []
+    old_cpu: list[float] = []
+    # each call's turns start one variant later than the last one's, so that none always
+    # follows the baseline's process (which leaves the caches cold for the next)
+    turns = [*planners, *(["baseline"] if other is not None else [])]
     with progress("service breakdown", calls + 3, enabled=show) as advance:
         for k in range(calls + 3):
-            for which, planner in planners.items():
+            for which in turns[k % len(turns) :] + turns[: k % len(turns)]:
+                if other is not None and which == "baseline":
+                    ok, wall, used = other.answer()
+                    if k >= 3 and ok:
+                        old_total.append(wall)
+                        old_cpu.append(used)
+                    continue
                 c0, t0 = time.thread_time(), time.perf_counter()
                 task = task_request(PlanTaskRequest.from_dict(json.loads(wire)))
                 t1 = time.perf_counter()
-                result = planner.plan(task)
+                result = planners[which].plan(task)
                 t2 = time.perf_counter()
                 dumps({"op": "service_response", "values": plan_task_response(result).to_dict()})
                 t3, c3 = time.perf_counter(), time.thread_time()
+                if which == "compiled":
+                    compiled = result
                 if k < 3 or not result.success:  # the first calls build the scene
                     continue
                 total[which].append(t3 - t0)
@@ -449,16 +532,21 @@ def service_breakdown(calls: int, show: bool = True) -> dict[str, Any]:
                 rows[which]["convert + encode"].append(t3 - t2)
                 for name, key in PARTS.items():
                     rows[which][name].append(result.stats.get(key, 0.0))
+                rows[which][rest].append(
+                    t3 - t0 - sum(rows[which][n][-1] for n in names if n != rest)
+                )
             advance()
-            if k < 3 or not result.success:
+            if k < 3 or not compiled.success:
                 continue
-            smooth = result.path
+            planner = planners["compiled"]
             t = time.perf_counter()
-            mine = time_parameterize(smooth, planner.vmax, planner.amax)
+            mine = time_parameterize(compiled.path, planner.vmax, planner.amax)
             ours.append(time.perf_counter() - t)
-            took, duration = _toppra_time(smooth, planner.vmax, planner.amax)
+            took, duration = _toppra_time(compiled.path, planner.vmax, planner.amax)
             toppra.append(took)
             durations.append((mine.duration, duration))
+    if other is not None:
+        other.close()
     d = np.array(durations) if durations else np.zeros((1, 2))
 
     def median(v: list[float]) -> float | None:
@@ -473,6 +561,17 @@ def service_breakdown(calls: int, show: bool = True) -> dict[str, Any]:
         }
         for which in planners
     }
+    if other is not None:
+        out["baseline"] = {
+            "calls": len(old_total),
+            "median_total_s": median(old_total),
+            "median_cpu_s": median(old_cpu),
+            "src": str(baseline),
+        }
+        new, old = out["compiled"]["median_total_s"], out["baseline"]["median_total_s"]
+        out["speed_up_baseline"] = old / new if new and old else None
+        new, old = out["compiled"]["median_cpu_s"], out["baseline"]["median_cpu_s"]
+        out["speed_up_baseline_cpu"] = old / new if new and old else None
     new, old = out["compiled"]["median_total_s"], out["reference"]["median_total_s"]
     out["speed_up"] = old / new if new and old else None
     new, old = out["compiled"]["median_cpu_s"], out["reference"]["median_cpu_s"]
@@ -559,7 +658,7 @@ def cold_plan(runs: int = 3, baseline: Path | None = None) -> dict[str, Any]:
     if baseline is not None:
         if not (baseline / "robotrial" / "cli" / "__init__.py").is_file():
             raise SystemExit(f"--baseline-src {baseline}: no robotrial package there")
-        variants["baseline"] = {**env, "PYTHONPATH": str(baseline.resolve())}
+        variants["baseline"] = {**_own_numba_cache(env), "PYTHONPATH": str(baseline.resolve())}
     for settings in variants.values():
         _fresh_run(argv, settings)
     times: dict[str, list[tuple[float, float]]] = {name: [] for name in variants}
@@ -627,7 +726,7 @@ def run_service(args: argparse.Namespace) -> int:
         "date": date.today().isoformat(),
         "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
         f"{platform.python_implementation()} {platform.python_version()}",
-        "breakdown": service_breakdown(args.calls, show),
+        "breakdown": service_breakdown(args.calls, show, args.baseline_src),
         "round_trip": service_round_trips(args.calls, show),
         "cold_plan": cold_plan(args.cold_runs, args.baseline_src),
     }
@@ -657,6 +756,7 @@ def run_service(args: argparse.Namespace) -> int:
                 f"{b['speed_up']:.1f}x faster ({b['speed_up_cpu']:.1f}x in CPU time)",
             )
         )
+        rows += _baseline_rows(b)
         rows.append(("round trip over rosbridge (roslibpy)", "", _ms(r["median_s"])))
         rows.append(("  p95", "", _ms(r["p95_s"])))
         rows += _cold_rows(c)
@@ -668,6 +768,26 @@ def run_service(args: argparse.Namespace) -> int:
 
 def _ms(seconds: float | None) -> str:
     return "" if seconds is None else f"{seconds * 1e3:.3f}"
+
+
+def _baseline_rows(b: dict[str, Any]) -> list[tuple[str, str, str]]:
+    """Rows for the `--baseline-src` checkout's answer: (what, its figure, ours)."""
+    if "baseline" not in b:
+        return []
+    old, new = b["baseline"], b["compiled"]
+    return [
+        (
+            f"whole answer, --baseline-src code ({old['calls']} calls)",
+            _ms(old["median_total_s"]),
+            _ms(new["median_total_s"]),
+        ),
+        ("  CPU time of its thread", _ms(old["median_cpu_s"]), _ms(new["median_cpu_s"])),
+        (
+            "  this code / --baseline-src code",
+            "",
+            f"{b['speed_up_baseline']:.1f}x faster ({b['speed_up_baseline_cpu']:.1f}x in CPU time)",
+        ),
+    ]
 
 
 def service_markdown(report: dict[str, Any]) -> str:
@@ -701,6 +821,7 @@ def service_markdown(report: dict[str, Any]) -> str:
         f"{_ms(new['median_cpu_s'])} |",
         f"| compiled / reference | | {b['speed_up']:.1f}x faster "
         f"({b['speed_up_cpu']:.1f}x in CPU time) |",
+        *(f"| {what} | {theirs} | {ours} |" for what, theirs, ours in _baseline_rows(b)),
         f"| round trip over rosbridge, roslibpy to a warm `robotrial rosbridge --robot` "
         f"({r['calls']} calls) | | {_ms(r['median_s'])} (p95 {_ms(r['p95_s'])}) |",
         f"| the response's planning_time in those calls | | {_ms(r['median_planning_time_s'])} |",

@@ -166,31 +166,37 @@ def jacobian_from_poses(poses, tip, point, ancestors, jtype, axis, src, mult, d)
 
     `ancestors[tip, k]` is True when link k's joint moves link `tip`.
     """
-    jac = np.zeros((6, d))
+    jac = np.empty((6, d))
+    jacobian_into(poses, tip, point, ancestors, jtype, axis, src, mult, jac)
+    return jac
+
+
+@nb.njit(cache=True)
+def jacobian_into(poses, tip, point, ancestors, jtype, axis, src, mult, jac) -> None:
+    """`jacobian_from_poses` written into `jac` (6, d), allocating nothing: the inner
+    loop of IK calls it every iteration."""
+    jac[:] = 0.0
     for k in range(poses.shape[0]):
         s = src[k]
         if s < 0 or jtype[k] == FIXED or not ancestors[tip, k]:
             continue
-        w = np.zeros(3)
-        for i in range(3):
-            w[i] = (
-                poses[k, i, 0] * axis[k, 0]
-                + poses[k, i, 1] * axis[k, 1]
-                + poses[k, i, 2] * axis[k, 2]
-            )
+        w0 = poses[k, 0, 0] * axis[k, 0] + poses[k, 0, 1] * axis[k, 1] + poses[k, 0, 2] * axis[k, 2]
+        w1 = poses[k, 1, 0] * axis[k, 0] + poses[k, 1, 1] * axis[k, 1] + poses[k, 1, 2] * axis[k, 2]
+        w2 = poses[k, 2, 0] * axis[k, 0] + poses[k, 2, 1] * axis[k, 1] + poses[k, 2, 2] * axis[k, 2]
         if jtype[k] == REVOLUTE:
-            r = point - poses[k, :3, 3]
-            jac[0, s] += mult[k] * (w[1] * r[2] - w[2] * r[1])
-            jac[1, s] += mult[k] * (w[2] * r[0] - w[0] * r[2])
-            jac[2, s] += mult[k] * (w[0] * r[1] - w[1] * r[0])
-            jac[3, s] += mult[k] * w[0]
-            jac[4, s] += mult[k] * w[1]
-            jac[5, s] += mult[k] * w[2]
+            r0 = point[0] - poses[k, 0, 3]
+            r1 = point[1] - poses[k, 1, 3]
+            r2 = point[2] - poses[k, 2, 3]
+            jac[0, s] += mult[k] * (w1 * r2 - w2 * r1)
+            jac[1, s] += mult[k] * (w2 * r0 - w0 * r2)
+            jac[2, s] += mult[k] * (w0 * r1 - w1 * r0)
+            jac[3, s] += mult[k] * w0
+            jac[4, s] += mult[k] * w1
+            jac[5, s] += mult[k] * w2
         else:
-            jac[0, s] += mult[k] * w[0]
-            jac[1, s] += mult[k] * w[1]
-            jac[2, s] += mult[k] * w[2]
-    return jac
+            jac[0, s] += mult[k] * w0
+            jac[1, s] += mult[k] * w1
+            jac[2, s] += mult[k] * w2
 
 
 def default_planning_joints(model: RobotModel, tip: str = "") -> list[str]:

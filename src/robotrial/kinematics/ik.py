@@ -14,9 +14,16 @@ from dataclasses import dataclass, field
 import numba as nb
 import numpy as np
 
-from robotrial.kinematics.chain import Kinematics, fk_single, jacobian_from_poses
+from robotrial.kinematics.chain import Kinematics, fk_single, jacobian_into
 
 ROT_WEIGHT = 0.2  # metres per radian: balances orientation against position error
+STALL_STEPS = 10
+STALL_RATIO = 0.5
+"""A seed whose squared error has not halved in 10 iterations is given up: one that
+converges takes 8 (median; desk arm), while one held at a joint limit or in a local
+minimum would run all 150 at a few hundredths of a millimetre gained each (it found
+nothing in 31 % of 4,000 random seeds; given up, 2.9x less time a seed, 9 % fewer
+solutions, 2.6x less time a solution)."""
 
 
 @nb.njit(cache=True)
@@ -73,7 +80,10 @@ def _pose_error(q, target, r_target, with_rotation, kin_arrays, tip, poses, err)
         er = _rotation_error(r_target, np.ascontiguousarray(poses[tip, :3, :3]))
         for i in range(3):
             err[3 + i] = ROT_WEIGHT * er[i]
-    return err @ err
+    e2 = 0.0
+    for i in range(err.shape[0]):  # not err @ err: that is a BLAS call, which loads scipy
+        e2 += err[i] * err[i]
+    return e2
 
 
 @nb.njit(cache=True, inline="always")
@@ -136,7 +146,10 @@ def _dls(
     perr = np.full(n, np.inf)
     rerr = np.full(n, np.inf)
     ok = np.zeros(n, dtype=np.bool_)
+    # two sets of poses and errors, the current configuration's and the trial's, swapped
+    # when a step is taken: a refused step leaves the current ones as they were
     poses = np.empty((parent.shape[0], 4, 4))
+    poses_new = np.empty((parent.shape[0], 4, 4))
     rows = 6 if with_rotation else 3
     err = np.zeros(rows)
     err_new = np.zeros(rows)
@@ -145,38 +158,51 @@ def _dls(
     a = np.empty((rows, rows))
     y = np.empty(rows)
     dq = np.empty(d)
+    p = np.empty(3)
+    jac = np.empty((6, d))
     for b in range(n):
         q = qs[b]
         lam = 0.01
         e2 = _pose_error(q, target, r_target, with_rotation, kin_arrays, tip, poses, err)
-        for _ in range(max_iter):
+        e2_before = e2
+        for it in range(max_iter):
             pe = np.sqrt(err[0] ** 2 + err[1] ** 2 + err[2] ** 2)
             re = np.sqrt(e2 - pe * pe) / ROT_WEIGHT if with_rotation and e2 > pe * pe else 0.0
             perr[b], rerr[b] = pe, re
             if pe < tol_pos and re < tol_rot:
                 ok[b] = True
                 break
-            p = poses[tip, :3, 3].copy()
-            jac = jacobian_from_poses(poses, tip, p, ancestors, jtype, axis, src, mult, d)
+            if it % STALL_STEPS == STALL_STEPS - 1:
+                if e2 > STALL_RATIO * e2_before:
+                    break
+                e2_before = e2
+            for i in range(3):
+                p[i] = poses[tip, i, 3]
+            jacobian_into(poses, tip, p, ancestors, jtype, axis, src, mult, jac)
             if with_rotation:
-                jac[3:] *= ROT_WEIGHT
+                for i in range(3, 6):
+                    for k in range(d):
+                        jac[i, k] *= ROT_WEIGHT
             _damped_step(jac, rows, lam, err, a, y, dq)
-            step = np.max(np.abs(dq))
+            step = 0.0
+            for i in range(d):
+                step = max(step, abs(dq[i]))
             if step > max_step:
-                dq *= max_step / step
+                for i in range(d):
+                    dq[i] *= max_step / step
             for i in range(d):
                 q_new[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
             e2_new = _pose_error(
-                q_new, target, r_target, with_rotation, kin_arrays, tip, poses, err_new
+                q_new, target, r_target, with_rotation, kin_arrays, tip, poses_new, err_new
             )
             if e2_new < e2:
                 q[:] = q_new
-                err[:] = err_new
+                poses, poses_new = poses_new, poses
+                err, err_new = err_new, err
                 e2 = e2_new
                 lam = max(lam * 0.3, 1e-6)
             else:
                 lam = min(lam * 5.0, 1e3)
-                _pose_error(q, target, r_target, with_rotation, kin_arrays, tip, poses, err)
                 if lam >= 1e3:
                     break
         qs[b] = q

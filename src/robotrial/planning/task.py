@@ -318,13 +318,15 @@ class TaskPlanner:
         result.stats["total_time"] = result.planning_time
         return result
 
-    def _solve(self, planner, problem: Problem, checker, free_ik: Callable | None) -> PlanResult:
+    def _solve(
+        self, planner, problem: Problem, checker, free_ik: Callable | None, stats: dict[str, Any]
+    ) -> PlanResult:
         """Plan to the nearest IK solution for half the time, then to it and to other IK
         solutions for the rest: on arms whose joints turn twice around, the nearest
         solution can sit in a pocket the start has no free motion into. When the straight
         motion to it is blocked, the nearest of other solutions the start reaches in a
-        straight line is taken first. A joint-space goal (no `free_ik`) gets the whole
-        time."""
+        straight line is taken first (their IK counts in `stats["ik_time"]`). A joint-space
+        goal (no `free_ik`) gets the whole time."""
         if free_ik is None:
             return planner.solve(problem, checker)
         t0 = time.perf_counter()
@@ -332,7 +334,9 @@ class TaskPlanner:
         if not checker.motion_valid(problem.start, problem.goals[0]):
             # a goal the start reaches in a straight line, if other IK solutions give one
             # (milliseconds, where a search into the nearest one's pocket takes seconds)
+            t_ik = time.perf_counter()
             others = free_ik(accept=reachable, wanted=8, batch=8).solutions
+            stats["ik_time"] = stats.get("ik_time", 0.0) + time.perf_counter() - t_ik
             if others:
                 others = np.asarray(others)
                 direct = others[
@@ -345,7 +349,9 @@ class TaskPlanner:
         res = planner.solve(half, checker)
         if res.success or res.status != "timeout":
             return res
+        t_ik = time.perf_counter()
         more = free_ik(accept=reachable, wanted=8, batch=8).solutions
+        stats["ik_time"] = stats.get("ik_time", 0.0) + time.perf_counter() - t_ik
         left = problem.time_limit - (time.perf_counter() - t0)
         if not more or left <= 0:
             return res
@@ -469,7 +475,9 @@ class TaskPlanner:
                     resolution_scale=0.5**attempt,
                     fine=checker.fine,
                 )
-            res = self._solve(planner, Problem(start, goal[None], left, seed), checker, free_ik)
+            res = self._solve(
+                planner, Problem(start, goal[None], left, seed), checker, free_ik, stats
+            )
             stats.update({f"planner_{k}": v for k, v in res.stats.items()})
             stats["planner"] = planner.name
             stats["attempts"] = attempt + 1

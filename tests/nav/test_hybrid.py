@@ -286,3 +286,48 @@ def test_a_base_the_map_shows_nearly_touching_a_jamb_gets_clear_and_drives_on():
     assert nav.recoveries[0] == Recovery.ESCAPE.value
     room = rectangle_clearance(cm, np.array(poses))
     assert room.min() >= room[0] - 1e-3, "it went nearer the jamb than it started"
+
+
+def test_a_base_in_a_pocket_too_narrow_to_turn_in_backs_out_to_its_goal():
+    """Exploring may drive the base forwards into a pocket as wide as a doorway and too
+    narrow to turn in (between a sofa and a round table). No forward plan leaves it; the
+    goal behind the base is judged reachable and the base backs out to it, touching
+    nothing."""
+    from robotrial.nav.amcl import compose
+    from robotrial.nav.goals import check_goal
+    from robotrial.trials.nav import navigator_config
+    from tests.nav.test_profile import _arc
+
+    res = 0.05
+    occ = np.zeros((80, 120), dtype=bool)
+    occ[[0, -1], :] = occ[:, [0, -1]] = True
+    occ[:, 90:] = True  # x >= 4.5 is solid but for a pocket 1.0 m wide, 1.5 m deep
+    occ[30:50, 90:119] = False
+    fp = Footprint(0.99, 0.67)
+    cm = Costmap(occ, (0.0, 0.0), res, fp)
+    start, goal = np.array([5.3, 2.0, 0.0]), (1.5, 2.0, np.pi)
+    config = navigator_config(0.3, 2.0, 1.0, "hybrid", 3.0)
+    config = replace(config, costmap_resolution=None)
+    with pytest.raises(NoPath):
+        HybridAStar(config.hybrid).plan_poses(cm, tuple(start), goal)
+    verdict = check_goal(cm, goal, tuple(start), HybridAStar(config.hybrid))
+    assert verdict.ok, verdict.reason
+    nav = Navigator(occ, (0.0, 0.0), res, fp, config)
+    rows, cols = np.nonzero(occ)
+    walls = np.column_stack([(cols + 0.5) * res, (rows + 0.5) * res])
+    nav.set_goal(*goal)
+    pose, vel, period = start.copy(), np.zeros(2), config.dwa.period
+    poses = [pose]
+    for k in range(900):
+        if k % 2 == 0:
+            near = np.hypot(*(walls - pose[:2]).T) <= 3.0
+            nav.observe(tuple(pose[:2]), walls[near])
+        cmd = nav.step(k * period, tuple(pose), tuple(vel))
+        for _ in range(5):
+            vel += np.clip(np.array(cmd) - vel, [-0.01, -0.03], [0.01, 0.03])
+            pose = compose(pose, _arc(vel[0], vel[1], period / 5))
+        poses.append(pose)
+        if nav.status is not Status.ACTIVE or pose[0] < 3.8:
+            break
+    assert pose[0] < 3.8, f"{nav.status.value} at {pose.round(2)}: {nav.message}"
+    assert rectangle_clearance(cm, np.array(poses)).min() > 0.0

@@ -8,14 +8,15 @@ with a goal before anything moves: off the map, inside an obstacle, too near one
 the rectangle at that heading, already reached, or out of reach for the footprint from
 the start (Hybrid-A*, the footprint planner, asked for the whole pose; from a start
 where the map shows the base touching something, from where the least turn and straight
-drive that gets it clear, `escape_move`, takes it, as the navigator does). The command
-line, the live server and the benchmark all ask it, so a goal is refused the same way
-everywhere.
+drive that gets it clear, `escape_move`, takes it, as the navigator does; and where no
+forward plan gets there, a plan that may back out of a pocket too narrow to turn in).
+The command line, the live server and the benchmark all ask it, so a goal is refused
+the same way everywhere.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -30,6 +31,7 @@ it, and a goal given nearer than half of it is refused as too near. Localization
 the base a few cm off where it believes it is."""
 
 
+REVERSE_PENALTY = 3.0  # cost factor on backward steps of a plan that backs out of a pocket
 ESCAPE_TURN = 0.8  # rad: the largest turn on the spot an escape from a touching pose makes
 ESCAPE_RUN = 0.4  # m: the longest straight drive after it
 _BIN = 2 * np.pi / 72  # the footprint planner's yaw bins: an escape ends on one
@@ -158,6 +160,13 @@ def check_goal(
             clear = (sx + run * np.cos(heading), sy + run * np.sin(heading), heading)
             poses = planner.plan_poses(costmap, clear, (gx, gy, gyaw))
     except NoPath as err:
+        try:
+            # a base in a pocket it drove into forwards, too narrow to turn in, backs
+            # out first (the navigator does, as far as a plan that may reverse says)
+            back = HybridAStar(replace(planner.config, reverse_penalty=REVERSE_PENALTY))
+            return GoalCheck("ok", plan=back.plan_poses(costmap, (sx, sy, syaw), (gx, gy, gyaw)))
+        except NoPath:
+            pass
         text = str(err)  # the planner's words name the goal already, mostly
         if not text.startswith("the goal"):
             text = f"the goal {where} is out of reach: {text}"

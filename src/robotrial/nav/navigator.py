@@ -404,10 +404,13 @@ class Navigator:
             else:
                 self.global_costmap.clear_obstacles()
                 self._dirty = True
-                if self._planned and self.config.planner in ("hybrid", "auto"):
-                    # the goal was reachable from an earlier pose: the base has come to
-                    # one it cannot turn from (overshot a corner), so it backs up as far
-                    # as a plan that may reverse says
+                if self.config.planner in ("hybrid", "auto") and (
+                    self._planned or self._reverses(pose)
+                ):
+                    # the goal was reachable from an earlier pose (the base has come to
+                    # one it cannot turn from: overshot a corner), or a plan that may
+                    # reverse reaches it (the base stands in a pocket it drove into
+                    # forwards, too narrow to turn in): it backs up as far as that says
                     self.recoveries.append(Recovery.BACK_UP.value)
                     self._back_up(now, pose)
             return False
@@ -555,6 +558,14 @@ class Navigator:
             1.0 if run >= 0 else -1.0,
         )
         return True
+
+    def _reverses(self, pose: np.ndarray) -> bool:
+        """Whether a plan that may also reverse (`HybridAStar.reverse_run`) begins by
+        backing up from `pose`."""
+        try:
+            return self.hybrid.reverse_run(self.global_costmap, pose, self.goal)[1] > 0.0
+        except NoPath:
+            return False
 
     def _back_up(self, now: float, pose: np.ndarray) -> None:
         """Start backing up: `backup_distance` straight back, or, with a footprint planner,

@@ -5,6 +5,7 @@ every obstacle, keeps a minimum turning radius, and settles the apartment's reac
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -157,16 +158,41 @@ def test_a_base_past_the_study_doorway_is_told_to_turn_before_it_backs_up():
     assert planner.plan(cm, tuple(backed(heading)[-1]), goal)[-1] == pytest.approx(goal, abs=0.1)
 
 
-def test_a_base_wedged_askew_in_a_doorway_backs_out_and_drives_through():
+def _drive(nav, start, occupied, origin, res, done, steps, shift=(0.0, 0.0)) -> np.ndarray:
+    """The poses of a base driven from `start` by the navigator's commands (within the
+    base's own rate limits, 1 m/s^2 and 3 rad/s^2, at 100 Hz), scans marking the map's
+    occupied cells within 3 m, moved by `shift`, at 10 Hz; until `done(pose)`, the
+    navigator stops, or `steps` control periods."""
+    from robotrial.nav.amcl import compose
+    from tests.nav.test_profile import _arc
+
+    rows, cols = np.nonzero(occupied)
+    walls = np.column_stack([origin[0] + (cols + 0.5) * res, origin[1] + (rows + 0.5) * res])
+    pose, vel, period = np.array(start, dtype=float), np.zeros(2), nav.config.dwa.period
+    poses = [pose]
+    for k in range(steps):
+        if k % 2 == 0:
+            near = np.hypot(*(walls - pose[:2]).T) <= 3.0
+            nav.observe(tuple(pose[:2]), walls[near] + shift)
+        cmd = nav.step(k * period, tuple(pose), tuple(vel))
+        for _ in range(5):
+            vel += np.clip(np.array(cmd) - vel, [-0.01, -0.03], [0.01, 0.03])
+            pose = compose(pose, _arc(vel[0], vel[1], period / 5))
+        poses.append(pose)
+        if nav.status is not Status.ACTIVE or done(pose):
+            break
+    return np.array(poses)
+
+
+def test_a_base_wedged_askew_in_a_doorway_gets_clear_and_drives_through():
     """A generated home's 0.8 m doorway: the base stopped at its entrance 0.12 rad askew,
     its front corner on the jamb as mapped (the scan, from a pose 4 cm off, marks the
     jamb nearer still), where neither a drive on nor a turn on the spot is clear. It
-    backs out (away from the jamb, never into it) and then drives through."""
-    from robotrial.nav.amcl import compose
+    gets clear (backs out or turns away from the jamb, never into it) and then drives
+    through."""
     from robotrial.nav.navigator import Recovery
     from robotrial.trials.nav import navigator_config
     from robotrial.trials.nav_goals import goal_world
-    from tests.nav.test_profile import _arc
 
     _, m = goal_world("home:2000")
     fp = Footprint(0.99, 0.67)
@@ -176,28 +202,22 @@ def test_a_base_wedged_askew_in_a_doorway_backs_out_and_drives_through():
     jamb_x = 2.6  # the doorway's wall; the goal room lies east of it
     cm = Costmap(m.occupied, m.origin, m.resolution, fp)
     assert footprint_hits(cm, start[None], 0.0).any(), "the start touches the jamb as mapped"
-    rows, cols = np.nonzero(m.occupied)
-    walls = np.column_stack(
-        [m.origin[0] + (cols + 0.5) * m.resolution, m.origin[1] + (rows + 0.5) * m.resolution]
-    )
     nav.set_goal(4.347, 3.995, -2.378)
-    pose, vel, period = start.copy(), np.zeros(2), config.dwa.period
-    poses = [pose]
-    for k in range(400):
-        if k % 2 == 0:  # scans at 10 Hz
-            near = np.hypot(*(walls - pose[:2]).T) <= 3.0
-            nav.observe(tuple(pose[:2]), walls[near] + (-0.04, 0.0))
-        cmd = nav.step(k * period, tuple(pose), tuple(vel))
-        for _ in range(5):  # the base's own rate limits (1 m/s^2, 3 rad/s^2), at 100 Hz
-            vel += np.clip(np.array(cmd) - vel, [-0.01, -0.03], [0.01, 0.03])
-            pose = compose(pose, _arc(vel[0], vel[1], period / 5))
-        poses.append(pose)
-        if nav.status is not Status.ACTIVE or pose[0] > jamb_x + 0.6:
-            break
+    poses = _drive(
+        nav,
+        start,
+        m.occupied,
+        m.origin,
+        m.resolution,
+        lambda p: p[0] > jamb_x + 0.6,
+        400,
+        (-0.04, 0.0),
+    )
+    pose = poses[-1]
     assert nav.status is Status.ACTIVE, nav.message
     assert pose[0] > jamb_x + 0.6, f"stopped at {pose.round(2)}"
-    assert Recovery.BACK_UP.value in nav.recoveries
-    room = rectangle_clearance(cm, np.array(poses))
+    assert {Recovery.BACK_UP.value, Recovery.ESCAPE.value} & set(nav.recoveries)
+    room = rectangle_clearance(cm, poses)
     assert room.min() >= room[0] - 1e-3, "it went nearer the jamb than it started"
 
 
@@ -220,3 +240,80 @@ def test_a_replan_that_finds_nothing_mid_swing_leaves_the_base_on_its_plan():
     assert v > 0.05
     assert nav.status is Status.ACTIVE and nav.recoveries == []
     assert nav.phase() == ("driving", "")
+
+
+def _touching_the_jamb(cm: Costmap, yaw: float, gap: float) -> np.ndarray:
+    """A pose facing `yaw` in the first room of `two_rooms`, slid towards the doorway's
+    southern jamb until the rectangle keeps only `gap` (m) from it as mapped."""
+    near, far = 0.0, 1.0
+    for _ in range(40):  # bisection along the way to the jamb (3.0, 1.1)
+        mid = 0.5 * (near + far)
+        pose = np.array([1.9 + 1.1 * mid, 0.6 + 0.5 * mid, yaw])
+        if rectangle_clearance(cm, pose[None])[0] > gap:
+            near = mid
+        else:
+            far = mid
+    return np.array([1.9 + 1.1 * near, 0.6 + 0.5 * near, yaw])
+
+
+def test_a_base_the_map_shows_nearly_touching_a_jamb_gets_clear_and_drives_on():
+    """After exploring, the base may stand where SLAM's map puts a doorway's jamb within
+    a few mm of its rectangle, nearer than the footprint planner's margin, askew, so no
+    plan starts there. It is not in the jamb: the goal is judged (and driven) from where
+    the least turn on the spot gets it clear, never nearer the jamb on the way."""
+    from robotrial.model.gridmap import world_map
+    from robotrial.model.world import load_world_text
+    from robotrial.nav.goals import check_goal
+    from robotrial.nav.navigator import Recovery
+    from robotrial.trials.nav import navigator_config
+    from tests.trials.test_verdict import two_rooms
+
+    m = world_map(load_world_text(two_rooms(0.8)))
+    fp = Footprint(0.99, 0.67)
+    cm = Costmap(m.occupied, m.origin, m.resolution, fp)
+    start = _touching_the_jamb(cm, 0.75, 0.004)
+    config = navigator_config(0.3, 2.0, 1.0, "hybrid", 3.0)
+    hybrid = replace(config.hybrid, margin=0.01)
+    config = replace(config, costmap_resolution=None, hybrid=hybrid)
+    goal = (4.5, 1.5, 0.0)
+    assert HybridAStar(hybrid).collides(cm, start[None])[0], "within the planner's margin"
+    verdict = check_goal(cm, goal, tuple(start), HybridAStar(hybrid))
+    assert verdict.ok, verdict.reason
+    nav = Navigator(m.occupied, m.origin, m.resolution, fp, config, m.unknown)
+    nav.set_goal(*goal)
+    poses = _drive(nav, start, m.occupied, m.origin, m.resolution, lambda p: p[0] > 3.6, 600)
+    pose = poses[-1]
+    assert pose[0] > 3.6, f"{nav.status.value} at {pose.round(2)}: {nav.message}"
+    assert nav.recoveries[0] == Recovery.ESCAPE.value
+    room = rectangle_clearance(cm, poses)
+    assert room.min() >= room[0] - 1e-3, "it went nearer the jamb than it started"
+
+
+def test_a_base_in_a_pocket_too_narrow_to_turn_in_backs_out_to_its_goal():
+    """Exploring may drive the base forwards into a pocket as wide as a doorway and too
+    narrow to turn in (between a sofa and a round table). No forward plan leaves it; the
+    goal behind the base is judged reachable and the base backs out to it, touching
+    nothing."""
+    from robotrial.nav.goals import check_goal
+    from robotrial.trials.nav import navigator_config
+
+    res = 0.05
+    occ = np.zeros((80, 120), dtype=bool)
+    occ[[0, -1], :] = occ[:, [0, -1]] = True
+    occ[:, 90:] = True  # x >= 4.5 is solid but for a pocket 1.0 m wide, 1.5 m deep
+    occ[30:50, 90:119] = False
+    fp = Footprint(0.99, 0.67)
+    cm = Costmap(occ, (0.0, 0.0), res, fp)
+    start, goal = np.array([5.3, 2.0, 0.0]), (1.5, 2.0, np.pi)
+    config = navigator_config(0.3, 2.0, 1.0, "hybrid", 3.0)
+    config = replace(config, costmap_resolution=None)
+    with pytest.raises(NoPath):
+        HybridAStar(config.hybrid).plan_poses(cm, tuple(start), goal)
+    verdict = check_goal(cm, goal, tuple(start), HybridAStar(config.hybrid))
+    assert verdict.ok, verdict.reason
+    nav = Navigator(occ, (0.0, 0.0), res, fp, config)
+    nav.set_goal(*goal)
+    poses = _drive(nav, start, occ, (0.0, 0.0), res, lambda p: p[0] < 3.8, 900)
+    pose = poses[-1]
+    assert pose[0] < 3.8, f"{nav.status.value} at {pose.round(2)}: {nav.message}"
+    assert rectangle_clearance(cm, poses).min() > 0.0

@@ -6,26 +6,71 @@ the base drives (layer 3).
 (the home's interior, or the whole map). `check_goal` says, in words, what is wrong
 with a goal before anything moves: off the map, inside an obstacle, too near one for
 the rectangle at that heading, already reached, or out of reach for the footprint from
-the start (Hybrid-A*, the footprint planner, asked for the whole pose). The command
-line, the live server and the benchmark all ask it, so a goal is refused the same way
-everywhere.
+the start (Hybrid-A*, the footprint planner, asked for the whole pose; from a start
+where the map shows the base touching something, from where the least turn and straight
+drive that gets it clear, `escape_move`, takes it, as the navigator does; and where no
+forward plan gets there, a plan that may back out of a pocket too narrow to turn in).
+The command line, the live server and the benchmark all ask it, so a goal is refused
+the same way everywhere.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from robotrial.nav.costmap import Costmap
-from robotrial.nav.hybrid import HybridAStar
-from robotrial.nav.planners import NoPath
+from robotrial.nav.hybrid import HybridAStar, footprint_hits
+from robotrial.nav.planners import NoPath, StartBlocked
 from robotrial.nav.profile import rectangle_clearance
 
 GOAL_CLEARANCE = 0.10
 """How far (m) the rectangle at a goal keeps from every obstacle: a sampled goal keeps
 it, and a goal given nearer than half of it is refused as too near. Localization puts
 the base a few cm off where it believes it is."""
+
+
+REVERSE_PENALTY = 3.0  # cost factor on backward steps of a plan that backs out of a pocket
+ESCAPE_TURN = 0.8  # rad: the largest turn on the spot an escape from a touching pose makes
+ESCAPE_RUN = 0.4  # m: the longest straight drive after it
+_BIN = 2 * np.pi / 72  # the footprint planner's yaw bins: an escape ends on one
+
+
+def escape_move(
+    costmap: Costmap, pose: tuple[float, float, float], margin: float, blocked: np.ndarray
+) -> tuple[float, float] | None:
+    """The least move that takes a base the map shows touching something (or nearer
+    than `margin`, m, to a `blocked` cell) to where the footprint planner's check of the
+    rectangle grown by `margin` is clear, never nearer than it stands on the way: a
+    turn on the spot to a heading (rad), then a straight drive of a signed distance
+    (m). None when no turn of up to ESCAPE_TURN and drive of up to ESCAPE_RUN does it.
+    A base standing somewhere is not in a wall: the map drew the wall a cell thick, or
+    localization puts the base a few cm off."""
+    x, y, yaw = (float(v) for v in pose[:3])
+    here = float(rectangle_clearance(costmap, np.array([[x, y, yaw]]), blocked)[0])
+    floor = min(here, margin) - 1e-3
+    k0 = int(np.round(yaw / _BIN))
+    best: tuple[float, float, float] | None = None
+    for k in range(k0 - int(ESCAPE_TURN / _BIN), k0 + int(ESCAPE_TURN / _BIN) + 1):
+        heading = k * _BIN
+        turn = float((heading - yaw + np.pi) % (2 * np.pi) - np.pi)
+        spin = np.linspace(yaw, yaw + turn, max(2, int(abs(turn) / 0.01) + 2))
+        sweep = np.column_stack([np.full(len(spin), x), np.full(len(spin), y), spin])
+        if rectangle_clearance(costmap, sweep, blocked).min() < floor:
+            continue
+        c, s = np.cos(heading), np.sin(heading)
+        for run in np.arange(0.0, ESCAPE_RUN + 1e-9, 0.05):
+            for sign in (1.0, -1.0) if run else (1.0,):
+                d = np.linspace(0.0, sign * run, max(2, int(run / 0.01) + 2))
+                line = np.column_stack([x + c * d, y + s * d, np.full(len(d), heading)])
+                room = rectangle_clearance(costmap, line, blocked)
+                if room.min() < floor or footprint_hits(costmap, line[-1:], margin, blocked)[0]:
+                    continue
+                cost = 0.5 * abs(turn) + run
+                if best is None or cost < best[0]:
+                    best = (cost, heading, sign * run)
+    return None if best is None else (best[1], best[2])
 
 
 @dataclass(frozen=True)
@@ -96,8 +141,32 @@ def check_goal(
         return GoalCheck("here", f"the base already stands on the goal ({dist:.2f} m away)")
     planner = planner or HybridAStar()
     try:
-        poses = planner.plan_poses(costmap, (sx, sy, syaw), (gx, gy, gyaw))
+        try:
+            poses = planner.plan_poses(costmap, (sx, sy, syaw), (gx, gy, gyaw))
+        except StartBlocked:
+            # the base stands where the map shows it touching something: the navigator
+            # first gets it clear (`escape_move`), so the goal is judged from there
+            blocked = planner.blocked(costmap)
+            move = escape_move(costmap, (sx, sy, syaw), planner.config.margin, blocked)
+            if move is None:
+                return GoalCheck(
+                    "unreachable",
+                    f"the base at {_fmt(sx, sy)} stands where the map shows it touching "
+                    f"something, and no turn on the spot of up to "
+                    f"{np.degrees(ESCAPE_TURN):.0f} deg and drive of up to {ESCAPE_RUN:.1f} m "
+                    "gets it clear",
+                )
+            heading, run = move
+            clear = (sx + run * np.cos(heading), sy + run * np.sin(heading), heading)
+            poses = planner.plan_poses(costmap, clear, (gx, gy, gyaw))
     except NoPath as err:
+        try:
+            # a base in a pocket it drove into forwards, too narrow to turn in, backs
+            # out first (the navigator does, as far as a plan that may reverse says)
+            back = HybridAStar(replace(planner.config, reverse_penalty=REVERSE_PENALTY))
+            return GoalCheck("ok", plan=back.plan_poses(costmap, (sx, sy, syaw), (gx, gy, gyaw)))
+        except NoPath:
+            pass
         text = str(err)  # the planner's words name the goal already, mostly
         if not text.startswith("the goal"):
             text = f"the goal {where} is out of reach: {text}"

@@ -15,6 +15,11 @@ velocity and (when a new scan arrived) the scan's end points on the map. It
    base that already touches something (as mapped) may still turn or back up where
    that takes it clear or further from it.
 
+Where the map shows the base touching something, or nearer than the footprint
+planner's margin, no plan starts: the navigator first makes the least turn on the spot
+and straight drive that gets it clear without going nearer (`goals.escape_move`, up to
+ESCAPES times a goal), as the base stands there and the map is a few cm off.
+
 A replan that finds no way while the base follows a plan does not stop it: it keeps to
 that plan for `planner_patience` s (move_base's planner patience), as a base swinging
 into a doorway a little askew, from where the footprint planner's turns on the spot
@@ -35,6 +40,7 @@ import numpy as np
 from robotrial.nav import DEFAULT_PLANNER, default_controller
 from robotrial.nav.costmap import Costmap, Footprint, Inflation, coarsen
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
+from robotrial.nav.goals import escape_move
 from robotrial.nav.hybrid import HybridAStar, HybridConfig, footprint_hits, resample
 from robotrial.nav.planners import PLANNERS, NoPath, StartBlocked, make_planner, smooth
 from robotrial.nav.profile import ProfileConfig, ProfileController, rectangle_clearance
@@ -55,13 +61,16 @@ class Recovery(Enum):
     CLEAR_COSTMAPS = "clear_costmaps"
     ROTATE = "rotate"
     BACK_UP = "back_up"
+    ESCAPE = "escape"  # not in the order of recoveries: before planning, from a touching pose
 
 
 RECOVERY_WORDS = {
     Recovery.CLEAR_COSTMAPS.value: "clearing the costmaps",
     Recovery.ROTATE.value: "rotating in place",
     Recovery.BACK_UP.value: "backing up",
+    Recovery.ESCAPE.value: "getting clear of what the map shows it touching",
 }
+ESCAPES = 3  # escapes from a touching pose a goal may start
 
 
 @dataclass(frozen=True)
@@ -112,6 +121,7 @@ class _Behaviour:
     last_yaw: float = 0.0
     distance: float = 0.0
     heading: float | None = None  # a back-up first turns on the spot to this yaw
+    direction: float = -1.0  # then drives straight back (-1) or, an escape, maybe ahead
 
 
 _ASIDE = ((0.02, 0.0), (-0.02, 0.0), (0.0, 0.02), (0.0, -0.02))
@@ -188,6 +198,7 @@ class Navigator:
         self._next_recovery = 0
         self._no_path = 0
         self._failing_since: float | None = None
+        self._escapes = 0
         self._planned = False
         self._rotating = False
         self._dirty = False
@@ -232,6 +243,7 @@ class Navigator:
         self._planned = False
         self._rotating = False
         self._blocked_since = None
+        self._escapes = 0
         if isinstance(self.controller, ProfileController):
             self.controller.reset()
 
@@ -372,6 +384,8 @@ class Navigator:
         if self._dirty:
             self.global_costmap.update()
             self._dirty = False
+        if self._escape(now, pose):
+            return False
         t0 = time.perf_counter()
         try:
             path = self._global_path(pose)
@@ -390,10 +404,13 @@ class Navigator:
             else:
                 self.global_costmap.clear_obstacles()
                 self._dirty = True
-                if self._planned and self.config.planner in ("hybrid", "auto"):
-                    # the goal was reachable from an earlier pose: the base has come to
-                    # one it cannot turn from (overshot a corner), so it backs up as far
-                    # as a plan that may reverse says
+                if self.config.planner in ("hybrid", "auto") and (
+                    self._planned or self._reverses(pose)
+                ):
+                    # the goal was reachable from an earlier pose (the base has come to
+                    # one it cannot turn from: overshot a corner), or a plan that may
+                    # reverse reaches it (the base stands in a pocket it drove into
+                    # forwards, too narrow to turn in): it backs up as far as that says
                     self.recoveries.append(Recovery.BACK_UP.value)
                     self._back_up(now, pose)
             return False
@@ -488,7 +505,7 @@ class Navigator:
     # --- recoveries --------------------------------------------------------------------
 
     def _start_recovery(self, now: float, pose: np.ndarray) -> None:
-        order = list(Recovery)
+        order = [Recovery.CLEAR_COSTMAPS, Recovery.ROTATE, Recovery.BACK_UP]
         if self._next_recovery >= len(order):
             self._finish(
                 Status.ABORTED,
@@ -510,6 +527,45 @@ class Navigator:
             return
         length = 2 * np.pi / max(self.config.dwa.max_yaw_rate, 0.1) + 2.0
         self._behaviour = _Behaviour(kind, now + length, float(pose[2]), 0.0, float(pose[2]))
+
+    def _escape(self, now: float, pose: np.ndarray) -> bool:
+        """Where the map shows the base touching something (or nearer than the footprint
+        planner's margin, so it plans nothing from there), start the least turn and
+        straight drive that gets it clear (`escape_move`), up to ESCAPES times a goal:
+        the base stands there, so the map is a little off, not the base in a wall."""
+        if self.config.planner not in ("hybrid", "auto") or self._escapes >= ESCAPES:
+            return False
+        cm, margin = self.global_costmap, self.config.hybrid.margin
+        if not self.hybrid.collides(cm, pose[None, :3])[0]:
+            return False
+        move = escape_move(cm, tuple(pose[:3]), margin, self.hybrid.blocked(cm))
+        if move is None:
+            return False
+        self._escapes += 1
+        heading, run = move
+        yaw = float(pose[2])
+        turn = abs(_wrap(heading - yaw))
+        length = turn / (0.5 * self.config.dwa.max_yaw_rate) + abs(run) / self.config.backup_speed
+        self.recoveries.append(Recovery.ESCAPE.value)
+        self._behaviour = _Behaviour(
+            Recovery.ESCAPE,
+            now + length + 2.0,
+            yaw,
+            0.0,
+            yaw,
+            abs(run),
+            heading if turn > 0.01 else None,
+            1.0 if run >= 0 else -1.0,
+        )
+        return True
+
+    def _reverses(self, pose: np.ndarray) -> bool:
+        """Whether a plan that may also reverse (`HybridAStar.reverse_run`) begins by
+        backing up from `pose`."""
+        try:
+            return self.hybrid.reverse_run(self.global_costmap, pose, self.goal)[1] > 0.0
+        except NoPath:
+            return False
 
     def _back_up(self, now: float, pose: np.ndarray) -> None:
         """Start backing up: `backup_distance` straight back, or, with a footprint planner,
@@ -590,16 +646,15 @@ class Navigator:
             cmd = (0.0, w) if b.heading is not None else (0.0, 0.0)
         else:
             travelled = 0.0
+            speed = b.direction * self.config.backup_speed
             if local is not None:
-                nxt = rollout(
-                    tuple(pose), np.array([-self.config.backup_speed]), np.array([0.0]), 5, 0.1
-                )
+                nxt = rollout(tuple(pose), np.array([speed]), np.array([0.0]), 5, 0.1)
                 if self._motion_blocked(local, pose, nxt):
                     done = True
             b.turned += abs(velocity[0]) * self.config.dwa.period
             travelled = b.turned
             done = done or travelled >= b.distance
-            cmd = (-self.config.backup_speed, 0.0)
+            cmd = (speed, 0.0)
         if done:
             self._behaviour = None
             self.path = None

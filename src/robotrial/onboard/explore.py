@@ -57,6 +57,28 @@ def follow_route(robot: Robot, route: list[tuple[float, float]], speed: float) -
     robot.drive(0.0, 0.0)
 
 
+def map_cells(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Occupied and free cells (the rest unknown) of a map of occupancy probabilities
+    `p` (0.5: never seen), as the explorer reads it. The navigation after exploring
+    reads it so too: at a map's usual 0.35 / 0.65 thresholds, floor that few of the
+    pose graph's nodes saw stays unknown, and the way the explorer drove may be closed
+    to the footprint planner."""
+    # what the scans saw as often as not (a low table top that beams at some
+    # distances pass over) is an obstacle; cells between beams far off that no beam
+    # crossed count as free where the gap is under SPECKLE cells wide
+    occupied = p >= OCCUPIED
+    never = ndimage.binary_opening(p == 0.5, np.ones((SPECKLE, SPECKLE), dtype=bool))
+    unknown = never | ((p > FREE) & ~occupied & (p != 0.5))
+    return occupied, ~(occupied | unknown)
+
+
+def navigation_values(p: np.ndarray) -> np.ndarray:
+    """The map of occupancy probabilities `p` as ROS values (100 occupied, 0 free, -1
+    unknown) read as `map_cells` reads it: what the navigation after exploring plans on."""
+    occupied, free = map_cells(p)
+    return np.where(occupied, 100, np.where(free, 0, -1)).astype(np.int8)
+
+
 @dataclass
 class ExploreLog:
     """What exploring did: each goal (pose, gain m2, travel m, how it ended), why it
@@ -114,14 +136,8 @@ class Explorer:
     def _map(self) -> tuple[np.ndarray, np.ndarray, tuple[float, float], float]:
         """SLAM's map as it stands: occupied and free cells, origin, resolution."""
         grid = self.robot.slam_node.slam.grid  # type: ignore[union-attr]
-        p = grid.probability()
-        # what the scans saw as often as not (a low table top that beams at some
-        # distances pass over) is an obstacle; cells between beams far off that no beam
-        # crossed count as free where the gap is under SPECKLE cells wide
-        occupied = p >= OCCUPIED
-        never = ndimage.binary_opening(p == 0.5, np.ones((SPECKLE, SPECKLE), dtype=bool))
-        unknown = never | ((p > FREE) & ~occupied & (p != 0.5))
-        return occupied, ~(occupied | unknown), grid.origin, grid.resolution
+        occupied, free = map_cells(grid.probability())
+        return occupied, free, grid.origin, grid.resolution
 
     def _gain_at(self, xy: np.ndarray) -> float:
         occupied, free, origin, res = self._map()

@@ -231,9 +231,10 @@ class Robot(Node):
         )
         self._initial = pose
 
-    def publish_map(self) -> None:
+    def publish_map(self, values: np.ndarray | None = None) -> None:
         """Give AMCL its initial pose and the navigator the built map (after the
-        navigation node has heard the odometry)."""
+        navigation node has heard the odometry): its cells as ROS values (100 occupied,
+        0 free, -1 unknown), by default at the usual thresholds."""
         assert self.grid is not None
         head = Header(stamp=Time.from_sec(self.now), frame_id="map")
         cov = np.zeros(36)
@@ -247,7 +248,7 @@ class Robot(Node):
                 ),
             )
         )
-        self.map_pub.publish(grid_message(self.grid, self.now))
+        self.map_pub.publish(grid_message(self.grid, self.now, values=values))
 
     @property
     def laser(self) -> tuple[float, float, float]:

@@ -41,7 +41,7 @@ from robotrial.nav.navigator import Status
 from robotrial.nav.tour import open_spot
 from robotrial.onboard.catalogue import Catalogue, ObjectKind
 from robotrial.onboard.explore import MARGIN as EXPLORE_MARGIN
-from robotrial.onboard.explore import Explorer, follow_route
+from robotrial.onboard.explore import Explorer, follow_route, navigation_values
 from robotrial.onboard.perception import (
     MIN_SIDE_POINTS,
     SIDE_BELOW_TOP,
@@ -201,6 +201,7 @@ class Skills:
         self.shoulder, self.reach = arm_reach(self.planner)
         self.palm = palm_depth(self.model, zero, self.model.end_effector)
         self.footprint = robot.setup.footprint
+        self.explored = False  # mapped by frontiers (not along a route)
 
     # --- time and the base -------------------------------------------------------------
 
@@ -220,6 +221,7 @@ class Skills:
             explorer = Explorer(self.robot, min(speed, MAPPING_SPEED), return_home=True)
             yield from explorer.run()
             self.log.exploration = explorer.log.goals
+            self.explored = True
         yield from self.wait(0.1)
 
     def start_navigation(self) -> Iterator[None]:
@@ -235,10 +237,11 @@ class Skills:
             hybrid=replace(nav.hybrid, margin=EXPLORE_MARGIN),
         )
         yield from self.wait(0.05)  # the navigation node hears the odometry first
-        self.robot.publish_map()
         grid = self.robot.grid
         assert grid is not None
-        values = grid.ros_values()
+        # after exploring, the map as the explorer read it, so the way it drove stays open
+        values = navigation_values(grid.probability()) if self.explored else grid.ros_values()
+        self.robot.publish_map(values)
         self.map_blocked = (values == 100) | (values < 0)
         self.map_walls = values == 100
         self.map_origin, self.map_res = np.asarray(grid.origin, dtype=float), grid.resolution

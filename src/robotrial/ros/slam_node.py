@@ -112,9 +112,15 @@ def scan_to_beams(
     )
 
 
-def grid_message(grid: LogOddsGrid | TiledGrid, stamp: float, frame: str = "map") -> OccupancyGrid:
-    """The map as nav_msgs/OccupancyGrid (100 occupied, 0 free, -1 unknown)."""
-    values = grid.ros_values()
+def grid_message(
+    grid: LogOddsGrid | TiledGrid,
+    stamp: float,
+    frame: str = "map",
+    values: np.ndarray | None = None,
+) -> OccupancyGrid:
+    """The map as nav_msgs/OccupancyGrid (100 occupied, 0 free, -1 unknown): `values`
+    when given (the grid's shape), else the grid's at the usual thresholds."""
+    values = grid.ros_values() if values is None else values
     h, w = values.shape
     return OccupancyGrid(
         header=Header(stamp=Time.from_sec(stamp), frame_id=frame),

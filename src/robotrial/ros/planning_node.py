@@ -160,7 +160,15 @@ class PlanningNode(Node):
                 error_code=PlanTaskResponse.TIMED_OUT,
             )
         if limit:  # the time spent waiting counts against the limit given
-            request.time_limit = max(limit - (time.monotonic() - arrived), 1e-3)
+            left = limit - (time.monotonic() - arrived)
+            if left <= 0:
+                busy.release()
+                return PlanTaskResponse(
+                    success=False,
+                    message=f"the time limit ran out before planning ({limit:g} s)",
+                    error_code=PlanTaskResponse.TIMED_OUT,
+                )
+            request.time_limit = left
         try:
             response, _ = answer(planner, request, abandoned=abandoned)
         except Exception as exc:  # answered, so that the client is not left waiting

@@ -16,12 +16,12 @@ the same way everywhere.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from robotrial.nav.costmap import Costmap
-from robotrial.nav.hybrid import HybridAStar, footprint_hits
+from robotrial.nav.hybrid import YAW_BINS, HybridAStar, footprint_hits
 from robotrial.nav.planners import NoPath, StartBlocked
 from robotrial.nav.profile import rectangle_clearance
 
@@ -31,10 +31,9 @@ it, and a goal given nearer than half of it is refused as too near. Localization
 the base a few cm off where it believes it is."""
 
 
-REVERSE_PENALTY = 3.0  # cost factor on backward steps of a plan that backs out of a pocket
 ESCAPE_TURN = 0.8  # rad: the largest turn on the spot an escape from a touching pose makes
 ESCAPE_RUN = 0.4  # m: the longest straight drive after it
-_BIN = 2 * np.pi / 72  # the footprint planner's yaw bins: an escape ends on one
+_BIN = 2 * np.pi / YAW_BINS  # the footprint planner's yaw bins: an escape ends on one
 
 
 def escape_move(
@@ -163,7 +162,7 @@ def check_goal(
         try:
             # a base in a pocket it drove into forwards, too narrow to turn in, backs
             # out first (the navigator does, as far as a plan that may reverse says)
-            back = HybridAStar(replace(planner.config, reverse_penalty=REVERSE_PENALTY))
+            back = planner.reversing()
             return GoalCheck("ok", plan=back.plan_poses(costmap, (sx, sy, syaw), (gx, gy, gyaw)))
         except NoPath:
             pass

@@ -39,6 +39,7 @@ from robotrial.nav.costmap import MAX_INFLATED, UNKNOWN, Costmap, Footprint
 from robotrial.nav.planners import NoPath, StartBlocked, _heap_pop, _heap_push
 
 YAW_BINS = 72
+REVERSE_PENALTY = 3.0  # cost factor on backward steps of a plan that backs out of a pocket
 CHECK_BINS = 2 * YAW_BINS
 SUB = 4
 SHOT_NEAR = 0.6  # m: within this of the goal a straight shot needs only the margin
@@ -478,16 +479,19 @@ class HybridAStar:
             costmap, np.asarray(poses, dtype=float), self.config.margin, self.blocked(costmap)
         )
 
+    def reversing(self) -> HybridAStar:
+        """This planner allowed to drive backwards too (at its `reverse_penalty`, else
+        REVERSE_PENALTY): what a base that cannot turn where it stands backs out along."""
+        penalty = self.config.reverse_penalty or REVERSE_PENALTY
+        return HybridAStar(replace(self.config, reverse_penalty=penalty))
+
     def reverse_run(
         self, costmap: Costmap, start: tuple[float, ...], goal: tuple[float, ...]
     ) -> tuple[float, float]:
-        """Where a plan that may also drive backwards (at `reverse_penalty`, 3 if unset)
-        first backs up from `start`: the heading (rad) it turns to on the spot before, and
-        how far (m) it backs up before it first drives forwards (0: it does not); raises
-        NoPath."""
-        penalty = self.config.reverse_penalty or 3.0
-        back = HybridAStar(replace(self.config, reverse_penalty=penalty))
-        poses = back.plan_poses(costmap, start, goal)
+        """Where a plan that may also drive backwards (`reversing`) first backs up from
+        `start`: the heading (rad) it turns to on the spot before, and how far (m) it
+        backs up before it first drives forwards (0: it does not); raises NoPath."""
+        poses = self.reversing().plan_poses(costmap, start, goal)
         d = np.diff(poses[:, :2], axis=0)
         along = d[:, 0] * np.cos(poses[1:, 2]) + d[:, 1] * np.sin(poses[1:, 2])
         moving = np.flatnonzero(np.abs(along) > 1e-9)

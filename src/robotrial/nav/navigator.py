@@ -252,7 +252,8 @@ class Navigator:
         base that drove forwards into a pocket it cannot turn in gets out this way."""
         self.recoveries.append(Recovery.BACK_UP.value)
         self._planned = True
-        self._back_up(now, np.asarray(pose, dtype=float))
+        here = np.asarray(pose, dtype=float)
+        self._back_up(now, here, self._reverse_run(here))
 
     def phase(self) -> tuple[str, str]:
         """What the navigator is doing, for a status line: ('idle' | 'planning' |
@@ -404,15 +405,16 @@ class Navigator:
             else:
                 self.global_costmap.clear_obstacles()
                 self._dirty = True
+                run = self._reverse_run(pose)
                 if self.config.planner in ("hybrid", "auto") and (
-                    self._planned or self._reverses(pose)
+                    self._planned or (run is not None and run[1] > 0.0)
                 ):
                     # the goal was reachable from an earlier pose (the base has come to
                     # one it cannot turn from: overshot a corner), or a plan that may
-                    # reverse reaches it (the base stands in a pocket it drove into
-                    # forwards, too narrow to turn in): it backs up as far as that says
+                    # reverse begins by backing up (the base stands in a pocket it drove
+                    # into forwards, too narrow to turn in): it backs up as far as that says
                     self.recoveries.append(Recovery.BACK_UP.value)
-                    self._back_up(now, pose)
+                    self._back_up(now, pose, run)
             return False
         self.plan_times.append(time.perf_counter() - t0)
         self._no_path = 0
@@ -523,7 +525,7 @@ class Navigator:
             self._behaviour = None
             return
         if kind is Recovery.BACK_UP:
-            self._back_up(now, pose)
+            self._back_up(now, pose, self._reverse_run(pose))
             return
         length = 2 * np.pi / max(self.config.dwa.max_yaw_rate, 0.1) + 2.0
         self._behaviour = _Behaviour(kind, now + length, float(pose[2]), 0.0, float(pose[2]))
@@ -559,25 +561,26 @@ class Navigator:
         )
         return True
 
-    def _reverses(self, pose: np.ndarray) -> bool:
-        """Whether a plan that may also reverse (`HybridAStar.reverse_run`) begins by
-        backing up from `pose`."""
+    def _reverse_run(self, pose: np.ndarray) -> tuple[float, float] | None:
+        """With a footprint planner, `HybridAStar.reverse_run` from `pose` to the goal (the
+        heading a plan that may also reverse turns to, how far it then backs up); None
+        without one, or when no such plan exists."""
+        if self.config.planner not in ("hybrid", "auto"):
+            return None
         try:
-            return self.hybrid.reverse_run(self.global_costmap, pose, self.goal)[1] > 0.0
+            return self.hybrid.reverse_run(self.global_costmap, pose, self.goal)
         except NoPath:
-            return False
+            return None
 
-    def _back_up(self, now: float, pose: np.ndarray) -> None:
+    def _back_up(self, now: float, pose: np.ndarray, run: tuple[float, float] | None) -> None:
         """Start backing up: `backup_distance` straight back, or, with a footprint planner,
-        as a plan that may also reverse does (turning on the spot to the heading it backs
-        up at, as far as it backs up: at least `backup_distance`, at most 1.5 m)."""
+        as a plan that may also reverse does (`run`, from `_reverse_run`: turning on the
+        spot to the heading it backs up at, as far as it backs up: at least
+        `backup_distance`, at most 1.5 m)."""
         yaw = float(pose[2])
         heading, back = yaw, 0.0
         if self.config.planner in ("hybrid", "auto"):
-            try:
-                heading, back = self.hybrid.reverse_run(self.global_costmap, pose, self.goal)
-            except NoPath:
-                pass
+            heading, back = run or (yaw, 0.0)
             back += 0.1
         back = min(max(back, self.config.backup_distance), 1.5)
         turn = abs(_wrap(heading - yaw)) / (0.5 * self.config.dwa.max_yaw_rate)

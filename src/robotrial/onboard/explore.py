@@ -43,7 +43,6 @@ FREE = 0.45  # and up to which as free: the pose graph maps from its nodes, few 
 MARGIN = 0.01  # m the rectangle keeps from what SLAM mapped
 PLAN_TRIES = 5  # goals (twice) the footprint planner is asked about before exploring stops
 CHECK_EXPANSIONS = 60_000
-REVERSE_PENALTY = 3.0  # cost factor on backward steps when backing out of a pocket
 ARRIVED_LOOK = 0.8  # s of scans at a reached goal before its frontier is judged
 
 
@@ -129,7 +128,7 @@ class Explorer:
         # is a goal reachable now? (bounded searches; a start within the margin too)
         hybrid = replace(self.nav_config.hybrid, max_expansions=CHECK_EXPANSIONS)
         self._checks = (HybridAStar(hybrid), HybridAStar(replace(hybrid, margin=0.0)))
-        self._reverse = HybridAStar(replace(hybrid, reverse_penalty=REVERSE_PENALTY))
+        self._reverse = self._checks[0].reversing()
         self.navigator: Navigator | None = None
         self._scan_seen: object = None
 

@@ -38,6 +38,13 @@ class Wall:
     body: str
     obstacle: str
 
+    def crossed(self, a: np.ndarray, qs: np.ndarray) -> np.ndarray:
+        """(N,) bool: which configurations of `qs` (N, d) a motion from `a` reaches only
+        through this wall."""
+        lo = np.minimum(qs[:, self.joint], a[self.joint])
+        hi = np.maximum(qs[:, self.joint], a[self.joint])
+        return (lo <= self.high) & (hi >= self.low)
+
 
 @dataclass(frozen=True)
 class Body:
@@ -498,8 +505,7 @@ class CollisionChecker:
         qs = np.atleast_2d(qs)
         out = np.zeros(len(qs), dtype=bool)
         for w in self.walls():
-            lo, hi = np.minimum(qs[:, w.joint], a[w.joint]), np.maximum(qs[:, w.joint], a[w.joint])
-            out |= (lo <= w.high) & (hi >= w.low)
+            out |= w.crossed(a, qs)
         return out
 
     def _travel_bounds(self) -> tuple[np.ndarray, np.ndarray]:

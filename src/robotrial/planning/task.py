@@ -39,6 +39,7 @@ from robotrial.collision.sphere_model import (
     Environment,
     HeldObject,
     RobotSpheres,
+    Wall,
 )
 from robotrial.geometry import Box, Pose, Shape
 from robotrial.kinematics.chain import Kinematics, default_planning_joints
@@ -561,18 +562,15 @@ class TaskPlanner:
             if ik.success:
                 checker = finer
         stats["ik_time"] = time.perf_counter() - t_ik
-        if not ik.success and (walls := (finer or checker).walls()):
-            past = free_ik(accept=(finer or checker).valid)
-            if past.success:
-                w = next(w for w in walls if (finer or checker).beyond_walls(start, past.q)[0])
-                self._fail(
-                    result,
-                    "unreachable",
-                    f"goal out of reach from the start: its free IK solutions have "
-                    f"{self.kin.joint_names[w.joint]} past {w.low:.2f} to {w.high:.2f}, "
-                    f"where {w.body} runs into {w.obstacle} whatever the other joints do",
-                )
-                return None
+        if not ik.success and (w := _wall_before(finer or checker, start, free_ik)):
+            self._fail(
+                result,
+                "unreachable",
+                f"goal out of reach from the start: its free IK solutions have "
+                f"{self.kin.joint_names[w.joint]} past {w.low:.2f} to {w.high:.2f}, "
+                f"where {w.body} runs into {w.obstacle} whatever the other joints do",
+            )
+            return None
         if not ik.success:
             free = solve_ik(self.kin, ik_target, start, rng=rng, wanted=1)
             if not free.success:
@@ -647,6 +645,17 @@ def _reachable(checker: CollisionChecker, start: np.ndarray) -> Callable:
     """IK's filter: configurations `checker` calls free that lie on the start's side of
     its walls (`CollisionChecker.walls`)."""
     return lambda qs: checker.valid(qs) & ~checker.beyond_walls(start, qs)
+
+
+def _wall_before(checker: CollisionChecker, start: np.ndarray, free_ik: Callable) -> Wall | None:
+    """The wall of `checker` (`CollisionChecker.walls`) that a free IK solution lies past
+    from `start`, or None (no walls, no free solution, or one on the start's side)."""
+    walls = checker.walls()
+    past = free_ik(accept=checker.valid) if walls else None
+    if past is None or not past.success:
+        return None
+    q = np.atleast_2d(past.q)
+    return next((w for w in walls if w.crossed(start, q)[0]), None)
 
 
 def _describe(pairs: list[tuple[str, str]]) -> str:

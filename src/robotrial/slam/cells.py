@@ -9,7 +9,7 @@ A map is seen through a view, one of:
   of free tiles with its height (`top[0]`).
 
 The ray walk (grid.py), Gauss-Newton and the likelihood field (matcher.py) are written
-once against `logodds` and `add`; numba compiles each once per kind of view.
+once against `logodds`, `add` and `block`; numba compiles each once per kind of view.
 """
 
 from __future__ import annotations
@@ -34,6 +34,15 @@ def add(view: object, r: int, c: int, w: float, lo: float, hi: float) -> None:
     """Add `w` to cell (r, c), clamped to [lo, hi]; a cell outside the map is left.
     Compiled code only."""
     raise TypeError("cells.add runs in compiled kernels only")
+
+
+def block(view: object, r: int, c: int) -> tuple[np.ndarray, int, int]:
+    """The array that holds cell (r, c) and the tile around it, made writable, and the
+    cell of that array's (0, 0): (array, r0, c0), cell (r, c) at array[r - r0, c - c0]
+    when that lies inside the array (else the cell is outside the map). A walk over the
+    cells writes through it while it stays in the tile (r >> SHIFT, c >> SHIFT), so a
+    tile is made a particle's own once a walk, not once a cell. Compiled code only."""
+    raise TypeError("cells.block runs in compiled kernels only")
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -111,6 +120,28 @@ def _add(view, r, c, w, lo, hi):  # type: ignore[no-untyped-def]
             t = own_tile(index, pool, view[2], view[3], view[4], view[5], r >> SHIFT, c >> SHIFT)
             v = pool[t, r & MASK, c & MASK] + w
             pool[t, r & MASK, c & MASK] = hi if v > hi else (lo if v < lo else v)
+
+        return tiles
+    return None
+
+
+@overload(block, jit_options={"nogil": True})
+def _block(view, r, c):  # type: ignore[no-untyped-def]
+    if isinstance(view, types.Array) and view.ndim == 2:
+
+        def dense(view, r, c):  # type: ignore[no-untyped-def]
+            return view, 0, 0
+
+        return dense
+    if _is_tiles(view):
+
+        def tiles(view, r, c):  # type: ignore[no-untyped-def]
+            index, pool = view[0], view[1]
+            tr, tc = r >> SHIFT, c >> SHIFT
+            if r < 0 or c < 0 or tr >= index.shape[1] or tc >= index.shape[2]:
+                return pool[0][:0], 0, 0
+            t = own_tile(index, pool, view[2], view[3], view[4], view[5], tr, tc)
+            return pool[t], tr << SHIFT, tc << SHIFT
 
         return tiles
     return None

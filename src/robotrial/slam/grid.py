@@ -152,8 +152,18 @@ def trace_fan(
                 if j > 0:
                     until = min(steps, max(m, int(np.ceil((starts[j - 1] - d0) / step_len))))
                 w = l_free * (1 << j)
+                # The array holding the walk's tile, looked up once a tile (a walk stays
+                # in one for up to TILE cells).
+                arr, r0, c0 = cells.block(view, r, c)
+                ltr, ltc = r >> cells.SHIFT, c >> cells.SHIFT
                 while m < until:
-                    cells.add(view, r, c, w, lo, hi)
+                    if r >> cells.SHIFT != ltr or c >> cells.SHIFT != ltc:
+                        arr, r0, c0 = cells.block(view, r, c)
+                        ltr, ltc = r >> cells.SHIFT, c >> cells.SHIFT
+                    a, b = r - r0, c - c0
+                    if 0 <= a < arr.shape[0] and 0 <= b < arr.shape[1]:
+                        v = arr[a, b] + w
+                        arr[a, b] = lo if v < lo else v
                     e2 = 2 * err
                     if e2 > -dr:
                         err -= dr

@@ -109,6 +109,17 @@ def _tile_counts(index: np.ndarray, refs: np.ndarray) -> None:
                     refs[t] += 1
 
 
+def landing_box(
+    points: np.ndarray, poses: np.ndarray, pad: float
+) -> tuple[float, float, float, float]:
+    """(xmin, ymin, xmax, ymax) of (N, 2) points placed at every one of the (M, 3) poses,
+    widened by `pad` m."""
+    c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
+    x = poses[:, :1] + c * points[:, 0] - s * points[:, 1]
+    y = poses[:, 1:2] + s * points[:, 0] + c * points[:, 1]
+    return float(x.min() - pad), float(y.min() - pad), float(x.max() + pad), float(y.max() + pad)
+
+
 class TiledMaps:
     """`n` particle maps of `resolution` m cells over one frame, sharing their tiles.
 
@@ -176,9 +187,11 @@ class TiledMaps:
             return
         have = self.pool.shape[0]
         size = have + max(count - int(self.top[0]), have // 2, 64)
-        # Zeroed pages the maps never write stay unallocated by the system.
+        # Zeroed pages the maps never write stay unallocated by the system: only the
+        # tiles held are copied (a free tile is cleared or overwritten when taken).
         pool = np.zeros((size, TILE, TILE), np.float32)
-        pool[:have] = self.pool
+        held = np.flatnonzero(self.refs > 0)
+        pool[held] = self.pool[held]
         refs = np.zeros(size, np.int32)
         refs[:have] = self.refs
         spare = self.free[: self.top[0]]
@@ -193,11 +206,8 @@ class TiledMaps:
         """Grow the indexes to hold the scan at every pose, and reserve the tiles its box
         covers for every particle (the most it can make its own)."""
         pts = np.vstack([scan.ends, np.array(scan.origin)[None, :]])
-        lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
-        for q in poses:
-            c, s = np.cos(q[2]), np.sin(q[2])
-            w = pts @ np.array([[c, s], [-s, c]]) + q[:2]
-            lo, hi = np.minimum(lo, w.min(axis=0)), np.maximum(hi, w.max(axis=0))
+        x0, y0, x1, y1 = landing_box(pts, poses, 0.0)
+        lo, hi = (x0, y0), (x1, y1)
         self.ensure(lo[0], lo[1], hi[0], hi[1])
         span = TILE * self.resolution
         per = (int((hi[0] - lo[0]) / span) + 2) * (int((hi[1] - lo[1]) / span) + 2)

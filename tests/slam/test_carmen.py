@@ -258,10 +258,11 @@ def _g2o(truth: np.ndarray, poses: np.ndarray, loops: list[tuple[int, int]]) -> 
 
 def test_a_g2o_log_whose_poses_meet_its_loop_closures_declares_a_corrected_trajectory():
     """The Killian Court log of rtb-data carries the corrected trajectory on its laser
-    lines: the reader says so, and GMapping is then run with a motion model for such
-    poses; a log whose poses miss its loop closures (raw odometry) declares nothing."""
+    lines: the reader says so, and GMapping and the pose graph are then run with motion
+    models for such poses; a log whose poses miss its loop closures (raw odometry)
+    declares nothing."""
     from robotrial.slam.scan import compose
-    from robotrial.trials.carmen import CORRECTED_MOTION, declared_params
+    from robotrial.trials.carmen import CORRECTED_GRAPH_MOTION, CORRECTED_MOTION, declared_params
 
     a = np.linspace(0, 4 * np.pi, 60, endpoint=False)
     truth = np.stack([5 * np.cos(a), 5 * np.sin(a), a + np.pi / 2], axis=1)
@@ -269,13 +270,15 @@ def test_a_g2o_log_whose_poses_meet_its_loop_closures_declares_a_corrected_traje
     log = parse_carmen(_g2o(truth, truth, loops), "killian.g2o")
     assert "15 loop closures" in log.corrected_odometry
     assert declared_params(log, "gmapping") == (CORRECTED_MOTION, log.corrected_odometry)
-    assert declared_params(log, "graph")[0] == {} and declared_params(log, "hector")[0] == {}
+    assert declared_params(log, "graph") == (CORRECTED_GRAPH_MOTION, log.corrected_odometry)
+    assert declared_params(log, "hector")[0] == {}
     # Odometry that turns 0.004 rad a step too far: 0.12 rad off at the next lap.
     raw = [truth[0]]
     for i in range(59):
         raw.append(compose(raw[-1], relative(truth[i], truth[i + 1]) + np.array([0, 0, 0.004])))
     log = parse_carmen(_g2o(truth, np.array(raw), loops), "raw.g2o")
     assert log.corrected_odometry == "" and declared_params(log, "gmapping")[0] == {}
+    assert declared_params(log, "graph")[0] == {}
 
 
 def test_a_log_whose_odometry_turns_faster_than_a_base_declares_its_timing():

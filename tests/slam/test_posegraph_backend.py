@@ -24,13 +24,15 @@ class HeldPoseGraph(PoseGraphSlam):
         self.held_too_long = False
 
     def _optimise(self, nodes, scans):
+        self.held_nodes = len(nodes)
         self.started.set()
         self.held_too_long = not self.go.wait(30.0)
         return super()._optimise(nodes, scans)
 
 
 def test_scans_are_matched_while_the_optimisation_runs(room_b: Recording):
-    slam = HeldPoseGraph(PoseGraphParams(optimize_every=1))
+    # No bound on the nodes waiting for the worker: the scan path never waits for it.
+    slam = HeldPoseGraph(PoseGraphParams(optimize_every=1, backend_max_backlog=10**6))
     for s in room_b.scans:
         slam.process(scan_beams(slam, s, room_b.laser_pose), s.stamp)
     # The square drive closes its loop: the worker reaches the optimisation and holds.
@@ -55,6 +57,36 @@ def test_scans_are_matched_while_the_optimisation_runs(room_b: Recording):
     ref, ok = true_poses(room_b, stamps)
     assert ok.sum() >= len(room_b.scans) - 1
     assert ate(traj[ok], ref)["rmse"] < 0.02
+
+
+def test_the_scan_path_waits_for_a_back_end_that_falls_behind(room_b: Recording):
+    """Scans replayed as fast as they are matched, the optimisation held: the scan path
+    adds at most `backend_max_backlog` nodes past the held pass, then waits for it, and
+    goes on once it is done."""
+    slam = HeldPoseGraph(PoseGraphParams(optimize_every=1, backend_max_backlog=1))
+    done = threading.Event()
+
+    def drive() -> None:
+        for s in room_b.scans:
+            slam.process(scan_beams(slam, s, room_b.laser_pose), s.stamp)
+        done.set()
+
+    driver = threading.Thread(target=drive)
+    driver.start()
+    assert slam.started.wait(30.0)
+    # Until the scan path stops adding nodes (it waits) or runs out of scans.
+    count = -1
+    while not done.is_set() and count != len(slam.nodes):
+        count = len(slam.nodes)
+        done.wait(0.5)
+    assert not done.is_set(), "the drive ended before the back end fell behind"
+    assert len(slam.nodes) <= slam.held_nodes + 2
+    slam.go.set()
+    driver.join(60.0)
+    assert done.is_set() and not slam.held_too_long
+    slam.settle()
+    slam.close()
+    assert len(slam.trajectory()[0]) == len(room_b.scans)
 
 
 def test_background_and_inline_back_ends_agree_on_a_short_run(room_b: Recording):

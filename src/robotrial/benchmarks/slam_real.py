@@ -64,6 +64,13 @@ COLUMNS = [
 ]
 # GMapping's odometry error model (srr, srt, str, stt) as slam_gmapping's defaults.
 RAW_MOTION = {"srr": 0.1, "srt": 0.2, "str": 0.1, "stt": 0.2}
+# The pose graph's odometry model as its defaults (for raw wheel odometry).
+RAW_GRAPH_MOTION = {
+    "odom_trans_per_trans": 0.1,
+    "odom_trans_per_rot": 0.05,
+    "odom_rot_per_trans": 0.05,
+    "odom_rot_per_rot": 0.1,
+}
 PUBLISHED_CLASS = {"gmapping": "RBPF", "hector": "scan matching", "graph": "graph mapping"}
 
 
@@ -103,9 +110,13 @@ def data_sets() -> list[DataSet]:
                 "graph mapping": (0.050, 0.056),
             },
             # The log's reader finds its poses an already corrected trajectory and sets
-            # GMapping's motion model for it (trials.carmen.declared_params); beside it,
-            # slam_gmapping's defaults, which are for raw wheel odometry.
-            (("gmapping", "ROS defaults (raw odometry)", RAW_MOTION),),
+            # GMapping's and the pose graph's motion models for it
+            # (trials.carmen.declared_params); beside them, the defaults, which are for
+            # raw wheel odometry.
+            (
+                ("gmapping", "ROS defaults (raw odometry)", RAW_MOTION),
+                ("graph", "defaults (raw odometry)", RAW_GRAPH_MOTION),
+            ),
         )
     )
     # The odometry poses of its laser lines are now and then about a scan period off the

@@ -36,7 +36,7 @@ import numpy as np
 from robotrial.slam.grid import LogOddsGrid
 from robotrial.slam.params import GMappingParams
 from robotrial.slam.scan import Beams, compose, motion_sigma, relative
-from robotrial.slam.tiled import TiledMaps
+from robotrial.slam.tiled import TiledMaps, landing_box
 
 
 def one_per_cell(points: np.ndarray, cell: float) -> np.ndarray:
@@ -170,11 +170,10 @@ class GMappingSlam:
         predicted = compose_many(self.poses, moved)
         step = angle_step(scan)
         fan = replace(scan, angle_step=step) if step is not None else None
-        # The coarse levels of the best particle's map, where the scan can land, steer
+        # The coarse levels of the best particle's map, where the scan's end points can
+        # land from any particle's guess (and a metre and two coarse cells around), steer
         # every particle's match.
-        reach = float(np.hypot(*scan.ends.T).max()) + 1.0 if scan.ends.size else 1.0
-        here = self.poses[self._best]
-        box = (here[0] - reach, here[1] - reach, here[0] + reach, here[1] + reach)
+        box = landing_box(hits, guesses, 1.0 + p.delta * (1 << p.match_levels))
         coarse, origin = self.maps.coarse(self._best, box, p.match_levels)
         self.poses, loglik = self.maps.match(
             coarse,

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from robotrial.slam import cells
+
 
 @dataclass(frozen=True)
 class LogOddsModel:
@@ -65,14 +67,6 @@ class LogOddsModel:
         )
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _add(grid: np.ndarray, r: int, c: int, w: float, lo: float, hi: float) -> None:
-    rows, cols = grid.shape
-    if 0 <= r < rows and 0 <= c < cols:
-        v = grid[r, c] + w
-        grid[r, c] = hi if v > hi else (lo if v < lo else v)
-
-
 def stop_points(
     sensor_xy: tuple[float, float] | np.ndarray, end_xy: np.ndarray, hit: np.ndarray, margin: float
 ) -> np.ndarray:
@@ -88,113 +82,34 @@ def stop_points(
     return np.ascontiguousarray(end_xy - f[:, None] * d)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _update_end(
-    grid: np.ndarray,
-    r1: int,
-    c1: int,
-    rh: int,
-    ch: int,
-    hit: bool,
-    l_free: float,
-    l_occ: float,
-    lo: float,
-    hi: float,
-) -> None:
-    """The beam's end: where it hit, occupied evidence for the cell where its free trace
-    stopped (r1, c1) and, if another, the hit's cell (rh, ch); where it ran out, free
-    evidence for its end cell (r1, c1)."""
-    if not hit:
-        _add(grid, r1, c1, l_free, lo, hi)
-        return
-    _add(grid, r1, c1, l_occ, lo, hi)
-    if rh != r1 or ch != c1:
-        _add(grid, rh, ch, l_occ, lo, hi)
-
-
 @numba.njit(cache=True, nogil=True)
-def _trace(
-    grid: np.ndarray,
-    ox: float,
-    oy: float,
-    res: float,
-    sx: float,
-    sy: float,
-    ex: np.ndarray,
-    ey: np.ndarray,
-    fx: np.ndarray,
-    fy: np.ndarray,
-    hit: np.ndarray,
-    l_free: float,
-    l_occ: float,
-    lo: float,
-    hi: float,
-) -> None:
-    # Beam i hit (ex[i], ey[i]) if hit[i]; its free trace ends at (fx[i], fy[i]).
-    rows, cols = grid.shape
-    c0 = int(np.floor((sx - ox) / res))
-    r0 = int(np.floor((sy - oy) / res))
-    pc, pr, ph, pcr, pcc = -1 << 30, -1 << 30, False, -1 << 30, -1 << 30
-    for i in range(ex.shape[0]):
-        c1 = int(np.floor((fx[i] - ox) / res))
-        r1 = int(np.floor((fy[i] - oy) / res))
-        rh = int(np.floor((ey[i] - oy) / res))
-        ch = int(np.floor((ex[i] - ox) / res))
-        # A beam whose trace stops in the same cell as the one before it and whose end
-        # falls in the same cell (dense scans) adds nothing but the same cells again:
-        # skip it, so every cell counts once a beam fan.
-        if c1 == pc and r1 == pr and hit[i] == ph and rh == pcr and ch == pcc:
-            continue
-        pc, pr, ph, pcr, pcc = c1, r1, hit[i], rh, ch
-        dc = abs(c1 - c0)
-        dr = abs(r1 - r0)
-        step_c = 1 if c1 > c0 else -1
-        step_r = 1 if r1 > r0 else -1
-        err = dc - dr
-        c, r = c0, r0
-        # Bresenham from the sensor cell; the end cell is handled after the loop.
-        while c != c1 or r != r1:
-            if 0 <= r < rows and 0 <= c < cols:
-                v = grid[r, c] + l_free
-                grid[r, c] = lo if v < lo else v
-            e2 = 2 * err
-            if e2 > -dr:
-                err -= dr
-                c += step_c
-            if e2 < dc:
-                err += dc
-                r += step_r
-        _update_end(grid, r1, c1, rh, ch, hit[i], l_free, l_occ, lo, hi)
+def trace_fan(
+    view: np.ndarray | tuple, ox: float, oy: float, res: float, pose: np.ndarray,
+    sensor: np.ndarray, ends: np.ndarray, stops: np.ndarray, hit: np.ndarray,
+    starts: np.ndarray, l_free: float, l_occ: float, lo: float, hi: float,
+) -> None:  # fmt: skip
+    """Write a scan into a map (a `cells` view) at `pose`: the laser at `sensor`, beam i
+    ending at ends[i] (on something if hit[i]) with its free trace ending at stops[i],
+    all in the frame of `pose`, in scan order. Every cell a beam crosses takes `l_free`;
+    where it hit, the cell where its trace stopped and the hit's cell take `l_occ`; where
+    it ran out, its end cell takes `l_free`; clamped to [lo, hi].
 
-
-@numba.njit(cache=True, nogil=True)
-def _trace_fan(
-    grid: np.ndarray,
-    ox: float,
-    oy: float,
-    res: float,
-    sx: float,
-    sy: float,
-    ex: np.ndarray,
-    ey: np.ndarray,
-    fx: np.ndarray,
-    fy: np.ndarray,
-    hit: np.ndarray,
-    starts: np.ndarray,
-    l_free: float,
-    l_occ: float,
-    lo: float,
-    hi: float,
-) -> None:
-    # Beams as in `_trace`. Beam i has level k = trailing zeros of i (at most
-    # K = len(starts) - 1). The beams of level > k are at most half a cell apart closer
-    # than starts[k] metres, so a beam of level k is traced from there on. A cell at d
-    # metres takes 2^j frees, j the lowest level traced at d: it loses about as much as
-    # if every beam of the fan crossed it.
+    Beam i has level k = trailing zeros of i (at most K = len(starts) - 1). The beams of
+    level > k are at most half a cell apart closer than starts[k] metres, so a beam of
+    level k is traced from there on. A cell at d metres takes 2^j frees, j the lowest
+    level traced at d: it loses about as much as if every beam of the fan crossed it.
+    With starts = [0] every beam is traced from the sensor."""
+    c_, s_ = np.cos(pose[2]), np.sin(pose[2])
+    sx = pose[0] + c_ * sensor[0] - s_ * sensor[1]
+    sy = pose[1] + s_ * sensor[0] + c_ * sensor[1]
     top = starts.shape[0] - 1
     pc, pr, ph, pcr, pcc = -1 << 30, -1 << 30, False, -1 << 30, -1 << 30
     pending = 0
-    for i in range(ex.shape[0]):
+    for i in range(ends.shape[0]):
+        ex = pose[0] + c_ * ends[i, 0] - s_ * ends[i, 1]
+        ey = pose[1] + s_ * ends[i, 0] + c_ * ends[i, 1]
+        fx = pose[0] + c_ * stops[i, 0] - s_ * stops[i, 1]
+        fy = pose[1] + s_ * stops[i, 0] + c_ * stops[i, 1]
         level = top
         if i > 0:
             level = 0
@@ -203,28 +118,31 @@ def _trace_fan(
                 b >>= 1
                 level += 1
         level = max(level, pending)
-        c1 = int(np.floor((fx[i] - ox) / res))
-        r1 = int(np.floor((fy[i] - oy) / res))
-        rh = int(np.floor((ey[i] - oy) / res))
-        ch = int(np.floor((ex[i] - ox) / res))
+        c1 = int(np.floor((fx - ox) / res))
+        r1 = int(np.floor((fy - oy) / res))
+        rh = int(np.floor((ey - oy) / res))
+        ch = int(np.floor((ex - ox) / res))
+        # A beam whose trace stops in the same cell as the one before it and whose end
+        # falls in the same cell (dense scans) adds nothing but the same cells again:
+        # skip it, so every cell counts once a beam fan.
         if c1 == pc and r1 == pr and hit[i] == ph and rh == pcr and ch == pcc:
             pending = level
             continue
         pending = 0
         pc, pr, ph, pcr, pcc = c1, r1, hit[i], rh, ch
-        length = np.hypot(fx[i] - sx, fy[i] - sy)
+        length = np.hypot(fx - sx, fy - sy)
         d0 = starts[level]
         if d0 < length:
             f = d0 / length if length > 0 else 0.0
-            c = int(np.floor((sx + f * (fx[i] - sx) - ox) / res))
-            r = int(np.floor((sy + f * (fy[i] - sy) - oy) / res))
+            c = int(np.floor((sx + f * (fx - sx) - ox) / res))
+            r = int(np.floor((sy + f * (fy - sy) - oy) / res))
             dc = abs(c1 - c)
             dr = abs(r1 - r)
             step_c = 1 if c1 > c else -1
             step_r = 1 if r1 > r else -1
             err = dc - dr
-            # Bresenham takes max(dc, dr) steps, one cell along the major axis each; the
-            # grid holds the whole beam (integrate grows it first), so no bounds checks.
+            # Bresenham takes max(dc, dr) steps, one cell along the major axis each, and
+            # ends in the stop's cell, which is handled after the walk.
             steps = max(dc, dr)
             step_len = (length - d0) / max(1, steps)
             m = 0
@@ -234,9 +152,18 @@ def _trace_fan(
                 if j > 0:
                     until = min(steps, max(m, int(np.ceil((starts[j - 1] - d0) / step_len))))
                 w = l_free * (1 << j)
+                # The array holding the walk's tile, looked up once a tile (a walk stays
+                # in one for up to TILE cells).
+                arr, r0, c0 = cells.block(view, r, c)
+                ltr, ltc = r >> cells.SHIFT, c >> cells.SHIFT
                 while m < until:
-                    v = grid[r, c] + w
-                    grid[r, c] = lo if v < lo else v
+                    if r >> cells.SHIFT != ltr or c >> cells.SHIFT != ltc:
+                        arr, r0, c0 = cells.block(view, r, c)
+                        ltr, ltc = r >> cells.SHIFT, c >> cells.SHIFT
+                    a, b = r - r0, c - c0
+                    if 0 <= a < arr.shape[0] and 0 <= b < arr.shape[1]:
+                        v = arr[a, b] + w
+                        arr[a, b] = lo if v < lo else v
                     e2 = 2 * err
                     if e2 > -dr:
                         err -= dr
@@ -247,7 +174,12 @@ def _trace_fan(
                     m += 1
                 if j > 0:
                     j -= 1
-        _update_end(grid, r1, c1, rh, ch, hit[i], l_free, l_occ, lo, hi)
+        if not hit[i]:
+            cells.add(view, r1, c1, l_free, lo, hi)
+        else:
+            cells.add(view, r1, c1, l_occ, lo, hi)
+            if rh != r1 or ch != c1:
+                cells.add(view, rh, ch, l_occ, lo, hi)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -367,32 +299,26 @@ class LogOddsGrid:
         traced and each crossing frees as much as the beams it stands for: about the
         same map for a fraction of the work (the GMapping filter writes one scan into
         every particle's map)."""
-        end_xy = np.asarray(end_xy, dtype=np.float64).reshape(-1, 2)
+        end_xy = np.ascontiguousarray(end_xy, dtype=np.float64).reshape(-1, 2)
         if end_xy.shape[0] == 0:
             return
-        sx, sy = float(sensor_xy[0]), float(sensor_xy[1])
-        self.ensure(
-            min(sx, float(end_xy[:, 0].min())),
-            min(sy, float(end_xy[:, 1].min())),
-            max(sx, float(end_xy[:, 0].max())),
-            max(sy, float(end_xy[:, 1].max())),
-        )
+        sensor = np.array([float(sensor_xy[0]), float(sensor_xy[1])])
+        lo, hi = np.minimum(end_xy.min(axis=0), sensor), np.maximum(end_xy.max(axis=0), sensor)
+        self.ensure(lo[0], lo[1], hi[0], hi[1])
         m = self.model
         hit = np.ascontiguousarray(hit, dtype=np.bool_)
-        stops = stop_points((sx, sy), end_xy, hit, m.hit_margin * self.resolution)
-        beams = (
-            np.ascontiguousarray(end_xy[:, 0]),
-            np.ascontiguousarray(end_xy[:, 1]),
-            np.ascontiguousarray(stops[:, 0]),
-            np.ascontiguousarray(stops[:, 1]),
-            hit,
-        )
-        grid = (self.logodds, self.origin[0], self.origin[1], self.resolution, sx, sy)
-        weights = (m.free * weight, m.occupied * weight, m.clamp_min, m.clamp_max)
-        if angle_step is not None and angle_step > 0:
-            _trace_fan(*grid, *beams, fan_starts(self.resolution, angle_step), *weights)
-            return
-        _trace(*grid, *beams, *weights)
+        stops = stop_points(sensor, end_xy, hit, m.hit_margin * self.resolution)
+        # Without an angle step every beam is traced from the sensor (one level).
+        fan = angle_step is not None and angle_step > 0
+        starts = fan_starts(self.resolution, angle_step) if fan else np.zeros(1)
+        trace_fan(self.logodds, self.origin[0], self.origin[1], self.resolution, np.zeros(3),
+                  sensor, end_xy, stops, hit, starts, m.free * weight, m.occupied * weight,
+                  m.clamp_min, m.clamp_max)  # fmt: skip
+
+    @property
+    def view(self) -> np.ndarray:
+        """The cells as the compiled kernels read them (`cells`)."""
+        return self.logodds
 
     def pyramid(self, levels: int) -> list[np.ndarray]:
         """The grid and `levels - 1` coarser views of it: level k has cells 2^k times

@@ -23,37 +23,37 @@ from typing import TYPE_CHECKING
 import numba
 import numpy as np
 
+from robotrial.slam import cells
 from robotrial.slam.grid import LogOddsGrid
 
 if TYPE_CHECKING:
     from robotrial.slam.tiled import TiledGrid
 
 
-@numba.njit(cache=True, inline="always")
-def _occ(grid: np.ndarray, r: int, c: int) -> float:
-    rows, cols = grid.shape
-    if r < 0 or c < 0 or r >= rows or c >= cols:
-        return 0.5
-    v = grid[r, c]
+@numba.njit(cache=True, nogil=True, inline="always")
+def _occ(view: np.ndarray | tuple, r: int, c: int) -> float:
+    v = cells.logodds(view, r, c)
     return 0.5 + 0.5 * v / (1.0 + abs(v))
 
 
-@numba.njit(cache=True, inline="always")
-def _coarse(grid: np.ndarray, r: int, c: int, block: int) -> float:
+@numba.njit(cache=True, nogil=True, inline="always")
+def _coarse(view: np.ndarray | tuple, r: int, c: int, block: int) -> float:
+    # A cell of a view `block` times coarser: as occupied as the most occupied cell it
+    # covers.
     if block == 1:
-        return _occ(grid, r, c)
+        return _occ(view, r, c)
     best = 0.0
     for i in range(block):
         for j in range(block):
-            v = _occ(grid, r * block + i, c * block + j)
+            v = _occ(view, r * block + i, c * block + j)
             if v > best:
                 best = v
     return best
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, nogil=True, inline="always")
 def _sample(
-    grid: np.ndarray, ox: float, oy: float, res: float, block: int, x: float, y: float
+    view: np.ndarray | tuple, ox: float, oy: float, res: float, block: int, x: float, y: float
 ) -> tuple[float, float, float]:
     cres = res * block
     u = (x - ox) / cres - 0.5
@@ -62,17 +62,17 @@ def _sample(
     r0 = int(np.floor(v))
     fu = u - c0
     fv = v - r0
-    m00 = _coarse(grid, r0, c0, block)
-    m01 = _coarse(grid, r0, c0 + 1, block)
-    m10 = _coarse(grid, r0 + 1, c0, block)
-    m11 = _coarse(grid, r0 + 1, c0 + 1, block)
+    m00 = _coarse(view, r0, c0, block)
+    m01 = _coarse(view, r0, c0 + 1, block)
+    m10 = _coarse(view, r0 + 1, c0, block)
+    m11 = _coarse(view, r0 + 1, c0 + 1, block)
     m = (1 - fv) * ((1 - fu) * m00 + fu * m01) + fv * ((1 - fu) * m10 + fu * m11)
     du = (1 - fv) * (m01 - m00) + fv * (m11 - m10)
     dv = (1 - fu) * (m10 - m00) + fu * (m11 - m01)
     return m, du / cres, dv / cres
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, nogil=True, inline="always")
 def _solve3(
     a00: float,
     a01: float,
@@ -102,7 +102,7 @@ def _solve3(
 
 @numba.njit(cache=True, nogil=True)
 def _gauss_newton(
-    grid: np.ndarray,
+    view: np.ndarray | tuple,
     ox: float,
     oy: float,
     res: float,
@@ -115,7 +115,9 @@ def _gauss_newton(
     prior_weight: np.ndarray,
     tol: float = 1e-2,
 ) -> tuple[np.ndarray, np.ndarray, float]:
-    # Stops when a step moves less than `tol` cells and 1e-3 rad.
+    # On a map (a `cells` view) read through blocks of `block` cells: (pose, Hessian,
+    # cost). Steps are capped at one block; it stops when a step moves less than `tol`
+    # cells and 1e-3 rad.
     p0, p1, p2 = pose[0], pose[1], pose[2]
     h00 = h01 = h02 = h11 = h12 = h22 = 0.0
     cost = 0.0
@@ -132,7 +134,7 @@ def _gauss_newton(
             py = pts[i, 1]
             wx = p0 + c * px - s * py
             wy = p1 + s * px + c * py
-            m, dx, dy = _sample(grid, ox, oy, res, block, wx, wy)
+            m, dx, dy = _sample(view, ox, oy, res, block, wx, wy)
             r = 1.0 - m
             cost += r * r
             j2 = dx * (-s * px - c * py) + dy * (c * px - s * py)
@@ -168,7 +170,7 @@ def _gauss_newton(
         if lin < pose_tol and abs(d2) < 1e-3:
             break
     out = np.empty(3)
-    out[0], out[1], out[2] = p0, p1, p2
+    out[0], out[1], out[2] = p0, p1, (p2 + np.pi) % (2 * np.pi) - np.pi
     hess = np.empty((3, 3))
     hess[0, 0], hess[0, 1], hess[0, 2] = h00, h01, h02
     hess[1, 0], hess[1, 1], hess[1, 2] = h01, h11, h12
@@ -176,9 +178,9 @@ def _gauss_newton(
     return out, hess, cost
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _likelihood(
-    grid: np.ndarray,
+    view: np.ndarray | tuple,
     ox: float,
     oy: float,
     res: float,
@@ -190,7 +192,6 @@ def _likelihood(
     lsigma: float,
     null_likelihood: float,
 ) -> tuple[float, float, int]:
-    rows, cols = grid.shape
     c = np.cos(pose[2])
     s = np.sin(pose[2])
     score = 0.0
@@ -203,15 +204,11 @@ def _likelihood(
         rr = int(np.floor((wy - oy) / res))
         best = 1e30
         for dr in range(-kernel, kernel + 1):
-            r = rr + dr
-            if r < 0 or r >= rows:
-                continue
             for dc in range(-kernel, kernel + 1):
-                q = cc + dc
-                if q < 0 or q >= cols or grid[r, q] <= 0.0:
+                if cells.logodds(view, rr + dr, cc + dc) <= 0.0:
                     continue
-                ex = ox + (q + 0.5) * res - wx
-                ey = oy + (r + 0.5) * res - wy
+                ex = ox + (cc + dc + 0.5) * res - wx
+                ey = oy + (rr + dr + 0.5) * res - wy
                 d2 = ex * ex + ey * ey
                 if d2 < best:
                     best = d2
@@ -284,18 +281,12 @@ class ScanMatcher:
             weight = 1.0 / np.maximum(np.asarray(prior_sigma, dtype=np.float64), 1e-3) ** 2
         for level in range(self.levels - 1, -1, -1):
             block = 1 << level
-            if not isinstance(grid, LogOddsGrid):
-                # A map stored in tiles (slam.tiled.TiledGrid) reads its own cells.
-                pose, hess, cost = grid.gauss_newton(
-                    pts, pose, block, block, self.iterations, start, weight, 1e-2
-                )
-                continue
             if pyramid is not None and level < len(pyramid):
-                arr, res, view = pyramid[level], grid.resolution * block, 1
+                view, res, read = pyramid[level], grid.resolution * block, 1
             else:
-                arr, res, view = grid.logodds, grid.resolution, block
+                view, res, read = grid.view, grid.resolution, block
             pose, hess, cost = _gauss_newton(
-                arr, ox, oy, res, view, pts, block, pose, self.iterations, start, weight
+                view, ox, oy, res, read, pts, block, pose, self.iterations, start, weight
             )
         pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
         return MatchResult(pose, hess, cost / max(1, pts.shape[0]))
@@ -320,7 +311,7 @@ def likelihood(
         return 0.0, 0.0, 0
     ox, oy = grid.origin
     return _likelihood(
-        grid.logodds,
+        grid.view,
         ox,
         oy,
         grid.resolution,

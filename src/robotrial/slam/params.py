@@ -175,8 +175,13 @@ class PoseGraphParams(OdometryModel):
     the scan path (False: inline, for comparisons). A pass is swapped in at the first scan
     after it ends, which depends on the timing; with `lockstep`, when the next node is
     added, the scan path waiting for it then if it has not finished: the same scans give
-    the same map whatever the machine's load. `map_rebuild_shift`: a pass that moves a
-    node by less (a turn counting at 5 m) leaves the maps as they are."""
+    the same map whatever the machine's load. Without it, when `backend_max_backlog`
+    nodes wait for the worker, the scan path waits for the pass it runs: a log replayed
+    far faster than it was taken (MIT Killian Court: 300 times) would otherwise leave the
+    loop searches hundreds of nodes behind, made on estimates no closure has corrected
+    yet, and the result would hang on the load; a robot whose back end keeps up never
+    waits. `map_rebuild_shift`: a pass that moves a node by less (a turn counting at 5
+    m) leaves the maps as they are."""
 
     resolution: float = 0.025
     match_levels: int = 4
@@ -223,8 +228,13 @@ class PoseGraphParams(OdometryModel):
     map_pub_period: float = 2.0
     background: bool = True
     lockstep: bool = False
+    backend_max_backlog: int = 5
 
     def __post_init__(self) -> None:
+        if self.backend_max_backlog < 1:
+            raise ValueError(
+                f"graph: backend_max_backlog must be >= 1, got {self.backend_max_backlog}"
+            )
         if not self.resolution > 0:
             raise ValueError(f"graph: resolution must be > 0, got {self.resolution}")
         if self.match_levels < 1 or self.iterations < 1:

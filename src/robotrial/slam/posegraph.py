@@ -529,8 +529,9 @@ class PoseGraphSlam:
     thread when `params.background` (its heavy parts, the compiled correlative search and
     the sparse solve, release the GIL), otherwise inline. Its result is swapped in at the
     start of the next `process`: the optimised poses and the nodes added meanwhile carried
-    along with the last optimised one. `settle` waits for the back end and optimises what
-    is still pending; `close` stops the worker."""
+    along with the last optimised one. When `backend_max_backlog` nodes wait for the
+    worker, adding the next one waits for the pass it runs. `settle` waits for the back
+    end and optimises what is still pending; `close` stops the worker."""
 
     uses_odometry = False
 
@@ -737,7 +738,9 @@ class PoseGraphSlam:
         )
 
     def _add_node(self, scan: Beams, odom: np.ndarray | None, stamp: float) -> None:
-        if self.params.lockstep and self._job is not None:
+        p = self.params
+        behind = p.lockstep or len(self._queue) >= p.backend_max_backlog
+        if behind and self._job is not None:
             job, self._job = self._job, None
             job.result()
             self._adopt()

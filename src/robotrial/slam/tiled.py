@@ -11,8 +11,8 @@ once, plus what the particles wrote since their lineages parted. On a large site
 long-range scans (MIT Killian Court, 50 m) this is the difference between a full grid
 per particle (30 x 120 MB) and about one.
 
-The kernels here are the tiled twins of grid.py's beam fan and matcher.py's fine-level
-Gauss-Newton and likelihood field: each reads a cell as index -> tile -> cell.
+The kernels are grid.py's beam fan and matcher.py's Gauss-Newton and likelihood field,
+run on a particle's tiles through their `cells` view (index, pool, refs, free, top, k).
 """
 
 from __future__ import annotations
@@ -20,293 +20,17 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from robotrial.slam.grid import LogOddsGrid, LogOddsModel, _halve, fan_starts, stop_points
-from robotrial.slam.matcher import COARSE_TOL, _gauss_newton, _solve3
+from robotrial.slam.cells import TILE
+from robotrial.slam.grid import (
+    LogOddsGrid,
+    LogOddsModel,
+    _halve,
+    fan_starts,
+    stop_points,
+    trace_fan,
+)
+from robotrial.slam.matcher import COARSE_TOL, _gauss_newton, _likelihood
 from robotrial.slam.scan import Beams
-
-SHIFT = 5
-TILE = 1 << SHIFT
-MASK = TILE - 1
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _get(index: np.ndarray, pool: np.ndarray, k: int, r: int, c: int) -> float:
-    if r < 0 or c < 0:
-        return 0.0
-    tr, tc = r >> SHIFT, c >> SHIFT
-    if tr >= index.shape[1] or tc >= index.shape[2]:
-        return 0.0
-    t = index[k, tr, tc]
-    if t < 0:
-        return 0.0
-    return pool[t, r & MASK, c & MASK]
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _occ(index: np.ndarray, pool: np.ndarray, k: int, r: int, c: int) -> float:
-    v = _get(index, pool, k, r, c)
-    return 0.5 + 0.5 * v / (1.0 + abs(v))
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _own(
-    index: np.ndarray, pool: np.ndarray, refs: np.ndarray, free: np.ndarray,
-    top: np.ndarray, k: int, tr: int, tc: int,
-) -> int:  # fmt: skip
-    # The tile (tr, tc) of particle k, made its own: a shared one copied, a missing one
-    # taken from the free stack (`top[0]` tiles on it; the caller reserved enough).
-    t = index[k, tr, tc]
-    if t >= 0 and refs[t] == 1:
-        return t
-    top[0] -= 1
-    nt = free[top[0]]
-    if t < 0:
-        pool[nt, :, :] = 0.0
-    else:
-        pool[nt, :, :] = pool[t, :, :]
-        refs[t] -= 1
-    refs[nt] = 1
-    index[k, tr, tc] = nt
-    return nt
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _add(
-    index: np.ndarray, pool: np.ndarray, refs: np.ndarray, free: np.ndarray,
-    top: np.ndarray, k: int, r: int, c: int, w: float, lo: float, hi: float,
-) -> None:  # fmt: skip
-    if r < 0 or c < 0 or (r >> SHIFT) >= index.shape[1] or (c >> SHIFT) >= index.shape[2]:
-        return
-    t = _own(index, pool, refs, free, top, k, r >> SHIFT, c >> SHIFT)
-    v = pool[t, r & MASK, c & MASK] + w
-    pool[t, r & MASK, c & MASK] = hi if v > hi else (lo if v < lo else v)
-
-
-@numba.njit(cache=True, nogil=True)
-def _trace_fan(
-    index: np.ndarray, pool: np.ndarray, refs: np.ndarray, free: np.ndarray,
-    top: np.ndarray, k: int, ox: float, oy: float, res: float, pose: np.ndarray,
-    sensor: np.ndarray, ends: np.ndarray, stops: np.ndarray, hit: np.ndarray,
-    starts: np.ndarray, l_free: float, l_occ: float, lo: float, hi: float,
-) -> None:  # fmt: skip
-    # grid.py's `_trace_fan` (the thinned beam fan with weighted frees) into particle
-    # k's tiles, at `pose`; the index covers the scan.
-    c_, s_ = np.cos(pose[2]), np.sin(pose[2])
-    sx = pose[0] + c_ * sensor[0] - s_ * sensor[1]
-    sy = pose[1] + s_ * sensor[0] + c_ * sensor[1]
-    n = ends.shape[0]
-    levels = starts.shape[0] - 1
-    pc, pr, ph, pcr, pcc = -1 << 30, -1 << 30, False, -1 << 30, -1 << 30
-    pending = 0
-    for i in range(n):
-        ex = pose[0] + c_ * ends[i, 0] - s_ * ends[i, 1]
-        ey = pose[1] + s_ * ends[i, 0] + c_ * ends[i, 1]
-        fx = pose[0] + c_ * stops[i, 0] - s_ * stops[i, 1]
-        fy = pose[1] + s_ * stops[i, 0] + c_ * stops[i, 1]
-        level = levels
-        if i > 0:
-            level = 0
-            b = i
-            while b & 1 == 0 and level < levels:
-                b >>= 1
-                level += 1
-        level = max(level, pending)
-        c1 = int(np.floor((fx - ox) / res))
-        r1 = int(np.floor((fy - oy) / res))
-        rh = int(np.floor((ey - oy) / res))
-        ch = int(np.floor((ex - ox) / res))
-        if c1 == pc and r1 == pr and hit[i] == ph and rh == pcr and ch == pcc:
-            pending = level
-            continue
-        pending = 0
-        pc, pr, ph, pcr, pcc = c1, r1, hit[i], rh, ch
-        length = np.hypot(fx - sx, fy - sy)
-        d0 = starts[level]
-        if d0 < length:
-            f = d0 / length if length > 0 else 0.0
-            c = int(np.floor((sx + f * (fx - sx) - ox) / res))
-            r = int(np.floor((sy + f * (fy - sy) - oy) / res))
-            dc = abs(c1 - c)
-            dr = abs(r1 - r)
-            step_c = 1 if c1 > c else -1
-            step_r = 1 if r1 > r else -1
-            err = dc - dr
-            steps = max(dc, dr)
-            step_len = (length - d0) / max(1, steps)
-            m = 0
-            j = level
-            while m < steps:
-                until = steps
-                if j > 0:
-                    until = min(steps, max(m, int(np.ceil((starts[j - 1] - d0) / step_len))))
-                w = l_free * (1 << j)
-                # The tile the walk is in, made the particle's own once (the walk stays in
-                # one tile for up to TILE cells).
-                ltr, ltc, lt = -1, -1, -1
-                while m < until:
-                    tr, tc = r >> SHIFT, c >> SHIFT
-                    if tr != ltr or tc != ltc:
-                        ltr, ltc = tr, tc
-                        lt = -1
-                        if 0 <= r and 0 <= c and tr < index.shape[1] and tc < index.shape[2]:
-                            lt = _own(index, pool, refs, free, top, k, tr, tc)
-                    if lt >= 0:
-                        v = pool[lt, r & MASK, c & MASK] + w
-                        pool[lt, r & MASK, c & MASK] = lo if v < lo else v
-                    e2 = 2 * err
-                    if e2 > -dr:
-                        err -= dr
-                        c += step_c
-                    if e2 < dc:
-                        err += dc
-                        r += step_r
-                    m += 1
-                if j > 0:
-                    j -= 1
-        if not hit[i]:
-            _add(index, pool, refs, free, top, k, r1, c1, l_free, lo, hi)
-        else:
-            _add(index, pool, refs, free, top, k, r1, c1, l_occ, lo, hi)
-            if rh != r1 or ch != c1:
-                _add(index, pool, refs, free, top, k, rh, ch, l_occ, lo, hi)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _coarse_occ(index: np.ndarray, pool: np.ndarray, k: int, r: int, c: int, block: int) -> float:
-    # A cell of a view `block` times coarser: as occupied as the most occupied cell it
-    # covers (matcher.py's `_coarse`).
-    if block == 1:
-        return _occ(index, pool, k, r, c)
-    best = 0.0
-    for i in range(block):
-        for j in range(block):
-            v = _occ(index, pool, k, r * block + i, c * block + j)
-            if v > best:
-                best = v
-    return best
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _sample(
-    index: np.ndarray, pool: np.ndarray, k: int, ox: float, oy: float, res: float,
-    block: int, x: float, y: float,
-) -> tuple[float, float, float]:  # fmt: skip
-    cres = res * block
-    u = (x - ox) / cres - 0.5
-    v = (y - oy) / cres - 0.5
-    c0 = int(np.floor(u))
-    r0 = int(np.floor(v))
-    fu = u - c0
-    fv = v - r0
-    m00 = _coarse_occ(index, pool, k, r0, c0, block)
-    m01 = _coarse_occ(index, pool, k, r0, c0 + 1, block)
-    m10 = _coarse_occ(index, pool, k, r0 + 1, c0, block)
-    m11 = _coarse_occ(index, pool, k, r0 + 1, c0 + 1, block)
-    m = (1 - fv) * ((1 - fu) * m00 + fu * m01) + fv * ((1 - fu) * m10 + fu * m11)
-    du = (1 - fv) * (m01 - m00) + fv * (m11 - m10)
-    dv = (1 - fu) * (m10 - m00) + fu * (m11 - m01)
-    return m, du / cres, dv / cres
-
-
-@numba.njit(cache=True, nogil=True)
-def _gauss_newton_tiles(
-    index: np.ndarray, pool: np.ndarray, k: int, ox: float, oy: float, res: float,
-    block: int, pts: np.ndarray, stride: int, pose: np.ndarray, iterations: int,
-    prior: np.ndarray, prior_weight: np.ndarray, tol: float,
-) -> tuple[np.ndarray, np.ndarray, float]:  # fmt: skip
-    # matcher.py's `_gauss_newton` on map k's tiles, read through blocks of `block`
-    # cells: (pose, Hessian, cost). Steps are capped at one block; it stops when a step
-    # moves less than `tol` cells and 1e-3 rad.
-    p0, p1, p2 = pose[0], pose[1], pose[2]
-    h00 = h01 = h02 = h11 = h12 = h22 = 0.0
-    cost = 0.0
-    max_step = res * block
-    for _ in range(iterations):
-        h00 = h01 = h02 = h11 = h12 = h22 = 0.0
-        g0 = g1 = g2 = 0.0
-        cost = 0.0
-        c = np.cos(p2)
-        s = np.sin(p2)
-        for i in range(0, pts.shape[0], stride):
-            px = pts[i, 0]
-            py = pts[i, 1]
-            m, dx, dy = _sample(index, pool, k, ox, oy, res, block, p0 + c * px - s * py,
-                                p1 + s * px + c * py)  # fmt: skip
-            r = 1.0 - m
-            cost += r * r
-            j2 = dx * (-s * px - c * py) + dy * (c * px - s * py)
-            h00 += dx * dx
-            h01 += dx * dy
-            h02 += dx * j2
-            h11 += dy * dy
-            h12 += dy * j2
-            h22 += j2 * j2
-            g0 += dx * r
-            g1 += dy * r
-            g2 += j2 * r
-        h00 += prior_weight[0]
-        h11 += prior_weight[1]
-        h22 += prior_weight[2]
-        g0 += prior_weight[0] * (prior[0] - p0)
-        g1 += prior_weight[1] * (prior[1] - p1)
-        g2 += prior_weight[2] * ((prior[2] - p2 + np.pi) % (2 * np.pi) - np.pi)
-        tr = h00 + h11 + h22
-        if tr <= 1e-12:
-            break
-        damp = 1e-6 * tr
-        d0, d1, d2 = _solve3(h00 + damp, h01, h02, h11 + damp, h12, h22 + damp, g0, g1, g2)
-        lin = np.hypot(d0, d1)
-        if lin > max_step:
-            d0 *= max_step / lin
-            d1 *= max_step / lin
-        if abs(d2) > 0.2:
-            d2 = 0.2 * np.sign(d2)
-        p0 += d0
-        p1 += d1
-        p2 += d2
-        if lin < tol * res and abs(d2) < 1e-3:
-            break
-    out = np.empty(3)
-    out[0], out[1], out[2] = p0, p1, (p2 + np.pi) % (2 * np.pi) - np.pi
-    hess = np.empty((3, 3))
-    hess[0, 0], hess[0, 1], hess[0, 2] = h00, h01, h02
-    hess[1, 0], hess[1, 1], hess[1, 2] = h01, h11, h12
-    hess[2, 0], hess[2, 1], hess[2, 2] = h02, h12, h22
-    return out, hess, cost
-
-
-@numba.njit(cache=True, nogil=True)
-def _likelihood(
-    index: np.ndarray, pool: np.ndarray, k: int, ox: float, oy: float, res: float,
-    pts: np.ndarray, stride: int, pose: np.ndarray, kernel: int, sigma: float,
-    lsigma: float, null_likelihood: float,
-) -> tuple[float, float]:  # fmt: skip
-    # matcher.py's `_likelihood` on particle k's tiles: (score, log-likelihood).
-    c = np.cos(pose[2])
-    s = np.sin(pose[2])
-    score = 0.0
-    loglik = 0.0
-    for i in range(0, pts.shape[0], stride):
-        wx = pose[0] + c * pts[i, 0] - s * pts[i, 1]
-        wy = pose[1] + s * pts[i, 0] + c * pts[i, 1]
-        cc = int(np.floor((wx - ox) / res))
-        rr = int(np.floor((wy - oy) / res))
-        best = 1e30
-        for dr in range(-kernel, kernel + 1):
-            for dc in range(-kernel, kernel + 1):
-                if _get(index, pool, k, rr + dr, cc + dc) <= 0.0:
-                    continue
-                ex = ox + (cc + dc + 0.5) * res - wx
-                ey = oy + (rr + dr + 0.5) * res - wy
-                d2 = ex * ex + ey * ey
-                if d2 < best:
-                    best = d2
-        if best < 1e29:
-            score += np.exp(-best / sigma)
-            loglik += -best / lsigma
-        else:
-            loglik += null_likelihood / lsigma
-    return score, loglik
 
 
 @numba.njit(cache=True, nogil=True)
@@ -324,6 +48,7 @@ def _match_all(
     poses = np.empty((n, 3))
     logliks = np.empty(n)
     for k in range(n):
+        view = (index, pool, refs, free, top, k)
         start = guesses[k].copy()
         centre = centres[k].copy()
         pose = start.copy()
@@ -334,21 +59,20 @@ def _match_all(
                     coarse[level - 1], cox, coy, res * block, 1, match_pts, block, pose,
                     iterations, centre, prior_weight, COARSE_TOL,
                 )  # fmt: skip
-            pose, _, _ = _gauss_newton_tiles(
-                index, pool, k, ox, oy, res, 1, match_pts, 1, pose, iterations, centre,
-                prior_weight, 0.05,
-            )  # fmt: skip
-        score, loglik = _likelihood(index, pool, k, ox, oy, res, pts, stride, pose, kernel,
-                                    sigma, lsigma, null_likelihood)  # fmt: skip
+            pose, _, _ = _gauss_newton(
+                view, ox, oy, res, 1, match_pts, 1, pose, iterations, centre, prior_weight, 0.05
+            )
+        score, loglik, _ = _likelihood(view, ox, oy, res, pts, stride, pose, kernel, sigma,
+                                       lsigma, null_likelihood)  # fmt: skip
         if score <= min_score:
             pose = start
-            _, loglik = _likelihood(index, pool, k, ox, oy, res, pts, stride, pose, kernel,
-                                    sigma, lsigma, null_likelihood)  # fmt: skip
+            _, loglik, _ = _likelihood(view, ox, oy, res, pts, stride, pose, kernel, sigma,
+                                       lsigma, null_likelihood)  # fmt: skip
         poses[k] = pose
         logliks[k] = loglik
         if write:
-            _trace_fan(index, pool, refs, free, top, k, ox, oy, res, pose, sensor, ends,
-                       stops, hit, starts, model[0], model[1], model[2], model[3])  # fmt: skip
+            trace_fan(view, ox, oy, res, pose, sensor, ends, stops, hit, starts, model[0],
+                      model[1], model[2], model[3])  # fmt: skip
     return poses, logliks
 
 
@@ -385,6 +109,17 @@ def _tile_counts(index: np.ndarray, refs: np.ndarray) -> None:
                     refs[t] += 1
 
 
+def landing_box(
+    points: np.ndarray, poses: np.ndarray, pad: float
+) -> tuple[float, float, float, float]:
+    """(xmin, ymin, xmax, ymax) of (N, 2) points placed at every one of the (M, 3) poses,
+    widened by `pad` m."""
+    c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
+    x = poses[:, :1] + c * points[:, 0] - s * points[:, 1]
+    y = poses[:, 1:2] + s * points[:, 0] + c * points[:, 1]
+    return float(x.min() - pad), float(y.min() - pad), float(x.max() + pad), float(y.max() + pad)
+
+
 class TiledMaps:
     """`n` particle maps of `resolution` m cells over one frame, sharing their tiles.
 
@@ -404,6 +139,10 @@ class TiledMaps:
         self.refs = np.zeros(0, dtype=np.int32)
         self.free = np.zeros(0, dtype=np.int32)
         self.top = np.zeros(1, dtype=np.int64)
+
+    def view(self, k: int) -> tuple:
+        """Particle k's map as the compiled kernels read and write it (`cells`)."""
+        return (self.index, self.pool, self.refs, self.free, self.top, k)
 
     @property
     def tiles_held(self) -> int:
@@ -448,9 +187,11 @@ class TiledMaps:
             return
         have = self.pool.shape[0]
         size = have + max(count - int(self.top[0]), have // 2, 64)
-        # Zeroed pages the maps never write stay unallocated by the system.
+        # Zeroed pages the maps never write stay unallocated by the system: only the
+        # tiles held are copied (a free tile is cleared or overwritten when taken).
         pool = np.zeros((size, TILE, TILE), np.float32)
-        pool[:have] = self.pool
+        held = np.flatnonzero(self.refs > 0)
+        pool[held] = self.pool[held]
         refs = np.zeros(size, np.int32)
         refs[:have] = self.refs
         spare = self.free[: self.top[0]]
@@ -465,11 +206,8 @@ class TiledMaps:
         """Grow the indexes to hold the scan at every pose, and reserve the tiles its box
         covers for every particle (the most it can make its own)."""
         pts = np.vstack([scan.ends, np.array(scan.origin)[None, :]])
-        lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
-        for q in poses:
-            c, s = np.cos(q[2]), np.sin(q[2])
-            w = pts @ np.array([[c, s], [-s, c]]) + q[:2]
-            lo, hi = np.minimum(lo, w.min(axis=0)), np.maximum(hi, w.max(axis=0))
+        x0, y0, x1, y1 = landing_box(pts, poses, 0.0)
+        lo, hi = (x0, y0), (x1, y1)
         self.ensure(lo[0], lo[1], hi[0], hi[1])
         span = TILE * self.resolution
         per = (int((hi[0] - lo[0]) / span) + 2) * (int((hi[1] - lo[1]) / span) + 2)
@@ -497,9 +235,8 @@ class TiledMaps:
         sensor, ends, stops, hit, starts, model = self._scan_args(scan)
         ox, oy = self.origin
         for k in range(len(poses)):
-            _trace_fan(self.index, self.pool, self.refs, self.free, self.top, k, ox, oy,
-                       self.resolution, poses[k], sensor, ends, stops, hit, starts,
-                       model[0], model[1], model[2], model[3])  # fmt: skip
+            trace_fan(self.view(k), ox, oy, self.resolution, poses[k], sensor, ends, stops, hit,
+                      starts, model[0], model[1], model[2], model[3])  # fmt: skip
 
     def match(
         self,
@@ -610,7 +347,7 @@ class TiledGrid:
     It reads like a LogOddsGrid (`resolution`, `origin`, `shape`, `extent`,
     `ros_values`, `probability`, `logodds`, `copy`) and is written like one
     (`integrate`); `logodds` and `probability` make dense arrays, for small maps.
-    `ScanMatcher.match` matches on it through `gauss_newton`."""
+    `ScanMatcher.match` matches on it through its `view`."""
 
     def __init__(self, resolution: float, model: LogOddsModel | None = None) -> None:
         self._tiles = TiledMaps(1, resolution, model)
@@ -669,9 +406,8 @@ class TiledGrid:
         fan = angle_step is not None and angle_step > 0
         starts = fan_starts(t.resolution, angle_step) if fan else np.zeros(1)
         ox, oy = t.origin
-        _trace_fan(t.index, t.pool, t.refs, t.free, t.top, 0, ox, oy, t.resolution,
-                   np.zeros(3), sensor, end_xy, stops, hit, starts, m.free, m.occupied,
-                   m.clamp_min, m.clamp_max)  # fmt: skip
+        trace_fan(t.view(0), ox, oy, t.resolution, np.zeros(3), sensor, end_xy, stops, hit,
+                  starts, m.free, m.occupied, m.clamp_min, m.clamp_max)  # fmt: skip
 
     def ros_values(self, occupied_above: float = 0.65, free_below: float = 0.35) -> np.ndarray:
         """int8 cells as a ROS OccupancyGrid carries them: 100 occupied, 0 free, -1 unknown."""
@@ -699,20 +435,7 @@ class TiledGrid:
         out._tiles = t
         return out
 
-    def gauss_newton(
-        self,
-        points: np.ndarray,
-        pose: np.ndarray,
-        block: int,
-        stride: int,
-        iterations: int,
-        prior: np.ndarray,
-        prior_weight: np.ndarray,
-        tol: float,
-    ) -> tuple[np.ndarray, np.ndarray, float]:
-        """Gauss-Newton steps of `ScanMatcher` on this map read through blocks of `block`
-        cells: (pose, Hessian, cost)."""
-        t = self._tiles
-        return _gauss_newton_tiles(t.index, t.pool, 0, t.origin[0], t.origin[1], t.resolution,
-                                   block, points, stride, pose, iterations, prior,
-                                   prior_weight, tol)  # fmt: skip
+    @property
+    def view(self) -> tuple:
+        """The cells as the compiled kernels read and write them (`cells`)."""
+        return self._tiles.view(0)

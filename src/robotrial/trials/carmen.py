@@ -47,6 +47,16 @@ def recording_from_log(log: CarmenLog) -> Recording:
 # already right, that noise bends each particle off it by about 0.03 rad per 20 m, and
 # the scan match pulls it only part of the way back (docs/benchmarks/slam.md).
 CORRECTED_MOTION = {"srr": 0.001, "srt": 0.001, "str": 0.001, "stt": 0.001}
+# The pose graph's odometry model (the same four ratios, as its odometry edges' standard
+# deviations) for such a log: with the raw-odometry defaults (0.05-0.1) the odometry edges
+# weigh too little against the scan matches and the loop closures, most of which the
+# correlative search leaves open along a corridor (docs/benchmarks/slam.md).
+CORRECTED_GRAPH_MOTION = {
+    "odom_trans_per_trans": 0.001,
+    "odom_trans_per_rot": 0.001,
+    "odom_rot_per_trans": 0.001,
+    "odom_rot_per_rot": 0.001,
+}
 # The pose graph's timing uncertainty of odometry poses (s) for a log whose poses are not
 # all taken at their scans' instants: MIT CSAIL's turn 0.2-0.4 rad off, about a scan
 # period of a fast turn, now and then.
@@ -56,10 +66,13 @@ TIMING = {"odom_time_sigma": 0.2}
 def declared_params(log: CarmenLog, method: str) -> tuple[dict[str, float], str]:
     """Parameters a log's reader sets for a method because of what the log is, and why
     (a user's own parameters override them): GMapping's motion model for a corrected
-    trajectory (`CarmenLog.corrected_odometry`), the pose graph's timing uncertainty for
-    odometry poses off their scans' instants (`CarmenLog.odometry_timing`)."""
+    trajectory (`CarmenLog.corrected_odometry`) and the pose graph's likewise, the pose
+    graph's timing uncertainty for odometry poses off their scans' instants
+    (`CarmenLog.odometry_timing`)."""
     if method == "gmapping" and log.corrected_odometry:
         return dict(CORRECTED_MOTION), log.corrected_odometry
+    if method == "graph" and log.corrected_odometry:
+        return dict(CORRECTED_GRAPH_MOTION), log.corrected_odometry
     if method == "graph" and log.odometry_timing:
         return dict(TIMING), log.odometry_timing
     return {}, ""

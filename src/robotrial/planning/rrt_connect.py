@@ -151,33 +151,36 @@ def _add(tq, tpar, trad, tstp, n, q, parent, stp) -> None:
 
 
 @nb.njit(cache=True, _nrt=False, nogil=True)
-def _grow(first, start, goals, seed, work, digits, trees, t_is_start, step, domain, iters, checks):
+def _grow(first, start, goals, seed, work, digits, trees, t_is_start, params, iters, checks, path):
     """Run up to `iters` RRTConnect iterations on `trees`: (nodes, parents, domain radii,
     steps) of tree t, extended first, the same of tree u, and counts = [n_t, n_u,
-    iterations done, t's and u's iterations since they last grew], updated in place.
-    `domain`: (balance the trees, first radius, floor, rate, unstick), no dynamic domains
-    with a radius of 0. `work`: rows for the sample, two new nodes and the sampler's
-    state, whose digits are `digits`. `checks` is the checker's `kernel_args()`. An
-    iteration whose sample falls outside its nearest node's domain checks nothing,
-    unless its tree is boxed in (see the module's docstring).
-    Returns (status, i_t, i_u, t_is_start): status 1 when node i_t of t and node i_u of
-    u are the same point (the trees met), 0 when the iterations ran out, -1 when a tree
-    is full. With `first`, the query starts here: seed the generator, check the ends,
-    fill the roots of tq (the start) and uq (the free goals), try the direct motion;
-    status 2 when that motion is free, -2 for a start in contact, -3 when no goal is
-    free.
+    iterations done, t's and u's iterations since they last grew, points of the path],
+    updated in place. `params` (`_params`): balance the trees, the domains' first radius
+    and floor in ranges (no dynamic domains with a radius of 0), their rate, unstick,
+    the range (0: `RANGE` of the joint space's diagonal). `work`: rows for the sample,
+    two new nodes and the sampler's state, whose digits are `digits`. `checks` is the
+    checker's `kernel_args()`. An iteration whose sample falls outside its nearest
+    node's domain checks nothing, unless its tree is boxed in (see the module's
+    docstring).
+    Returns (status, path length, t_is_start): status 1 when the trees met, 0 when the
+    iterations ran out, -1 when a tree is full. With `first`, the query starts here:
+    seed the generator, check the ends, fill the roots of tq (the start) and uq (the
+    free goals), try the direct motion; status 2 when that motion is free, -2 for a
+    start in contact, -3 when no goal is free. On 1 and 2 the path, start to goal, is
+    in path[:counts[5]].
     """
     tq, tpar, trad, tstp, uq, upar, urad, ustp, counts = trees
     floats, ints, scratch, items = checks
     lower, upper = _bounds(floats, ints)
-    balance, r0, floor, rate = domain[0] > 0.0, domain[1], domain[2], domain[3]
-    unstick, least = domain[4] > 0.0, STEP_FLOOR * step
+    step = _step(params[5], lower, upper)
+    balance, r0, floor, rate = params[0] > 0.0, params[1] * step, params[2] * step, params[3]
+    unstick, least = params[4] > 0.0, STEP_FLOOR * step
     target, q_new, q_next, halton = work[0], work[1], work[2], work[3]
     d = lower.shape[0]
     if first:
         np.random.seed(seed)  # noqa: NPY002 (numba has only the legacy generator)
         if not config_free(floats, ints, scratch, items, start):
-            return -2, 0, 0, t_is_start
+            return -2, 0.0, t_is_start
         _add(tq, tpar, trad, tstp, 0, start, -1, step)
         ng = 0
         for g in range(goals.shape[0]):
@@ -189,16 +192,19 @@ def _grow(first, start, goals, seed, work, digits, trees, t_is_start, step, doma
         for j in range(d):
             halton[j] = _halton_start(at, _PRIMES[j], digits[j])
         if ng == 0:
-            return -3, 0, 0, t_is_start
+            return -3, 0.0, t_is_start
         if motion_free(floats, ints, scratch, items, start, uq[0]):
-            return 2, 0, 0, t_is_start
+            for j in range(d):
+                path[0, j], path[1, j] = start[j], uq[0, j]
+            counts[5] = 2
+            return 2, _distance(start, uq[0]), t_is_start
     nt, nu, st, su = counts[0], counts[1], counts[3], counts[4]
     cap = tq.shape[0]
     for _ in range(iters):
         counts[2] += 1
         if nt >= cap or nu >= cap:
             counts[0], counts[1], counts[3], counts[4] = nt, nu, st, su
-            return -1, 0, 0, t_is_start
+            return -1, 0.0, t_is_start
         for j in range(d):
             halton[j] = _halton_next(halton[j], _PRIMES[j], digits[j])
             target[j] = lower[j] + halton[j] * (upper[j] - lower[j])
@@ -236,7 +242,12 @@ def _grow(first, start, goals, seed, work, digits, trees, t_is_start, step, doma
                     nu += 1
                     if reached:
                         counts[0], counts[1], counts[3], counts[4] = nt, nu, st, su
-                        return 1, new, k, t_is_start
+                        if t_is_start:
+                            n, length = _join(tq, tpar, new, uq, upar, k, path)
+                        else:
+                            n, length = _join(uq, upar, k, tq, tpar, new, path)
+                        counts[5] = n
+                        return 1, length, t_is_start
             else:
                 if r0 > 0.0:
                     trad[near] = (
@@ -253,7 +264,7 @@ def _grow(first, start, goals, seed, work, digits, trees, t_is_start, step, doma
             st, su = su, st
             t_is_start = not t_is_start
     counts[0], counts[1], counts[3], counts[4] = nt, nu, st, su
-    return 0, 0, 0, t_is_start
+    return 0, 0.0, t_is_start
 
 
 @nb.njit(cache=True, inline="always")
@@ -261,6 +272,17 @@ def _bounds(floats, ints):
     """The joint limits from a packed checker."""
     m = model(floats, ints)
     return m.lower, m.upper
+
+
+@nb.njit(cache=True, inline="always")
+def _step(given, lower, upper) -> float:
+    """The range: `given`, else `RANGE` of the joint space's diagonal."""
+    if given > 0.0:
+        return given
+    d2 = 0.0
+    for j in range(lower.shape[0]):
+        d2 += (np.float64(upper[j]) - np.float64(lower[j])) ** 2
+    return RANGE * np.sqrt(d2)
 
 
 class _Workspace:
@@ -274,7 +296,7 @@ class _Workspace:
         self.parents = [np.full(cap, -1, dtype=np.int64), np.full(cap, -1, dtype=np.int64)]
         self.radii = [np.full(cap, np.inf), np.full(cap, np.inf)]
         self.steps = [np.empty(cap), np.empty(cap)]
-        self.counts = np.zeros(5, dtype=np.int64)
+        self.counts = np.zeros(6, dtype=np.int64)
         self.work = np.empty((4, d))
         self.digits = np.zeros((d, 64), dtype=np.int64)  # the sampler's, per joint
         self.path = np.empty((2 * cap, d))
@@ -320,50 +342,49 @@ class RRTConnect(Planner):
         self.balance = balance
         self.dynamic_domain = dynamic_domain
         self.unstick = unstick
-        self._domains: dict[float, np.ndarray] = {}
+        # the compiled loop's `params`, the domains in ranges (its range is worked out
+        # there: a norm in numpy costs a cold query 40 us)
+        self._params = np.array(
+            [
+                float(balance),
+                DOMAIN_RADIUS if dynamic_domain else 0.0,
+                DOMAIN_FLOOR,
+                DOMAIN_RATE,
+                float(unstick),
+                self.range,
+            ]
+        )
 
     def step_size(self, checker: Checker) -> float:
         """The range given, else `RANGE` of the joint space's diagonal."""
         return self.range if self.range > 0 else default_range(checker) * RANGE / 0.2
 
-    def _domain(self, step: float) -> np.ndarray:
-        """The compiled loop's `domain` argument for this range (kept per range)."""
-        domain = self._domains.get(step)
-        if domain is None:
-            r0 = DOMAIN_RADIUS * step if self.dynamic_domain else 0.0
-            domain = np.array(
-                [float(self.balance), r0, DOMAIN_FLOOR * step, DOMAIN_RATE, float(self.unstick)]
-            )
-            self._domains[step] = domain
-        return domain
-
     def solve(self, problem: Problem, checker: Checker) -> PlanResult:
         """With the sphere checker, the whole query (end checks, direct motion, the
         tree loop, the path) runs compiled; one call to the kernel for every `CHUNK`
-        iterations."""
+        iterations. The Python around it is kept short: a query's first microseconds
+        run from caches other work has cooled, where each line costs several."""
         t0 = time.perf_counter()
         # not isinstance(checker, CompiledChecker): a protocol check costs 20-90 us
         kernel_args = getattr(checker, "kernel_args", None)
         if kernel_args is None:
             return super().solve(problem, checker)
-        deadline = t0 + problem.time_limit
         checks = tuple(kernel_args())  # plain: numba types it faster
         ws = _workspace(checker.d, len(problem.goals))
         trees, parents, radii, steps = ws.trees, ws.parents, ws.radii, ws.steps
-        counts, work = ws.counts, ws.work
-        seed = (problem.seed if problem.seed is not None else random.getrandbits(31)) & 0x7FFFFFFF
-        step = self.step_size(checker)
-        domain = self._domain(step)
+        counts = ws.counts
+        seed = problem.seed
+        seed = (random.getrandbits(31) if seed is None else seed) & 0x7FFFFFFF
         t = 0  # the tree extended first in the next chunk
         first = True
         while True:
             u = 1 - t
-            status, it, iu, t_is_start = _grow(
+            status, length, t_is_start = _grow(
                 first,
                 problem.start,
                 problem.goals,
                 seed,
-                work,
+                ws.work,
                 ws.digits,
                 (
                     trees[t],
@@ -377,39 +398,37 @@ class RRTConnect(Planner):
                     counts,
                 ),
                 t == 0,
-                step,
-                domain,
+                self._params,
                 CHUNK,
                 checks,
+                ws.path,
             )
+            if status > 0:
+                stats = {"planner": self.name, "iterations": int(counts[2])}
+                if status == 2:
+                    stats["direct"] = True
+                else:
+                    stats["nodes"] = int(counts[0] + counts[1])
+                stats["planning_time"] = time.perf_counter() - t0
+                stats["path_length"] = length
+                return PlanResult(True, ws.path[: counts[5]].copy(), "solved", stats)
+            if status < -1:
+                stats = {"planning_time": time.perf_counter() - t0}
+                reason = "invalid_start" if status == -2 else "invalid_goal"
+                return PlanResult(False, problem.start[None], reason, stats)
             first = False
-            if status == -2:
-                stats = {"planning_time": time.perf_counter() - t0}
-                return PlanResult(False, problem.start[None], "invalid_start", stats)
-            if status == -3:
-                stats = {"planning_time": time.perf_counter() - t0}
-                return PlanResult(False, problem.start[None], "invalid_goal", stats)
             # the kernel swaps roles as it goes; its last "t" is the start tree or not
             t = 0 if t_is_start else 1
-            stats = {"iterations": int(counts[2]), "nodes": int(counts[0] + counts[1])}
-            if status == 2:
-                path = np.array([problem.start, trees[1][0]])
-                return self._solved(path, math.dist(*path), {"direct": True}, t0)
-            if status == 1:
-                i_start, i_goal = (it, iu) if t == 0 else (iu, it)
-                out = ws.path
-                n, length = _join(trees[0], parents[0], i_start, trees[1], parents[1], i_goal, out)
-                return self._solved(out[:n].copy(), length, stats, t0)
             if status == -1:
                 ws.grow()
-            if time.perf_counter() >= deadline:
-                stats = {"planner": self.name, **stats, "planning_time": time.perf_counter() - t0}
+            if time.perf_counter() >= t0 + problem.time_limit:
+                stats = {
+                    "planner": self.name,
+                    "iterations": int(counts[2]),
+                    "nodes": int(counts[0] + counts[1]),
+                    "planning_time": time.perf_counter() - t0,
+                }
                 return PlanResult(False, problem.start[None], "timeout", stats)
-
-    def _solved(self, path: np.ndarray, length: float, stats: dict, t0: float) -> PlanResult:
-        stats = {"planner": self.name, **stats, "planning_time": time.perf_counter() - t0}
-        stats["path_length"] = length
-        return PlanResult(True, path, "solved", stats)
 
     def _solve(
         self, problem: Problem, checker: Checker, rng: np.random.Generator, deadline: float
@@ -420,7 +439,8 @@ class RRTConnect(Planner):
         """The compiled loop's algorithm over any checker; the domains of the nodes that
         hit an obstacle and the steps of a boxed-in tree's nodes are kept by node."""
         step = self.step_size(checker)
-        _, r0, floor, rate, unstick = self._domain(step)
+        _, r0, floor, rate, unstick, _ = self._params
+        r0, floor = r0 * step, floor * step
         ta, tb = Tree(problem.start), Tree(problem.goals)
         da: dict[int, float] = {}
         db: dict[int, float] = {}

@@ -317,3 +317,30 @@ def test_a_base_in_a_pocket_too_narrow_to_turn_in_backs_out_to_its_goal():
     pose = poses[-1]
     assert pose[0] < 3.8, f"{nav.status.value} at {pose.round(2)}: {nav.message}"
     assert rectangle_clearance(cm, poses).min() > 0.0
+
+
+def test_a_goal_just_past_a_doorway_is_not_turned_to_where_the_rear_sweeps_the_jamb():
+    """Exploring's goal may lie a few cm past a 0.8 m doorway, facing back at it: the
+    base comes within the goal's tolerance with its rear still in the doorway, where a
+    turn on the spot to the goal's heading sweeps a jamb (home 33's contact). It follows
+    its footprint plan instead, which turns where there is room, and touches nothing."""
+    from robotrial.model.gridmap import world_map
+    from robotrial.model.world import load_world_text
+    from robotrial.trials.nav import navigator_config
+    from tests.trials.test_verdict import two_rooms
+
+    m = world_map(load_world_text(two_rooms(0.8)))
+    fp = Footprint(0.99, 0.67)
+    cm = Costmap(m.occupied, m.origin, m.resolution, fp)
+    config = navigator_config(0.3, 2.0, 1.0, "hybrid", 3.0)
+    hybrid = replace(config.hybrid, margin=0.01)
+    config = replace(config, costmap_resolution=None, hybrid=hybrid, yaw_tolerance=0.6)
+    start, goal = np.array([3.41, 1.53, 0.0]), (3.47, 1.5, -2.7)
+    turn = np.column_stack([np.full((50, 2), start[:2]), np.linspace(0.0, goal[2], 50)])
+    assert rectangle_clearance(cm, start[None])[0] > 0.03
+    assert rectangle_clearance(cm, turn).min() < 0.0, "turning where it stands sweeps the jamb"
+    nav = Navigator(m.occupied, m.origin, m.resolution, fp, config, m.unknown)
+    nav.set_goal(*goal)
+    poses = _drive(nav, start, m.occupied, m.origin, m.resolution, lambda p: False, 1500)
+    assert nav.status is Status.SUCCEEDED, nav.message
+    assert rectangle_clearance(cm, poses).min() > 0.0

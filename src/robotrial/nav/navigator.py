@@ -8,7 +8,9 @@ velocity and (when a new scan arrived) the scan's end points on the map. It
    the path runs into a newly seen obstacle),
 2. asks the DWA local planner for (v, w) on a rolling local costmap (static map window
    plus the current scan),
-3. near the goal, stops on it and turns in place to the goal's heading,
+3. near the goal, stops on it and turns in place to the goal's heading (with a
+   footprint plan only where that turn keeps the rectangle clear; elsewhere, as a
+   few cm past a doorway with the rear still in it, it follows the plan's own turns),
 4. when no admissible arc exists or the robot has not made progress for
    `progress_timeout` s, runs the recovery behaviours in order: clear the costmaps'
    obstacle layers, rotate in place, back up; after the last one fails it aborts. A
@@ -326,14 +328,15 @@ class Navigator:
         if dist <= self.config.xy_tolerance or (
             self._rotating and dist <= self._near * self.config.xy_tolerance
         ):
-            self._rotating = True
             err = _wrap(goal[2] - pose_a[2])
             if abs(err) <= self.config.yaw_tolerance:
                 self._finish(
                     Status.SUCCEEDED, f"reached the goal ({dist:.2f} m, {abs(err):.2f} rad off)"
                 )
                 return 0.0, 0.0
-            return 0.0, self._turn_rate(err, self._command[1])
+            if self._rotating or self._turn_clear(pose_a, err):
+                self._rotating = True
+                return 0.0, self._turn_rate(err, self._command[1])
         self._track_progress(now, pose_a)
         if self.status is not Status.ACTIVE:
             return 0.0, 0.0
@@ -371,6 +374,20 @@ class Navigator:
             self._rotating = True
             return 0.0, self._turn_rate(_wrap(goal[2] - pose_a[2]), self._command[1])
         return res.v, res.w
+
+    def _turn_clear(self, pose: np.ndarray, err: float) -> bool:
+        """Whether the final turn on the spot by `err` rad from `pose` keeps the rectangle
+        clear (with the footprint planner's margin). Within the tolerance of the goal a
+        footprint plan may still have a manoeuvre to make: a base a few cm off a goal just
+        past a doorway, its rear still in it, would sweep a jamb turning where it stands;
+        it follows the plan instead, which turns where there is room. A DWA, which has no
+        such plan, always turns."""
+        if self.controller_kind == "dwa":
+            return True
+        n = max(2, int(np.ceil(abs(err) / 0.04)) + 1)
+        yaw = pose[2] + np.linspace(0.0, err, n)
+        sweep = np.column_stack([np.full(n, pose[0]), np.full(n, pose[1]), yaw])
+        return not self.hybrid.collides(self.global_costmap, sweep).any()
 
     def _turn_rate(self, err: float, w0: float) -> float:
         c = self.config.dwa

@@ -14,7 +14,8 @@ The classic tabletop pipeline: support surfaces first, then what stands on them.
    connectivity. A cluster must reach down to its surface (it stands on it).
 3. Classification against the catalogue by size (height, width across the view, a box's
    sides from its top face) and colour (chromaticity: the share of red, green and blue,
-   which shading scales alike); the best kind within tolerance, else unknown ("").
+   which shading scales alike); of the kinds within tolerance the best, its height
+   counted twice (measured more closely than a top face's sides), else unknown ("").
 4. Pose: a cylinder's axis by a circle of the catalogue's radius fitted to the points of
    its side (the half that faces the camera; the middle of the top face, seen from
    above, would lean 5-6 mm toward the camera: the side's rim joins it); a box's centre
@@ -47,6 +48,11 @@ SIDE_BELOW_TOP = 0.01  # m: a cylinder's side points start this far below its to
 SIDE_ABOVE_SURFACE = 0.01  # m: ...and end this far above its surface
 MIN_SIDE_POINTS = 20  # fewer, and the top face's middle stands for the axis
 SIZE_TOLERANCE = (0.1, 0.012)  # relative and absolute (m): a size within either matches
+# Of the kinds within tolerance, the best is chosen with the height's error counted this
+# many times: the height (two level planes, the surface's and the top face's) comes out
+# within 4 mm from any side, a top face's sides seen at a slant up to 1 cm off, so a
+# 6 cm cube may show a 7 cm cube's top but never its height
+HEIGHT_WEIGHT = 2.0
 COLOUR_TOLERANCE = 0.09  # chromaticity distance that still matches
 BLUR_PIXELS = 2.5  # pixels a size may be off where the object is (edges, noise)
 MIN_SLANT = 0.1  # sine of the flattest view of a top face whose sides are still measured
@@ -274,14 +280,17 @@ class ObjectDetector:
             if colours is None or len(colours) == 0
             else np.mean(np.asarray(colours, dtype=float), axis=0) / 255.0
         )
-        best, best_err = None, np.inf
-        for kind in self.catalogue:
-            err = _mismatch(
-                kind, height, width, sides[:2], None if colours is None else rgb, blur, top_blur
+        kind, best_err, best_score = None, np.inf, np.inf
+        for k in self.catalogue:
+            errs = _mismatch(
+                k, height, width, sides[:2], None if colours is None else rgb, blur, top_blur
             )
-            if err < best_err:
-                best, best_err = kind, err
-        kind = best if best is not None and best_err <= 1.0 else None
+            err = float(errs.max())
+            errs[0] *= HEIGHT_WEIGHT
+            if err <= 1.0 and errs.max() < best_score:
+                kind, best_err, best_score = k, err, float(errs.max())
+            elif kind is None:
+                best_err = min(best_err, err)
         position, yaw = _pose(kind, pts, above, top, view, sides, surface)
         return Detection(
             kind=kind.name if kind is not None else "",
@@ -341,10 +350,10 @@ def _mismatch(
     rgb: np.ndarray | None,
     blur: float = 0.0,
     top_blur: tuple[float, float] = (0.0, 0.0),
-) -> float:
-    """The worst of the size and colour mismatches, in tolerances (<= 1 matches); `blur`
-    (m): what a pixel's blur spans at the object, `top_blur` along the top face's shorter
-    and longer side (more where a side lies along a slanted view)."""
+) -> np.ndarray:
+    """The size and colour mismatches, in tolerances (all <= 1 matches), the height's
+    first; `blur` (m): what a pixel's blur spans at the object, `top_blur` along the top
+    face's shorter and longer side (more where a side lies along a slanted view)."""
     errs = [_off(height, kind.height, blur)]
     if kind.shape == "box":
         small, large = sorted(kind.size[:2])
@@ -357,7 +366,7 @@ def _mismatch(
     if rgb is not None and rgb.sum() > 0.05:
         diff = np.linalg.norm(chromaticity(rgb) - chromaticity(np.asarray(kind.rgb)))
         errs.append(float(diff) / COLOUR_TOLERANCE)
-    return float(max(errs))
+    return np.array(errs)
 
 
 def _pose(

@@ -1,14 +1,16 @@
 """The goal configuration of a pose request: IK, its checks and the straight motion from
 the start, one compiled call (layer 3).
 
-Seeds are the start's joints, then a fixed Halton set over the joint limits (the same for
-every request, so that an answer does not hang on a random draw). Each seed descends by
-damped least squares (`kinematics.ik.descend`); a converged one is kept when it lies on
-the start's side of the checker's walls and the checker calls it free, and the search
-stops at the first kept solution the start reaches in a straight line (the motion check
-of the planner's kernels): planning to it is then that line. Without one, every kept
-solution comes back, nearest first, for the planner to aim at. The seeds, the checks and
-the line run inside one call: no Python between seeds, no array made per seed.
+Seeds are the start's joints, then a fixed Halton set taken in turns near the start (within
+`NEAR` of it, where solutions a straight motion reaches lie) and over the whole joint range
+(the same for every request, so that an answer does not hang on a random draw). Each seed
+descends by damped least squares (`kinematics.ik.descend`); a converged one is kept when it
+lies on the start's side of the checker's walls and the checker calls it free, and the search
+stops at the first kept solutions the start reaches in a straight line (the motion check of
+the planner's kernels): planning to it is then that line. Without one, the search stops
+`AFTER_FREE` seeds after its first free solution, and every kept solution comes back,
+nearest first, for the planner to aim at. The seeds, the checks and the line run inside one
+call: no Python between seeds, no array made per seed.
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ from robotrial.kinematics.chain import Kinematics
 from robotrial.kinematics.ik import descend, halton, scratch
 
 SEEDS = 256  # Halton seeds after the start's joints, at most
+NEAR = 0.6  # rad (or m): half the side of the box around the start that every other seed is in
+AFTER_FREE = 48  # seeds tried after the first free solution, when none is reached straight
 MAX_ITER = 150
 MAX_STEP = 0.4  # rad (or m) per iteration
 DIRECT_WANTED = 2  # the nearest of the first two solutions the start reaches straight
@@ -47,6 +51,7 @@ def _search(
     tol_rot,
     start,
     wanted,
+    after_free,
     wall_joint,
     wall_low,
     wall_high,
@@ -65,7 +70,10 @@ def _search(
     rerr = np.full(n, np.inf)
     r_target = np.ascontiguousarray(target[:3, :3])
     ik_work = scratch(kin_arrays[0].shape[0], d, with_rotation)
+    last = n
     for b in range(n):
+        if b >= last:
+            return qs, outcome, perr, rerr, b
         q = qs[b]
         perr[b], rerr[b], ok = descend(
             q,
@@ -111,6 +119,7 @@ def _search(
                 return qs, outcome, perr, rerr, b + 1
         else:
             outcome[b] = FREE
+            last = min(last, b + 1 + after_free)
     return qs, outcome, perr, rerr, n
 
 
@@ -131,8 +140,19 @@ class GoalSearch:
 
 
 def seeds(kin: Kinematics, n: int = SEEDS) -> np.ndarray:
-    """The search's fixed seeds after the start: `n` Halton points over the limits."""
-    return kin.lower + halton(n, kin.d) * (kin.upper - kin.lower)
+    """The search's fixed seeds after the start: `n` Halton points in [0, 1) per joint, the
+    even ones to be read near the start and the odd ones over the limits (`placed`)."""
+    return halton(n, kin.d)
+
+
+def placed(kin: Kinematics, unit: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """`unit` seeds (`seeds`) as joints: the even ones within `NEAR` of `start` (inside the
+    limits), the odd ones over the whole range."""
+    out = kin.lower + unit * (kin.upper - kin.lower)
+    lo = np.maximum(kin.lower, start - NEAR)
+    hi = np.minimum(kin.upper, start + NEAR)
+    out[::2] = lo + unit[::2] * (hi - lo)
+    return out
 
 
 def search(
@@ -142,6 +162,7 @@ def search(
     checker: CollisionChecker,
     fixed_seeds: np.ndarray,
     wanted: int = DIRECT_WANTED,
+    after_free: int = AFTER_FREE,
     tol_pos: float = 1e-4,
     tol_rot: float = 1e-3,
 ) -> GoalSearch:
@@ -157,7 +178,7 @@ def search(
         t[:3, 3] = tgt
     walls = checker.walls()
     qs, outcome, perr, rerr, tried = _search(
-        np.vstack([start, fixed_seeds]),
+        np.vstack([start, placed(kin, fixed_seeds, start)]),
         t,
         rotation,
         kin.lower,
@@ -169,6 +190,7 @@ def search(
         tol_rot,
         start,
         wanted,
+        after_free,
         np.array([w.joint for w in walls], dtype=np.int64),
         np.array([w.low for w in walls], dtype=float),
         np.array([w.high for w in walls], dtype=float),

@@ -122,6 +122,96 @@ def _damped_step(jac, rows, lam, err, a, y, dq) -> None:
 
 
 @nb.njit(cache=True)
+def scratch(links: int, d: int, with_rotation: bool) -> tuple:
+    """The working arrays of `descend` for a tree of `links` frames and `d` joints,
+    made once per search so that no seed allocates."""
+    rows = 6 if with_rotation else 3
+    return (
+        np.empty((links, 4, 4)),
+        np.empty((links, 4, 4)),
+        np.zeros(rows),
+        np.zeros(rows),
+        np.empty(d),
+        np.empty((rows, rows)),
+        np.empty(rows),
+        np.empty(d),
+        np.empty(3),
+        np.empty((6, d)),
+    )
+
+
+@nb.njit(cache=True)
+def descend(
+    q,
+    target,
+    r_target,
+    with_rotation,
+    lower,
+    upper,
+    kin_arrays,
+    ancestors,
+    tip,
+    max_iter,
+    tol_pos,
+    tol_rot,
+    max_step,
+    work,
+):
+    """Levenberg-Marquardt damped least squares from `q`, in place, clipped to the
+    limits; `work` from `scratch`. Returns (position error, orientation error,
+    converged)."""
+    _parent, _origin, jtype, axis, src, mult, _offset, _const = kin_arrays
+    # two sets of poses and errors, the current configuration's and the trial's, swapped
+    # when a step is taken: a refused step leaves the current ones as they were
+    poses, poses_new, err, err_new, q_new, a, y, dq, p, jac = work
+    d = q.shape[0]
+    rows = 6 if with_rotation else 3
+    lam = 0.01
+    pe, re = np.inf, np.inf
+    e2 = _pose_error(q, target, r_target, with_rotation, kin_arrays, tip, poses, err)
+    e2_before = e2
+    for it in range(max_iter):
+        pe = np.sqrt(err[0] ** 2 + err[1] ** 2 + err[2] ** 2)
+        re = np.sqrt(e2 - pe * pe) / ROT_WEIGHT if with_rotation and e2 > pe * pe else 0.0
+        if pe < tol_pos and re < tol_rot:
+            return pe, re, True
+        if it % STALL_STEPS == STALL_STEPS - 1:
+            if e2 > STALL_RATIO * e2_before:
+                break
+            e2_before = e2
+        for i in range(3):
+            p[i] = poses[tip, i, 3]
+        jacobian_into(poses, tip, p, ancestors, jtype, axis, src, mult, jac)
+        if with_rotation:
+            for i in range(3, 6):
+                for k in range(d):
+                    jac[i, k] *= ROT_WEIGHT
+        _damped_step(jac, rows, lam, err, a, y, dq)
+        step = 0.0
+        for i in range(d):
+            step = max(step, abs(dq[i]))
+        if step > max_step:
+            for i in range(d):
+                dq[i] *= max_step / step
+        for i in range(d):
+            q_new[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
+        e2_new = _pose_error(
+            q_new, target, r_target, with_rotation, kin_arrays, tip, poses_new, err_new
+        )
+        if e2_new < e2:
+            q[:] = q_new
+            poses, poses_new = poses_new, poses
+            err, err_new = err_new, err
+            e2 = e2_new
+            lam = max(lam * 0.3, 1e-6)
+        else:
+            lam = min(lam * 5.0, 1e3)
+            if lam >= 1e3:
+                break
+    return pe, re, False
+
+
+@nb.njit(cache=True)
 def _dls(
     seeds,
     target,
@@ -136,76 +226,32 @@ def _dls(
     tol_rot,
     max_step,
 ):
-    """Levenberg-Marquardt damped least squares from every seed, clipped to the limits.
-
-    Returns (q, position error, orientation error, converged) per seed.
-    """
-    parent, _origin, jtype, axis, src, mult, _offset, _const = kin_arrays
+    """`descend` from every seed. Returns (q, position error, orientation error,
+    converged) per seed."""
     n, d = seeds.shape
     qs = seeds.copy()
     perr = np.full(n, np.inf)
     rerr = np.full(n, np.inf)
     ok = np.zeros(n, dtype=np.bool_)
-    # two sets of poses and errors, the current configuration's and the trial's, swapped
-    # when a step is taken: a refused step leaves the current ones as they were
-    poses = np.empty((parent.shape[0], 4, 4))
-    poses_new = np.empty((parent.shape[0], 4, 4))
-    rows = 6 if with_rotation else 3
-    err = np.zeros(rows)
-    err_new = np.zeros(rows)
     r_target = np.ascontiguousarray(target[:3, :3])
-    q_new = np.empty(d)
-    a = np.empty((rows, rows))
-    y = np.empty(rows)
-    dq = np.empty(d)
-    p = np.empty(3)
-    jac = np.empty((6, d))
+    work = scratch(kin_arrays[0].shape[0], d, with_rotation)
     for b in range(n):
-        q = qs[b]
-        lam = 0.01
-        e2 = _pose_error(q, target, r_target, with_rotation, kin_arrays, tip, poses, err)
-        e2_before = e2
-        for it in range(max_iter):
-            pe = np.sqrt(err[0] ** 2 + err[1] ** 2 + err[2] ** 2)
-            re = np.sqrt(e2 - pe * pe) / ROT_WEIGHT if with_rotation and e2 > pe * pe else 0.0
-            perr[b], rerr[b] = pe, re
-            if pe < tol_pos and re < tol_rot:
-                ok[b] = True
-                break
-            if it % STALL_STEPS == STALL_STEPS - 1:
-                if e2 > STALL_RATIO * e2_before:
-                    break
-                e2_before = e2
-            for i in range(3):
-                p[i] = poses[tip, i, 3]
-            jacobian_into(poses, tip, p, ancestors, jtype, axis, src, mult, jac)
-            if with_rotation:
-                for i in range(3, 6):
-                    for k in range(d):
-                        jac[i, k] *= ROT_WEIGHT
-            _damped_step(jac, rows, lam, err, a, y, dq)
-            step = 0.0
-            for i in range(d):
-                step = max(step, abs(dq[i]))
-            if step > max_step:
-                for i in range(d):
-                    dq[i] *= max_step / step
-            for i in range(d):
-                q_new[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
-            e2_new = _pose_error(
-                q_new, target, r_target, with_rotation, kin_arrays, tip, poses_new, err_new
-            )
-            if e2_new < e2:
-                q[:] = q_new
-                poses, poses_new = poses_new, poses
-                err, err_new = err_new, err
-                e2 = e2_new
-                lam = max(lam * 0.3, 1e-6)
-            else:
-                lam = min(lam * 5.0, 1e3)
-                if lam >= 1e3:
-                    break
-        qs[b] = q
+        perr[b], rerr[b], ok[b] = descend(
+            qs[b],
+            target,
+            r_target,
+            with_rotation,
+            lower,
+            upper,
+            kin_arrays,
+            ancestors,
+            tip,
+            max_iter,
+            tol_pos,
+            tol_rot,
+            max_step,
+            work,
+        )
     return qs, perr, rerr, ok
 
 
@@ -351,3 +397,25 @@ def solve_positions(
     return _dls_many(
         s, t, kin.lower, kin.upper, kin._args(), kin.ancestors, kin.tip, max_iter, tol_pos, 0.4
     )
+
+
+def halton(n: int, d: int) -> np.ndarray:
+    """The first `n` points of the `d`-dimensional Halton sequence in [0, 1) (the
+    radical inverses of 1..n in the first d primes): seeds spread evenly over the joint
+    space, the same every time, so that an answer does not depend on a random draw."""
+    primes: list[int] = []
+    k = 2
+    while len(primes) < d:
+        if all(k % p for p in primes):
+            primes.append(k)
+        k += 1
+    out = np.zeros((n, d))
+    for j, base in enumerate(primes):
+        for i in range(n):
+            x, f, v = i + 1, 1.0, 0.0
+            while x:
+                f /= base
+                v += f * (x % base)
+                x //= base
+            out[i, j] = v
+    return out

@@ -49,6 +49,7 @@ from robotrial.model.stand import seen_from, stand
 from robotrial.model.world import World
 from robotrial.planning import planner_class
 from robotrial.planning.base import PlanResult, Problem, path_length
+from robotrial.planning.goal import GoalSearch, search, seeds
 from robotrial.planning.smoothing import densify, round_corners, shortcut, shortcut_and_round
 from robotrial.planning.timing import Trajectory, time_parameterize, time_parameterize_reference
 
@@ -223,6 +224,7 @@ class TaskPlanner:
         self.joint_names = list(joints) if joints else default_planning_joints(robot)
         self.kin = Kinematics(robot, self.joint_names)
         self.spheres = robot_spheres(self.kin)
+        self.seeds = seeds(self.kin)
         self.padding = float(padding)
         self.validate = validate
         lim = {j.name: j.limit for j in robot.joints}
@@ -319,45 +321,23 @@ class TaskPlanner:
         result.stats["total_time"] = result.planning_time
         return result
 
-    def _solve(
-        self, planner, problem: Problem, checker, free_ik: Callable | None, stats: dict[str, Any]
-    ) -> PlanResult:
-        """Plan to the nearest IK solution for half the time, then to it and to other IK
-        solutions for the rest: on arms whose joints turn twice around, the nearest
-        solution can sit in a pocket the start has no free motion into. When the straight
-        motion to it is blocked, the nearest of other solutions the start reaches in a
-        straight line is taken first (their IK counts in `stats["ik_time"]`). A joint-space
-        goal (no `free_ik`) gets the whole time."""
-        if free_ik is None:
+    def _solve(self, planner, problem: Problem, checker, found: GoalSearch | None) -> PlanResult:
+        """Plan to the goal the IK search found. One the start reaches in a straight line,
+        or a joint-space goal (no `found`), gets the whole time; else the nearest free
+        solution gets half of it, then every free solution found the rest: on arms whose
+        joints turn twice around, the nearest solution can sit in a pocket the start has
+        no free motion into."""
+        if found is None or found.direct:
             return planner.solve(problem, checker)
         t0 = time.perf_counter()
-        reachable = _reachable(checker, problem.start)
-        if not checker.motion_valid(problem.start, problem.goals[0]):
-            # a goal the start reaches in a straight line, if other IK solutions give one
-            # (milliseconds, where a search into the nearest one's pocket takes seconds)
-            t_ik = time.perf_counter()
-            others = free_ik(accept=reachable, wanted=8, batch=8).solutions
-            stats["ik_time"] = stats.get("ik_time", 0.0) + time.perf_counter() - t_ik
-            if others:
-                others = np.asarray(others)
-                direct = others[
-                    checker.motions_valid(np.tile(problem.start, (len(others), 1)), others)
-                ]
-                if len(direct):
-                    near = np.argmin(np.linalg.norm(direct - problem.start, axis=1))
-                    problem = replace(problem, goals=direct[near][None])
         half = replace(problem, time_limit=problem.time_limit / 2)
         res = planner.solve(half, checker)
         if res.success or res.status != "timeout":
             return res
-        t_ik = time.perf_counter()
-        more = free_ik(accept=reachable, wanted=8, batch=8).solutions
-        stats["ik_time"] = stats.get("ik_time", 0.0) + time.perf_counter() - t_ik
         left = problem.time_limit - (time.perf_counter() - t0)
-        if not more or left <= 0:
+        if len(found.free) < 2 or left <= 0:
             return res
-        goals = np.vstack([problem.goals, *more])
-        second = planner.solve(replace(problem, goals=goals, time_limit=left), checker)
+        second = planner.solve(replace(problem, goals=found.free, time_limit=left), checker)
         for key in ("nodes", "planning_time"):
             second.stats[key] = second.stats.get(key, 0) + res.stats.get(key, 0)
         return second
@@ -451,12 +431,13 @@ class TaskPlanner:
                 touching = sorted(checker.contacts(goal))
                 self._fail(result, "goal_in_collision", "goal in collision: " + _describe(touching))
                 return
-            free_ik = None
+            found = None
         else:
-            found = self._ik_goal(request, start, rng, checker, stats, result)
-            if found is None:
+            ik = self._ik_goal(request, start, rng, checker, stats, result)
+            if ik is None:
                 return
-            goal, checker, free_ik = found
+            checker, found = ik
+            goal = found.free[0]
 
         # --- plan, shortcut, round, time, validate; retry finer if MuJoCo disagrees
         try:
@@ -476,9 +457,7 @@ class TaskPlanner:
                     resolution_scale=0.5**attempt,
                     fine=checker.fine,
                 )
-            res = self._solve(
-                planner, Problem(start, goal[None], left, seed), checker, free_ik, stats
-            )
+            res = self._solve(planner, Problem(start, goal[None], left, seed), checker, found)
             stats.update({f"planner_{k}": v for k, v in res.stats.items()})
             stats["planner"] = planner.name
             stats["attempts"] = attempt + 1
@@ -539,10 +518,10 @@ class TaskPlanner:
         checker: CollisionChecker,
         stats: dict[str, Any],
         result: TaskResult,
-    ) -> tuple[np.ndarray, CollisionChecker, Callable] | None:
-        """The goal joints for the request's goal pose (the nearest of the free IK
-        solutions), the checker they were found free with and the IK call that finds
-        more; None after failing `result` (out of reach, or every solution colliding)."""
+    ) -> tuple[CollisionChecker, GoalSearch] | None:
+        """The IK search for the request's goal pose (`planning.goal.search`) and the
+        checker its solutions were found free with; None after failing `result` (out of
+        reach, past a wall, or every solution colliding)."""
         self._remaining("inverse kinematics")
         target = np.asarray(request.goal_position, dtype=float)
         if target.shape != (3,) or not np.all(np.isfinite(target)):
@@ -552,17 +531,20 @@ class TaskPlanner:
             goal_pose = Pose(tuple(target), tuple(request.goal_orientation))  # type: ignore[arg-type]
         ik_target = target if goal_pose is None else goal_pose.matrix()
         t_ik = time.perf_counter()
-        # the nearest of two free solutions from seeds tried four at a time (the current
-        # joints first): over 150 random desk requests, trajectories 1 % longer in time
-        # than the nearest of four from batches of eight, for half the IK time
-        free_ik = partial(solve_ik, self.kin, ik_target, start, rng=rng, batch=4, wanted=2)
-        ik = free_ik(accept=_reachable(checker, start))
-        if not ik.success and (finer := checker.finer()) not in (None, checker):
-            ik = free_ik(accept=_reachable(finer, start))
-            if ik.success:
-                checker = finer
+        found = search(self.kin, ik_target, start, checker, self.seeds)
+        finer = None
+        if not len(found.free) and (finer := checker.finer()) not in (None, checker):
+            again = search(self.kin, ik_target, start, finer, self.seeds)
+            if len(again.free):
+                found, checker = again, finer
         stats["ik_time"] = time.perf_counter() - t_ik
-        if not ik.success and (w := _wall_before(finer or checker, start, free_ik)):
+        stats["ik_seeds"] = found.seeds_tried
+        if len(found.free):
+            stats["ik_solutions"] = len(found.free)
+            return checker, found
+        # why not: a wall, the target out of reach, or every solution colliding
+        free_ik = partial(solve_ik, self.kin, ik_target, start, rng=rng, batch=4, wanted=2)
+        if w := _wall_before(finer or checker, start, free_ik):
             self._fail(
                 result,
                 "unreachable",
@@ -571,33 +553,30 @@ class TaskPlanner:
                 f"where {w.body} runs into {w.obstacle} whatever the other joints do",
             )
             return None
-        if not ik.success:
-            free = solve_ik(self.kin, ik_target, start, rng=rng, wanted=1)
-            if not free.success:
-                base = self.kin.fk(start)[0, :3, 3]
-                where = ", ".join(f"{v:.3f}" for v in target)
-                turn = (
-                    f" and {free.orientation_error:.2f} rad from the orientation"
-                    if goal_pose is not None
-                    else ""
-                )
-                self._fail(
-                    result,
-                    "unreachable",
-                    f"goal out of reach: the end effector gets no closer than "
-                    f"{free.position_error:.3f} m to ({where}){turn}; the target is "
-                    f"{np.linalg.norm(target - base):.3f} m from the robot's base",
-                )
-                return None
-            touching = sorted((finer or checker).contacts(free.q))
+        free = solve_ik(self.kin, ik_target, start, rng=rng, wanted=1)
+        if not free.success:
+            base = self.kin.fk(start)[0, :3, 3]
+            where = ", ".join(f"{v:.3f}" for v in target)
+            turn = (
+                f" and {free.orientation_error:.2f} rad from the orientation"
+                if goal_pose is not None
+                else ""
+            )
             self._fail(
                 result,
-                "goal_in_collision",
-                "goal in collision: every IK solution found collides, e.g. " + _describe(touching),
+                "unreachable",
+                f"goal out of reach: the end effector gets no closer than "
+                f"{free.position_error:.3f} m to ({where}){turn}; the target is "
+                f"{np.linalg.norm(target - base):.3f} m from the robot's base",
             )
             return None
-        stats["ik_solutions"] = len(ik.solutions)
-        return ik.q, checker, free_ik
+        touching = sorted((finer or checker).contacts(free.q))
+        self._fail(
+            result,
+            "goal_in_collision",
+            "goal in collision: every IK solution found collides, e.g. " + _describe(touching),
+        )
+        return None
 
     def _timed_and_checked(self, smooth, path, checker, exact, stats) -> Trajectory | None:
         """Time the rounded path, else the plain one with denser waypoints; keep the first
@@ -639,12 +618,6 @@ def time_limit(asked: float) -> float | None:
             f"{MAX_TIME_LIMIT:g} s, got {float(asked):g}"
         )
     return float(asked) if asked > 0 else None
-
-
-def _reachable(checker: CollisionChecker, start: np.ndarray) -> Callable:
-    """IK's filter: configurations `checker` calls free that lie on the start's side of
-    its walls (`CollisionChecker.walls`)."""
-    return lambda qs: checker.valid(qs) & ~checker.beyond_walls(start, qs)
 
 
 def _wall_before(checker: CollisionChecker, start: np.ndarray, free_ik: Callable) -> Wall | None:

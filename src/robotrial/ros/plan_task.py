@@ -6,6 +6,7 @@ with MoveIt's error code (`plan_task_response`), and both around a `TaskPlanner`
 
 from __future__ import annotations
 
+import math
 import threading
 
 import numpy as np
@@ -35,7 +36,7 @@ MAX_NAME = 64
 """The longest id or planner name quoted back in a message."""
 
 
-def _numbers(values: np.ndarray) -> str:
+def _numbers(values: list[float]) -> str:
     return "(" + ", ".join(f"{float(v):g}" for v in values) + ")"
 
 
@@ -43,16 +44,16 @@ def _short(text: str) -> str:
     return text if len(text) <= MAX_NAME else text[:MAX_NAME] + "..."
 
 
-def _finite(values: list[float], what: str) -> np.ndarray:
-    out = np.array(values, dtype=float)
-    if not np.all(np.isfinite(out)):
+def _finite(values: list[float], what: str) -> list[float]:
+    out = [float(v) for v in values]
+    if not all(map(math.isfinite, out)):
         raise TaskError(f"{what} has a non-finite number {_numbers(out)}")
     return out
 
 
-def _zero(values: np.ndarray) -> bool:
-    """All within 1e-8 of zero (np.allclose(values, 0) at a tenth of its cost)."""
-    return bool(np.all(np.abs(values) <= 1e-8))
+def _zero(values: list[float]) -> bool:
+    """All within 1e-8 of zero."""
+    return all(abs(v) <= 1e-8 for v in values)
 
 
 def _pose_of(msg, what: str) -> Pose:
@@ -61,19 +62,19 @@ def _pose_of(msg, what: str) -> Pose:
     o = msg.orientation
     q = _finite([o.x, o.y, o.z, o.w], what + ".orientation")
     if _zero(q):
-        q = np.array([0.0, 0.0, 0.0, 1.0])
+        q = [0.0, 0.0, 0.0, 1.0]
     return Pose(tuple(p), tuple(q))  # type: ignore[arg-type]
 
 
 def _box_of(msg: BoxMsg, what: str, none_ok: bool) -> tuple[Box, Pose] | None:
     """A robotrial_msgs/Box as a shape and pose; None when all sizes are 0 and
     `none_ok` (the object's way of saying "none"), else TaskError for an empty box."""
-    size = np.array([msg.size.x, msg.size.y, msg.size.z], dtype=float)
-    if not np.all(np.isfinite(size)) or np.any(size < 0):
+    size = [float(msg.size.x), float(msg.size.y), float(msg.size.z)]
+    if not all(math.isfinite(v) and v >= 0 for v in size):
         raise TaskError(f"{what}.size must be finite and non-negative, got {_numbers(size)}")
-    if np.all(size == 0) and none_ok:
+    if not any(size) and none_ok:
         return None
-    if np.any(size == 0):
+    if not all(size):
         raise TaskError(f"{what}.size has a zero edge {_numbers(size)}; give all three edges")
     return Box(tuple(size)), _pose_of(msg.pose, what + ".pose")  # type: ignore[arg-type]
 
@@ -101,8 +102,8 @@ def task_request(request: PlanTaskRequest) -> TaskRequest:
     return TaskRequest(
         positions=np.asarray(request.current_joints.position, dtype=float),
         joint_names=list(request.current_joints.name),
-        goal_position=position,
-        goal_orientation=None if _zero(q) else q,
+        goal_position=np.array(position),
+        goal_orientation=None if _zero(q) else np.array(q),
         obstacles=obstacles,
         object=None if obj is None else (_short(request.object.id), *obj),
         planner=request.planner,
@@ -117,6 +118,7 @@ def joint_trajectory(names: list[str], traj: Trajectory) -> JointTrajectory:
             positions=q,
             velocities=qd,
             accelerations=qdd,
+            effort=[],
             time_from_start=Duration.from_sec(t),
         )
         for t, q, qd, qdd in zip(

@@ -1,0 +1,212 @@
+"""The goal configuration of a pose request: IK, its checks and the straight motion from
+the start, one compiled call (layer 3).
+
+Seeds are the start's joints, then a fixed Halton set taken in turns near the start (within
+`NEAR` of it, where solutions a straight motion reaches lie) and over the whole joint range
+(the same for every request, so that an answer does not hang on a random draw). Each seed
+descends by damped least squares (`kinematics.ik.descend`); a converged one is kept when it
+lies on the start's side of the checker's walls and the checker calls it free, and the search
+stops at the first kept solutions the start reaches in a straight line (the motion check of
+the planner's kernels): planning to it is then that line. Without one, the search stops
+`AFTER_FREE` seeds after its first free solution, and every kept solution comes back,
+nearest first, for the planner to aim at. The seeds, the checks and the line run inside one
+call: no Python between seeds, no array made per seed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from robotrial.collision.kernels import config_free, motion_free
+from robotrial.collision.sphere_model import CollisionChecker
+from robotrial.kinematics.chain import Kinematics
+from robotrial.kinematics.ik import descend, halton, scratch
+
+SEEDS = 256  # Halton seeds after the start's joints, at most
+NEAR = 0.6  # rad (or m): half the side of the box around the start that every other seed is in
+AFTER_FREE = 48  # seeds tried after the first free solution, when none is reached straight
+MAX_ITER = 150
+MAX_STEP = 0.4  # rad (or m) per iteration
+DIRECT_WANTED = 2  # the nearest of the first two solutions the start reaches straight
+SAME = 1e-3  # solutions closer than this in every joint are one
+
+# what became of each seed
+MISSED, PAST_WALL, COLLIDING, FREE, DIRECT = 0, 1, 2, 3, 4
+
+
+@nb.njit(cache=True, nogil=True)
+def _search(
+    seeds,
+    target,
+    with_rotation,
+    lower,
+    upper,
+    kin_arrays,
+    ancestors,
+    tip,
+    tol_pos,
+    tol_rot,
+    start,
+    wanted,
+    after_free,
+    wall_joint,
+    wall_low,
+    wall_high,
+    floats,
+    ints,
+    work,
+    work_ints,
+):
+    """Descend from the seeds in order until `wanted` end free and in a straight line
+    from `start`. Returns (q per seed, outcome per seed, position and orientation errors per
+    seed, seeds tried)."""
+    n, d = seeds.shape
+    qs = seeds.copy()
+    outcome = np.zeros(n, dtype=np.int8)
+    perr = np.full(n, np.inf)
+    rerr = np.full(n, np.inf)
+    r_target = np.ascontiguousarray(target[:3, :3])
+    ik_work = scratch(kin_arrays[0].shape[0], d, with_rotation)
+    last = n
+    for b in range(n):
+        if b >= last:
+            return qs, outcome, perr, rerr, b
+        q = qs[b]
+        perr[b], rerr[b], ok = descend(
+            q,
+            target,
+            r_target,
+            with_rotation,
+            lower,
+            upper,
+            kin_arrays,
+            ancestors,
+            tip,
+            MAX_ITER,
+            tol_pos,
+            tol_rot,
+            MAX_STEP,
+            ik_work,
+        )
+        if not ok:
+            continue
+        seen = False
+        for c in range(b):
+            if outcome[c] >= FREE:
+                far = 0.0
+                for j in range(d):
+                    far = max(far, abs(qs[c, j] - q[j]))
+                seen = seen or far <= SAME
+        if seen:
+            continue
+        past = False
+        for w in range(wall_joint.shape[0]):
+            j = wall_joint[w]
+            past = past or (
+                min(q[j], start[j]) <= wall_high[w] and max(q[j], start[j]) >= wall_low[w]
+            )
+        if past:
+            outcome[b] = PAST_WALL
+        elif not config_free(floats, ints, work, work_ints, q):
+            outcome[b] = COLLIDING
+        elif motion_free(floats, ints, work, work_ints, start, q):
+            outcome[b] = DIRECT
+            wanted -= 1
+            if wanted == 0:
+                return qs, outcome, perr, rerr, b + 1
+        else:
+            outcome[b] = FREE
+            last = min(last, b + 1 + after_free)
+    return qs, outcome, perr, rerr, n
+
+
+@dataclass
+class GoalSearch:
+    """What `search` found: `free`, the free solutions on the start's side of the walls,
+    nearest the start first; `direct`, whether the start reaches the first of them in a
+    straight line; `best`, the attempt nearest the target (for a message when nothing
+    converged), with its errors in m and rad."""
+
+    free: np.ndarray
+    direct: bool
+    best: np.ndarray
+    position_error: float
+    orientation_error: float
+    converged: int
+    seeds_tried: int
+
+
+def seeds(kin: Kinematics, n: int = SEEDS) -> np.ndarray:
+    """The search's fixed seeds after the start: `n` Halton points in [0, 1) per joint, the
+    even ones to be read near the start and the odd ones over the limits (`placed`)."""
+    return halton(n, kin.d)
+
+
+def placed(kin: Kinematics, unit: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """`unit` seeds (`seeds`) as joints: the even ones within `NEAR` of `start` (inside the
+    limits), the odd ones over the whole range."""
+    out = kin.lower + unit * (kin.upper - kin.lower)
+    lo = np.maximum(kin.lower, start - NEAR)
+    hi = np.minimum(kin.upper, start + NEAR)
+    out[::2] = lo + unit[::2] * (hi - lo)
+    return out
+
+
+def search(
+    kin: Kinematics,
+    target: np.ndarray,
+    start: np.ndarray,
+    checker: CollisionChecker,
+    fixed_seeds: np.ndarray,
+    wanted: int = DIRECT_WANTED,
+    after_free: int = AFTER_FREE,
+    tol_pos: float = 1e-4,
+    tol_rot: float = 1e-3,
+) -> GoalSearch:
+    """Goal configurations for `target` (4x4 pose, or (3,) position) from `start` (free,
+    inside the limits), free in `checker` and on the start's side of its walls: the
+    first the start reaches in a straight line, else all found (`GoalSearch`)."""
+    t = np.eye(4)
+    tgt = np.asarray(target, dtype=float)
+    rotation = tgt.shape == (4, 4)
+    if rotation:
+        t = np.ascontiguousarray(tgt)
+    else:
+        t[:3, 3] = tgt
+    walls = checker.walls()
+    qs, outcome, perr, rerr, tried = _search(
+        np.vstack([start, placed(kin, fixed_seeds, start)]),
+        t,
+        rotation,
+        kin.lower,
+        kin.upper,
+        kin._args(),
+        kin.ancestors,
+        kin.tip,
+        tol_pos,
+        tol_rot,
+        start,
+        wanted,
+        after_free,
+        np.array([w.joint for w in walls], dtype=np.int64),
+        np.array([w.low for w in walls], dtype=float),
+        np.array([w.high for w in walls], dtype=float),
+        *checker.kernel_args(),
+    )
+    direct = bool(np.any(outcome == DIRECT))
+    free = qs[outcome == DIRECT] if direct else qs[outcome == FREE]
+    free = free[np.argsort(np.linalg.norm(free - start, axis=1), kind="stable")]
+    score = perr + 0.1 * rerr
+    i = int(np.argmin(score))
+    return GoalSearch(
+        free,
+        direct,
+        qs[i],
+        float(perr[i]),
+        float(rerr[i]),
+        int(np.count_nonzero(outcome > MISSED)),
+        int(tried),
+    )

@@ -113,10 +113,12 @@ def published() -> Path:
 
 
 def test_the_published_set(panda, published) -> None:
-    """The first cage problem of the real set is solved without a colliding path."""
+    """The first cage problem of the real set is solved without a colliding path, timed
+    back to back and cold."""
     probs = mbm.problems(published, "cage", 1, panda)
     result = mbm.run_scene(probs, time_limit=5.0, ompl=False)
     assert result["ours"]["solved"] == 1 and result["ours_colliding"] == 0
+    assert result["ours_cold_cpu"]["solved"] == 1
 
 
 def test_a_finger_grazing_a_box_between_check_points_is_refused(panda, published) -> None:

@@ -48,7 +48,7 @@ import numba
 import numpy as np
 from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
-from scipy.sparse.linalg import spsolve
+from scipy.sparse.linalg import splu
 
 from robotrial.slam.grid import LogOddsGrid, LogOddsModel
 from robotrial.slam.matcher import ScanMatcher
@@ -110,6 +110,53 @@ def _robust(chi2: np.ndarray, loop: np.ndarray, width: float | None) -> tuple[fl
     return float(cost), w
 
 
+class _Pattern:
+    """The sparsity of a pose graph's normal equations, worked out once per optimisation:
+    where each edge's four 3 x 3 blocks (i,i), (i,j), (j,i), (j,j) and each diagonal entry
+    land among the matrix's stored entries (column by column), so that every iteration
+    sums its blocks into the entries with one bincount and factorises without re-sorting."""
+
+    def __init__(self, n: int, ii: np.ndarray, jj: np.ndarray) -> None:
+        size = 3 * n
+        k = np.arange(3)
+        rows = np.concatenate(
+            [np.broadcast_to(3 * r[:, None, None] + k[None, :, None], (len(ii), 3, 3))
+             for r in (ii, ii, jj, jj)]
+        ).ravel()  # fmt: skip
+        cols = np.concatenate(
+            [np.broadcast_to(3 * c[:, None, None] + k[None, None, :], (len(ii), 3, 3))
+             for c in (ii, jj, ii, jj)]
+        ).ravel()  # fmt: skip
+        every = np.arange(size)
+        flat_cols = np.concatenate([cols, every]).astype(np.int64)
+        keys = flat_cols * size + np.concatenate([rows, every])
+        unique, slot = np.unique(keys, return_inverse=True)
+        self.size = size
+        self.slots = slot[: len(rows)]
+        self.count = len(unique)
+        self.diagonal = slot[len(rows) :]
+        self.indices = (unique % size).astype(np.int32)
+        self.indptr = np.searchsorted(unique // size, np.arange(size + 1)).astype(np.int32)
+        self.rows_i = (3 * ii[:, None] + k).ravel()
+        self.rows_j = (3 * jj[:, None] + k).ravel()
+
+    def sum(self, values: np.ndarray) -> np.ndarray:
+        """The stored entries of the matrix whose blocks hold `values` (in the order of
+        the blocks): duplicates added."""
+        return np.bincount(self.slots, values, minlength=self.count)
+
+    def solve(self, data: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """Solve the symmetric positive definite system of entries `data` for `rhs`."""
+        h = sparse.csc_matrix((data, self.indices, self.indptr), shape=(self.size, self.size))
+        lu = splu(
+            h,
+            permc_spec="MMD_AT_PLUS_A",
+            diag_pivot_thresh=0.0,
+            options={"SymmetricMode": True},
+        )
+        return lu.solve(rhs)
+
+
 def optimize_graph(
     poses: np.ndarray,
     edges: list[Edge],
@@ -134,16 +181,8 @@ def optimize_graph(
     z = np.array([e.z for e in edges], dtype=np.float64)
     info0 = np.array([e.info for e in edges], dtype=np.float64)
     loop = np.array([e.loop for e in edges], dtype=bool)
-    # Block row/column indices of the 3x3 blocks (i,i), (i,j), (j,i), (j,j) of every edge.
-    k = np.arange(3)
-    blocks = [(ii, ii), (ii, jj), (jj, ii), (jj, jj)]
     m = len(edges)
-    rows = np.concatenate(
-        [np.broadcast_to(3 * r[:, None, None] + k[None, :, None], (m, 3, 3)) for r, _ in blocks]
-    ).ravel()
-    cols = np.concatenate(
-        [np.broadcast_to(3 * c[:, None, None] + k[None, None, :], (m, 3, 3)) for _, c in blocks]
-    ).ravel()
+    pattern = _Pattern(n, ii, jj)
 
     def cost_of(p: np.ndarray) -> tuple[float, np.ndarray]:
         err = _errors(p, ii, jj, z)
@@ -152,6 +191,8 @@ def optimize_graph(
     start, weights = cost_of(x)
     cost = start
     lam = 1e-4
+    anchor = np.zeros(3 * n)
+    anchor[3 * fixed : 3 * fixed + 3] = 1e12
     for _ in range(iterations):
         info = info0 * weights[:, None, None]
         err = _errors(x, ii, jj, z)
@@ -168,18 +209,20 @@ def optimize_graph(
         b[:, 2, 2] = 1.0
         at, bt = a.transpose(0, 2, 1), b.transpose(0, 2, 1)
         hii, hij, hjj = at @ info @ a, at @ info @ b, bt @ info @ b
-        vals = np.concatenate([hii, hij, hij.transpose(0, 2, 1), hjj]).ravel()
-        h = sparse.coo_matrix((vals, (rows, cols)), shape=(3 * n, 3 * n)).tocsc()
+        data = pattern.sum(np.concatenate([hii, hij, hij.transpose(0, 2, 1), hjj]).ravel())
         oe = np.einsum("eij,ej->ei", info, err)
-        g = np.zeros(3 * n)
-        np.add.at(g, (ii[:, None] * 3 + k).ravel(), np.einsum("eji,ej->ei", a, oe).ravel())
-        np.add.at(g, (jj[:, None] * 3 + k).ravel(), np.einsum("eji,ej->ei", b, oe).ravel())
-        diag = h.diagonal()
-        anchor = np.zeros(3 * n)
-        anchor[3 * fixed : 3 * fixed + 3] = 1e12
+        g = np.bincount(
+            np.concatenate([pattern.rows_i, pattern.rows_j]),
+            np.concatenate(
+                [np.einsum("eji,ej->ei", a, oe).ravel(), np.einsum("eji,ej->ei", b, oe).ravel()]
+            ),
+            minlength=3 * n,
+        )
+        diag = data[pattern.diagonal]
         while True:
-            damp = sparse.diags(lam * (diag + 1e-9) + anchor)
-            step = spsolve((h + damp).tocsc(), -g).reshape(n, 3)
+            damped = data.copy()
+            damped[pattern.diagonal] += lam * (diag + 1e-9) + anchor
+            step = pattern.solve(damped, -g).reshape(n, 3)
             step[fixed] = 0.0
             trial = x + step
             trial[:, 2] = (trial[:, 2] + np.pi) % (2 * np.pi) - np.pi

@@ -114,7 +114,7 @@ class _Pattern:
     """The sparsity of a pose graph's normal equations, worked out once per optimisation:
     where each edge's four 3 x 3 blocks (i,i), (i,j), (j,i), (j,j) and each diagonal entry
     land among the matrix's stored entries (column by column), so that every iteration
-    sums its blocks into the entries with one bincount and factorises without re-sorting."""
+    adds its blocks into the entries in place and factorises without re-sorting."""
 
     def __init__(self, n: int, ii: np.ndarray, jj: np.ndarray) -> None:
         size = 3 * n
@@ -137,13 +137,6 @@ class _Pattern:
         self.diagonal = slot[len(rows) :]
         self.indices = (unique % size).astype(np.int32)
         self.indptr = np.searchsorted(unique // size, np.arange(size + 1)).astype(np.int32)
-        self.rows_i = (3 * ii[:, None] + k).ravel()
-        self.rows_j = (3 * jj[:, None] + k).ravel()
-
-    def sum(self, values: np.ndarray) -> np.ndarray:
-        """The stored entries of the matrix whose blocks hold `values` (in the order of
-        the blocks): duplicates added."""
-        return np.bincount(self.slots, values, minlength=self.count)
 
     def solve(self, data: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """Solve the symmetric positive definite system of entries `data` for `rhs`."""
@@ -155,6 +148,63 @@ class _Pattern:
             options={"SymmetricMode": True},
         )
         return lu.solve(rhs)
+
+
+@numba.njit(cache=True, nogil=True)
+def _normal_equations(
+    x: np.ndarray,
+    ii: np.ndarray,
+    jj: np.ndarray,
+    z: np.ndarray,
+    info0: np.ndarray,
+    weights: np.ndarray,
+    slots: np.ndarray,
+    count: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    # The Gauss-Newton system at poses x: the stored entries of J' W J (each edge's
+    # blocks (i,i), (i,j), (j,i), (j,j) added at `slots`, in _Pattern's order) and J' W e.
+    m = ii.shape[0]
+    data = np.zeros(count)
+    g = np.zeros(3 * x.shape[0])
+    a = np.zeros((3, 3))
+    b = np.zeros((3, 3))
+    info = np.empty((3, 3))
+    err = np.empty(3)
+    for e in range(m):
+        i, j = ii[e], jj[e]
+        c, s = np.cos(x[i, 2]), np.sin(x[i, 2])
+        dx, dy = x[j, 0] - x[i, 0], x[j, 1] - x[i, 1]
+        err[0] = c * dx + s * dy - z[e, 0]
+        err[1] = -s * dx + c * dy - z[e, 1]
+        err[2] = (x[j, 2] - x[i, 2] - z[e, 2] + np.pi) % (2 * np.pi) - np.pi
+        a[0, 0], a[0, 1], a[0, 2] = -c, -s, -s * dx + c * dy
+        a[1, 0], a[1, 1], a[1, 2] = s, -c, -c * dx - s * dy
+        a[2, 2] = -1.0
+        b[0, 0], b[0, 1], b[1, 0], b[1, 1], b[2, 2] = c, s, -s, c, 1.0
+        for r in range(3):
+            for q in range(3):
+                info[r, q] = info0[e, r, q] * weights[e]
+        for blk in range(4):
+            left = a if blk < 2 else b
+            right = a if blk == 0 or blk == 2 else b
+            base = (blk * m + e) * 9
+            for r in range(3):
+                for q in range(3):
+                    v = 0.0
+                    for u in range(3):
+                        for w in range(3):
+                            v += left[u, r] * info[u, w] * right[w, q]
+                    data[slots[base + 3 * r + q]] += v
+        for r in range(3):
+            ga = 0.0
+            gb = 0.0
+            for u in range(3):
+                oe = info[u, 0] * err[0] + info[u, 1] * err[1] + info[u, 2] * err[2]
+                ga += a[u, r] * oe
+                gb += b[u, r] * oe
+            g[3 * i + r] += ga
+            g[3 * j + r] += gb
+    return data, g
 
 
 def optimize_graph(
@@ -181,7 +231,6 @@ def optimize_graph(
     z = np.array([e.z for e in edges], dtype=np.float64)
     info0 = np.array([e.info for e in edges], dtype=np.float64)
     loop = np.array([e.loop for e in edges], dtype=bool)
-    m = len(edges)
     pattern = _Pattern(n, ii, jj)
 
     def cost_of(p: np.ndarray) -> tuple[float, np.ndarray]:
@@ -194,30 +243,7 @@ def optimize_graph(
     anchor = np.zeros(3 * n)
     anchor[3 * fixed : 3 * fixed + 3] = 1e12
     for _ in range(iterations):
-        info = info0 * weights[:, None, None]
-        err = _errors(x, ii, jj, z)
-        pi, pj = x[ii], x[jj]
-        c, s = np.cos(pi[:, 2]), np.sin(pi[:, 2])
-        dx, dy = pj[:, 0] - pi[:, 0], pj[:, 1] - pi[:, 1]
-        a = np.zeros((m, 3, 3))
-        b = np.zeros((m, 3, 3))
-        a[:, 0, 0], a[:, 0, 1], a[:, 0, 2] = -c, -s, -s * dx + c * dy
-        a[:, 1, 0], a[:, 1, 1], a[:, 1, 2] = s, -c, -c * dx - s * dy
-        a[:, 2, 2] = -1.0
-        b[:, 0, 0], b[:, 0, 1] = c, s
-        b[:, 1, 0], b[:, 1, 1] = -s, c
-        b[:, 2, 2] = 1.0
-        at, bt = a.transpose(0, 2, 1), b.transpose(0, 2, 1)
-        hii, hij, hjj = at @ info @ a, at @ info @ b, bt @ info @ b
-        data = pattern.sum(np.concatenate([hii, hij, hij.transpose(0, 2, 1), hjj]).ravel())
-        oe = np.einsum("eij,ej->ei", info, err)
-        g = np.bincount(
-            np.concatenate([pattern.rows_i, pattern.rows_j]),
-            np.concatenate(
-                [np.einsum("eji,ej->ei", a, oe).ravel(), np.einsum("eji,ej->ei", b, oe).ravel()]
-            ),
-            minlength=3 * n,
-        )
+        data, g = _normal_equations(x, ii, jj, z, info0, weights, pattern.slots, pattern.count)
         diag = data[pattern.diagonal]
         while True:
             damped = data.copy()

@@ -48,7 +48,7 @@ import numba
 import numpy as np
 from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
-from scipy.sparse.linalg import spsolve
+from scipy.sparse.linalg import splu
 
 from robotrial.slam.grid import LogOddsGrid, LogOddsModel
 from robotrial.slam.matcher import ScanMatcher
@@ -110,6 +110,103 @@ def _robust(chi2: np.ndarray, loop: np.ndarray, width: float | None) -> tuple[fl
     return float(cost), w
 
 
+class _Pattern:
+    """The sparsity of a pose graph's normal equations, worked out once per optimisation:
+    where each edge's four 3 x 3 blocks (i,i), (i,j), (j,i), (j,j) and each diagonal entry
+    land among the matrix's stored entries (column by column), so that every iteration
+    adds its blocks into the entries in place and factorises without re-sorting."""
+
+    def __init__(self, n: int, ii: np.ndarray, jj: np.ndarray) -> None:
+        size = 3 * n
+        k = np.arange(3)
+        rows = np.concatenate(
+            [np.broadcast_to(3 * r[:, None, None] + k[None, :, None], (len(ii), 3, 3))
+             for r in (ii, ii, jj, jj)]
+        ).ravel()  # fmt: skip
+        cols = np.concatenate(
+            [np.broadcast_to(3 * c[:, None, None] + k[None, None, :], (len(ii), 3, 3))
+             for c in (ii, jj, ii, jj)]
+        ).ravel()  # fmt: skip
+        every = np.arange(size)
+        flat_cols = np.concatenate([cols, every]).astype(np.int64)
+        keys = flat_cols * size + np.concatenate([rows, every])
+        unique, slot = np.unique(keys, return_inverse=True)
+        self.size = size
+        self.slots = slot[: len(rows)]
+        self.count = len(unique)
+        self.diagonal = slot[len(rows) :]
+        self.indices = (unique % size).astype(np.int32)
+        self.indptr = np.searchsorted(unique // size, np.arange(size + 1)).astype(np.int32)
+
+    def solve(self, data: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """Solve the symmetric positive definite system of entries `data` for `rhs`."""
+        h = sparse.csc_matrix((data, self.indices, self.indptr), shape=(self.size, self.size))
+        lu = splu(
+            h,
+            permc_spec="MMD_AT_PLUS_A",
+            diag_pivot_thresh=0.0,
+            options={"SymmetricMode": True},
+        )
+        return lu.solve(rhs)
+
+
+@numba.njit(cache=True, nogil=True)
+def _normal_equations(
+    x: np.ndarray,
+    ii: np.ndarray,
+    jj: np.ndarray,
+    z: np.ndarray,
+    info0: np.ndarray,
+    weights: np.ndarray,
+    slots: np.ndarray,
+    count: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    # The Gauss-Newton system at poses x: the stored entries of J' W J (each edge's
+    # blocks (i,i), (i,j), (j,i), (j,j) added at `slots`, in _Pattern's order) and J' W e.
+    m = ii.shape[0]
+    data = np.zeros(count)
+    g = np.zeros(3 * x.shape[0])
+    a = np.zeros((3, 3))
+    b = np.zeros((3, 3))
+    info = np.empty((3, 3))
+    err = np.empty(3)
+    for e in range(m):
+        i, j = ii[e], jj[e]
+        c, s = np.cos(x[i, 2]), np.sin(x[i, 2])
+        dx, dy = x[j, 0] - x[i, 0], x[j, 1] - x[i, 1]
+        err[0] = c * dx + s * dy - z[e, 0]
+        err[1] = -s * dx + c * dy - z[e, 1]
+        err[2] = (x[j, 2] - x[i, 2] - z[e, 2] + np.pi) % (2 * np.pi) - np.pi
+        a[0, 0], a[0, 1], a[0, 2] = -c, -s, -s * dx + c * dy
+        a[1, 0], a[1, 1], a[1, 2] = s, -c, -c * dx - s * dy
+        a[2, 2] = -1.0
+        b[0, 0], b[0, 1], b[1, 0], b[1, 1], b[2, 2] = c, s, -s, c, 1.0
+        for r in range(3):
+            for q in range(3):
+                info[r, q] = info0[e, r, q] * weights[e]
+        for blk in range(4):
+            left = a if blk < 2 else b
+            right = a if blk == 0 or blk == 2 else b
+            base = (blk * m + e) * 9
+            for r in range(3):
+                for q in range(3):
+                    v = 0.0
+                    for u in range(3):
+                        for w in range(3):
+                            v += left[u, r] * info[u, w] * right[w, q]
+                    data[slots[base + 3 * r + q]] += v
+        for r in range(3):
+            ga = 0.0
+            gb = 0.0
+            for u in range(3):
+                oe = info[u, 0] * err[0] + info[u, 1] * err[1] + info[u, 2] * err[2]
+                ga += a[u, r] * oe
+                gb += b[u, r] * oe
+            g[3 * i + r] += ga
+            g[3 * j + r] += gb
+    return data, g
+
+
 def optimize_graph(
     poses: np.ndarray,
     edges: list[Edge],
@@ -134,16 +231,7 @@ def optimize_graph(
     z = np.array([e.z for e in edges], dtype=np.float64)
     info0 = np.array([e.info for e in edges], dtype=np.float64)
     loop = np.array([e.loop for e in edges], dtype=bool)
-    # Block row/column indices of the 3x3 blocks (i,i), (i,j), (j,i), (j,j) of every edge.
-    k = np.arange(3)
-    blocks = [(ii, ii), (ii, jj), (jj, ii), (jj, jj)]
-    m = len(edges)
-    rows = np.concatenate(
-        [np.broadcast_to(3 * r[:, None, None] + k[None, :, None], (m, 3, 3)) for r, _ in blocks]
-    ).ravel()
-    cols = np.concatenate(
-        [np.broadcast_to(3 * c[:, None, None] + k[None, None, :], (m, 3, 3)) for _, c in blocks]
-    ).ravel()
+    pattern = _Pattern(n, ii, jj)
 
     def cost_of(p: np.ndarray) -> tuple[float, np.ndarray]:
         err = _errors(p, ii, jj, z)
@@ -152,34 +240,15 @@ def optimize_graph(
     start, weights = cost_of(x)
     cost = start
     lam = 1e-4
+    anchor = np.zeros(3 * n)
+    anchor[3 * fixed : 3 * fixed + 3] = 1e12
     for _ in range(iterations):
-        info = info0 * weights[:, None, None]
-        err = _errors(x, ii, jj, z)
-        pi, pj = x[ii], x[jj]
-        c, s = np.cos(pi[:, 2]), np.sin(pi[:, 2])
-        dx, dy = pj[:, 0] - pi[:, 0], pj[:, 1] - pi[:, 1]
-        a = np.zeros((m, 3, 3))
-        b = np.zeros((m, 3, 3))
-        a[:, 0, 0], a[:, 0, 1], a[:, 0, 2] = -c, -s, -s * dx + c * dy
-        a[:, 1, 0], a[:, 1, 1], a[:, 1, 2] = s, -c, -c * dx - s * dy
-        a[:, 2, 2] = -1.0
-        b[:, 0, 0], b[:, 0, 1] = c, s
-        b[:, 1, 0], b[:, 1, 1] = -s, c
-        b[:, 2, 2] = 1.0
-        at, bt = a.transpose(0, 2, 1), b.transpose(0, 2, 1)
-        hii, hij, hjj = at @ info @ a, at @ info @ b, bt @ info @ b
-        vals = np.concatenate([hii, hij, hij.transpose(0, 2, 1), hjj]).ravel()
-        h = sparse.coo_matrix((vals, (rows, cols)), shape=(3 * n, 3 * n)).tocsc()
-        oe = np.einsum("eij,ej->ei", info, err)
-        g = np.zeros(3 * n)
-        np.add.at(g, (ii[:, None] * 3 + k).ravel(), np.einsum("eji,ej->ei", a, oe).ravel())
-        np.add.at(g, (jj[:, None] * 3 + k).ravel(), np.einsum("eji,ej->ei", b, oe).ravel())
-        diag = h.diagonal()
-        anchor = np.zeros(3 * n)
-        anchor[3 * fixed : 3 * fixed + 3] = 1e12
+        data, g = _normal_equations(x, ii, jj, z, info0, weights, pattern.slots, pattern.count)
+        diag = data[pattern.diagonal]
         while True:
-            damp = sparse.diags(lam * (diag + 1e-9) + anchor)
-            step = spsolve((h + damp).tocsc(), -g).reshape(n, 3)
+            damped = data.copy()
+            damped[pattern.diagonal] += lam * (diag + 1e-9) + anchor
+            step = pattern.solve(damped, -g).reshape(n, 3)
             step[fixed] = 0.0
             trial = x + step
             trial[:, 2] = (trial[:, 2] + np.pi) % (2 * np.pi) - np.pi

@@ -210,3 +210,35 @@ def test_a_post_the_first_link_sweeps_into_is_a_wall_no_goal_past_it_is_reached(
     near[0], past[0] = 0.0, 2.5
     assert list(checker.beyond_walls(near, np.stack([near, past]))) == [False, True]
     assert CollisionChecker(spheres, Environment()).walls() == []
+
+
+def test_what_a_robot_keeps_per_obstacle_follows_each_scene(desk_arm) -> None:
+    """A robot keeps what its sweeps found per obstacle (so that a request's checker
+    measures only its new boxes): a post moved to the other side of joint 1 gets its own
+    wall, and each scene's checker answers as one of a robot that kept nothing."""
+    from robotrial.model.robot import CollisionSphere
+
+    kin = desk_arm[1].kin
+    lever = [CollisionSphere("link1", (0.15, 0.0, 0.05), 0.03)]
+    spheres = RobotSpheres(kin, lever, samples=100, fine=lever)
+    q = np.clip(np.zeros(kin.d), kin.lower, kin.upper)
+
+    def scene(angle: float) -> Environment:
+        q[0] = angle
+        m = kin.fk(q)[kin.link_index["link1"]]
+        post = m[:3, :3] @ np.array([0.15, 0.0, 0.05]) + m[:3, 3]
+        env = Environment()
+        env.add("post", Box((0.03, 0.03, 0.03)), Pose(tuple(map(float, post))))
+        env.add("far", Box((0.1, 0.1, 0.1)), Pose((0.0, 0.0, 0.6)))
+        return env
+
+    walls = []
+    for angle in (1.5, -1.5, 1.5):
+        env = scene(angle)
+        kept = CollisionChecker(spheres, env)
+        fresh = CollisionChecker(RobotSpheres(kin, lever, samples=100, fine=lever), env)
+        assert kept.walls() == fresh.walls()
+        assert np.array_equal(kept.never_touching, fresh.never_touching)
+        (wall,) = kept.walls()
+        walls.append(wall)
+    assert walls[0] == walls[2] and walls[1].high < -1.0 < 1.0 < walls[0].low

@@ -551,7 +551,124 @@ class CollisionChecker:
             for lo, hi in zip(edges[::2], edges[1::2] - 1, strict=True):
                 which = names[int(np.argmax(inside[lo : hi + 1].sum(axis=0)))]
                 self._walls.append(Wall(int(joints[0]), values[lo], values[hi], body.name, which))
+        key = ("pair walls", "", self.padding)
+        if key not in self.robot._memo:
+            self.robot._memo[key] = self._pair_walls()
+        self._walls += self.robot._memo[key]
         return self._walls
+
+    def _pair_walls(self) -> list[Wall]:
+        """Walls of one joint made by links that two planning joints move (a held arm
+        that a torso's yaw and pitch carry): the values of one of the two joints where
+        such links are inside a link no planning joint moves (the pelvis) whatever the
+        other joint does, on a grid of the two (the fine covers decide). The robot's
+        own: the same in every scene."""
+        rates = self._travel[0]
+        groups: dict[tuple[int, int], list[int]] = {}
+        for bi in self.env_bodies:
+            joints = tuple(int(j) for j in np.nonzero(rates[bi])[0])
+            if self.bodies[bi].name != OBJECT and len(joints) == 2:
+                groups.setdefault(joints, []).append(int(bi))
+        moving = set(self.env_bodies.tolist())
+        enabled = {tuple(sorted(p)) for p in self.pairs.tolist()}
+        per = int(np.sqrt(3 * WALL_SAMPLES))  # grid values of each joint (`sweep`)
+        out: list[Wall] = []
+        for (j, k), members in groups.items():
+            # the first covers hold the links: where their cells leave a way round,
+            # the fine ones do too (and need not be made)
+            partners, first = {}, {}
+            coarse = np.zeros(per * per, dtype=bool)
+            for bi in members:
+                partners[bi] = [
+                    f
+                    for f, b in enumerate(self.bodies)
+                    if f not in moving and b.name != OBJECT and tuple(sorted((bi, f))) in enabled
+                ]
+                first[bi] = self._pair_inside(self.bodies[bi], (j, k), partners[bi], False)
+                coarse |= first[bi].any(axis=1)
+            coarse = coarse.reshape(per, per)
+            rows, cols = coarse.all(axis=1), coarse.all(axis=0)
+            if not (rows.any() or cols.any()):
+                continue
+            candidate = (rows[:, None] | cols[None, :]).ravel()
+            hits: dict[tuple[str, str], np.ndarray] = {}
+            for bi in members:
+                body = self.bodies[bi]
+                near = first[bi][candidate].any(axis=0)  # by partner
+                if not near.any():
+                    continue
+                links = [self.bodies[f].link for f in partners[bi]]
+                touched = near
+                self.robot.refine(
+                    {body.link} | {link for link, t in zip(links, touched, strict=True) if t}
+                )
+                inside = self._pair_inside(body, (j, k), partners[bi], True)
+                if inside is None:
+                    continue
+                for c, other in enumerate(self.bodies[f].name for f in partners[bi]):
+                    if inside[:, c].any():
+                        grid = inside[:, c].reshape(per, per)
+                        key = (body.name, other)
+                        hits[key] = hits[key] | grid if key in hits else grid
+            if not hits:
+                continue
+            blocked = np.any(list(hits.values()), axis=0)
+            for joint, rows, axis in ((j, blocked.all(axis=1), 1), (k, blocked.all(axis=0), 0)):
+                values = np.linspace(self.kin.lower[joint], self.kin.upper[joint], per)
+                edges = np.flatnonzero(np.diff(np.r_[0, rows.astype(int), 0]))
+                for lo, hi in zip(edges[::2], edges[1::2] - 1, strict=True):
+                    span = slice(lo, hi + 1)
+                    counts = {
+                        key: int((g[span] if axis == 1 else g[:, span]).sum())
+                        for key, g in hits.items()
+                    }
+                    body_name, other = max(counts, key=lambda key: counts[key])
+                    out.append(Wall(joint, values[lo], values[hi], body_name, other))
+        return out
+
+    def _pair_inside(
+        self,
+        body: Body,
+        joints: tuple[int, int],
+        partners: list[int],
+        fine: bool,
+    ) -> np.ndarray | None:
+        """(grid configurations, partner links) True where `body` (its fine cover with
+        `fine`), its two joints swept on a grid, is inside a partner link (a link no
+        planning joint moves; its fine cover with `fine`) by more than it moves between
+        grid points; None when its fine cover is not made."""
+        if fine:
+            own = next(b for b in self.robot.bodies if b.name == body.name)
+            if own.fine_centres is None:
+                return None
+            body = replace(
+                own, name=f"{own.name} (fine)", centres=own.fine_centres, radii=own.fine_radii
+            )
+        pair = np.array(joints)
+        rates = self.robot.arms(body, self.padding) @ self._to_joint
+        pts, radii, margin = self.robot.sweep(body, pair, rates, self.padding, WALL_SAMPLES)
+        grid = len(pts) // len(body.radii)
+        cols = [np.zeros((grid, 0), dtype=bool)]
+        own_links = {b.name: b for b in self.robot.bodies}
+        pose = self.kin.fk(0.5 * (self.kin.lower + self.kin.upper))
+        for f in partners:
+            other = own_links[self.bodies[f].name]
+            centres, r = other.centres, other.radii
+            if fine and other.fine_centres is not None:
+                centres, r = other.fine_centres, other.fine_radii
+            m = pose[self.kin.link_index[other.link]]
+            c = centres @ m[:3, :3].T + m[:3, 3]
+            # only points within reach of the link's box can be inside it by the margin
+            reach = float(radii.max()) + margin
+            lo, hi = (c - r[:, None]).min(axis=0) - reach, (c + r[:, None]).max(axis=0) + reach
+            near = np.flatnonzero(np.all((pts >= lo) & (pts <= hi), axis=1))
+            depth = np.full(len(pts), -np.inf)
+            for s in range(0, len(near), 4096):
+                at = near[s : s + 4096]
+                gap = np.linalg.norm(pts[at, None] - c[None], axis=-1) - r[None]
+                depth[at] = radii[at] - self.padding - gap.min(axis=1)
+            cols.append((depth.reshape(grid, -1).max(axis=1) > margin)[:, None])
+        return np.hstack(cols)
 
     def _inside(
         self, body: Body, joints: np.ndarray, env: kernels.Shapes, shapes: list

@@ -242,3 +242,34 @@ def test_what_a_robot_keeps_per_obstacle_follows_each_scene(desk_arm) -> None:
         (wall,) = kept.walls()
         walls.append(wall)
     assert walls[0] == walls[2] and walls[1].high < -1.0 < 1.0 < walls[0].low
+
+
+def test_a_link_two_joints_move_into_a_fixed_link_whatever_the_first_does_is_a_wall(
+    desk_arm,
+) -> None:
+    """A sphere on link 2 (moved by joints 1 and 2) swings into a large sphere on the
+    fixed base when joint 2 tips it past about 1.1 rad either way, whatever joint 1's
+    yaw: both ends of joint 2's range are walls of the base, and a configuration there
+    is past them."""
+    from robotrial.model.robot import CollisionSphere
+
+    kin = desk_arm[1].kin
+    shapes = [
+        CollisionSphere("base_link", (0.0, 0.0, -0.05), 0.28),
+        CollisionSphere("link1", (0.0, 0.0, 0.03), 0.01),  # so that link2 is not adjacent
+        CollisionSphere("link2", (0.0, 0.0, 0.16), 0.02),
+    ]
+    spheres = RobotSpheres(kin, shapes, samples=300, fine=shapes)
+    # the desk arm's meshes never meet there (the matrix leaves the pair out); these
+    # spheres stand for links that do
+    spheres.disabled.discard(("base_link", "link2"))
+    checker = CollisionChecker(spheres)
+    low, high = sorted(checker.walls(), key=lambda w: w.low)
+    for wall in (low, high):
+        assert (wall.joint, wall.body, wall.obstacle) == (1, "link2", "base_link")
+    assert low.low == kin.lower[1] and -1.5 < low.high < -0.9
+    assert 0.9 < high.low < 1.5 and high.high == kin.upper[1]
+    q = np.clip(np.zeros(kin.d), kin.lower, kin.upper)
+    past = q.copy()
+    past[1] = 1.88
+    assert list(checker.beyond_walls(q, np.stack([q, past]))) == [False, True]

@@ -210,3 +210,66 @@ def test_a_post_the_first_link_sweeps_into_is_a_wall_no_goal_past_it_is_reached(
     near[0], past[0] = 0.0, 2.5
     assert list(checker.beyond_walls(near, np.stack([near, past]))) == [False, True]
     assert CollisionChecker(spheres, Environment()).walls() == []
+
+
+def test_what_a_robot_keeps_per_obstacle_follows_each_scene(desk_arm) -> None:
+    """A robot keeps what its sweeps found per obstacle (so that a request's checker
+    measures only its new boxes): a post moved to the other side of joint 1 gets its own
+    wall, and each scene's checker answers as one of a robot that kept nothing."""
+    from robotrial.model.robot import CollisionSphere
+
+    kin = desk_arm[1].kin
+    lever = [CollisionSphere("link1", (0.15, 0.0, 0.05), 0.03)]
+    spheres = RobotSpheres(kin, lever, samples=100, fine=lever)
+    q = np.clip(np.zeros(kin.d), kin.lower, kin.upper)
+
+    def scene(angle: float) -> Environment:
+        q[0] = angle
+        m = kin.fk(q)[kin.link_index["link1"]]
+        post = m[:3, :3] @ np.array([0.15, 0.0, 0.05]) + m[:3, 3]
+        env = Environment()
+        env.add("post", Box((0.03, 0.03, 0.03)), Pose(tuple(map(float, post))))
+        env.add("far", Box((0.1, 0.1, 0.1)), Pose((0.0, 0.0, 0.6)))
+        return env
+
+    walls = []
+    for angle in (1.5, -1.5, 1.5):
+        env = scene(angle)
+        kept = CollisionChecker(spheres, env)
+        fresh = CollisionChecker(RobotSpheres(kin, lever, samples=100, fine=lever), env)
+        assert kept.walls() == fresh.walls()
+        assert np.array_equal(kept.never_touching, fresh.never_touching)
+        (wall,) = kept.walls()
+        walls.append(wall)
+    assert walls[0] == walls[2] and walls[1].high < -1.0 < 1.0 < walls[0].low
+
+
+def test_a_link_two_joints_move_into_a_fixed_link_whatever_the_first_does_is_a_wall(
+    desk_arm,
+) -> None:
+    """A sphere on link 2 (moved by joints 1 and 2) swings into a large sphere on the
+    fixed base when joint 2 tips it past about 1.1 rad either way, whatever joint 1's
+    yaw: both ends of joint 2's range are walls of the base, and a configuration there
+    is past them."""
+    from robotrial.model.robot import CollisionSphere
+
+    kin = desk_arm[1].kin
+    shapes = [
+        CollisionSphere("base_link", (0.0, 0.0, -0.05), 0.28),
+        CollisionSphere("link1", (0.0, 0.0, 0.03), 0.01),  # so that link2 is not adjacent
+        CollisionSphere("link2", (0.0, 0.0, 0.16), 0.02),
+    ]
+    spheres = RobotSpheres(kin, shapes, samples=300, fine=shapes)
+    # the desk arm's meshes never meet there (the matrix leaves the pair out); these
+    # spheres stand for links that do
+    spheres.disabled.discard(("base_link", "link2"))
+    checker = CollisionChecker(spheres)
+    low, high = sorted(checker.walls(), key=lambda w: w.low)
+    for wall in (low, high):
+        assert (wall.joint, wall.body, wall.obstacle) == (1, "link2", "base_link")
+    assert low.low == kin.lower[1] and -1.5 < low.high < -0.9
+    assert 0.9 < high.low < 1.5 and high.high == kin.upper[1]
+    q = np.clip(np.zeros(kin.d), kin.lower, kin.upper)
+    past = q.copy()
+    past[1] = 1.88
+    assert list(checker.beyond_walls(q, np.stack([q, past]))) == [False, True]

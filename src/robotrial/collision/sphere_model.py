@@ -9,6 +9,7 @@ and answers the planners' batched questions `valid(qs)` and `motion_valid(a, b)`
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -24,6 +25,7 @@ from robotrial.model.robot import CollisionSphere
 
 OBJECT = "object"  # the body name of the object held in the hand
 WALL_SAMPLES = 512  # grid values of a joint's range where its walls are looked for
+SHAPES_KEPT = 16384  # (body, shape) answers of `RobotSpheres.reach_into` kept per robot
 
 
 @dataclass(frozen=True)
@@ -96,6 +98,7 @@ class RobotSpheres:
         # what every checker of this robot computes alike, by (what, body, padding):
         # a request builds a checker, and these took half its time
         self._memo: dict[tuple[str, str, float], Any] = {}
+        self._shapes: OrderedDict[tuple, tuple[bool, np.ndarray]] = OrderedDict()
         self.disabled, self.reasons, self.close = self._disable_pairs(samples, seed)
         self.fine_self: set[str] = set()
         if self.has_fine:
@@ -246,6 +249,65 @@ class RobotSpheres:
         if body.name != OBJECT:
             self._memo[key] = out
         return out
+
+    def reach_into(
+        self,
+        body: Body,
+        joints: np.ndarray,
+        rates: np.ndarray,
+        padding: float,
+        samples: int,
+        env: kernels.Shapes,
+        shapes: list[tuple[bytes, np.ndarray, np.ndarray]],
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Where `body`, its `joints` swept (`sweep`), meets each shape of `env` (the
+        kernels' arrays; `shapes`, their `_each_shape`): (shapes,) True where it never
+        comes within what it moves between grid points of the shape, and (grid
+        configurations, shapes) True where it is inside the shape by more than that.
+        Kept per body and shape, the last SHAPES_KEPT answers (a world's shapes are the
+        same in every request, and a request's boxes come back while its user moves the
+        goal); a shape beyond the sweep's bounding box by more than a sphere's radius is
+        answered without a look at each sphere."""
+        pts, radii, margin = self.sweep(body, joints, rates, padding, samples)
+        per = len(body.radii)
+        grid = len(pts) // per
+        key = (f"bound {samples}", body.name, float(padding))
+        bound = self._memo.get(key)
+        if bound is None or body.name == OBJECT:
+            bound = (pts.min(axis=0), pts.max(axis=0))
+            if body.name != OBJECT:
+                self._memo[key] = bound
+        far = float(radii.max()) + margin
+        never = np.zeros(len(shapes), dtype=bool)
+        inside = np.zeros((grid, len(shapes)), dtype=bool)
+        todo = []
+        for s, (key, lo, hi) in enumerate(shapes):
+            memo = (body.name, float(padding), samples, key)
+            kept = self._shapes.get(memo) if body.name != OBJECT else None
+            if kept is not None:
+                self._shapes.move_to_end(memo)
+                never[s], inside[:, s] = kept
+            elif _box_gap(bound[0], bound[1], lo, hi) > far:
+                never[s] = True
+                self._keep(body, memo, (True, inside[:, s].copy()))
+            else:
+                todo.append(s)
+        if todo:
+            depth = radii[:, None] - _shape_gaps(pts, *_pick(env, todo))
+            never[todo] = depth.max(axis=0) < -margin
+            inside[:, todo] = depth.reshape(grid, per, -1).max(axis=1) > margin
+            for s in todo:
+                memo = (body.name, float(padding), samples, shapes[s][0])
+                self._keep(body, memo, (bool(never[s]), inside[:, s].copy()))
+        return never, inside
+
+    def _keep(self, body: Body, key: tuple, answer: tuple[bool, np.ndarray]) -> None:
+        """Keep one answer of `reach_into` (not for a held object, which changes)."""
+        if body.name == OBJECT:
+            return
+        self._shapes[key] = answer
+        while len(self._shapes) > SHAPES_KEPT:
+            self._shapes.popitem(last=False)
 
 
 @dataclass
@@ -440,15 +502,14 @@ class CollisionChecker:
         n_shapes = len(env.box_inv) + len(env.cyl_inv) + len(env.sph_c)
         out = np.zeros((len(self.env_bodies), n_shapes), dtype=bool)
         rates = self._travel[0]
+        shapes = _each_shape(env)
         for e, bi in enumerate(self.env_bodies):
             joints = np.nonzero(rates[bi] > 0)[0]
             if self.bodies[bi].name == OBJECT or not 1 <= len(joints) <= 2 or n_shapes == 0:
                 continue
-            pts, radii, margin = self.robot.sweep(
-                self.bodies[bi], joints, rates[bi], self.padding, samples
-            )
-            gaps = _shape_gaps(pts, *env)
-            out[e] = np.min(gaps - radii[:, None], axis=0) > margin
+            out[e] = self.robot.reach_into(
+                self.bodies[bi], joints, rates[bi], self.padding, samples, env, shapes
+            )[0]
         return out
 
     def walls(self) -> list[Wall]:
@@ -466,6 +527,7 @@ class CollisionChecker:
             if k == kind
         ]
         rates = self._travel[0]
+        shapes = _each_shape(env)
         self._walls = []
         for bi in self.env_bodies if names else []:
             body = self.bodies[bi]
@@ -474,7 +536,7 @@ class CollisionChecker:
                 continue
             # the first cover (its sweep kept from `_never_touching`) tells where to look
             # with the fine one
-            if not self._inside(body, joints, env).any():
+            if not self._inside(body, joints, env, shapes).any():
                 continue
             self.robot.refine({body.link})
             own = next(b for b in self.robot.bodies if b.name == body.name)
@@ -483,21 +545,140 @@ class CollisionChecker:
             fine = replace(
                 own, name=f"{own.name} (fine)", centres=own.fine_centres, radii=own.fine_radii
             )
-            inside = self._inside(fine, joints, env)  # (grid values, obstacles)
+            inside = self._inside(fine, joints, env, shapes)  # (grid values, obstacles)
             values = np.linspace(self.kin.lower[joints[0]], self.kin.upper[joints[0]], WALL_SAMPLES)
             edges = np.flatnonzero(np.diff(np.r_[0, inside.any(axis=1).astype(int), 0]))
             for lo, hi in zip(edges[::2], edges[1::2] - 1, strict=True):
                 which = names[int(np.argmax(inside[lo : hi + 1].sum(axis=0)))]
                 self._walls.append(Wall(int(joints[0]), values[lo], values[hi], body.name, which))
+        key = ("pair walls", "", self.padding)
+        if key not in self.robot._memo:
+            self.robot._memo[key] = self._pair_walls()
+        self._walls += self.robot._memo[key]
         return self._walls
 
-    def _inside(self, body: Body, joints: np.ndarray, env: kernels.Shapes) -> np.ndarray:
+    def _pair_walls(self) -> list[Wall]:
+        """Walls of one joint made by links that two planning joints move (a held arm
+        that a torso's yaw and pitch carry): the values of one of the two joints where
+        such links are inside a link no planning joint moves (the pelvis) whatever the
+        other joint does, on a grid of the two (the fine covers decide). The robot's
+        own: the same in every scene."""
+        rates = self._travel[0]
+        groups: dict[tuple[int, int], list[int]] = {}
+        for bi in self.env_bodies:
+            joints = tuple(int(j) for j in np.nonzero(rates[bi])[0])
+            if self.bodies[bi].name != OBJECT and len(joints) == 2:
+                groups.setdefault(joints, []).append(int(bi))
+        moving = set(self.env_bodies.tolist())
+        enabled = {tuple(sorted(p)) for p in self.pairs.tolist()}
+        per = int(np.sqrt(3 * WALL_SAMPLES))  # grid values of each joint (`sweep`)
+        out: list[Wall] = []
+        for (j, k), members in groups.items():
+            # the first covers hold the links: where their cells leave a way round,
+            # the fine ones do too (and need not be made)
+            partners, first = {}, {}
+            coarse = np.zeros(per * per, dtype=bool)
+            for bi in members:
+                partners[bi] = [
+                    f
+                    for f, b in enumerate(self.bodies)
+                    if f not in moving and b.name != OBJECT and tuple(sorted((bi, f))) in enabled
+                ]
+                first[bi] = self._pair_inside(self.bodies[bi], (j, k), partners[bi], False)
+                coarse |= first[bi].any(axis=1)
+            coarse = coarse.reshape(per, per)
+            rows, cols = coarse.all(axis=1), coarse.all(axis=0)
+            if not (rows.any() or cols.any()):
+                continue
+            candidate = (rows[:, None] | cols[None, :]).ravel()
+            hits: dict[tuple[str, str], np.ndarray] = {}
+            for bi in members:
+                body = self.bodies[bi]
+                near = first[bi][candidate].any(axis=0)  # by partner
+                if not near.any():
+                    continue
+                links = [self.bodies[f].link for f in partners[bi]]
+                touched = near
+                self.robot.refine(
+                    {body.link} | {link for link, t in zip(links, touched, strict=True) if t}
+                )
+                inside = self._pair_inside(body, (j, k), partners[bi], True)
+                if inside is None:
+                    continue
+                for c, other in enumerate(self.bodies[f].name for f in partners[bi]):
+                    if inside[:, c].any():
+                        grid = inside[:, c].reshape(per, per)
+                        key = (body.name, other)
+                        hits[key] = hits[key] | grid if key in hits else grid
+            if not hits:
+                continue
+            blocked = np.any(list(hits.values()), axis=0)
+            for joint, rows, axis in ((j, blocked.all(axis=1), 1), (k, blocked.all(axis=0), 0)):
+                values = np.linspace(self.kin.lower[joint], self.kin.upper[joint], per)
+                edges = np.flatnonzero(np.diff(np.r_[0, rows.astype(int), 0]))
+                for lo, hi in zip(edges[::2], edges[1::2] - 1, strict=True):
+                    span = slice(lo, hi + 1)
+                    counts = {
+                        key: int((g[span] if axis == 1 else g[:, span]).sum())
+                        for key, g in hits.items()
+                    }
+                    body_name, other = max(counts, key=lambda key: counts[key])
+                    out.append(Wall(joint, values[lo], values[hi], body_name, other))
+        return out
+
+    def _pair_inside(
+        self,
+        body: Body,
+        joints: tuple[int, int],
+        partners: list[int],
+        fine: bool,
+    ) -> np.ndarray | None:
+        """(grid configurations, partner links) True where `body` (its fine cover with
+        `fine`), its two joints swept on a grid, is inside a partner link (a link no
+        planning joint moves; its fine cover with `fine`) by more than it moves between
+        grid points; None when its fine cover is not made."""
+        if fine:
+            own = next(b for b in self.robot.bodies if b.name == body.name)
+            if own.fine_centres is None:
+                return None
+            body = replace(
+                own, name=f"{own.name} (fine)", centres=own.fine_centres, radii=own.fine_radii
+            )
+        pair = np.array(joints)
+        rates = self.robot.arms(body, self.padding) @ self._to_joint
+        pts, radii, margin = self.robot.sweep(body, pair, rates, self.padding, WALL_SAMPLES)
+        grid = len(pts) // len(body.radii)
+        cols = [np.zeros((grid, 0), dtype=bool)]
+        own_links = {b.name: b for b in self.robot.bodies}
+        pose = self.kin.fk(0.5 * (self.kin.lower + self.kin.upper))
+        for f in partners:
+            other = own_links[self.bodies[f].name]
+            centres, r = other.centres, other.radii
+            if fine and other.fine_centres is not None:
+                centres, r = other.fine_centres, other.fine_radii
+            m = pose[self.kin.link_index[other.link]]
+            c = centres @ m[:3, :3].T + m[:3, 3]
+            # only points within reach of the link's box can be inside it by the margin
+            reach = float(radii.max()) + margin
+            lo, hi = (c - r[:, None]).min(axis=0) - reach, (c + r[:, None]).max(axis=0) + reach
+            near = np.flatnonzero(np.all((pts >= lo) & (pts <= hi), axis=1))
+            depth = np.full(len(pts), -np.inf)
+            for s in range(0, len(near), 4096):
+                at = near[s : s + 4096]
+                gap = np.linalg.norm(pts[at, None] - c[None], axis=-1) - r[None]
+                depth[at] = radii[at] - self.padding - gap.min(axis=1)
+            cols.append((depth.reshape(grid, -1).max(axis=1) > margin)[:, None])
+        return np.hstack(cols)
+
+    def _inside(
+        self, body: Body, joints: np.ndarray, env: kernels.Shapes, shapes: list
+    ) -> np.ndarray:
         """(grid values, obstacles) True where `body`, its one joint swept over its range,
         is inside an obstacle by more than it moves between grid values."""
         rates = self.robot.arms(body, self.padding) @ self._to_joint
-        pts, radii, margin = self.robot.sweep(body, joints, rates, self.padding, WALL_SAMPLES)
-        depth = radii[:, None] - _shape_gaps(pts, *env)
-        return depth.reshape(WALL_SAMPLES, len(body.radii), -1).max(axis=1) > margin
+        return self.robot.reach_into(body, joints, rates, self.padding, WALL_SAMPLES, env, shapes)[
+            1
+        ]
 
     def beyond_walls(self, a: np.ndarray, qs: np.ndarray) -> np.ndarray:
         """(N,) bool: which configurations of `qs` lie past a wall (`walls`) from `a`:
@@ -511,7 +692,13 @@ class CollisionChecker:
     def _travel_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(bodies, d) and (pairs, d): metres per unit of each planning joint that a body
         may move in the world, and that two bodies may move toward each other (joints
-        that move both carry them rigidly and do not count)."""
+        that move both carry them rigidly and do not count). The robot's own, kept by
+        padding: every request's checker asks them alike (not with a held object)."""
+        key = ("travel", "", self.padding)
+        own = all(b.name != OBJECT for b in self.bodies)
+        if own and key in self.robot._memo:
+            self._to_joint, body_rate, pair_rate = self.robot._memo[key]
+            return body_rate, pair_rate
         kin = self.kin
         arms = np.array([self.robot.arms(b, self.padding) for b in self.bodies])
         to_joint = np.zeros((len(kin.link_names), kin.d))
@@ -526,11 +713,30 @@ class CollisionChecker:
                 for i, j in self.pairs
             ]
         ).reshape(-1, arms.shape[1])
-        return np.ascontiguousarray(arms @ to_joint), np.ascontiguousarray(pair @ to_joint)
+        body_rate = np.ascontiguousarray(arms @ to_joint)
+        pair_rate = np.ascontiguousarray(pair @ to_joint)
+        if own:
+            self.robot._memo[key] = (to_joint, body_rate, pair_rate)
+        return body_rate, pair_rate
 
     def _pack(self) -> None:
         """The kernels' arrays: spheres and bounds in the frames of the collapsed tree
-        (only the links a planning joint moves; `Kinematics.collapsed`)."""
+        (only the links a planning joint moves; `Kinematics.collapsed`). The robot's
+        own, kept by the fine covers made and asked: every request's checker packs them
+        alike (not with a held object)."""
+        key = ("pack", ",".join(sorted(self._made)), float(self.fine))
+        own = all(b.name != OBJECT for b in self.bodies)
+        if own and key in self.robot._memo:
+            self._kin_args, self._bodies, fine_bodies = self.robot._memo[key]
+            self.fine_bodies = set(fine_bodies)
+        else:
+            self._pack_bodies()
+            if own:
+                self.robot._memo[key] = (self._kin_args, self._bodies, set(self.fine_bodies))
+        self._check_sizes(self._bodies["end"] - self._bodies["start"])
+
+    def _pack_bodies(self) -> None:
+        """`_pack`'s arrays, made."""
         self._kin_args, node, rel = self.kin.collapsed()
         link_index = self.kin.link_index
         starts, ends, local, radius, body_link, bound_local, bound_r = ([] for _ in range(7))
@@ -575,7 +781,6 @@ class CollisionChecker:
             "sphere_local": np.ascontiguousarray(np.vstack(local).T),  # one row per axis
             "radius": np.concatenate(radius),
         }
-        self._check_sizes(np.subtract(ends, starts))
 
     def _check_sizes(self, spheres: np.ndarray) -> None:
         """The compiled checks hold a robot's frames, bodies and a body's spheres in
@@ -646,9 +851,12 @@ class CollisionChecker:
         are 1-2 cm clear: a start or goal close to a shelf board or a table top. With
         `q`, only the links whose first cover touches something there get theirs made
         (the others keep their first cover, which holds them as well); else every link.
-        Kept until more fine covers are made."""
+        Kept until more fine covers are made; with `q`, a kept one that finds `q` free
+        is answered without looking for contacts."""
         if not self.robot.has_fine:
             return None
+        if q is not None and self._finer is not None and self._finer.valid(q[None])[0]:
+            return self._finer
         if q is None:
             self.robot.refine()
         else:
@@ -751,6 +959,47 @@ def _local_gaps(local: np.ndarray, kind: str, dims: np.ndarray) -> np.ndarray:
         dr = np.maximum(np.linalg.norm(local[:, :2], axis=1) - dims[0], 0.0)
         return np.hypot(dr, np.maximum(np.abs(local[:, 2]) - dims[1], 0.0))
     return np.maximum(np.linalg.norm(local, axis=1) - dims[0], 0.0)
+
+
+def _each_shape(env: kernels.Shapes) -> list[tuple[bytes, np.ndarray, np.ndarray]]:
+    """Each shape of the kernels' arrays (boxes, cylinders, spheres in that order): a key
+    naming its kind, pose and size, and its bounding box in the world (low, high)."""
+    out = []
+    for kind, invs, halves in (
+        (b"box", env.box_inv, env.box_half),
+        (b"cylinder", env.cyl_inv, np.stack([env.cyl_r, env.cyl_r, env.cyl_h], axis=-1)),
+    ):
+        for inv, half in zip(invs, halves.reshape(-1, 3), strict=True):
+            rot = inv[:3, :3].T
+            centre = -rot @ inv[:3, 3]
+            extent = np.abs(rot) @ half
+            out.append((kind + inv.tobytes() + half.tobytes(), centre - extent, centre + extent))
+    for c, r in zip(env.sph_c, env.sph_r, strict=True):
+        out.append((b"sphere" + c.tobytes() + np.float64(r).tobytes(), c - r, c + r))
+    return out
+
+
+def _pick(env: kernels.Shapes, which: Sequence[int]) -> kernels.Shapes:
+    """The shapes `which` (indices in the kernels' order) of `env`."""
+    n_box, n_cyl = len(env.box_inv), len(env.cyl_inv)
+    box = [i for i in which if i < n_box]
+    cyl = [i - n_box for i in which if n_box <= i < n_box + n_cyl]
+    sph = [i - n_box - n_cyl for i in which if i >= n_box + n_cyl]
+    return kernels.Shapes(
+        env.box_inv[box],
+        env.box_half[box],
+        env.cyl_inv[cyl],
+        env.cyl_r[cyl],
+        env.cyl_h[cyl],
+        env.sph_c[sph],
+        env.sph_r[sph],
+    )
+
+
+def _box_gap(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray, hi_b: np.ndarray) -> float:
+    """Distance between two axis-aligned boxes given by their corners (0 where they meet)."""
+    gap = np.maximum(np.maximum(lo_a - hi_b, lo_b - hi_a), 0.0)
+    return float(np.sqrt(gap @ gap))
 
 
 def _shape_gaps(pts, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r) -> np.ndarray:

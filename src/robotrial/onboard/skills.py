@@ -63,9 +63,10 @@ log = logging.getLogger(__name__)
 
 STANDOFF = 0.35  # m driven straight in to a work site and back out
 # m, arm base to the object, in the plane, in this order: the side grasp and its lift
-# reach 0.6 m over a 0.75 m top, 0.575 m over 0.8 and 0.5 m over 0.9
-REACHES = (0.5, 0.45, 0.55, 0.6)
-FAR_REACHES = np.arange(0.65, 1.3, 0.05)  # m, tried to say how far the nearest free pose is
+# reach 0.65 m over tops 0.75-0.9 m high (the mobile manipulator's shoulder at 0.9 m)
+REACHES = (0.5, 0.45, 0.55, 0.6, 0.65)
+# m, tried to say how far the nearest free pose is
+FAR_REACHES = np.arange(max(REACHES) + 0.05, 1.3, 0.05)
 GRASP_BACKOFF = 0.1  # m, pre-grasp distance along the approach
 GRASP_MARGIN = 0.003  # m kept between the object and the palm
 LIFT = 0.06  # m

@@ -106,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
         print("robotrial bench reach: --step must be positive and --heights name a height")
         return 2
     kinds = [ObjectKind(n, "box", (s, s, s), (0.5, 0.5, 0.5)) for n, s in KINDS]
+    load = list(os.getloadavg())
     t0 = time.perf_counter()
     skills = skills_at_stow(args.robot, kinds)
     front = skills.footprint.length / 2
@@ -145,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
     zero = skills.model
     result = {
         "machine": f"{platform.machine()}, {os.cpu_count()} cores",
-        "load_average": list(os.getloadavg()),
+        "load_average": load,
         "robot": zero.name,
         "arm_base_ahead_of_middle": skills.arm_offset,
         "shoulder": [float(v) for v in skills.shoulder],

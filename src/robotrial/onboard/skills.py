@@ -63,9 +63,10 @@ log = logging.getLogger(__name__)
 
 STANDOFF = 0.35  # m driven straight in to a work site and back out
 # m, arm base to the object, in the plane, in this order: the side grasp and its lift
-# reach 0.6 m over a 0.75 m top, 0.575 m over 0.8 and 0.5 m over 0.9
-REACHES = (0.5, 0.45, 0.55, 0.6)
-FAR_REACHES = np.arange(0.65, 1.3, 0.05)  # m, tried to say how far the nearest free pose is
+# reach 0.65 m over tops 0.75-0.9 m high (the mobile manipulator's shoulder at 0.9 m)
+REACHES = (0.5, 0.45, 0.55, 0.6, 0.65)
+# m, tried to say how far the nearest free pose is
+FAR_REACHES = np.arange(max(REACHES) + 0.05, 1.3, 0.05)
 GRASP_BACKOFF = 0.1  # m, pre-grasp distance along the approach
 GRASP_MARGIN = 0.003  # m kept between the object and the palm
 LIFT = 0.06  # m
@@ -101,11 +102,12 @@ TOP_FACE = 0.006  # m below the highest points that are still the top face
 FLOOR_THICKNESS = 0.1  # m
 COLUMN_HEIGHT = 2.0  # m, how tall what the LiDAR mapped is taken to be
 
-# The side grasp's approach pitched down (rad), tried in turn: level, the wrist behind the
+# The side grasp's approach pitched down (rad), tried in turn. Level, the wrist behind the
 # hand hangs below an object's centre and meets the top it stands on when the object is
-# more than 5 cm in from the top's edge; pitched 15 degrees, the arm grasps a can 20 cm in
-# over a 0.75 or 0.8 m top
-PITCHES = (0.0, np.deg2rad(15.0), np.deg2rad(30.0))
+# more than 5 cm in from the top's edge. The pitch a grasp takes is kept to the place: with
+# the shoulder 0.75 m up, an object held level cannot be set down on a 0.45-0.5 m top (a
+# bed, a coffee table), held at 30 degrees it can, so the steepest comes first.
+PITCHES = (np.deg2rad(30.0), np.deg2rad(15.0), 0.0)
 
 # The hand's orientation for a side grasp approaching along base +x: the gripper's
 # approach axis (z) forward, its x axis up, fingers closing sideways.

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from robotrial.console import console, print_table
+from robotrial.slam.params import GMappingParams, PoseGraphParams
 
 KILLIAN_FILE = "killian.g2o.zip"
 KILLIAN_PACKAGE = ("rtb-data==2.0.0", "rtbdata/data/killian.g2o.zip")
@@ -63,13 +64,16 @@ COLUMNS = [
     "published (same method class)",
 ]
 # GMapping's odometry error model (srr, srt, str, stt) as slam_gmapping's defaults.
-RAW_MOTION = {"srr": 0.1, "srt": 0.2, "str": 0.1, "stt": 0.2}
+RAW_MOTION = {k: getattr(GMappingParams(), k) for k in ("srr", "srt", "str", "stt")}
 # The pose graph's odometry model as its defaults (for raw wheel odometry).
 RAW_GRAPH_MOTION = {
-    "odom_trans_per_trans": 0.1,
-    "odom_trans_per_rot": 0.05,
-    "odom_rot_per_trans": 0.05,
-    "odom_rot_per_rot": 0.1,
+    k: getattr(PoseGraphParams(), k)
+    for k in (
+        "odom_trans_per_trans",
+        "odom_trans_per_rot",
+        "odom_rot_per_trans",
+        "odom_rot_per_rot",
+    )
 }
 PUBLISHED_CLASS = {"gmapping": "RBPF", "hector": "scan matching", "graph": "graph mapping"}
 

@@ -533,7 +533,12 @@ class TaskPlanner:
         t_ik = time.perf_counter()
         found = search(self.kin, ik_target, start, checker, self.seeds)
         finer = None
-        if not len(found.free) and (finer := checker.finer()) not in (None, checker):
+        # the finer cover can free a converged solution; none converged, it has none to free
+        if (
+            not len(found.free)
+            and found.converged
+            and (finer := checker.finer()) not in (None, checker)
+        ):
             again = search(self.kin, ik_target, start, finer, self.seeds)
             if len(again.free):
                 found, checker = again, finer
@@ -542,7 +547,12 @@ class TaskPlanner:
         if len(found.free):
             stats["ik_solutions"] = len(found.free)
             return checker, found
-        # why not: a wall, the target out of reach, or every solution colliding
+        # why not: the target out of reach, a wall, or every solution colliding
+        if not found.converged:
+            self._out_of_reach(
+                result, target, goal_pose, start, found.position_error, found.orientation_error
+            )
+            return None
         free_ik = partial(solve_ik, self.kin, ik_target, start, rng=rng, batch=4, wanted=2)
         if w := _wall_before(finer or checker, start, free_ik):
             self._fail(
@@ -555,19 +565,8 @@ class TaskPlanner:
             return None
         free = solve_ik(self.kin, ik_target, start, rng=rng, wanted=1)
         if not free.success:
-            base = self.kin.fk(start)[0, :3, 3]
-            where = ", ".join(f"{v:.3f}" for v in target)
-            turn = (
-                f" and {free.orientation_error:.2f} rad from the orientation"
-                if goal_pose is not None
-                else ""
-            )
-            self._fail(
-                result,
-                "unreachable",
-                f"goal out of reach: the end effector gets no closer than "
-                f"{free.position_error:.3f} m to ({where}){turn}; the target is "
-                f"{np.linalg.norm(target - base):.3f} m from the robot's base",
+            self._out_of_reach(
+                result, target, goal_pose, start, free.position_error, free.orientation_error
             )
             return None
         touching = sorted((finer or checker).contacts(free.q))
@@ -577,6 +576,31 @@ class TaskPlanner:
             "goal in collision: every IK solution found collides, e.g. " + _describe(touching),
         )
         return None
+
+    def _out_of_reach(
+        self,
+        result: TaskResult,
+        target: np.ndarray,
+        goal_pose: Pose | None,
+        start: np.ndarray,
+        position_error: float,
+        orientation_error: float,
+    ) -> None:
+        """Fail `result` as out of reach, with how near the end effector came."""
+        base = self.kin.fk(start)[0, :3, 3]
+        where = ", ".join(f"{v:.3f}" for v in target)
+        turn = (
+            f" and {orientation_error:.2f} rad from the orientation"
+            if goal_pose is not None
+            else ""
+        )
+        self._fail(
+            result,
+            "unreachable",
+            f"goal out of reach: the end effector gets no closer than "
+            f"{position_error:.3f} m to ({where}){turn}; the target is "
+            f"{np.linalg.norm(target - base):.3f} m from the robot's base",
+        )
 
     def _timed_and_checked(self, smooth, path, checker, exact, stats) -> Trajectory | None:
         """Time the rounded path, else the plain one with denser waypoints; keep the first

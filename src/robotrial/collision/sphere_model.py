@@ -106,6 +106,16 @@ class RobotSpheres:
         self.step = float(step)
         self.resolution = self._resolution(step, seed)
 
+    def fine_body(self, name: str) -> Body | None:
+        """The body `name` with its fine cover as its spheres (named "... (fine)"), or
+        None while that cover is not made."""
+        own = next(b for b in self.bodies if b.name == name)
+        if own.fine_centres is None:
+            return None
+        return replace(
+            own, name=f"{own.name} (fine)", centres=own.fine_centres, radii=own.fine_radii
+        )
+
     def refine(self, links: Collection[str] | None = None) -> None:
         """Give the bodies of `links` (default: every body) their fine covers (made here
         unless given), once each."""
@@ -539,12 +549,9 @@ class CollisionChecker:
             if not self._inside(body, joints, env, shapes).any():
                 continue
             self.robot.refine({body.link})
-            own = next(b for b in self.robot.bodies if b.name == body.name)
-            if own.fine_centres is None:
+            fine = self.robot.fine_body(body.name)
+            if fine is None:
                 continue
-            fine = replace(
-                own, name=f"{own.name} (fine)", centres=own.fine_centres, radii=own.fine_radii
-            )
             inside = self._inside(fine, joints, env, shapes)  # (grid values, obstacles)
             values = np.linspace(self.kin.lower[joints[0]], self.kin.upper[joints[0]], WALL_SAMPLES)
             edges = np.flatnonzero(np.diff(np.r_[0, inside.any(axis=1).astype(int), 0]))
@@ -598,9 +605,8 @@ class CollisionChecker:
                 if not near.any():
                     continue
                 links = [self.bodies[f].link for f in partners[bi]]
-                touched = near
                 self.robot.refine(
-                    {body.link} | {link for link, t in zip(links, touched, strict=True) if t}
+                    {body.link} | {link for link, t in zip(links, near, strict=True) if t}
                 )
                 inside = self._pair_inside(body, (j, k), partners[bi], True)
                 if inside is None:
@@ -638,12 +644,10 @@ class CollisionChecker:
         planning joint moves; its fine cover with `fine`) by more than it moves between
         grid points; None when its fine cover is not made."""
         if fine:
-            own = next(b for b in self.robot.bodies if b.name == body.name)
-            if own.fine_centres is None:
+            fine_body = self.robot.fine_body(body.name)
+            if fine_body is None:
                 return None
-            body = replace(
-                own, name=f"{own.name} (fine)", centres=own.fine_centres, radii=own.fine_radii
-            )
+            body = fine_body
         pair = np.array(joints)
         rates = self.robot.arms(body, self.padding) @ self._to_joint
         pts, radii, margin = self.robot.sweep(body, pair, rates, self.padding, WALL_SAMPLES)

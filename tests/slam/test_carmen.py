@@ -281,6 +281,38 @@ def test_a_g2o_log_whose_poses_meet_its_loop_closures_declares_a_corrected_traje
     assert declared_params(log, "graph")[0] == {}
 
 
+def test_a_corrected_log_drifted_into_raw_odometry_is_seeded_and_declares_nothing():
+    """The raw-odometry version of a corrected log (`drift_odometry`): the same scans,
+    each motion a few per cent off and the heading drifting, so that two laps no longer
+    meet; the same seed gives the same poses, another seed others; the reader then
+    declares no corrected trajectory; a log without odometry poses is refused by name."""
+    from robotrial.trials.carmen import OdometryDrift, declared_params, drift_odometry
+
+    a = np.linspace(0, 4 * np.pi, 60, endpoint=False)
+    truth = np.stack([5 * np.cos(a), 5 * np.sin(a), a + np.pi / 2], axis=1)
+    log = parse_carmen(_g2o(truth, truth, [(i, i + 30) for i in range(0, 30, 2)]), "k.g2o")
+    assert log.corrected_odometry
+    raw = drift_odometry(log, OdometryDrift(seed=3))
+    poses = raw.scan_odometry()
+    assert raw.corrected_odometry == "" and declared_params(raw, "graph")[0] == {}
+    assert [s.stamp for s in raw.scans] == [s.stamp for s in log.scans]
+    np.testing.assert_allclose(poses[0], truth[0], atol=1e-9)
+    np.testing.assert_allclose(raw.odom[:, 1:], poses)
+    steps = [relative(poses[i], poses[i + 1]) for i in range(59)]
+    true_steps = [relative(truth[i], truth[i + 1]) for i in range(59)]
+    ratio = [np.hypot(*d[:2]) / np.hypot(*t[:2]) for d, t in zip(steps, true_steps, strict=True)]
+    assert 0.85 < min(ratio) and max(ratio) < 1.2 and np.std(ratio) > 0.01
+    # One lap later the odometry no longer comes back to where it was.
+    assert np.hypot(*(poses[30] - poses[0])[:2]) > 0.3
+    again = drift_odometry(log, OdometryDrift(seed=3)).scan_odometry()
+    np.testing.assert_array_equal(again, poses)
+    assert np.abs(drift_odometry(log, OdometryDrift(seed=4)).scan_odometry() - poses).max() > 0.1
+    bare = parse_carmen([_flaser(1.0, 0.0, [3.0] * 180)])
+    bare.scans[0] = CarmenScan(1.0, bare.scans[0].ranges, 0.0, 0.01, 80.0)
+    with pytest.raises(ValueError, match="carries no odometry pose"):
+        drift_odometry(bare, OdometryDrift())
+
+
 def test_a_log_whose_odometry_turns_faster_than_a_base_declares_its_timing():
     """Odometry poses that turn 0.8 rad in a 0.2 s step (4 rad/s) and give it back, three
     times: the poses are not all taken at their scans' instants, and the pose graph is

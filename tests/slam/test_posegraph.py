@@ -176,6 +176,47 @@ def test_correlative_search_finds_a_known_offset_and_scores_a_wrong_place_low():
     assert search(field, origin, 0.025, other, guess, 0.3, 0.15, 0.005).response < 0.6
 
 
+def _corridor_points(x0: float, x1: float) -> np.ndarray:
+    """Points every 2 cm on the walls y = 0 and y = 2 of a corridor from x0 to x1, with a
+    door 1 m wide every 4 m in each (the same view every 4 m along it)."""
+    x = np.arange(x0, x1, 0.02)
+    x = x[np.abs((x + 2.0) % 4.0 - 2.0) > 0.5]
+    return np.concatenate(
+        [np.stack([x, np.zeros_like(x)], 1), np.stack([x, np.full_like(x, 2)], 1)]
+    )
+
+
+def test_a_loop_match_is_open_along_a_corridor_that_repeats_and_tight_across_it():
+    """A loop-closure search in a corridor whose doors repeat every 4 m: the scan fits
+    4 m further on as well as where it was taken, so the closure's covariance is long
+    along the corridor (metres) and tight across it and in heading (centimetres,
+    hundredths of a radian); in the L-shaped room, where the scan fits one place only,
+    nothing is added."""
+    from robotrial.slam.posegraph import LOOP_PLACES, ambiguity, coarse_to_fine, point_field
+    from robotrial.slam.scan import transform_points
+
+    where = np.array([0.3, 1.0, 0.0])
+    seen = _corridor_points(-5.7, 6.3)
+    pts = transform_points(np.array([-where[0], -where[1], 0.0]), seen)
+    field, origin = point_field(_corridor_points(-20, 20), 0.05, 0.05, (-12, -1, 12, 3))
+    guess = where + np.array([0.4, 0.06, 0.02])
+    _, tried = coarse_to_fine(field, origin, 0.05, pts, guess, 6.0, 0.1, 0.005, 0.3, LOOP_PLACES)
+    assert abs(tried[0].pose[1] - where[1]) < 0.05 and abs(tried[0].pose[2]) < 0.02
+    assert abs((tried[0].pose[0] - where[0] + 2.0) % 4.0 - 2.0) < 0.05
+    cov = ambiguity(tried)
+    vals, vecs = np.linalg.eigh(cov[:2, :2])
+    assert np.sqrt(vals[-1]) > 3.0 and abs(vecs[0, -1]) > 0.99  # along x, metres
+    assert np.sqrt(cov[1, 1]) < 0.05 and np.sqrt(cov[2, 2]) < 0.02
+    room = np.array([2.0, 1.5, 0.3])
+    scan = _room_scan(room)
+    field, origin = point_field(transform_points(room, scan), 0.05, 0.05, (-1, -1, 7, 5))
+    guess = room + np.array([0.5, -0.4, 0.05])
+    _, tried = coarse_to_fine(field, origin, 0.05, scan[::3], guess, 1.5, 0.2, 0.005, 0.3,
+                              LOOP_PLACES)  # fmt: skip
+    assert np.hypot(*(tried[0].pose - room)[:2]) < 0.05
+    assert np.sqrt(np.linalg.eigvalsh(ambiguity(tried)[:2, :2])[-1]) < 0.1
+
+
 def test_a_wrong_loop_closure_pulls_little_and_is_taken_out():
     """A circle of 40 nodes with one right closure and one 1.5 m off (a corridor's
     look-alike place): under the Cauchy kernel the graph stays near the truth, without it

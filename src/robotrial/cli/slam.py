@@ -34,6 +34,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="file",
         help="--log: scans in the file's order (as taken) or sorted by time stamp",
     )
+    parser.add_argument(
+        "--drift-odometry",
+        type=int,
+        metavar="SEED",
+        help="--log: replace the log's odometry by a raw-odometry version of its motions "
+        "(5 %% in distance and turn, a heading bias of 0.002 rad/m; seeded), for a log whose "
+        "poses are a corrected trajectory",
+    )
     parser.add_argument("-o", "--output", default="map", help="output stem (STEM.pgm, .yaml, ...)")
     parser.add_argument(
         "--world",
@@ -100,6 +108,11 @@ def run(args: argparse.Namespace) -> int:
         return 2
     if args.relations and not args.log:
         console.print("[red]robotrial slam: --relations scores a --log run; give --log FILE")
+        return 2
+    if args.drift_odometry is not None and not args.log:
+        console.print(
+            "[red]robotrial slam: --drift-odometry drifts a --log's odometry; give --log FILE"
+        )
         return 2
     if args.log:
         from robotrial.cli.slam_log import run_log

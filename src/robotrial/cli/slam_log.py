@@ -24,10 +24,13 @@ def run_log(args: argparse.Namespace, params: dict[str, str]) -> int:
     from robotrial.trials import carmen, slam
 
     try:
-        rec, log = carmen.load_log(args.log, order=args.order)
+        drift = None
+        if args.drift_odometry is not None:
+            drift = carmen.OdometryDrift(seed=args.drift_odometry)
+        rec, log = carmen.load_log(args.log, order=args.order, drift=drift)
         if args.relations:
             carmen.read_relations(args.relations)  # a bad file fails before the long run
-    except (CarmenError, FileNotFoundError) as exc:
+    except (CarmenError, FileNotFoundError, ValueError) as exc:
         console.print(f"[red]robotrial slam: {exc}")
         return 2
     declared, why = carmen.declared_params(log, args.method)

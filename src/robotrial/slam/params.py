@@ -163,8 +163,9 @@ class PoseGraphParams(OdometryModel):
     `loop_match_minimum_response` and a closure from a node at most `loop_confirm_nodes`
     away implies the same correction, within 3 standard deviations of both closures'
     covariances plus `loop_confirm_distance` m (and 2 % of the way between the nodes) and
-    `loop_confirm_angle` rad. Its covariance is the spread of the poses that score
-    nearly as well (long along a corridor) plus the refinement's, at least
+    `loop_confirm_angle` rad. Its covariance is open along a corridor longer than the
+    window, long towards other places the scan fits nearly as well, and otherwise the
+    fine search's spread plus the refinement's (tight across a corridor), at least
     `loop_min_sigma_*`. In the graph, loop closures carry a Cauchy kernel
     `loop_kernel_width` standard deviations wide; after an optimisation the worst
     closure with a chi-square above `loop_max_chi2` is taken out and the graph optimised

@@ -20,8 +20,11 @@ window as wide as that reach, and refined by Gauss-Newton on the same field, the
 once more on an occupancy map of those scans at the map's resolution, as the front end
 matches (on the field's own cells the fit pulls walls onto cell centres, the same way
 for every closure over them). The match's
-covariance is the spread of the poses that score nearly as well (Karto's: long along a
-corridor, where the closure then holds only across it) plus the refinement's. A match is
+covariance is set per direction: open along a corridor longer than the search window
+(where the coarse level's near-best poses reach half the window), long along the offset
+to any other place the scan fits nearly as well (kept through the levels and scored at
+the finest), and otherwise the fine search's spread plus the refinement's fit: tight
+across a corridor and in heading, so a right closure pulls there. A match is
 verified before it enters the graph: its response must be high, the refinement must stay
 by the peak, and a second closure from a nearby node must imply the same correction of
 the graph (two wrong matches rarely agree). In the graph, loop closures carry a Cauchy
@@ -397,6 +400,10 @@ class Search:
 
 # The poses within this share of the best score make a search's spread.
 SPREAD = 0.9
+# A loop closure's search: the places kept from each level for the next, and the share
+# of the best match's score at which another of them is a place the scan fits as well.
+LOOP_PLACES = 8
+AMBIGUOUS = 0.8
 
 
 def search(
@@ -503,14 +510,15 @@ def coarse_to_fine(
     angle_step: float,
     coarse_space: float,
     keep: int = 4,
-) -> tuple[Search, Search]:
+) -> tuple[Search, list[Search]]:
     """A correlative search over a wide window, coarse to fine: first on cells `block`
     times larger, each the best of the cells it covers (an upper bound of what the poses
     in it score), with `block` the power of two that leaves about +-`coarse_space` /
     resolution steps, in angle steps as many times larger; then, level by level with
     cells half as large, around the `keep` best poses of the level above. Returns the
-    coarsest level's search (its spread says how alike the places in the window look)
-    and the finest's."""
+    coarsest level's search (its spread says how far along a corridor the scan could
+    lie) and the finest level's searches around those poses, best first (the places in
+    the window the scan fits nearly as well as the best are among them)."""
     block = 1
     while space > coarse_space * block and block < 64:
         block *= 2
@@ -524,7 +532,7 @@ def coarse_to_fine(
                    angle / max(1.0, np.ceil(steps / block)), peaks=keep)  # fmt: skip
     level_angle = angle / max(1.0, np.ceil(steps / block))
     seeds = [q[:3] for q in first.peaks[:keep]] or [first.pose]
-    best = first
+    tried = [first]
     while block > 1:
         block //= 2
         tried = [
@@ -534,9 +542,35 @@ def coarse_to_fine(
         ]  # fmt: skip
         level_angle = max(angle_step, level_angle / 2)
         tried.sort(key=lambda s: -s.response)
-        best = tried[0]
         seeds = [s.pose for s in tried[:keep]]
-    return first, best
+    return first, tried
+
+
+def open_axis(coarse: Search, space: float) -> np.ndarray:
+    """The covariance (3 x 3) along the one direction in which a coarse search's
+    near-best poses reached half its window (+-`space` m): a corridor longer than the
+    window, along which the match says nothing (10 windows of standard deviation); zero
+    across it and in heading, and zero when the spread stayed within the window."""
+    out = np.zeros((3, 3))
+    vals, vecs = np.linalg.eigh(0.5 * (coarse.cov[:2, :2] + coarse.cov[:2, :2].T))
+    if space > 0 and vals[-1] >= 0.99 * (10.0 * space) ** 2:  # opened by `_unbounded`
+        out[:2, :2] = vals[-1] * np.outer(vecs[:, -1], vecs[:, -1])
+    return out
+
+
+def ambiguity(found: list[Search], share: float = AMBIGUOUS) -> np.ndarray:
+    """The covariance (3 x 3, x y yaw) a match takes from the other places it fits: the
+    sum of d d' over the poses among `found` (best first) that score at least `share` of
+    the best, d their offset from it. Long along a corridor where the scan fits a few
+    metres further on as well, nothing across it; zero when no other place fits."""
+    best = found[0]
+    out = np.zeros((3, 3))
+    for other in found[1:]:
+        if other.response >= share * best.response:
+            d = other.pose - best.pose
+            d[2] = wrap(float(d[2]))
+            out += np.outer(d, d)
+    return out
 
 
 @dataclass(frozen=True)
@@ -1028,10 +1062,11 @@ class PoseGraphSlam:
             return None
         res = p.loop_resolution
         field, origin = point_field(old_hits, res, res, box)
-        coarse, found = coarse_to_fine(
+        coarse, tried = coarse_to_fine(
             field, origin, res, sub, here, space, angle, p.loop_search_angle_step,
-            p.loop_search_space,
+            p.loop_search_space, LOOP_PLACES,
         )  # fmt: skip
+        found = tried[0]
         if found.response < p.loop_match_minimum_response:
             return None
         # Gauss-Newton on the same field, read as occupancy 0.5 + 0.5 f.
@@ -1045,8 +1080,10 @@ class PoseGraphSlam:
             return None
         where = self._sub_cell(refined.pose, hits, list(range(lo, hi + 1)), nodes)
         anchor = nodes[cand]
-        # As uncertain as the wider of the search's spread and the refinement's fit.
-        cov = coarse.cov + found.cov + self._match_cov(refined.hessian, refined.residual)
+        # As uncertain as the other places the scan fits nearly as well (per direction:
+        # along a corridor, not across it), the fine search's spread and the fit's.
+        fit = self._match_cov(refined.hessian, refined.residual)
+        cov = open_axis(coarse, space) + ambiguity(tried) + found.cov + fit
         floor = (p.loop_min_sigma_xy, p.loop_min_sigma_xy, p.loop_min_sigma_yaw)
         world = _information(cov, floor)
         edge = Edge(cand, k, relative(anchor, where), _rotate(world, anchor[2]), True)

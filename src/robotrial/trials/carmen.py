@@ -10,7 +10,7 @@ they are looked for in a cache folder (`cache_dir`), where a user puts them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +19,7 @@ import numpy as np
 from robotrial.cache import cache_dir as shared_cache
 from robotrial.model.carmen import CarmenLog, read_carmen, read_relations
 from robotrial.slam.metrics import relation_metric
+from robotrial.slam.scan import compose, relative
 from robotrial.trials.slam import Recording, ScanSample, SlamRun
 
 
@@ -78,11 +79,56 @@ def declared_params(log: CarmenLog, method: str) -> tuple[dict[str, float], str]
     return {}, ""
 
 
+@dataclass(frozen=True)
+class OdometryDrift:
+    """Errors of wheel odometry, to make a raw-odometry log from one whose poses are a
+    corrected trajectory: each motion between consecutive scans has its distance scaled
+    by 1 + `scale` + N(0, `distance`) and its turn by 1 + N(0, `turn`), and turns
+    further by N(0, `heading_noise`) plus `heading_bias` rad per m driven (one wheel a
+    little larger than the other). Seeded: the same drift every run."""
+
+    seed: int = 0
+    distance: float = 0.05
+    turn: float = 0.05
+    heading_noise: float = 0.005
+    heading_bias: float = 0.002
+    scale: float = 0.01
+
+
+def drift_odometry(log: CarmenLog, drift: OdometryDrift) -> CarmenLog:
+    """`log` with its scans' odometry poses replaced by `drift`'s raw-odometry version
+    of their consecutive motions (the first pose kept); the log is then no longer
+    taken for a corrected trajectory. Relations still score it: they compare relative
+    motions of the SLAM estimate, not the odometry."""
+    poses = log.scan_odometry()
+    if poses is None:
+        raise ValueError(f"{log.source or 'log'}: a scan carries no odometry pose to drift")
+    rng = np.random.default_rng(drift.seed)
+    out = poses.copy()
+    for k in range(1, len(poses)):
+        d = relative(poses[k - 1], poses[k])
+        dist = float(np.hypot(d[0], d[1]))
+        factor = 1.0 + drift.scale + rng.normal(0.0, drift.distance)
+        turn = d[2] * (1.0 + rng.normal(0.0, drift.turn))
+        turn += dist * (drift.heading_bias + rng.normal(0.0, drift.heading_noise))
+        out[k] = compose(out[k - 1], (d[0] * factor, d[1] * factor, turn))
+    scans = [replace(s, odom=(float(q[0]), float(q[1]), float(q[2])))
+             for s, q in zip(log.scans, out, strict=True)]  # fmt: skip
+    stamps = np.array([s.stamp for s in log.scans])
+    order = np.argsort(stamps, kind="stable")
+    odom = np.column_stack([stamps[order], out[order]])
+    source = f"{log.source} (odometry drifted, seed {drift.seed})"
+    return replace(log, scans=scans, odom=odom, source=source, corrected_odometry="")
+
+
 def load_log(
-    path: str | Path, strict: bool = False, order: str = "file"
+    path: str | Path, strict: bool = False, order: str = "file", drift: OdometryDrift | None = None
 ) -> tuple[Recording, CarmenLog]:
-    """A CARMEN log file as a Recording (and the log, for its counts of skipped lines)."""
+    """A CARMEN log file as a Recording (and the log, for its counts of skipped lines);
+    with `drift`, its odometry made raw (`drift_odometry`)."""
     log = read_carmen(path, strict, order)
+    if drift is not None:
+        log = drift_odometry(log, drift)
     return recording_from_log(log), log
 
 

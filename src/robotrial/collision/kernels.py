@@ -479,51 +479,70 @@ def _take(gap, d2, r, reach) -> None:
 
 
 @nb.njit(cache=True, inline="always")
+def _to_shape(m, k, pose) -> None:
+    """Turn `pose` (a body's, 12 rows of lanes) into the body's pose in the frame of
+    environment shape k (a sphere's frame: its centre, unturned). Done once per body and
+    shape, it spares each of the body's spheres a second transform."""
+    nbox, ncyl = m.box_inv.shape[0], m.cyl_inv.shape[0]
+    if k >= nbox + ncyl:
+        c = k - nbox - ncyl
+        for i in range(3):
+            ci = m.sph_c[c, i]
+            for lane in range(LANES):
+                pose[9 + i, lane] -= ci
+        return
+    cyl = k >= nbox
+    c = k - nbox if cyl else k
+    inv = m.cyl_inv if cyl else m.box_inv
+    i00, i01, i02, i03 = inv[c, 0, 0], inv[c, 0, 1], inv[c, 0, 2], inv[c, 0, 3]
+    i10, i11, i12, i13 = inv[c, 1, 0], inv[c, 1, 1], inv[c, 1, 2], inv[c, 1, 3]
+    i20, i21, i22, i23 = inv[c, 2, 0], inv[c, 2, 1], inv[c, 2, 2], inv[c, 2, 3]
+    for col in range(4):  # the rotation's columns, then the translation
+        r0, r1, r2 = (9, 10, 11) if col == 3 else (col, 3 + col, 6 + col)
+        t0, t1, t2 = (i03, i13, i23) if col == 3 else (_F0, _F0, _F0)
+        for lane in range(LANES):
+            x, y, z = pose[r0, lane], pose[r1, lane], pose[r2, lane]
+            pose[r0, lane] = i00 * x + i01 * y + i02 * z + t0
+            pose[r1, lane] = i10 * x + i11 * y + i12 * z + t1
+            pose[r2, lane] = i20 * x + i21 * y + i22 * z + t2
+
+
+@nb.njit(cache=True, inline="always")
 def _sphere_d2(m, k, pose, s, d2) -> None:
-    """d2[0, lane] = the squared distance from sphere s's centre (on the body placed by
-    `pose`) to environment shape k: boxes, then cylinders, then spheres (0 inside)."""
+    """d2[0, lane] = the squared distance from sphere s's centre to environment shape k
+    (0 inside), with `pose` the body's pose in the shape's frame (`_to_shape`): boxes,
+    then cylinders, then spheres."""
     nbox, ncyl = m.box_inv.shape[0], m.cyl_inv.shape[0]
     lx, ly, lz = m.sphere_local[0, s], m.sphere_local[1, s], m.sphere_local[2, s]
-    if k < nbox + ncyl:
-        cyl = k >= nbox
-        c = k - nbox if cyl else k
-        inv = m.cyl_inv if cyl else m.box_inv
-        i00, i01, i02, i03 = inv[c, 0, 0], inv[c, 0, 1], inv[c, 0, 2], inv[c, 0, 3]
-        i10, i11, i12, i13 = inv[c, 1, 0], inv[c, 1, 1], inv[c, 1, 2], inv[c, 1, 3]
-        i20, i21, i22, i23 = inv[c, 2, 0], inv[c, 2, 1], inv[c, 2, 2], inv[c, 2, 3]
-        if not cyl:
-            h0, h1, h2 = m.box_half[c, 0], m.box_half[c, 1], m.box_half[c, 2]
-            for lane in range(LANES):
-                x, y, z = _place(pose, lx, ly, lz, lane)
-                u = max(abs(i00 * x + i01 * y + i02 * z + i03) - h0, _F0)
-                v = max(abs(i10 * x + i11 * y + i12 * z + i13) - h1, _F0)
-                w = max(abs(i20 * x + i21 * y + i22 * z + i23) - h2, _F0)
-                d2[0, lane] = u * u + v * v + w * w
-        else:
-            rad, hl = m.cyl_r[c], m.cyl_h[c]
-            for lane in range(LANES):
-                x, y, z = _place(pose, lx, ly, lz, lane)
-                u = i00 * x + i01 * y + i02 * z + i03
-                v = i10 * x + i11 * y + i12 * z + i13
-                w = i20 * x + i21 * y + i22 * z + i23
-                dr = max(np.sqrt(u * u + v * v) - rad, _F0)
-                dz = max(abs(w) - hl, _F0)
-                d2[0, lane] = dr * dr + dz * dz
-    else:
-        c = k - nbox - ncyl
-        px, py, pz, rad = m.sph_c[c, 0], m.sph_c[c, 1], m.sph_c[c, 2], m.sph_r[c]
+    if k < nbox:
+        h0, h1, h2 = m.box_half[k, 0], m.box_half[k, 1], m.box_half[k, 2]
         for lane in range(LANES):
             x, y, z = _place(pose, lx, ly, lz, lane)
-            dx, dy, dz = x - px, y - py, z - pz
-            g = max(np.sqrt(dx * dx + dy * dy + dz * dz) - rad, _F0)
+            u = max(abs(x) - h0, _F0)
+            v = max(abs(y) - h1, _F0)
+            w = max(abs(z) - h2, _F0)
+            d2[0, lane] = u * u + v * v + w * w
+    elif k < nbox + ncyl:
+        rad, hl = m.cyl_r[k - nbox], m.cyl_h[k - nbox]
+        for lane in range(LANES):
+            x, y, z = _place(pose, lx, ly, lz, lane)
+            dr = max(np.sqrt(x * x + y * y) - rad, _F0)
+            dz = max(abs(z) - hl, _F0)
+            d2[0, lane] = dr * dr + dz * dz
+    else:
+        rad = m.sph_r[k - nbox - ncyl]
+        for lane in range(LANES):
+            x, y, z = _place(pose, lx, ly, lz, lane)
+            g = max(np.sqrt(x * x + y * y + z * z) - rad, _F0)
             d2[0, lane] = g * g
 
 
 @nb.njit(cache=True, inline="always")
 def _env_gap(m, k, b, pose, reach, pad, stop, d2, gap, fine) -> bool:
     """gap[0, lane] = the smallest surface gap, less the padding, from body b's spheres
-    (placed by `pose`) to environment shape k: negative where they touch, more than
-    reach[0, lane] when that is all it comes to. True when some lane touches.
+    (placed by `pose`, which this turns into the shape's frame) to environment shape k:
+    negative where they touch, more than reach[0, lane] when that is all it comes to.
+    True when some lane touches.
 
     Where a coarse sphere touches, the body's fine run decides (the narrow phase): both
     covers hold the link, so the larger of their gaps is still no more than the link's
@@ -531,6 +550,7 @@ def _env_gap(m, k, b, pose, reach, pad, stop, d2, gap, fine) -> bool:
     where both touch ends the search."""
     for lane in range(LANES):
         gap[0, lane] = _FAR
+    _to_shape(m, k, pose)
     touch = False
     for s in range(max(m.start[b], 0), m.end[b]):
         _sphere_d2(m, k, pose, s, d2)

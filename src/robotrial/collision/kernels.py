@@ -480,6 +480,20 @@ def _take(gap, d2, r, reach) -> None:
 
 
 @nb.njit(cache=True, inline="always")
+def _inverse(m, k):
+    """Box or cylinder k's inverse pose, its three rows of four."""
+    nbox = m.box_inv.shape[0]
+    cyl = k >= nbox
+    c = k - nbox if cyl else k
+    inv = m.cyl_inv if cyl else m.box_inv
+    return (
+        inv[c, 0, 0], inv[c, 0, 1], inv[c, 0, 2], inv[c, 0, 3],
+        inv[c, 1, 0], inv[c, 1, 1], inv[c, 1, 2], inv[c, 1, 3],
+        inv[c, 2, 0], inv[c, 2, 1], inv[c, 2, 2], inv[c, 2, 3],
+    )  # fmt: skip
+
+
+@nb.njit(cache=True, inline="always")
 def _to_shape(m, k, pose) -> None:
     """Turn `pose` (a body's, 12 rows of lanes) into the body's pose in the frame of
     environment shape k (a sphere's frame: its centre, unturned). Done once per body and
@@ -492,12 +506,7 @@ def _to_shape(m, k, pose) -> None:
             for lane in range(LANES):
                 pose[9 + i, lane] -= ci
         return
-    cyl = k >= nbox
-    c = k - nbox if cyl else k
-    inv = m.cyl_inv if cyl else m.box_inv
-    i00, i01, i02, i03 = inv[c, 0, 0], inv[c, 0, 1], inv[c, 0, 2], inv[c, 0, 3]
-    i10, i11, i12, i13 = inv[c, 1, 0], inv[c, 1, 1], inv[c, 1, 2], inv[c, 1, 3]
-    i20, i21, i22, i23 = inv[c, 2, 0], inv[c, 2, 1], inv[c, 2, 2], inv[c, 2, 3]
+    i00, i01, i02, i03, i10, i11, i12, i13, i20, i21, i22, i23 = _inverse(m, k)
     for col in range(4):  # the rotation's columns, then the translation
         r0, r1, r2 = (9, 10, 11) if col == 3 else (col, 3 + col, 6 + col)
         t0, t1, t2 = (i03, i13, i23) if col == 3 else (_F0, _F0, _F0)
@@ -616,10 +625,7 @@ def _bound_gaps2(m, k, bounds, b, out) -> None:
     if k < nbox + ncyl:
         cyl = k >= nbox
         c = k - nbox if cyl else k
-        inv = m.cyl_inv if cyl else m.box_inv
-        i00, i01, i02, i03 = inv[c, 0, 0], inv[c, 0, 1], inv[c, 0, 2], inv[c, 0, 3]
-        i10, i11, i12, i13 = inv[c, 1, 0], inv[c, 1, 1], inv[c, 1, 2], inv[c, 1, 3]
-        i20, i21, i22, i23 = inv[c, 2, 0], inv[c, 2, 1], inv[c, 2, 2], inv[c, 2, 3]
+        i00, i01, i02, i03, i10, i11, i12, i13, i20, i21, i22, i23 = _inverse(m, k)
         if not cyl:
             h0, h1, h2 = m.box_half[c, 0], m.box_half[c, 1], m.box_half[c, 2]
             for lane in range(LANES):

@@ -273,3 +273,24 @@ def test_a_link_two_joints_move_into_a_fixed_link_whatever_the_first_does_is_a_w
     past = q.copy()
     past[1] = 1.88
     assert list(checker.beyond_walls(q, np.stack([q, past]))) == [False, True]
+
+
+def test_check_answers_do_not_depend_on_what_earlier_checks_learnt(desk_arm) -> None:
+    """A checker learns which items, and which spheres of a body, touched last, and
+    starts there: the same motions asked after others (in the reverse order, on a fresh
+    checker) get the same answers, and so do configurations."""
+    _, spheres = desk_arm
+    _, env = _desk_env([("post", Cylinder(0.04, 0.4), Pose.from_xyz_rpy((0.2, 0.0, 0.2)))])
+    env.add("block", Box((0.1, 0.1, 0.1)), Pose.from_xyz_rpy((0.0, 0.2, 0.1), (0.3, 0.0, 0.5)))
+    rng = np.random.default_rng(3)
+    kin = spheres.kin
+    a, b = kin.random(rng, 150), kin.random(rng, 150)
+    first = CollisionChecker(spheres, env, fine=True)
+    a = a[first.valid(a)]
+    b = b[: len(a)]
+    once = first.motions_valid(a, b)
+    learnt = CollisionChecker(spheres, env, fine=True)
+    learnt.motions_valid(a[::-1], b[::-1])
+    assert 0 < once.sum() < len(once)  # both kinds of answer are asked
+    np.testing.assert_array_equal(learnt.motions_valid(a, b), once)
+    np.testing.assert_array_equal(learnt.valid(b), first.valid(b))

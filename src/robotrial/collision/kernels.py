@@ -201,8 +201,9 @@ _LISTS = len(Model._fields) - 1  # where `lists` is
 
 class Packed(NamedTuple):
     """A checker as the kernels take it: the packed floats and integers (read only),
-    and the work arrays (floats: speeds and stretches; integers: the item lists, whose
-    order the checks change as they learn which items touch)."""
+    and the work arrays (floats: speeds, stretches and each body's coarse and fine
+    spheres that touched last; integers: the item lists, whose order the checks change as they
+    learn which items touch)."""
 
     floats: np.ndarray
     ints: np.ndarray
@@ -234,7 +235,7 @@ def pack(fields: dict[str, np.ndarray], every: np.ndarray, reachable: np.ndarray
     return Packed(
         np.concatenate(floats),
         np.concatenate(ints),
-        np.zeros(n_bodies + n_pairs + 2 * GAP_STACK),
+        np.zeros(3 * n_bodies + n_pairs + 2 * GAP_STACK),
         work_ints,
     )
 
@@ -479,69 +480,121 @@ def _take(gap, d2, r, reach) -> None:
 
 
 @nb.njit(cache=True, inline="always")
+def _inverse(m, k):
+    """Box or cylinder k's inverse pose, its three rows of four."""
+    nbox = m.box_inv.shape[0]
+    cyl = k >= nbox
+    c = k - nbox if cyl else k
+    inv = m.cyl_inv if cyl else m.box_inv
+    return (
+        inv[c, 0, 0], inv[c, 0, 1], inv[c, 0, 2], inv[c, 0, 3],
+        inv[c, 1, 0], inv[c, 1, 1], inv[c, 1, 2], inv[c, 1, 3],
+        inv[c, 2, 0], inv[c, 2, 1], inv[c, 2, 2], inv[c, 2, 3],
+    )  # fmt: skip
+
+
+@nb.njit(cache=True, inline="always")
+def _to_shape(m, k, pose) -> None:
+    """Turn `pose` (a body's, 12 rows of lanes) into the body's pose in the frame of
+    environment shape k (a sphere's frame: its centre, unturned). Done once per body and
+    shape, it spares each of the body's spheres a second transform."""
+    nbox, ncyl = m.box_inv.shape[0], m.cyl_inv.shape[0]
+    if k >= nbox + ncyl:
+        c = k - nbox - ncyl
+        for i in range(3):
+            ci = m.sph_c[c, i]
+            for lane in range(LANES):
+                pose[9 + i, lane] -= ci
+        return
+    i00, i01, i02, i03, i10, i11, i12, i13, i20, i21, i22, i23 = _inverse(m, k)
+    for col in range(4):  # the rotation's columns, then the translation
+        r0, r1, r2 = (9, 10, 11) if col == 3 else (col, 3 + col, 6 + col)
+        t0, t1, t2 = (i03, i13, i23) if col == 3 else (_F0, _F0, _F0)
+        for lane in range(LANES):
+            x, y, z = pose[r0, lane], pose[r1, lane], pose[r2, lane]
+            pose[r0, lane] = i00 * x + i01 * y + i02 * z + t0
+            pose[r1, lane] = i10 * x + i11 * y + i12 * z + t1
+            pose[r2, lane] = i20 * x + i21 * y + i22 * z + t2
+
+
+@nb.njit(cache=True, inline="always")
 def _sphere_d2(m, k, pose, s, d2) -> None:
-    """d2[0, lane] = the squared distance from sphere s's centre (on the body placed by
-    `pose`) to environment shape k: boxes, then cylinders, then spheres (0 inside)."""
+    """d2[0, lane] = the squared distance from sphere s's centre to environment shape k
+    (0 inside), with `pose` the body's pose in the shape's frame (`_to_shape`): boxes,
+    then cylinders, then spheres."""
     nbox, ncyl = m.box_inv.shape[0], m.cyl_inv.shape[0]
     lx, ly, lz = m.sphere_local[0, s], m.sphere_local[1, s], m.sphere_local[2, s]
-    if k < nbox + ncyl:
-        cyl = k >= nbox
-        c = k - nbox if cyl else k
-        inv = m.cyl_inv if cyl else m.box_inv
-        i00, i01, i02, i03 = inv[c, 0, 0], inv[c, 0, 1], inv[c, 0, 2], inv[c, 0, 3]
-        i10, i11, i12, i13 = inv[c, 1, 0], inv[c, 1, 1], inv[c, 1, 2], inv[c, 1, 3]
-        i20, i21, i22, i23 = inv[c, 2, 0], inv[c, 2, 1], inv[c, 2, 2], inv[c, 2, 3]
-        if not cyl:
-            h0, h1, h2 = m.box_half[c, 0], m.box_half[c, 1], m.box_half[c, 2]
-            for lane in range(LANES):
-                x, y, z = _place(pose, lx, ly, lz, lane)
-                u = max(abs(i00 * x + i01 * y + i02 * z + i03) - h0, _F0)
-                v = max(abs(i10 * x + i11 * y + i12 * z + i13) - h1, _F0)
-                w = max(abs(i20 * x + i21 * y + i22 * z + i23) - h2, _F0)
-                d2[0, lane] = u * u + v * v + w * w
-        else:
-            rad, hl = m.cyl_r[c], m.cyl_h[c]
-            for lane in range(LANES):
-                x, y, z = _place(pose, lx, ly, lz, lane)
-                u = i00 * x + i01 * y + i02 * z + i03
-                v = i10 * x + i11 * y + i12 * z + i13
-                w = i20 * x + i21 * y + i22 * z + i23
-                dr = max(np.sqrt(u * u + v * v) - rad, _F0)
-                dz = max(abs(w) - hl, _F0)
-                d2[0, lane] = dr * dr + dz * dz
-    else:
-        c = k - nbox - ncyl
-        px, py, pz, rad = m.sph_c[c, 0], m.sph_c[c, 1], m.sph_c[c, 2], m.sph_r[c]
+    if k < nbox:
+        h0, h1, h2 = m.box_half[k, 0], m.box_half[k, 1], m.box_half[k, 2]
         for lane in range(LANES):
             x, y, z = _place(pose, lx, ly, lz, lane)
-            dx, dy, dz = x - px, y - py, z - pz
-            g = max(np.sqrt(dx * dx + dy * dy + dz * dz) - rad, _F0)
+            u = max(abs(x) - h0, _F0)
+            v = max(abs(y) - h1, _F0)
+            w = max(abs(z) - h2, _F0)
+            d2[0, lane] = u * u + v * v + w * w
+    elif k < nbox + ncyl:
+        rad, hl = m.cyl_r[k - nbox], m.cyl_h[k - nbox]
+        for lane in range(LANES):
+            x, y, z = _place(pose, lx, ly, lz, lane)
+            dr = max(np.sqrt(x * x + y * y) - rad, _F0)
+            dz = max(abs(z) - hl, _F0)
+            d2[0, lane] = dr * dr + dz * dz
+    else:
+        rad = m.sph_r[k - nbox - ncyl]
+        for lane in range(LANES):
+            x, y, z = _place(pose, lx, ly, lz, lane)
+            g = max(np.sqrt(x * x + y * y + z * z) - rad, _F0)
             d2[0, lane] = g * g
 
 
 @nb.njit(cache=True, inline="always")
-def _env_gap(m, k, b, pose, reach, pad, stop, d2, gap, fine) -> bool:
+def _env_gap(m, k, b, pose, reach, pad, stop, d2, gap, fine, memo) -> bool:
     """gap[0, lane] = the smallest surface gap, less the padding, from body b's spheres
-    (placed by `pose`) to environment shape k: negative where they touch, more than
-    reach[0, lane] when that is all it comes to. True when some lane touches.
+    (placed by `pose`, which this turns into the shape's frame) to environment shape k:
+    negative where they touch, more than reach[0, lane] when that is all it comes to.
+    True when some lane touches.
 
     Where a coarse sphere touches, the body's fine run decides (the narrow phase): both
     covers hold the link, so the larger of their gaps is still no more than the link's
-    own, and it is the clearance a motion check builds on; with `stop` the first lane
-    where both touch ends the search."""
+    own, and it is the clearance a motion check builds on. With `stop` the coarse run
+    starts from its sphere that touched last (memo[n_bodies + b]), the fine run is
+    asked at the first coarse sphere that touches, from its own sphere that touched
+    last (memo[b]), and the first lane where both touch ends the search; the gaps of
+    a search that goes on are the same, as a minimum takes any order."""
     for lane in range(LANES):
         gap[0, lane] = _FAR
-    touch = False
-    for s in range(max(m.start[b], 0), m.end[b]):
-        _sphere_d2(m, k, pose, s, d2)
-        r = m.radius[s]
-        _take(gap, d2, r, reach)
-        for lane in range(LANES):
-            touch |= d2[0, lane] <= (r + pad) * (r + pad)
-    if touch and m.fine_end[b] > m.fine_start[b]:
+    _to_shape(m, k, pose)
+    f0, f1 = max(m.fine_start[b], 0), m.fine_end[b]
+    n_fine = f1 - f0
+    first = min(int(memo[b]), n_fine - 1) if stop else 0
+    touch = refined = False
+    s0, s1 = max(m.start[b], 0), m.end[b]
+    n_coarse, at = s1 - s0, m.node.shape[0] + b
+    lead = min(int(memo[at]), n_coarse - 1) if stop else 0
+    for i in range(n_coarse + 1):  # the coarse run; after it, its fine run if not asked
+        if i < n_coarse:
+            s = s0 + lead + i
+            s = s - n_coarse if s >= s1 else s
+            _sphere_d2(m, k, pose, s, d2)
+            r = m.radius[s]
+            _take(gap, d2, r, reach)
+            for lane in range(LANES):
+                touch |= d2[0, lane] <= (r + pad) * (r + pad)
+            if not (stop and touch) or refined:
+                continue
+            memo[at] = s - s0
+            if n_fine == 0:  # the coarse run decides: a lane touches
+                for lane in range(LANES):
+                    gap[0, lane] -= pad
+                return True
+        if not touch or refined or n_fine == 0:
+            continue
+        refined = True
         for lane in range(LANES):
             fine[0, lane] = _FAR
-        for f in range(max(m.fine_start[b], 0), m.fine_end[b]):
+        for j in range(n_fine):
+            f = f0 + first + j
+            f = f - n_fine if f >= f1 else f
             _sphere_d2(m, k, pose, f, d2)
             r = m.radius[f]
             _take(fine, d2, r, reach)
@@ -550,7 +603,11 @@ def _env_gap(m, k, b, pose, reach, pad, stop, d2, gap, fine) -> bool:
                 for lane in range(LANES):
                     hit |= max(gap[0, lane], fine[0, lane]) <= pad
                 if hit:
-                    break
+                    memo[b] = f - f0
+                    for lane in range(LANES):
+                        gap[0, lane] = max(gap[0, lane], fine[0, lane]) - pad
+                    return True
+    if refined:
         for lane in range(LANES):
             gap[0, lane] = max(gap[0, lane], fine[0, lane])
     hit = False
@@ -568,10 +625,7 @@ def _bound_gaps2(m, k, bounds, b, out) -> None:
     if k < nbox + ncyl:
         cyl = k >= nbox
         c = k - nbox if cyl else k
-        inv = m.cyl_inv if cyl else m.box_inv
-        i00, i01, i02, i03 = inv[c, 0, 0], inv[c, 0, 1], inv[c, 0, 2], inv[c, 0, 3]
-        i10, i11, i12, i13 = inv[c, 1, 0], inv[c, 1, 1], inv[c, 1, 2], inv[c, 1, 3]
-        i20, i21, i22, i23 = inv[c, 2, 0], inv[c, 2, 1], inv[c, 2, 2], inv[c, 2, 3]
+        i00, i01, i02, i03, i10, i11, i12, i13, i20, i21, i22, i23 = _inverse(m, k)
         if not cyl:
             h0, h1, h2 = m.box_half[c, 0], m.box_half[c, 1], m.box_half[c, 2]
             for lane in range(LANES):
@@ -723,6 +777,7 @@ def _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_r
     checks need: see `motion_free`), and their count is returned too."""
     m = model(floats, ints)
     n_bodies = m.node.shape[0]
+    memo = work[n_bodies + m.pairs.shape[0] + 2 * GAP_STACK :]  # fine spheres that touched
     qb = _stack(MAX_NODES, LANES)
     poses = _stack3(MAX_NODES, 12, LANES)
     bounds = _stack3(MAX_BODIES, 3, LANES)
@@ -738,7 +793,7 @@ def _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_r
     point = _stack(3, LANES)
     listed = _stack(1, BODY_SPHERES)
     ready = _stack(1, MAX_BODIES)
-    for j in range(qs.shape[0]):
+    for j in range(m.lower.shape[0]):  # the joints' rows only
         for lane in range(LANES):
             qb[j, lane] = qs[j, lane]
     for lane in range(LANES):
@@ -769,15 +824,18 @@ def _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_r
             v = np.float32(work[n_bodies + p])
             r = m.bound_r[a] + m.bound_r[b] + _EPS
             _pair_gaps2(bounds, a, b, gap2)
-        near = keep = False
+        near = False
         for lane in range(LANES):
             lim = r + max(best[0, lane], _F0) * v
             near |= gap2[0, lane] <= lim * lim
+        if keep_at >= 0:
+            keep = False
             lim = r + reach_kept * v
-            keep |= gap2[0, lane] <= lim * lim
-        if keep_at >= 0 and keep:
-            work_ints[keep_at + kept] = item
-            kept += 1
+            for lane in range(LANES):
+                keep |= gap2[0, lane] <= lim * lim
+            if keep:
+                work_ints[keep_at + kept] = item
+                kept += 1
         if not near:
             continue
         if item >= _PAIR:  # self pairs cost more: after the obstacles
@@ -787,7 +845,7 @@ def _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_r
         for lane in range(LANES):
             reach[0, lane] = max(best[0, lane], _F0) * v + pad
         _node_pose(poses, m.node[b], pose)
-        hit = _env_gap(m, k, b, pose, reach, pad, stop, gap2, gap, fine)
+        hit = _env_gap(m, k, b, pose, reach, pad, stop, gap2, gap, fine, memo)
         if hit and stop:
             return it, kept
         for lane in range(LANES):
@@ -941,15 +999,18 @@ def motion_free(floats, ints, work, work_ints, a, b) -> bool:
     # what is left unproved between two free points is at most half a resolution step
     # (the dense validation's step): a full step let a finger graze a box in between
     floor = 0.5 / max(np.ceil(span), 1.0)
+    dq = _stack64(1, MAX_NODES)  # how far each joint moves
+    for j in range(d):
+        dq[0, j] = abs(b[j] - a[j])
     for i in range(n_bodies):
         v = 0.0
         for j in range(d):
-            v += m.body_rate[i, j] * abs(b[j] - a[j])
+            v += m.body_rate[i, j] * dq[0, j]
         work[i] = v
     for i in range(n_pairs):
         v = 0.0
         for j in range(d):
-            v += m.pair_rate[i, j] * abs(b[j] - a[j])
+            v += m.pair_rate[i, j] * dq[0, j]
         work[n_bodies + i] = v
     qs = _stack(MAX_NODES, LANES)
     caps = _stack(1, LANES)

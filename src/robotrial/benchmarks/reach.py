@@ -96,8 +96,6 @@ def takes_and_sets_down(skills, kind, height: float, inward: float, reach: float
     top `height` high, the base standing so that the object is `reach` ahead of the
     arm's base (a `skills.Way`: the grasp's pitch and the lift's height), when, holding
     it, it sets it down there again too; else None."""
-    from robotrial.onboard.skills import Held
-
     x = skills.arm_offset + reach
     top_seen(skills, height, x - inward)
     obj = np.array([x, 0.0, height + kind.height / 2])
@@ -105,17 +103,34 @@ def takes_and_sets_down(skills, kind, height: float, inward: float, reach: float
     way = skills._reaches(np.zeros(3), obj, kind)
     if way is None:
         return None
+    return way if sets_down(skills, kind, height, inward, reach, way.pitch) else None
+
+
+def sets_down(skills, kind, height: float, inward: float, reach: float, pitch: float):
+    """How the arm, holding an object of `kind` grasped at `pitch` (rad down), sets it
+    down `inward` in from the edge of a top `height` high, the object `reach` ahead of
+    the arm's base (a `skills.Way`), else None."""
+    from robotrial.onboard.skills import Held
+
+    x = skills.arm_offset + reach
+    top_seen(skills, height, x - inward)
+    obj = np.array([x, 0.0, height + kind.height / 2])
     back = kind.grip_width / 2 + skills.palm
-    skills.held = Held(kind, np.array([0.0, 0.0, back]), kind.grip_width, way.pitch)
+    skills.held = Held(kind, np.array([0.0, 0.0, back]), kind.grip_width, pitch)
     try:
-        return way if skills._reaches(np.zeros(3), obj, kind) is not None else None
+        return skills._reaches(np.zeros(3), obj, kind)
     finally:
         skills.held = None
 
 
+def first(reaches, check, *args, **kwargs):
+    """The first way `check(*args, reach, **kwargs)` finds over `reaches`, else None."""
+    return next((w for r in reaches if (w := check(*args, float(r), **kwargs)) is not None), None)
+
+
 def run(args: argparse.Namespace) -> int:
     from robotrial.onboard.catalogue import ObjectKind
-    from robotrial.onboard.skills import REACHES
+    from robotrial.onboard.skills import PITCHES, REACHES
 
     if args.step <= 0 or not args.heights:
         print("robotrial bench reach: --step must be positive and --heights name a height")
@@ -138,39 +153,47 @@ def run(args: argparse.Namespace) -> int:
     with progress("bench reach", total=total, enabled=not args.json) as advance:
         for height in args.heights:
             for kind in kinds:
+                # the deepest step taken (and set down again) and the deepest step an
+                # object held as a grasp from a table holds it (PITCHES[0]) is set down,
+                # each while every step before it succeeded too
                 lifts: list[float] = []
-                for d in inwards:
+                placed: list[float] = []
+                taking = putting = True
+                for k, d in enumerate(inwards):
                     # work sites whose base front keeps EDGE_GAP off the edge
                     sites = [r for r in REACHES if skills.arm_offset + r - d >= front + EDGE_GAP]
-                    way = next(
-                        (
-                            w
-                            for r in sites
-                            if (w := takes_and_sets_down(skills, kind, height, float(d), r))
-                        ),
-                        None,
-                    )
+                    if taking:
+                        took = first(sites, takes_and_sets_down, skills, kind, height, d)
+                        taking = took is not None
+                        lifts += [took.lift] if took is not None else []
+                    if putting:
+                        put = first(sites, sets_down, skills, kind, height, d, pitch=PITCHES[0])
+                        putting = put is not None
+                        placed += [put.lift] if put is not None else []
                     advance()
-                    if way is None:  # further in is not tried
-                        advance(len(inwards) - len(lifts) - 1)
+                    if not (taking or putting):  # further in is not tried
+                        advance(len(inwards) - k - 1)
                         break
-                    lifts.append(way.lift)
                 upto = float(inwards[len(lifts) - 1]) if lifts else 0.0
+                down = float(inwards[len(placed) - 1]) if placed else 0.0
                 out.append(
                     {
                         "height": height,
                         "object": kind.name,
                         "every_step_up_to": round(upto, 3),
                         "lift_at_each_step": lifts,
+                        "set_down_every_step_up_to": round(down, 3),
+                        "set_down_lift_at_each_step": placed,
                     }
                 )
-                used = sorted(set(lifts))
                 rows.append(
                     [
                         f"{height:.2f}",
                         kind.name,
                         f"{upto:.2f}",
-                        ", ".join(f"{h:g}" for h in used) or "-",
+                        ", ".join(f"{h:g}" for h in sorted(set(lifts))) or "-",
+                        f"{down:.2f}",
+                        ", ".join(f"{h:g}" for h in sorted(set(placed))) or "-",
                     ]
                 )
     model = skills.model
@@ -193,7 +216,14 @@ def run(args: argparse.Namespace) -> int:
         f"how far in from a top's edge the arm takes an object and sets it down "
         f"({model.name}: arm base {skills.arm_offset:.3f} m ahead of the middle, shoulder "
         f"{skills.shoulder[2]:.3f} m above the base frame)",
-        ["top m", "object", "every step reached up to m", "lift m"],
+        [
+            "top m",
+            "object",
+            "taken and set down up to m",
+            "lift m",
+            f"set down, held at {np.rad2deg(PITCHES[0]):.0f} deg, up to m",
+            "lift m",
+        ],
         rows,
     )
     return 0

@@ -113,11 +113,15 @@ COLUMN_HEIGHT = 2.0  # m, how tall what the LiDAR mapped is taken to be
 PITCHES = (np.deg2rad(30.0), np.deg2rad(15.0), 0.0)
 
 # m the torso lift (the robot's `lift` group) may stand at while the arm moves; it is
-# lowered (0) while the base drives. The lift a work site takes is the first of these, in
-# the order `lift_order` gives for the top's height, with which the arm finds its way in.
-LIFTS = (0.0, 0.1, 0.2, 0.3)
+# lowered (0) while the base drives. The lift a work site takes is the first of the
+# LIFT_TRIES nearest the shoulder at SHOULDER_OVER_TOP above the top (`lift_order`) with
+# which the arm finds its way in.
+LIFTS = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3)
+LIFT_TRIES = 3
 LIFT_SPEED = 0.08  # m/s
-# m the shoulder reaches furthest in over a top from standing above it (`robotrial bench reach`)
+# m: the arm reaches furthest in over a top with its shoulder level with the top
+# (`robotrial bench reach`: a book 0.45 m in over a 0.8 m top with the lift at 0.05 m
+# only, over a 0.9 m top at 0.15 m only)
 SHOULDER_OVER_TOP = 0.0
 
 # The hand's orientation for a side grasp approaching along base +x: the gripper's
@@ -201,20 +205,12 @@ class Skills:
         self.catalogue = catalogue
         lift = (self.model.metadata.get("groups") or {}).get("lift") or []
         self.lift_joint = str(lift[0]) if lift else ""
-        # a planner and a checking planner per height of the lift, the lift held there
+        # a planner and a checking planner per height of the lift, the lift held there,
+        # made when first asked
         self.planners: dict[float, tuple[TaskPlanner, TaskPlanner]] = {}
-        for h in LIFTS if self.lift_joint else (0.0,):
-            fixed = {self.lift_joint: h} if self.lift_joint else None
-            planner = TaskPlanner(self.model, checker=VoxelChecker, fixed=fixed)
-            feasible = TaskPlanner(self.model, validate=False, checker=VoxelChecker, fixed=fixed)
-            # both covers, from the disk when made before (`robotrial warm`): the fine one
-            # is asked where a goal grazes a table top, and making it costs seconds
-            spheres = robot_spheres(planner.kin, fine=True)
-            planner.spheres = feasible.spheres = spheres
-            self.planners[h] = (planner, feasible)
-        self.lifts = tuple(self.planners)
+        self.lifts = LIFTS if self.lift_joint else (0.0,)
         self.lift = 0.0
-        self.planner, self.feasible = self.planners[0.0]
+        self.planner, self.feasible = self._planners_at(0.0)
         self.arm_names = self.planner.joint_names
         self.detector = ObjectDetector(catalogue)
         self.voxels = VoxelMap()
@@ -838,7 +834,20 @@ class Skills:
 
     def _use_lift(self, lift: float) -> None:
         self.lift = lift
-        self.planner, self.feasible = self.planners[lift]
+        self.planner, self.feasible = self._planners_at(lift)
+
+    def _planners_at(self, lift: float) -> tuple[TaskPlanner, TaskPlanner]:
+        """The planner and the checking planner with the lift held at `lift`."""
+        if lift not in self.planners:
+            fixed = {self.lift_joint: lift} if self.lift_joint else None
+            planner = TaskPlanner(self.model, checker=VoxelChecker, fixed=fixed)
+            feasible = TaskPlanner(self.model, validate=False, checker=VoxelChecker, fixed=fixed)
+            # both covers, from the disk when made before (`robotrial warm`): the fine one
+            # is asked where a goal grazes a table top, and making it costs seconds
+            spheres = robot_spheres(planner.kin, fine=True)
+            planner.spheres = feasible.spheres = spheres
+            self.planners[lift] = (planner, feasible)
+        return self.planners[lift]
 
     def move_lift(self, lift: float) -> Iterator[None]:
         """Raise or lower the torso lift to `lift` (m) and plan the arm from there on; the
@@ -984,7 +993,9 @@ class Skills:
         self.log.target = seen.position.copy()
         local = to_base(base, seen.position)
         keep_out = self._keep_out(local, kind)
-        way = way or Way(0.0)
+        if way is None:  # tried anyway: level, the lift where it serves this top best
+            top = float(seen.position[2]) - kind.height / 2
+            way = Way(0.0, lift_order(top, self.lifts, float(self.shoulder[2]))[0])
         pitch = way.pitch
         yield from self.move_lift(way.lift)
         pre, grasp = self._grasp_points(local, kind, pitch)
@@ -1300,11 +1311,11 @@ def arm_reach(planner: TaskPlanner) -> tuple[np.ndarray, float]:
 
 
 def lift_order(top: float, lifts: Sequence[float], shoulder: float) -> list[float]:
-    """The lift's heights in the order a work site tries them for a top `top` m high, the
-    shoulder `shoulder` m up with the lift lowered: the one that puts the shoulder
-    SHOULDER_OVER_TOP above the top first, then the nearer, the lower first."""
+    """The LIFT_TRIES heights of `lifts` a work site tries for a top `top` m high, in
+    turn, the shoulder `shoulder` m up with the lift lowered: the one that puts the
+    shoulder SHOULDER_OVER_TOP above the top first, then the nearer, the lower first."""
     best = top + SHOULDER_OVER_TOP - shoulder
-    return sorted(lifts, key=lambda h: (round(abs(h - best), 6), h))
+    return sorted(lifts, key=lambda h: (round(abs(h - best), 6), h))[:LIFT_TRIES]
 
 
 def to_base(base: np.ndarray, point: np.ndarray) -> np.ndarray:

@@ -128,3 +128,24 @@ def test_lidar_sees_mesh_obstacles_where_they_stand(tmp_path):
     want = t[np.argmax(inside)]
     assert scan.ranges[ahead] == pytest.approx(want, abs=0.01)
     sim.close()
+
+
+def test_the_torso_lift_raises_the_arm_and_holds_it_there():
+    from robotrial.sim.controllers import JointReference
+
+    opts = SimOptions(cameras=False, streams={"velodyne": StreamSettings(enabled=False)})
+    sim = Simulation.create(
+        "room_a", "mobile_manipulator", spawn=Pose.from_xy_yaw(3.0, 3.5, 0.0), options=opts
+    )
+    sim.start()
+    before = sim.frame_pose("arm_link6")[:3, 3]
+    arm = {n: v for n, v in sim.joint_values().items() if n.startswith("arm_joint")}
+    # the skills' command: the lift alone, at most 0.1 m/s, from rest to rest
+    sim.follow(JointReference(["arm_lift_joint"], [0.0, 4.0], [[0.0], [0.3]], [[0.0], [0.0]]))
+    sim.advance(5.0)
+    after = sim.frame_pose("arm_link6")[:3, 3]
+    assert sim.joint_values()["arm_lift_joint"] == pytest.approx(0.3, abs=0.003)
+    assert after - before == pytest.approx([0.0, 0.0, 0.3], abs=0.005)
+    held = {n: v for n, v in sim.joint_values().items() if n.startswith("arm_joint")}
+    assert held == pytest.approx(arm, abs=0.01)  # the arm kept its pose on the way up
+    sim.close()

@@ -7,10 +7,13 @@ and collision checks in the voxels of the top as the head camera sees it (its to
 as a slab, its front face as voxels), from the stow pose. The top is 0.6 m deep and 2 m
 wide; the object stands straight ahead of the arm `d` in from its edge, `d` in steps of
 `--step`. Each `d` is tried from the work sites the skills offer (`REACHES`, arm base to
-object) whose base keeps `EDGE_GAP` or more off the edge, as the map lets it stand.
+object) whose base keeps `EDGE_GAP` or more off the edge, as the map lets it stand, with
+the torso lift at each of the heights the skills raise it to (`--lifts` restricts them:
+`--lifts 0` is the arm on the lowered lift alone).
 
-    robotrial bench reach                       # tops 0.75, 0.8, 0.9 m; can and book
+    robotrial bench reach                       # tops 0.45-0.9 m; can and book
     robotrial bench reach --heights 0.9 --step 0.02 -o reach.json
+    robotrial bench reach --lifts 0             # the lift kept lowered
 """
 
 from __future__ import annotations
@@ -38,7 +41,18 @@ KINDS = (("can", 0.07), ("book", 0.06))
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default="mobile_manipulator", help="built-in robot name")
     parser.add_argument(
-        "--heights", type=float, nargs="+", default=[0.75, 0.8, 0.9], help="top heights (m)"
+        "--heights",
+        type=float,
+        nargs="+",
+        default=[0.45, 0.5, 0.75, 0.8, 0.9],
+        help="top heights (m)",
+    )
+    parser.add_argument(
+        "--lifts",
+        type=float,
+        nargs="+",
+        metavar="M",
+        help="the torso lift's heights to try (m; default: every one the skills use)",
     )
     parser.add_argument("--step", type=float, default=0.05, help="step in from the edge (m)")
     parser.add_argument("-o", "--output", metavar="JSON", help="also write the results here")
@@ -77,30 +91,46 @@ def top_seen(skills, height: float, edge: float) -> None:
     skills.voxels.slabs = {(a, b): height for a in i for b in j}
 
 
-def takes_and_sets_down(skills, kind, height: float, inward: float, reach: float) -> bool:
-    """Whether the arm grasps and lifts an object of `kind` `inward` in from the edge of
-    a top `height` high, the base standing so that the object is `reach` ahead of the
-    arm's base, then, holding it, sets it down there again."""
+def takes_and_sets_down(skills, kind, height: float, inward: float, reach: float):
+    """How the arm grasps and lifts an object of `kind` `inward` in from the edge of a
+    top `height` high, the base standing so that the object is `reach` ahead of the
+    arm's base (a `skills.Way`: the grasp's pitch and the lift's height), when, holding
+    it, it sets it down there again too; else None."""
+    x = skills.arm_offset + reach
+    top_seen(skills, height, x - inward)
+    obj = np.array([x, 0.0, height + kind.height / 2])
+    skills.held = None
+    way = skills._reaches(np.zeros(3), obj, kind)
+    if way is None:
+        return None
+    return way if sets_down(skills, kind, height, inward, reach, way.pitch) else None
+
+
+def sets_down(skills, kind, height: float, inward: float, reach: float, pitch: float):
+    """How the arm, holding an object of `kind` grasped at `pitch` (rad down), sets it
+    down `inward` in from the edge of a top `height` high, the object `reach` ahead of
+    the arm's base (a `skills.Way`), else None."""
     from robotrial.onboard.skills import Held
 
     x = skills.arm_offset + reach
     top_seen(skills, height, x - inward)
     obj = np.array([x, 0.0, height + kind.height / 2])
-    skills.held = None
-    pitch = skills._reaches(np.zeros(3), obj, kind)
-    if pitch is None:
-        return False
     back = kind.grip_width / 2 + skills.palm
     skills.held = Held(kind, np.array([0.0, 0.0, back]), kind.grip_width, pitch)
     try:
-        return skills._reaches(np.zeros(3), obj, kind) is not None
+        return skills._reaches(np.zeros(3), obj, kind)
     finally:
         skills.held = None
 
 
+def first(reaches, check, *args, **kwargs):
+    """The first way `check(*args, reach, **kwargs)` finds over `reaches`, else None."""
+    return next((w for r in reaches if (w := check(*args, float(r), **kwargs)) is not None), None)
+
+
 def run(args: argparse.Namespace) -> int:
     from robotrial.onboard.catalogue import ObjectKind
-    from robotrial.onboard.skills import REACHES
+    from robotrial.onboard.skills import PITCHES, REACHES
 
     if args.step <= 0 or not args.heights:
         print("robotrial bench reach: --step must be positive and --heights name a height")
@@ -109,6 +139,13 @@ def run(args: argparse.Namespace) -> int:
     load = list(os.getloadavg())
     t0 = time.perf_counter()
     skills = skills_at_stow(args.robot, kinds)
+    if args.lifts is not None:
+        unknown = sorted(set(args.lifts) - set(skills.lifts))
+        if unknown:
+            known = ", ".join(f"{h:g}" for h in skills.lifts)
+            print(f"robotrial bench reach: --lifts {unknown} not among the lift's heights {known}")
+            return 2
+        skills.lifts = tuple(args.lifts)
     front = skills.footprint.length / 2
     inwards = np.round(np.arange(args.step, TOP_DEPTH - 0.05 + 1e-9, args.step), 3)
     out, rows = [], []
@@ -116,23 +153,37 @@ def run(args: argparse.Namespace) -> int:
     with progress("bench reach", total=total, enabled=not args.json) as advance:
         for height in args.heights:
             for kind in kinds:
-                reached = []
-                for d in inwards:
+                # the deepest step taken (and set down again) and the deepest step an
+                # object held as a grasp from a table holds it (PITCHES[0]) is set down,
+                # each while every step before it succeeded too
+                lifts: list[float] = []
+                placed: list[float] = []
+                taking = putting = True
+                for k, d in enumerate(inwards):
                     # work sites whose base front keeps EDGE_GAP off the edge
                     sites = [r for r in REACHES if skills.arm_offset + r - d >= front + EDGE_GAP]
-                    reached.append(
-                        any(takes_and_sets_down(skills, kind, height, float(d), r) for r in sites)
-                    )
+                    if taking:
+                        took = first(sites, takes_and_sets_down, skills, kind, height, d)
+                        taking = took is not None
+                        lifts += [took.lift] if took is not None else []
+                    if putting:
+                        put = first(sites, sets_down, skills, kind, height, d, pitch=PITCHES[0])
+                        putting = put is not None
+                        placed += [put.lift] if put is not None else []
                     advance()
-                ok = np.array(reached)
-                upto = float(inwards[~ok][0] - args.step) if not ok.all() else float(inwards[-1])
+                    if not (taking or putting):  # further in is not tried
+                        advance(len(inwards) - k - 1)
+                        break
+                upto = float(inwards[len(lifts) - 1]) if lifts else 0.0
+                down = float(inwards[len(placed) - 1]) if placed else 0.0
                 out.append(
                     {
                         "height": height,
                         "object": kind.name,
-                        "reached_in": [float(d) for d in inwards[ok]],
-                        "not_reached_in": [float(d) for d in inwards[~ok]],
                         "every_step_up_to": round(upto, 3),
+                        "lift_at_each_step": lifts,
+                        "set_down_every_step_up_to": round(down, 3),
+                        "set_down_lift_at_each_step": placed,
                     }
                 )
                 rows.append(
@@ -140,7 +191,9 @@ def run(args: argparse.Namespace) -> int:
                         f"{height:.2f}",
                         kind.name,
                         f"{upto:.2f}",
-                        ", ".join(f"{d:.2f}" for d in inwards[ok]) or "none",
+                        ", ".join(f"{h:g}" for h in sorted(set(lifts))) or "-",
+                        f"{down:.2f}",
+                        ", ".join(f"{h:g}" for h in sorted(set(placed))) or "-",
                     ]
                 )
     model = skills.model
@@ -153,6 +206,7 @@ def run(args: argparse.Namespace) -> int:
         "base_front": front,
         "edge_gap": EDGE_GAP,
         "work_site_reaches": list(REACHES),
+        "lifts": list(skills.lifts),
         "wall_time": time.perf_counter() - t0,
         "tops": out,
     }
@@ -162,7 +216,14 @@ def run(args: argparse.Namespace) -> int:
         f"how far in from a top's edge the arm takes an object and sets it down "
         f"({model.name}: arm base {skills.arm_offset:.3f} m ahead of the middle, shoulder "
         f"{skills.shoulder[2]:.3f} m above the base frame)",
-        ["top m", "object", "every step reached up to m", "reached at m in"],
+        [
+            "top m",
+            "object",
+            "taken and set down up to m",
+            "lift m",
+            f"set down, held at {np.rad2deg(PITCHES[0]):.0f} deg, up to m",
+            "lift m",
+        ],
         rows,
     )
     return 0

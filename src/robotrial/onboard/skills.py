@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Generator, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -36,6 +37,8 @@ from scipy.spatial.transform import Rotation
 from robotrial.collision.voxels import VoxelChecker
 from robotrial.geometry import Box, Pose
 from robotrial.kinematics.reference import link_poses
+from robotrial.msgs.builtin_interfaces import Duration
+from robotrial.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
 from robotrial.nav.amcl import compose, inverse
 from robotrial.nav.navigator import Status
 from robotrial.nav.tour import open_spot
@@ -109,6 +112,18 @@ COLUMN_HEIGHT = 2.0  # m, how tall what the LiDAR mapped is taken to be
 # bed, a coffee table), held at 30 degrees it can, so the steepest comes first.
 PITCHES = (np.deg2rad(30.0), np.deg2rad(15.0), 0.0)
 
+# m the torso lift (the robot's `lift` group) may stand at while the arm moves; it is
+# lowered (0) while the base drives. The lift a work site takes is the first of the
+# LIFT_TRIES nearest the shoulder at SHOULDER_OVER_TOP above the top (`lift_order`) with
+# which the arm finds its way in.
+LIFTS = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3)
+LIFT_TRIES = 3
+LIFT_SPEED = 0.08  # m/s
+# m: the arm reaches furthest in over a top with its shoulder level with the top
+# (`robotrial bench reach`: a book 0.45 m in over a 0.8 m top with the lift at 0.05 m
+# only, over a 0.9 m top at 0.15 m only)
+SHOULDER_OVER_TOP = 0.0
+
 # The hand's orientation for a side grasp approaching along base +x: the gripper's
 # approach axis (z) forward, its x axis up, fingers closing sideways.
 SIDE_GRASP = Rotation.from_matrix([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])
@@ -141,6 +156,15 @@ class Look:
     surfaces: list[Surface]
     sightings: list[Sighting]
     unknown: int = 0
+
+
+@dataclass(frozen=True)
+class Way:
+    """How the arm gets to an object at a work site: the grasp's pitch down (rad) and the
+    torso lift's height (m)."""
+
+    pitch: float
+    lift: float = 0.0
 
 
 @dataclass
@@ -179,12 +203,14 @@ class Skills:
         self.robot = robot
         self.model = robot.model
         self.catalogue = catalogue
-        self.planner = TaskPlanner(self.model, checker=VoxelChecker)
-        self.feasible = TaskPlanner(self.model, validate=False, checker=VoxelChecker)
-        # both covers, from the disk when made before (`robotrial warm`): the fine one is
-        # asked where a goal grazes a table top, and making it costs seconds
-        spheres = robot_spheres(self.planner.kin, fine=True)
-        self.planner.spheres = self.feasible.spheres = spheres
+        lift = (self.model.metadata.get("groups") or {}).get("lift") or []
+        self.lift_joint = str(lift[0]) if lift else ""
+        # a planner and a checking planner per height of the lift, the lift held there,
+        # made when first asked
+        self.planners: dict[float, tuple[TaskPlanner, TaskPlanner]] = {}
+        self.lifts = LIFTS if self.lift_joint else (0.0,)
+        self.lift = 0.0
+        self.planner, self.feasible = self._planners_at(0.0)
         self.arm_names = self.planner.joint_names
         self.detector = ObjectDetector(catalogue)
         self.voxels = VoxelMap()
@@ -545,7 +571,8 @@ class Skills:
         frame."""
         floor = ("floor", Box((4.0, 4.0, FLOOR_THICKNESS)), Pose((0.0, 0.0, -FLOOR_THICKNESS / 2)))
         reach = self.reach + (self.held.kind.width + self.held.kind.height if self.held else 0.0)
-        boxes = self.voxels.boxes(base, self.shoulder, reach + 0.05, keep_out=keep_out)
+        shoulder = self.shoulder + np.array([0.0, 0.0, self.lift])
+        boxes = self.voxels.boxes(base, shoulder, reach + 0.05, keep_out=keep_out)
         return [floor, *boxes]
 
     def _held_pose(self, q: np.ndarray) -> np.ndarray:
@@ -759,13 +786,23 @@ class Skills:
             f"the arm reaches {min(REACHES):.2f}-{max(REACHES):.2f} m"
         )
 
-    def _reaches(self, base: np.ndarray, target: np.ndarray, kind: ObjectKind) -> float | None:
-        """The pitch (rad, of PITCHES) with which the arm finds the way in at a work site
-        with the base at `base`: to grasp an object of `kind` centred at `target` (map
-        frame) and lift it (`_lifted`), or, holding one, to set it down there (from its
-        `_lifted` point, at the pitch it was grasped with), in the voxels seen so far;
-        None when with none."""
+    def _reaches(self, base: np.ndarray, target: np.ndarray, kind: ObjectKind) -> Way | None:
+        """The way (of PITCHES, of the lift's heights) with which the arm finds the way in
+        at a work site with the base at `base`: to grasp an object of `kind` centred at
+        `target` (map frame) and lift it (`_lifted`), or, holding one, to set it down there
+        (from its `_lifted` point, at the pitch it was grasped with), in the voxels seen
+        so far; None when with none."""
         local = to_base(base, target)
+        top = float(target[2]) - kind.height / 2
+        for lift in lift_order(top, self.lifts, float(self.shoulder[2])):
+            with self._lift_at(lift):
+                pitch = self._pitch_at(base, local, kind)
+            if pitch is not None:
+                return Way(pitch, lift)
+        return None
+
+    def _pitch_at(self, base: np.ndarray, local: np.ndarray, kind: ObjectKind) -> float | None:
+        """`_reaches` with the lift where the planners hold it: the pitch, or None."""
         if self.held is not None:
             obstacles = self._obstacles(base)
             pitches: tuple[float, ...] = (self.held.pitch,)
@@ -784,6 +821,55 @@ class Skills:
             if self._plans_through(points, orientation, obstacles):
                 return pitch
         return None
+
+    @contextmanager
+    def _lift_at(self, lift: float) -> Iterator[None]:
+        """Plan (within the block) with the lift held at `lift`, wherever it stands."""
+        was = self.lift
+        self._use_lift(lift)
+        try:
+            yield
+        finally:
+            self._use_lift(was)
+
+    def _use_lift(self, lift: float) -> None:
+        self.lift = lift
+        self.planner, self.feasible = self._planners_at(lift)
+
+    def _planners_at(self, lift: float) -> tuple[TaskPlanner, TaskPlanner]:
+        """The planner and the checking planner with the lift held at `lift`."""
+        if lift not in self.planners:
+            fixed = {self.lift_joint: lift} if self.lift_joint else None
+            planner = TaskPlanner(self.model, checker=VoxelChecker, fixed=fixed)
+            feasible = TaskPlanner(self.model, validate=False, checker=VoxelChecker, fixed=fixed)
+            # both covers, from the disk when made before (`robotrial warm`): the fine one
+            # is asked where a goal grazes a table top, and making it costs seconds
+            spheres = robot_spheres(planner.kin, fine=True)
+            planner.spheres = feasible.spheres = spheres
+            self.planners[lift] = (planner, feasible)
+        return self.planners[lift]
+
+    def move_lift(self, lift: float) -> Iterator[None]:
+        """Raise or lower the torso lift to `lift` (m) and plan the arm from there on; the
+        arm holds its pose meanwhile (stowed or in the carry pose, above the base)."""
+        now = float(self.robot.joints.get(self.lift_joint, self.lift))
+        if not self.lift_joint or abs(now - lift) < 0.002:
+            self._use_lift(lift)
+            return
+        duration = max(1.5 * abs(lift - now) / LIFT_SPEED, 0.2)
+        points = [
+            JointTrajectoryPoint(
+                positions=[v],
+                velocities=[0.0],
+                accelerations=[],
+                effort=[],
+                time_from_start=Duration.from_sec(t),
+            )
+            for t, v in ((0.0, now), (duration, lift))
+        ]
+        self.robot.ref_pub.publish(JointTrajectory(joint_names=[self.lift_joint], points=points))
+        yield from self.wait(duration + SETTLE)
+        self._use_lift(lift)
 
     def _plans_through(self, points, orientation: Rotation, obstacles: Obstacles) -> bool:
         """Whether the arm, from where it is, gets to each of `points` (base frame) in
@@ -898,8 +984,8 @@ class Skills:
                     f"the {target.kind.name} seen from the approach is not in view at the "
                     f"work site, nor from {100 * LOOK_BACK[-1]:.0f} cm behind it",
                 )
-            pitch = self._reaches(base, seen.position, seen.kind)
-            if moves == len(REACHES) or pitch is not None:
+            way = self._reaches(base, seen.position, seen.kind)
+            if moves == len(REACHES) or way is not None:
                 break
             yield from self._reach(to_base(base, seen.position), base, seen.kind)
             target = seen
@@ -907,7 +993,11 @@ class Skills:
         self.log.target = seen.position.copy()
         local = to_base(base, seen.position)
         keep_out = self._keep_out(local, kind)
-        pitch = pitch or 0.0
+        if way is None:  # tried anyway: level, the lift where it serves this top best
+            top = float(seen.position[2]) - kind.height / 2
+            way = Way(0.0, lift_order(top, self.lifts, float(self.shoulder[2]))[0])
+        pitch = way.pitch
+        yield from self.move_lift(way.lift)
         pre, grasp = self._grasp_points(local, kind, pitch)
         orientation = self.orientation(local, pitch)
         self.robot.grip(self.finger_open, self.robot.setup.grip_force)
@@ -938,6 +1028,8 @@ class Skills:
         yield from self.straight(-STANDOFF)
         yield from self.arm_to_pose("carry")
         self.check_grip("moving to the carry pose")
+        yield from self.move_lift(0.0)
+        self.check_grip("lowering the lift")
 
     def close(self) -> Generator[None, None, float]:
         """Close the fingers with the grip force until they stand still; the opening
@@ -1076,7 +1168,8 @@ class Skills:
         for moves in range(len(REACHES) + 1):
             base = yield from self.docked_pose()
             local = to_base(base, target)
-            if moves == len(REACHES) or self._reaches(base, target, held.kind) is not None:
+            way = self._reaches(base, target, held.kind)
+            if moves == len(REACHES) or way is not None:
                 break
             yield from self._reach(local, base, held.kind)
         look = self.look(base)
@@ -1086,6 +1179,7 @@ class Skills:
             local = to_base(base, target)
         orientation = self.orientation(local, held.pitch)
         hand = local - orientation.apply(held.in_hand)
+        yield from self.move_lift(way.lift if way is not None else 0.0)
         yield from self.move_arm(base, "arm_planning", self._lifted(hand), orientation)
         self.check_grip("lowering it")
         # above the point, the head camera sees the object's top: where it truly sits in
@@ -1214,6 +1308,14 @@ def arm_reach(planner: TaskPlanner) -> tuple[np.ndarray, float]:
     tips = kin.fk(kin.random(np.random.default_rng(0), 400))
     tcp = tips[:, kin.link_index[kin.model.end_effector], :3, 3]
     return shoulder, float(np.max(np.linalg.norm(tcp - shoulder, axis=1))) + 0.05
+
+
+def lift_order(top: float, lifts: Sequence[float], shoulder: float) -> list[float]:
+    """The LIFT_TRIES heights of `lifts` a work site tries for a top `top` m high, in
+    turn, the shoulder `shoulder` m up with the lift lowered: the one that puts the
+    shoulder SHOULDER_OVER_TOP above the top first, then the nearer, the lower first."""
+    best = top + SHOULDER_OVER_TOP - shoulder
+    return sorted(lifts, key=lambda h: (round(abs(h - best), 6), h))[:LIFT_TRIES]
 
 
 def to_base(base: np.ndarray, point: np.ndarray) -> np.ndarray:

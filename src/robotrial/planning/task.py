@@ -21,7 +21,7 @@ import pickle
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
@@ -165,11 +165,11 @@ def _code_digest() -> bytes:
 def robot_spheres(kin: Kinematics, fine: bool = False) -> RobotSpheres:
     """The robot's spheres and self-collision pairs (seconds of work for a robot: sphere
     covers of every shape, thousands of sampled configurations), kept on disk by robot,
-    joint group and code version, so that a fresh process reads them back. With `fine`,
+    joint group, the other joints' held values and code version, so that a fresh process
+    reads them back. With `fine`,
     the fine covers too (made otherwise on first use, `RobotSpheres.refine`)."""
-    key = hashlib.sha256(pickle.dumps((kin.model, kin.joint_names)) + _code_digest()).hexdigest()[
-        :32
-    ]
+    held = (kin.model, kin.joint_names, sorted(kin.fixed_values.items()))
+    key = hashlib.sha256(pickle.dumps(held) + _code_digest()).hexdigest()[:32]
     path = cache_dir("robot-spheres") / f"{key}.pickle"
     spheres = None
     try:
@@ -197,7 +197,8 @@ class TaskPlanner:
     """Plans PlanTask requests for one robot, optionally standing in a world.
 
     `joints`: the planning joints (default: the arm group, else the chain to the end
-    effector). `padding` (m) keeps the robot's spheres that far from obstacles.
+    effector); `fixed`: the values other joints are held at (default 0, e.g. a torso lift's
+    height). `padding` (m) keeps the robot's spheres that far from obstacles.
     `checker`: the collision checker class built for each scene (a subclass of
     `CollisionChecker` suited to the scenes at hand, e.g. `collision.voxels.VoxelChecker`).
     With `reference`, each answer is post-processed as before the compiled path (NumPy
@@ -214,6 +215,7 @@ class TaskPlanner:
         validate: bool = True,
         checker: type[CollisionChecker] = CollisionChecker,
         reference: bool = False,
+        fixed: Mapping[str, float] | None = None,
     ) -> None:
         self.robot = robot
         self.reference = reference
@@ -222,7 +224,7 @@ class TaskPlanner:
         self.world = None if world is None else seen_from(world, stand(robot, world))
         world = self.world
         self.joint_names = list(joints) if joints else default_planning_joints(robot)
-        self.kin = Kinematics(robot, self.joint_names)
+        self.kin = Kinematics(robot, self.joint_names, fixed)
         self.spheres = robot_spheres(self.kin)
         self.seeds = seeds(self.kin)
         self.padding = float(padding)

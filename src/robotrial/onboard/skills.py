@@ -51,7 +51,7 @@ from robotrial.onboard.perception import (
     fit_circle,
 )
 from robotrial.onboard.robot import Robot
-from robotrial.onboard.voxels import Obstacles, RobotBody, VoxelMap, merge_runs
+from robotrial.onboard.voxels import SLAB_DEPTH, Obstacles, RobotBody, VoxelMap, merge_runs
 from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult, robot_spheres
 from robotrial.ros.plan_task import joint_trajectory
 from robotrial.ros.slam_node import scan_to_beams
@@ -96,6 +96,9 @@ GRIP_SETTLE = 0.25  # s the fingers must stand still to count as closed
 GRIP_SLACK = 0.012  # m: fingers closed this much narrower than the object missed it
 SLIP = 0.008  # m the fingers may close further once holding before it counts as slipping
 VIEW_RANGE = 4.0  # m, farther points are too coarse to classify
+# m the seen centre of an object may lie off its true one (a box's centre from its top
+# face, seen from a metre or more at a slant), and so its own voxels off the seen outline
+SEEN_ERROR = 0.02
 HELD_SEARCH = 0.025  # m around where the held object's top should be
 HELD_CUT = 0.01  # m, the robot's body grown by this when the held object is measured
 TOP_FACE = 0.006  # m below the highest points that are still the top face
@@ -808,12 +811,19 @@ class Skills:
 
     # --- pick --------------------------------------------------------------------------
 
-    def _keep_out(self, local: np.ndarray, kind: ObjectKind | None = None):
-        """The cylinder around the object to grasp (base frame) left out of the voxels."""
-        k = kind or (self.held.kind if self.held is not None else None)
-        r = (k.width / 2 if k is not None else 0.05) + 0.025
-        h = k.height if k is not None else 0.2
-        return [(local, r, local[2] - h / 2 + 0.008, local[2] + h / 2 + 0.03)]
+    def _keep_out(self, local: np.ndarray, kind: ObjectKind, support: bool = False):
+        """The upright cylinder around an object of `kind` centred at `local` (base
+        frame) left out of the arm's obstacles: its own voxels (with `support`, also the
+        top it stands on, which it leaves when lifted)."""
+        bottom = local[2] - kind.height / 2
+        below = bottom - SLAB_DEPTH if support else bottom + 0.008
+        return [(local, self._object_radius(kind), below, bottom + kind.height + 0.03)]
+
+    def _object_radius(self, kind: ObjectKind) -> float:
+        """How far (m) from an object's seen centre its voxels lie: its outline's
+        farthest point (a box's corner), a voxel's edge and SEEN_ERROR beyond it."""
+        half = np.hypot(*kind.size[:2]) / 2 if kind.shape == "box" else kind.width / 2
+        return float(half + self.voxels.resolution + SEEN_ERROR)
 
     def approach(self, target: Sighting) -> Generator[None, None, Sighting]:
         """Drive to a work site from which the arm reaches the object, looking at it
@@ -932,8 +942,12 @@ class Skills:
             f"{self.robot.setup.grip_force:g} N at {100 * width:.1f} cm; it sits "
             f"{100 * in_hand[2]:.1f} cm beyond the tool point"
         )
-        self.voxels.remove(seen.position, kind.width / 2 + 0.03, (-1.0, 5.0))
-        yield from self.move_arm(base, "arm_planning", self._lifted(grasp), orientation)
+        self.voxels.remove(seen.position, self._object_radius(kind), (-1.0, 5.0))
+        # the object rests on the top until it is lifted: the lift starts there
+        lift_keep_out = self._keep_out(local, kind, support=True)
+        yield from self.move_arm(
+            base, "arm_planning", self._lifted(grasp), orientation, keep_out=lift_keep_out
+        )
         self.check_grip("lifting")
         yield from self.straight(-STANDOFF)
         yield from self.arm_to_pose("carry")
@@ -1106,7 +1120,7 @@ class Skills:
         self.robot.grip(self.finger_open, self.robot.setup.grip_force)
         yield from self.wait(0.6)
         self.held = None
-        self.voxels.remove(target, held.kind.width / 2 + 0.03, (-1.0, 5.0))
+        self.voxels.remove(target, self._object_radius(held.kind), (-1.0, 5.0))
         back = hand - GRASP_BACKOFF * orientation.apply([0.0, 0.0, 1.0])
         res = self.plan(
             self.arm_q(), self._obstacles(base, self._keep_out(local, held.kind)), back, orientation

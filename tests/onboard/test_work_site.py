@@ -143,3 +143,31 @@ def test_the_lift_starts_with_the_grasped_can_resting_on_the_top(skills: Skills)
     finally:
         skills.held = None
         skills.robot.joints = stow
+
+
+def test_the_arm_folds_from_over_a_table_the_lidar_mapped(skills: Skills) -> None:
+    # home 32: the can lifted and the base backed out, the hand was still over the
+    # table's near edge, which the map shows as occupied cells; taken for columns up to
+    # 2 m, they put the hand in collision and the arm could not fold to carry
+    from robotrial.benchmarks.reach import top_seen
+
+    height, edge = 0.75, 0.8
+    top_seen(skills, height, edge)
+    local = np.array([edge + 0.05, 0.0, height + 0.1])
+    at = skills.plan(skills.arm_q(), skills._obstacles(np.zeros(3)), local, check_only=True)
+    assert at.success, at.message
+    res = 0.025
+    occupied = np.zeros((80, 80), dtype=bool)
+    occupied[:, int((edge + 1.0) / res) :] = True  # the table from its edge on, origin -1 m
+    skills.map_walls = occupied
+    skills.map_origin, skills.map_res = np.array([-1.0, -1.0]), res
+    stow = dict(skills.robot.joints)
+    q = at.trajectory.q[-1]
+    skills.robot.joints = dict(zip(skills.arm_names, q.tolist(), strict=True))
+    try:
+        obstacles = skills._obstacles(np.zeros(3)) + skills._map_columns(np.zeros(3))
+        folded = skills.plan(q, obstacles, joints=skills.poses["stow"], check_only=True)
+        assert folded.success, folded.message
+    finally:
+        skills.robot.joints = stow
+        del skills.map_walls

@@ -55,6 +55,9 @@ SIZE_TOLERANCE = (0.1, 0.012)  # relative and absolute (m): a size within either
 HEIGHT_WEIGHT = 2.0
 COLOUR_TOLERANCE = 0.09  # chromaticity distance that still matches
 BLUR_PIXELS = 2.5  # pixels a size may be off where the object is (edges, noise)
+# a top face whose second moments differ less than this way to that is square-ish: its
+# sides' direction comes from its fourth moments (`_face_yaw`)
+SQUARE = 1.5
 MIN_SLANT = 0.1  # sine of the flattest view of a top face whose sides are still measured
 
 
@@ -95,10 +98,10 @@ class Surface:
 @dataclass(frozen=True)
 class Detection:
     """One object seen: its kind ("" when no kind of the catalogue fits), its centre
-    (m) and yaw (rad, boxes) in the points' frame, what was measured (height, width
-    across the view, mean colour), how many points it had, the height of the surface
-    it stands on, and `error`: how far its size and colour were from the kind's (0 a
-    perfect match, 1 the tolerance)."""
+    (m) and yaw (rad; a box's: a side's direction) in the points' frame, what was
+    measured (height, width across the view, mean colour), how many points it had, the
+    height of the surface it stands on, and `error`: how far its size and colour were
+    from the kind's (0 a perfect match, 1 the tolerance)."""
 
     kind: str
     position: tuple[float, float, float]
@@ -321,11 +324,15 @@ def _hull(cells: np.ndarray) -> np.ndarray:
 
 def _box_sides(xy: np.ndarray) -> tuple[float, float, float, np.ndarray]:
     """The shorter and longer side (m) of the rectangle around points (N, 2) along their
-    principal axes, the longer side's direction (rad) and the rectangle's centre."""
+    principal axes (a square-ish one's: along its sides), the longer side's direction
+    (rad) and the rectangle's centre."""
     c = xy.mean(axis=0)
     d = xy - c
-    _, vecs = np.linalg.eigh(d.T @ d)
+    vals, vecs = np.linalg.eigh(d.T @ d)
     major = vecs[:, 1]
+    if vals[1] < SQUARE * vals[0]:  # a square-ish top: its principal axes say nothing
+        yaw = _face_yaw(xy)
+        major = np.array([np.cos(yaw), np.sin(yaw)])
     u, v = d @ major, d @ np.array([-major[1], major[0]])
     # the 5th to 95th percentile of a side's points spans 90 % of it; farther out the
     # depth noise blurs the edges outward
@@ -333,7 +340,22 @@ def _box_sides(xy: np.ndarray) -> tuple[float, float, float, np.ndarray]:
     lv = np.percentile(v, 5), np.percentile(v, 95)
     centre = c + major * (lu[0] + lu[1]) / 2 + np.array([-major[1], major[0]]) * (lv[0] + lv[1]) / 2
     a, b = (lu[1] - lu[0]) / 0.9, (lv[1] - lv[0]) / 0.9
-    return float(min(a, b)), float(max(a, b)), float(np.arctan2(major[1], major[0])), centre
+    longer = major if a >= b else np.array([-major[1], major[0]])
+    return float(min(a, b)), float(max(a, b)), float(np.arctan2(longer[1], longer[0])), centre
+
+
+def _face_yaw(xy: np.ndarray) -> float:
+    """The direction (rad, 0 to pi/2, in 1-degree steps) of a side of a square of points
+    (N, 2): where the fourth moments of the points along it and across it sum to the
+    least (along a diagonal they are 4/3 of that). A square's second moments, and so its
+    principal axes, are the same every way; its outermost points are the noisiest."""
+    d = xy - xy.mean(axis=0)
+    angles = np.deg2rad(np.arange(90.0))
+    c, s = np.cos(angles), np.sin(angles)
+    moments = ((d @ np.vstack([c, s])) ** 4).mean(axis=0) + ((d @ np.vstack([-s, c])) ** 4).mean(
+        axis=0
+    )
+    return float(angles[int(np.argmin(moments))])
 
 
 def _off(measured: float, want: float, blur: float = 0.0) -> float:

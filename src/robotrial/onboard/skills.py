@@ -54,7 +54,7 @@ from robotrial.onboard.perception import (
     fit_circle,
 )
 from robotrial.onboard.robot import Robot
-from robotrial.onboard.voxels import Obstacles, RobotBody, VoxelMap, merge_runs
+from robotrial.onboard.voxels import SLAB_DEPTH, Obstacles, RobotBody, VoxelMap, merge_runs
 from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult, robot_spheres
 from robotrial.ros.plan_task import joint_trajectory
 from robotrial.ros.slam_node import scan_to_beams
@@ -99,11 +99,15 @@ GRIP_SETTLE = 0.25  # s the fingers must stand still to count as closed
 GRIP_SLACK = 0.012  # m: fingers closed this much narrower than the object missed it
 SLIP = 0.008  # m the fingers may close further once holding before it counts as slipping
 VIEW_RANGE = 4.0  # m, farther points are too coarse to classify
+# m the seen centre of an object may lie off its true one (a box's centre from its top
+# face, seen from a metre or more at a slant), and so its own voxels off the seen outline
+SEEN_ERROR = 0.02
 HELD_SEARCH = 0.025  # m around where the held object's top should be
 HELD_CUT = 0.01  # m, the robot's body grown by this when the held object is measured
 TOP_FACE = 0.006  # m below the highest points that are still the top face
 FLOOR_THICKNESS = 0.1  # m
 COLUMN_HEIGHT = 2.0  # m, how tall what the LiDAR mapped is taken to be
+COLUMN_CLEAR = 0.03  # m round the arm where a mapped cell is not taken for a column
 
 # The side grasp's approach pitched down (rad), tried in turn. Level, the wrist behind the
 # hand hangs below an object's centre and meets the top it stands on when the object is
@@ -140,11 +144,14 @@ class SkillFailed(RuntimeError):
 
 @dataclass
 class Sighting:
-    """An object seen: its kind, centre (m, map frame), the detection it came from."""
+    """An object seen: its kind, centre (m, map frame), the detection it came from and,
+    for a box with a square top, the direction of one of its sides (rad, map frame): the
+    grasp approaches square to a face (its fingers open little wider than such a box)."""
 
     kind: ObjectKind
     position: np.ndarray
     detection: Detection
+    face: float | None = None
 
 
 @dataclass
@@ -225,7 +232,8 @@ class Skills:
         self.finger_open = float(grip.get("open", 0.0))
         self.finger_closed = float(grip.get("closed", 0.0))
         zero = link_poses(self.model, {})
-        self.arm_offset = float(zero[self.model.joint(self.arm_names[0]).parent][0, 3])
+        arm_base = zero[self.model.joint(self.arm_names[0]).parent]
+        self.arm_offset, self.arm_height = float(arm_base[0, 3]), float(arm_base[2, 3])
         self.shoulder, self.reach = arm_reach(self.planner)
         self.palm = palm_depth(self.model, zero, self.model.end_effector)
         self.footprint = robot.setup.footprint
@@ -395,7 +403,10 @@ class Skills:
             if d.kind:
                 p = compose(base, np.array([d.position[0], d.position[1], 0.0]))
                 xyz = np.array([p[0], p[1], d.position[2]])
-                sightings.append(Sighting(self.catalogue.kind(d.kind), xyz, d))
+                kind = self.catalogue.kind(d.kind)
+                square = kind.shape == "box" and abs(kind.size[0] - kind.size[1]) < 1e-3
+                face = float(base[2] + d.yaw) if square else None
+                sightings.append(Sighting(kind, xyz, d, face))
         log.info(
             "look at %.1f s from (%.2f, %.2f, %.2f): %s; %d unknown",
             self.robot.now,
@@ -697,6 +708,15 @@ class Skills:
         d = xy - base[:2]
         local = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
         near = np.hypot(*(local - self.shoulder[:2]).T) <= self.reach + 0.1
+        # a cell the arm (or what it holds) is over or in, above the base, is a top the
+        # camera saw it reach over, not a column: a lifted object held out over a table
+        idx = np.nonzero(near)[0]
+        heights = np.arange(self.arm_height, COLUMN_HEIGHT, self.voxels.resolution)
+        up = np.column_stack(
+            [np.repeat(local[idx], len(heights), axis=0), np.tile(heights, len(idx))]
+        )
+        under = self.body.mask(up, self.robot.joints, self._held_shapes(), COLUMN_CLEAR)
+        near[idx[under.reshape(len(idx), len(heights)).any(axis=1)]] = False
         keys = np.column_stack([cols[near], rows[near], np.zeros(int(near.sum()), dtype=int)])
         out: Obstacles = []
         for lo, hi in merge_runs(keys) if len(keys) else []:
@@ -707,12 +727,17 @@ class Skills:
             out.append((f"map/{len(out)}", Box((*map(float, size), COLUMN_HEIGHT)), pose))
         return out
 
-    def orientation(self, local: np.ndarray, pitch: float = 0.0) -> Rotation:
+    def orientation(
+        self, local: np.ndarray, pitch: float = 0.0, face: float | None = None
+    ) -> Rotation:
         """A side grasp facing the point `local` (base frame) from the arm's base, its
-        approach pitched down by `pitch` (rad)."""
+        approach pitched down by `pitch` (rad); with `face` (a side's direction, base
+        frame), square to the face of a square box nearest that way."""
         d = np.asarray(local[:2]) - np.array([self.arm_offset, 0.0])
-        yaw = Rotation.from_euler("z", float(np.arctan2(d[1], d[0])))
-        return yaw * Rotation.from_euler("y", pitch) * SIDE_GRASP
+        heading = float(np.arctan2(d[1], d[0]))
+        if face is not None:
+            heading += wrap(face - heading + np.pi / 4) % (np.pi / 2) - np.pi / 4
+        return Rotation.from_euler("z", heading) * Rotation.from_euler("y", pitch) * SIDE_GRASP
 
     def _approach(self, local: np.ndarray, back: float) -> np.ndarray:
         d = np.asarray(local[:2]) - np.array([self.arm_offset, 0.0])
@@ -786,22 +811,28 @@ class Skills:
             f"the arm reaches {min(REACHES):.2f}-{max(REACHES):.2f} m"
         )
 
-    def _reaches(self, base: np.ndarray, target: np.ndarray, kind: ObjectKind) -> Way | None:
+    def _reaches(
+        self, base: np.ndarray, target: np.ndarray, kind: ObjectKind, face: float | None = None
+    ) -> Way | None:
         """The way (of PITCHES, of the lift's heights) with which the arm finds the way in
         at a work site with the base at `base`: to grasp an object of `kind` centred at
         `target` (map frame) and lift it (`_lifted`), or, holding one, to set it down there
         (from its `_lifted` point, at the pitch it was grasped with), in the voxels seen
-        so far; None when with none."""
+        so far; None when with none. `face`: the object's side's direction (map frame), if
+        any."""
         local = to_base(base, target)
+        face = None if face is None else face - float(base[2])
         top = float(target[2]) - kind.height / 2
         for lift in lift_order(top, self.lifts, float(self.shoulder[2])):
             with self._lift_at(lift):
-                pitch = self._pitch_at(base, local, kind)
+                pitch = self._pitch_at(base, local, kind, face)
             if pitch is not None:
                 return Way(pitch, lift)
         return None
 
-    def _pitch_at(self, base: np.ndarray, local: np.ndarray, kind: ObjectKind) -> float | None:
+    def _pitch_at(
+        self, base: np.ndarray, local: np.ndarray, kind: ObjectKind, face: float | None
+    ) -> float | None:
         """`_reaches` with the lift where the planners hold it: the pitch, or None."""
         if self.held is not None:
             obstacles = self._obstacles(base)
@@ -810,13 +841,13 @@ class Skills:
             obstacles = self._obstacles(base, self._keep_out(local, kind))
             pitches = PITCHES
         for pitch in pitches:
-            orientation = self.orientation(local, pitch)
+            orientation = self.orientation(local, pitch, None if self.held else face)
             if self.held is not None:  # let go from as high as the place may
                 hand = local - orientation.apply(self.held.in_hand)
                 hand[2] += RELEASE_HEIGHTS[-1]
                 points = (self._lifted(hand), hand)
             else:
-                pre, grasp = self._grasp_points(local, kind, pitch)
+                pre, grasp = self._grasp_points(local, kind, pitch, face)
                 points = (pre, grasp, self._lifted(grasp))
             if self._plans_through(points, orientation, obstacles):
                 return pitch
@@ -883,23 +914,30 @@ class Skills:
         return True
 
     def _grasp_points(
-        self, local: np.ndarray, kind: ObjectKind, pitch: float = 0.0
+        self, local: np.ndarray, kind: ObjectKind, pitch: float = 0.0, face: float | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """The pre-grasp and grasp positions of the tool point for an object of `kind`
         centred at `local` (base frame), along the approach pitched down by `pitch`: the
         palm stops GRASP_MARGIN short of it."""
-        along = self.orientation(local, pitch).apply([0.0, 0.0, 1.0])
+        along = self.orientation(local, pitch, face).apply([0.0, 0.0, 1.0])
         grasp = local - (kind.grip_width / 2 + self.palm + GRASP_MARGIN) * along
         return grasp - GRASP_BACKOFF * along, grasp
 
     # --- pick --------------------------------------------------------------------------
 
-    def _keep_out(self, local: np.ndarray, kind: ObjectKind | None = None):
-        """The cylinder around the object to grasp (base frame) left out of the voxels."""
-        k = kind or (self.held.kind if self.held is not None else None)
-        r = (k.width / 2 if k is not None else 0.05) + 0.025
-        h = k.height if k is not None else 0.2
-        return [(local, r, local[2] - h / 2 + 0.008, local[2] + h / 2 + 0.03)]
+    def _keep_out(self, local: np.ndarray, kind: ObjectKind, support: bool = False):
+        """The upright cylinder around an object of `kind` centred at `local` (base
+        frame) left out of the arm's obstacles: its own voxels (with `support`, also the
+        top it stands on, which it leaves when lifted)."""
+        bottom = local[2] - kind.height / 2
+        below = bottom - SLAB_DEPTH if support else bottom + 0.008
+        return [(local, self._object_radius(kind), below, bottom + kind.height + 0.03)]
+
+    def _object_radius(self, kind: ObjectKind) -> float:
+        """How far (m) from an object's seen centre its voxels lie: its outline's
+        farthest point (a box's corner), a voxel's edge and SEEN_ERROR beyond it."""
+        half = np.hypot(*kind.size[:2]) / 2 if kind.shape == "box" else kind.width / 2
+        return float(half + self.voxels.resolution + SEEN_ERROR)
 
     def approach(self, target: Sighting) -> Generator[None, None, Sighting]:
         """Drive to a work site from which the arm reaches the object, looking at it
@@ -919,7 +957,7 @@ class Skills:
         for base, stage in candidates:
             if (
                 self._near_failed(stage, failed)
-                or self._reaches(base, target.position, kind) is None
+                or self._reaches(base, target.position, kind, target.face) is None
             ):
                 continue
             reached += 1
@@ -984,10 +1022,10 @@ class Skills:
                     f"the {target.kind.name} seen from the approach is not in view at the "
                     f"work site, nor from {100 * LOOK_BACK[-1]:.0f} cm behind it",
                 )
-            way = self._reaches(base, seen.position, seen.kind)
+            way = self._reaches(base, seen.position, seen.kind, seen.face)
             if moves == len(REACHES) or way is not None:
                 break
-            yield from self._reach(to_base(base, seen.position), base, seen.kind)
+            yield from self._reach(to_base(base, seen.position), base, seen.kind, seen.face)
             target = seen
         kind = seen.kind
         self.log.target = seen.position.copy()
@@ -998,8 +1036,9 @@ class Skills:
             way = Way(0.0, lift_order(top, self.lifts, float(self.shoulder[2]))[0])
         pitch = way.pitch
         yield from self.move_lift(way.lift)
-        pre, grasp = self._grasp_points(local, kind, pitch)
-        orientation = self.orientation(local, pitch)
+        face = None if seen.face is None else seen.face - float(base[2])
+        pre, grasp = self._grasp_points(local, kind, pitch, face)
+        orientation = self.orientation(local, pitch, face)
         self.robot.grip(self.finger_open, self.robot.setup.grip_force)
         yield from self.move_arm(base, "no_grasp_pose", pre, orientation, keep_out=keep_out)
         yield from self.move_arm(base, "no_grasp_pose", grasp, orientation, keep_out=keep_out)
@@ -1022,8 +1061,12 @@ class Skills:
             f"{self.robot.setup.grip_force:g} N at {100 * width:.1f} cm; it sits "
             f"{100 * in_hand[2]:.1f} cm beyond the tool point"
         )
-        self.voxels.remove(seen.position, kind.width / 2 + 0.03, (-1.0, 5.0))
-        yield from self.move_arm(base, "arm_planning", self._lifted(grasp), orientation)
+        self.voxels.remove(seen.position, self._object_radius(kind), (-1.0, 5.0))
+        # the object rests on the top until it is lifted: the lift starts there
+        lift_keep_out = self._keep_out(local, kind, support=True)
+        yield from self.move_arm(
+            base, "arm_planning", self._lifted(grasp), orientation, keep_out=lift_keep_out
+        )
         self.check_grip("lifting")
         yield from self.straight(-STANDOFF)
         yield from self.arm_to_pose("carry")
@@ -1200,7 +1243,7 @@ class Skills:
         self.robot.grip(self.finger_open, self.robot.setup.grip_force)
         yield from self.wait(0.6)
         self.held = None
-        self.voxels.remove(target, held.kind.width / 2 + 0.03, (-1.0, 5.0))
+        self.voxels.remove(target, self._object_radius(held.kind), (-1.0, 5.0))
         back = hand - GRASP_BACKOFF * orientation.apply([0.0, 0.0, 1.0])
         res = self.plan(
             self.arm_q(), self._obstacles(base, self._keep_out(local, held.kind)), back, orientation
@@ -1216,7 +1259,9 @@ class Skills:
             yield from self.follow(res)
         yield from self.straight(-STANDOFF)
 
-    def _reach(self, local: np.ndarray, base: np.ndarray, kind: ObjectKind) -> Iterator[None]:
+    def _reach(
+        self, local: np.ndarray, base: np.ndarray, kind: ObjectKind, face: float | None = None
+    ) -> Iterator[None]:
         """Drive straight so that the arm reaches `local` (base frame) at one of REACHES,
         when the docking left it a little far or too close."""
         ahead = float(np.hypot(local[0] - self.arm_offset, local[1]))
@@ -1225,7 +1270,8 @@ class Skills:
         for shift in (ahead - r for r in REACHES):
             if abs(shift) < 0.005:
                 continue
-            if self._reaches(compose(base, np.array([shift, 0.0, 0.0])), point, kind) is not None:
+            moved = compose(base, np.array([shift, 0.0, 0.0]))
+            if self._reaches(moved, point, kind, face) is not None:
                 yield from self.straight(shift, speed=0.06)
                 return
 

@@ -213,7 +213,9 @@ class VoxelMap:
         from) with the base at `base` (x, y, yaw on the map) as boxes in the base frame:
         one-voxel gaps closed (depth noise leaves them in a surface), runs merged;
         `keep_out` cylinders (centre x, y in the base frame, radius, z from, z to) are
-        left out (the object to grasp)."""
+        left out (the object to grasp), of the voxels those whose centre lies inside, of
+        the slabs the cells whose top does and whose square comes within the radius (the
+        top an object stands on, when it is lifted off it)."""
         to_map = _planar(base)
         inb = (self.centres() - to_map[:3, 3]) @ to_map[:3, :3]
         near = np.linalg.norm(inb - np.asarray(centre), axis=1) <= radius
@@ -243,6 +245,11 @@ class VoxelMap:
             c = (cells + 0.5) * SLAB_CELL
             local = (np.column_stack([c, tops]) - to_map[:3, 3]) @ to_map[:3, :3]
             reach = np.linalg.norm(local - np.asarray(centre), axis=1) <= radius + SLAB_CELL
+            for axis, r, z0, z1 in ((k[0], k[1], k[2], k[3]) for k in keep_out):
+                # a cell goes when any of its square comes within r of the axis
+                a = to_map[:2, :2] @ np.asarray(axis[:2], dtype=float) + to_map[:2, 3]
+                off = np.maximum(np.abs(c - a) - SLAB_CELL / 2, 0.0)
+                reach &= ~((np.hypot(off[:, 0], off[:, 1]) <= r) & (tops >= z0) & (tops <= z1))
             level = np.round(tops / 0.01).astype(np.int64)
             for lvl in np.unique(level[reach]):
                 pick = reach & (level == lvl)

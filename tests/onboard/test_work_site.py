@@ -130,33 +130,35 @@ def test_the_lift_starts_with_the_grasped_can_resting_on_the_top(skills: Skills)
     x = skills.arm_offset + reach
     top_seen(skills, height, x - inward)
     local = np.array([x, 0.0, height + CAN.height / 2])
-    pitch = skills._reaches(np.zeros(3), local, CAN)
-    assert pitch is not None
+    way = skills._reaches(np.zeros(3), local, CAN)
+    assert way is not None
+    pitch = way.pitch
     orientation = skills.orientation(local, pitch)
     _, grasp = skills._grasp_points(local, CAN, pitch)
     keep_out = skills._keep_out(local, CAN)
-    at = skills.plan(
-        skills.arm_q(),
-        skills._obstacles(np.zeros(3), keep_out),
-        grasp,
-        orientation,
-        check_only=True,
-    )
-    assert at.success
     stow = dict(skills.robot.joints)
-    q = at.trajectory.q[-1]
-    skills.robot.joints = dict(zip(skills.arm_names, q.tolist(), strict=True))
-    try:
-        tcp = skills.planner.kin.link_pose(q)
-        in_hand = (np.linalg.inv(tcp) @ np.append(local, 1.0))[:3]
-        skills.held = Held(CAN, in_hand, CAN.grip_width, pitch)
-        lifted = skills._lifted(grasp)
-        resting = skills._obstacles(np.zeros(3), skills._keep_out(local, CAN, support=True))
-        res = skills.plan(q, resting, lifted, orientation, check_only=True)
-        assert res.success, res.message
-    finally:
-        skills.held = None
-        skills.robot.joints = stow
+    with skills._lift_at(way.lift):
+        at = skills.plan(
+            skills.arm_q(),
+            skills._obstacles(np.zeros(3), keep_out),
+            grasp,
+            orientation,
+            check_only=True,
+        )
+        assert at.success
+        q = at.trajectory.q[-1]
+        skills.robot.joints = dict(zip(skills.arm_names, q.tolist(), strict=True))
+        try:
+            tcp = skills.planner.kin.link_pose(q)
+            in_hand = (np.linalg.inv(tcp) @ np.append(local, 1.0))[:3]
+            skills.held = Held(CAN, in_hand, CAN.grip_width, pitch)
+            lifted = skills._lifted(grasp)
+            resting = skills._obstacles(np.zeros(3), skills._keep_out(local, CAN, support=True))
+            res = skills.plan(q, resting, lifted, orientation, check_only=True)
+            assert res.success, res.message
+        finally:
+            skills.held = None
+            skills.robot.joints = stow
 
 
 def test_the_arm_folds_from_over_a_table_the_lidar_mapped(skills: Skills) -> None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import threading
 from dataclasses import replace
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -146,6 +147,7 @@ class _Answer(PlanTaskResponse):
         return out
 
 
+@cache
 def _spelling(cls: type[Message], dialect: Dialect) -> list[str]:
     """The keys of `cls`'s fields in `dialect`'s JSON, in field order."""
     rename = cls.__ros1__.rename if dialect == "ros1" else {}

@@ -181,6 +181,29 @@ def test_compiled_timing_equals_the_reference_and_ends_where_the_profile_stalls(
         assert np.all(np.abs(fast.qdd) <= amax * (1 + 1e-9))
 
 
+def test_a_straight_motion_is_timed_exactly_on_its_line() -> None:
+    vmax = np.array([3.0, 3.0, 3.0, 4.0, 4.0, 5.0])
+    amax = 2 * vmax
+    rng = np.random.default_rng(5)
+    for length in (0.05, 4.0):  # a triangle and a trapezoid in the line's parameter
+        a = rng.uniform(-1, 1, 6)
+        b = a + length * rng.normal(size=6) / np.sqrt(6)
+        path = np.array([a, b])
+        traj = time_parameterize(path, vmax, amax, period=0.1)
+        s = (traj.q - a) @ (b - a) / ((b - a) @ (b - a))
+        np.testing.assert_allclose(traj.q, a + s[:, None] * (b - a), atol=1e-12)  # on the line
+        assert np.all(np.diff(s) > 0) and s[0] == 0 and s[-1] == pytest.approx(1.0)
+        assert np.all(np.abs(traj.qd) <= vmax * (1 + 1e-9))
+        assert np.all(np.abs(traj.qdd) <= amax * (1 + 1e-9))
+        np.testing.assert_allclose(traj.qd[[0, -1]], 0.0, atol=1e-12)
+        # time-optimal: some joint at its acceleration limit; no slower than the spline's
+        assert np.max(np.abs(traj.qdd) / amax) == pytest.approx(1.0)
+        assert traj.duration <= time_parameterize_reference(path, vmax, amax).duration
+        tracked = traj.tracked(0.01)
+        s = (tracked - a) @ (b - a) / ((b - a) @ (b - a))
+        assert s.min() >= -1e-12 and s.max() <= 1 + 1e-12  # the tracker stays on the segment
+
+
 def test_validation_hands_the_samples_near_a_contact_to_mujoco(desk) -> None:
     checker = desk.checker()
     exact = desk.exact(checker)
@@ -250,6 +273,17 @@ def test_plan_task_answers_the_g2rviewer_request(planner) -> None:
     assert np.all(np.abs(qd) <= planner.vmax * 1.02)
     assert resp.planning_time > 0 and resp.error_code == 1 and not resp.object_held
     assert answer(planner, _request(), seed=2)[0].success  # a second plan, another seed
+
+
+def test_the_answer_is_written_as_the_generic_encoder_writes_it(planner) -> None:
+    from robotrial.msgs.core import _encode
+
+    resp = answer(planner, _request(), seed=0)[0]
+    assert resp.success and len(resp.trajectory.points) > 2
+    for dialect in ("ros2", "ros1"):
+        assert json.dumps(resp.to_dict(dialect)) == json.dumps(_encode(resp, dialect, False))
+    resp.trajectory.points[1].velocities[0] = float("nan")  # written as null, as before
+    assert resp.to_dict()["trajectory"]["points"][1]["velocities"][0] is None
 
 
 def test_the_desk_goal_is_one_the_start_reaches_straight_whatever_the_seed(planner) -> None:

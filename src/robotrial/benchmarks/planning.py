@@ -720,6 +720,8 @@ def run_cold(args: argparse.Namespace) -> int:
 
 def run_service(args: argparse.Namespace) -> int:
     """`robotrial bench planning --service`."""
+    if args.cold_runs < 1:  # refused before the minutes of answers, not after them
+        raise SystemExit("--cold-runs: --service times at least 1 fresh process per variant")
     show = not args.json
     load_before = os.getloadavg()[0]
     report = {

@@ -12,6 +12,7 @@ from __future__ import annotations
 import weakref
 from collections.abc import Iterable, Sequence
 
+import numba as nb
 import numpy as np
 
 from robotrial.collision.contacts import qpos_map
@@ -183,11 +184,7 @@ class ExactChecker:
         if not len(path):
             return True, -1
         res = self.checker.resolution / 2 if step is None else np.full(path.shape[1], step)
-        delta = np.diff(path, axis=0)
-        n = np.maximum(np.ceil(np.max(np.abs(delta) / res, axis=1, initial=0.0)), 1).astype(int)
-        seg = np.repeat(np.arange(len(delta)), n)
-        frac = (np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n)) / n[seg]
-        qs = np.vstack([path[seg] + frac[:, None] * delta[seg], path[-1:]])
+        qs = _samples(np.ascontiguousarray(path), np.ascontiguousarray(res, dtype=float))
         near = np.arange(len(qs)) if screen is None else np.nonzero(~screen.valid(qs))[0]
         if not len(near):
             return True, -1
@@ -204,3 +201,28 @@ class ExactChecker:
             if data.ncon and len(self._hits()):
                 return False, int(k)
         return True, -1
+
+
+@nb.njit(cache=True, nogil=True)
+def _samples(path, res):
+    """The points of the polyline `path` (n, d) at most `res` (d,) apart in every joint:
+    each segment cut into equal steps, the last point included."""
+    n, d = path.shape
+    counts = np.empty(max(n - 1, 0), dtype=np.int64)
+    total = 1
+    for i in range(n - 1):
+        k = 0.0
+        for j in range(d):
+            k = max(k, np.ceil(abs(path[i + 1, j] - path[i, j]) / res[j]))
+        counts[i] = max(int(k), 1)
+        total += counts[i]
+    out = np.empty((total, d))
+    m = 0
+    for i in range(n - 1):
+        for k in range(counts[i]):
+            f = k / counts[i]
+            for j in range(d):
+                out[m, j] = path[i, j] + f * (path[i + 1, j] - path[i, j])
+            m += 1
+    out[m] = path[n - 1]
+    return out

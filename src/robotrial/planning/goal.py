@@ -39,7 +39,7 @@ MISSED, PAST_WALL, COLLIDING, FREE, DIRECT = 0, 1, 2, 3, 4
 
 @nb.njit(cache=True, nogil=True)
 def _search(
-    seeds,
+    unit,
     target,
     with_rotation,
     lower,
@@ -60,11 +60,11 @@ def _search(
     work,
     work_ints,
 ):
-    """Descend from the seeds in order until `wanted` end free and in a straight line
-    from `start`. Returns (q per seed, outcome per seed, position and orientation errors per
-    seed, seeds tried)."""
-    n, d = seeds.shape
-    qs = seeds.copy()
+    """Descend from `start`, then from the `unit` seeds placed (`place`) in order, until
+    `wanted` end free and in a straight line from `start`. Returns (q per seed, outcome per
+    seed, position and orientation errors per seed, seeds tried)."""
+    n, d = unit.shape[0] + 1, unit.shape[1]
+    qs = np.empty((n, d))
     outcome = np.zeros(n, dtype=np.int8)
     perr = np.full(n, np.inf)
     rerr = np.full(n, np.inf)
@@ -75,6 +75,10 @@ def _search(
         if b >= last:
             return qs, outcome, perr, rerr, b
         q = qs[b]
+        if b == 0:
+            q[:] = start
+        else:
+            place(unit[b - 1], b % 2 == 1, start, lower, upper, q)
         perr[b], rerr[b], ok = descend(
             q,
             target,
@@ -141,18 +145,19 @@ class GoalSearch:
 
 def seeds(kin: Kinematics, n: int = SEEDS) -> np.ndarray:
     """The search's fixed seeds after the start: `n` Halton points in [0, 1) per joint, the
-    even ones to be read near the start and the odd ones over the limits (`placed`)."""
+    even ones to be read near the start and the odd ones over the limits (`place`)."""
     return halton(n, kin.d)
 
 
-def placed(kin: Kinematics, unit: np.ndarray, start: np.ndarray) -> np.ndarray:
-    """`unit` seeds (`seeds`) as joints: the even ones within `NEAR` of `start` (inside the
-    limits), the odd ones over the whole range."""
-    out = kin.lower + unit * (kin.upper - kin.lower)
-    lo = np.maximum(kin.lower, start - NEAR)
-    hi = np.minimum(kin.upper, start + NEAR)
-    out[::2] = lo + unit[::2] * (hi - lo)
-    return out
+@nb.njit(cache=True, nogil=True, inline="always")
+def place(u, near, start, lower, upper, out) -> None:
+    """A unit seed (`seeds`) as joints in `out`: within `NEAR` of `start` (inside the
+    limits) when `near`, else over the whole range."""
+    for j in range(u.shape[0]):
+        lo, hi = lower[j], upper[j]
+        if near:
+            lo, hi = max(lo, start[j] - NEAR), min(hi, start[j] + NEAR)
+        out[j] = lo + u[j] * (hi - lo)
 
 
 def search(
@@ -178,7 +183,7 @@ def search(
         t[:3, 3] = tgt
     walls = checker.walls()
     qs, outcome, perr, rerr, tried = _search(
-        np.vstack([start, placed(kin, fixed_seeds, start)]),
+        fixed_seeds,
         t,
         rotation,
         kin.lower,

@@ -144,7 +144,7 @@ def _scene_key(obstacles: Obstacles, held: HeldObject | None, start: np.ndarray)
     """What a scene's checkers depend on: the obstacles, and the held object with the
     configuration it is picked up in (which links may touch it)."""
     parts: list[Any] = [
-        (name, type(shape).__name__, repr(shape), pose.matrix().tobytes())
+        (name, type(shape).__name__, repr(shape), pose.xyz, pose.quat)
         for name, shape, pose in obstacles
     ]
     if held is not None:
@@ -386,7 +386,6 @@ class TaskPlanner:
         return scene
 
     def _plan(self, request: TaskRequest, seed: int | None, result: TaskResult) -> None:
-        rng = np.random.default_rng(seed)
         start = self.start_from(list(request.joint_names), list(request.positions))
         stats = result.stats
         result.start = start
@@ -435,7 +434,7 @@ class TaskPlanner:
                 return
             found = None
         else:
-            ik = self._ik_goal(request, start, rng, checker, stats, result)
+            ik = self._ik_goal(request, start, seed, checker, stats, result)
             if ik is None:
                 return
             checker, found = ik
@@ -459,7 +458,12 @@ class TaskPlanner:
                     resolution_scale=0.5**attempt,
                     fine=checker.fine,
                 )
-            res = self._solve(planner, Problem(start, goal[None], left, seed), checker, found)
+            # the goal search proved the straight motion free with the first checker
+            straight = attempt == 0 and found is not None and found.direct
+            if straight:
+                res = PlanResult(True, np.stack([start, goal]), "solved", {"planning_time": 0.0})
+            else:
+                res = self._solve(planner, Problem(start, goal[None], left, seed), checker, found)
             stats.update({f"planner_{k}": v for k, v in res.stats.items()})
             stats["planner"] = planner.name
             stats["attempts"] = attempt + 1
@@ -482,11 +486,13 @@ class TaskPlanner:
                 return
             self._remaining("smoothing")
             t_post = time.perf_counter()
-            if self.reference:
-                path = shortcut(res.path, checker, rng)
+            if len(res.path) == 2:  # one straight motion: nothing to shortcut or round
+                path = smooth = res.path
+            elif self.reference:
+                path = shortcut(res.path, checker, np.random.default_rng(seed))
                 smooth = round_corners(path, checker)
             else:
-                path, smooth = shortcut_and_round(res.path, checker, rng)
+                path, smooth = shortcut_and_round(res.path, checker, np.random.default_rng(seed))
             stats["shortcut_time"] = stats.get("shortcut_time", 0.0) + time.perf_counter() - t_post
             self._remaining("timing and validation")
             traj = self._timed_and_checked(smooth, path, checker, exact, stats)
@@ -507,16 +513,20 @@ class TaskPlanner:
         stats["duration"] = traj.duration
         checked = ", validated with MuJoCo" if exact is not None else ""
         result.success = True
+        how = (
+            "a straight motion to the goal, free as the goal search found it"
+            if straight
+            else f"planned with {planner.name} in {res.planning_time * 1e3:.1f} ms"
+        )
         result.message = (
-            f"planned with {planner.name} in {res.planning_time * 1e3:.1f} ms; "
-            f"{len(path)} waypoints, {traj.duration:.2f} s trajectory{checked}{held_note}"
+            f"{how}; {len(path)} waypoints, {traj.duration:.2f} s trajectory{checked}{held_note}"
         )
 
     def _ik_goal(
         self,
         request: TaskRequest,
         start: np.ndarray,
-        rng: np.random.Generator,
+        seed: int | None,
         checker: CollisionChecker,
         stats: dict[str, Any],
         result: TaskResult,
@@ -555,6 +565,7 @@ class TaskPlanner:
                 result, target, goal_pose, start, found.position_error, found.orientation_error
             )
             return None
+        rng = np.random.default_rng(seed)
         free_ik = partial(solve_ik, self.kin, ik_target, start, rng=rng, batch=4, wanted=2)
         if w := _wall_before(finer or checker, start, free_ik):
             self._fail(

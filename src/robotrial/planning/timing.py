@@ -7,6 +7,8 @@ Pham, 2018): with x = ds/dt squared and u = d2s/dt2, the limits are linear in (u
 each grid point; a backward pass finds, per grid point, the largest x from which the end
 can still be reached at rest, and a forward pass accelerates as hard as that allows.
 The whole of it is compiled (the spline too); the result is sampled at a fixed period.
+A straight motion (a path of two points, what most requests plan) needs none of it: its
+time-optimal profile is a trapezoid in the line's parameter, written out exactly.
 """
 
 from __future__ import annotations
@@ -41,17 +43,28 @@ class Trajectory:
         simulator's joint reference), ends included."""
         if len(self.t) < 2:
             return self.q.copy()
-        t = np.linspace(0.0, self.duration, max(int(np.ceil(self.duration / step)), 1) + 1)
-        i = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 2)
-        h = (self.t[i + 1] - self.t[i])[:, None]
-        s = (t[:, None] - self.t[i][:, None]) / h
-        s2, s3 = s * s, s * s * s
-        return (
-            (2 * s3 - 3 * s2 + 1) * self.q[i]
-            + (s3 - 2 * s2 + s) * h * self.qd[i]
-            + (3 * s2 - 2 * s3) * self.q[i + 1]
-            + (s3 - s2) * h * self.qd[i + 1]
-        )
+        return _hermite(self.t, self.q, self.qd, float(step))
+
+
+@nb.njit(cache=True, nogil=True)
+def _hermite(ts, q, qd, step):
+    """`Trajectory.tracked`: positions every `step` s on the cubic Hermite curve through
+    the samples (times `ts`, positions `q`, velocities `qd`)."""
+    duration = ts[-1]
+    n, d = q.shape
+    t = np.linspace(0.0, duration, max(int(np.ceil(duration / step)), 1) + 1)
+    out = np.empty((t.shape[0], d))
+    for p in range(t.shape[0]):
+        i = min(max(np.searchsorted(ts, t[p], side="right") - 1, 0), n - 2)
+        h = ts[i + 1] - ts[i]
+        s = (t[p] - ts[i]) / h
+        s2 = s * s
+        s3 = s2 * s
+        a, b = 2.0 * s3 - 3.0 * s2 + 1.0, (s3 - 2.0 * s2 + s) * h
+        c, e = 3.0 * s2 - 2.0 * s3, (s3 - s2) * h
+        for j in range(d):
+            out[p, j] = a * q[i, j] + b * qd[i, j] + c * q[i + 1, j] + e * qd[i + 1, j]
+    return out
 
 
 @nb.njit(cache=True)
@@ -299,8 +312,54 @@ def _evaluate(c, knots, at, nu):
 
 
 @nb.njit(cache=True, nogil=True)
+def _straight(a, b, vmax, amax, period):
+    """The time-optimal motion from rest at `a` to rest at `b` along the line between them:
+    q = a + s (b - a) with s accelerating at the largest rate every joint allows, then
+    coasting at the largest speed (if it gets there), then braking (a trapezoid in s; a
+    triangle when the line is too short to reach that speed). `a` alone when `b` is on it."""
+    d = a.shape[0]
+    top, acc = np.inf, np.inf  # ds/dt and d2s/dt2 the joints allow
+    for j in range(d):
+        step = abs(b[j] - a[j])
+        if step > 1e-8:
+            top = min(top, vmax[j] / step)
+            acc = min(acc, amax[j] / step)
+    if acc == np.inf:
+        return np.zeros(1), a.reshape((1, d)).copy(), np.zeros((1, d)), np.zeros((1, d))
+    if top * top >= acc:  # no coasting: accelerate over half the line, brake over the rest
+        ramp = np.sqrt(1.0 / acc)
+        top = acc * ramp
+        coast = 0.0
+    else:
+        ramp = top / acc
+        coast = (1.0 - top * ramp) / top
+    duration = 2.0 * ramp + coast
+    samples = max(int(np.ceil(duration / period)), 1)
+    t = np.linspace(0.0, duration, samples + 1)
+    q = np.empty((samples + 1, d))
+    qd = np.empty((samples + 1, d))
+    qdd = np.empty((samples + 1, d))
+    for p in range(samples + 1):
+        if t[p] < ramp:
+            s, v, u = 0.5 * acc * t[p] * t[p], acc * t[p], acc
+        elif t[p] <= ramp + coast:
+            s, v, u = 0.5 * top * ramp + top * (t[p] - ramp), top, 0.0
+        else:
+            left = max(duration - t[p], 0.0)
+            s, v, u = 1.0 - 0.5 * acc * left * left, acc * left, -acc
+        for j in range(d):
+            q[p, j] = a[j] + s * (b[j] - a[j])
+            qd[p, j] = v * (b[j] - a[j])
+            qdd[p, j] = u * (b[j] - a[j])
+    q[0], q[-1] = a, b
+    return t, q, qd, qdd
+
+
+@nb.njit(cache=True, nogil=True)
 def _timed(path, vmax, amax, period, max_gap):
     """The whole of `time_parameterize` for a path of at least two distinct points."""
+    if path.shape[0] == 2:
+        return _straight(path[0], path[1], vmax, amax, period)
     way = _densify(path, max_gap)
     n, d = way.shape
     knots = arc_lengths(way)
@@ -369,10 +428,11 @@ def time_parameterize(
     max_gap: float = 0.05,
 ) -> Trajectory:
     """A time-optimal trajectory along `path` with |qd| <= vmax and |qdd| <= amax (one
-    compiled call: densify, spline, profile, samples)."""
+    compiled call: densify, spline, profile, samples; a path of two points, a straight
+    motion, is timed exactly without a spline, `_straight`)."""
     path = np.ascontiguousarray(path, dtype=float)
-    d = path.shape[1]
-    if len(path) < 2 or (len(path) == 2 and np.allclose(path[0], path[-1])):
+    if len(path) < 2:
+        d = path.shape[1]
         return Trajectory(np.zeros(1), path[:1].copy(), np.zeros((1, d)), np.zeros((1, d)))
     vmax = np.ascontiguousarray(vmax, dtype=float)
     amax = np.ascontiguousarray(amax, dtype=float)

@@ -122,6 +122,20 @@ def test_mesh_spheres_cover_the_hull_and_hug_it() -> None:
     assert radii[0] == 0.2 and np.all(centres == 0)
 
 
+def test_a_finely_meshed_hull_is_covered_whole_and_hugged() -> None:
+    # 20480 faces: a patch of the surface holds dozens of corners, held through the
+    # octagon around them
+    tm = trimesh.creation.icosphere(subdivisions=5, radius=0.1)
+    tm.apply_scale((0.6, 0.4, 1.2))
+    centres, radii = shape_spheres(Mesh(data=MeshData(tm.vertices, tm.faces)))
+    pts, _ = trimesh.sample.sample_surface(tm, 20000, seed=3)
+    assert len(_uncovered(np.vstack([pts, tm.vertices]), centres, radii)) == 0
+    depth = _hull_depth(tm, centres)
+    assert np.all(depth >= -1e-9)
+    # a 12 x 8 x 24 cm ellipsoid: one sphere around it would reach out 8 cm
+    assert np.max(radii - depth) < 0.025
+
+
 def test_non_convex_mesh_is_covered_through_its_hull() -> None:
     # an L of two boxes: MuJoCo collides the hull, so the corner between the arms counts
     a = trimesh.creation.box((0.2, 0.04, 0.04))

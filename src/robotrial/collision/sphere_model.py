@@ -70,9 +70,10 @@ class RobotSpheres:
 
     `spheres` cover the links (default `link_spheres`); `fine`, a tighter cover asked
     only where those touch an obstacle (default `link_fine_spheres` when `spheres` is
-    not given, else none), made on first use by `refine()`, link by link (a second
-    for a link of many faces): a request makes those of the links its start touches
-    with. `fine_self` names the links of close pairs (`self_pairs.CLOSE`: pairs whose
+    not given, else none): those of the links one planning joint moves made here (the
+    walls of any request's obstacles ask them), the others on first use by `refine()`,
+    link by link (0.1-0.3 s each): a request makes those of the links its start
+    touches with. `fine_self` names the links of close pairs (`self_pairs.CLOSE`: pairs whose
     spheres touch where the links do not, as a forearm passing a wrist): every check
     asks their fine covers, once made, where their coarse spheres touch another link's.
     """

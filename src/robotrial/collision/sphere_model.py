@@ -562,16 +562,15 @@ class CollisionChecker:
                 continue
             # the first cover (its sweep kept from `_never_touching`) tells where to look
             # with the fine one: only those grid values are asked of it
-            rows = np.flatnonzero(self._inside(body, joints, env, shapes).any(axis=1))
-            if not len(rows):
+            coarse = self._inside(body, joints, env, shapes)
+            if not coarse.any():
                 continue
             self.robot.refine({body.link})
             fine = self.robot.fine_body(body.name)
             if fine is None:
                 continue
             values = np.linspace(self.kin.lower[joints[0]], self.kin.upper[joints[0]], WALL_SAMPLES)
-            inside = np.zeros((WALL_SAMPLES, len(shapes)), dtype=bool)  # (grid values, obstacles)
-            inside[rows] = self._inside_at(fine, int(joints[0]), values[rows], env)
+            inside = self._fine_inside(fine, int(joints[0]), values, coarse, env, shapes)
             edges = np.flatnonzero(np.diff(np.r_[0, inside.any(axis=1).astype(int), 0]))
             for lo, hi in zip(edges[::2], edges[1::2] - 1, strict=True):
                 which = names[int(np.argmax(inside[lo : hi + 1].sum(axis=0)))]
@@ -702,23 +701,39 @@ class CollisionChecker:
             1
         ]
 
-    def _inside_at(
-        self, body: Body, joint: int, values: np.ndarray, env: kernels.Shapes
+    def _fine_inside(
+        self,
+        body: Body,
+        joint: int,
+        values: np.ndarray,
+        coarse: np.ndarray,
+        env: kernels.Shapes,
+        shapes: list,
     ) -> np.ndarray:
-        """(values, obstacles) True where `body`, its one `joint` at `values` (the others
-        at mid-range), is inside an obstacle by more than it moves between the grid
-        values of `_inside`."""
+        """(grid values, obstacles) True where `body` (a fine cover), its one `joint` at
+        `values` (the others at mid-range), is inside an obstacle by more than it moves
+        between grid values: asked only where the first cover is (`coarse`), and kept per
+        body and obstacle as `reach_into`'s answers are."""
         kin = self.kin
-        qs = np.tile(0.5 * (kin.lower + kin.upper), (len(values), 1))
-        qs[:, joint] = values
-        m = kin.fk(qs)[:, kin.link_index[body.link]]
-        pts = np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]
         rate = (self.robot.arms(body, self.padding) @ self._to_joint)[joint]
-        margin = rate * (kin.upper[joint] - kin.lower[joint]) / (WALL_SAMPLES - 1) / 2
-        depth = np.tile(body.radii + self.padding, len(values))[:, None] - _shape_gaps(
-            pts.reshape(-1, 3), *env
-        )
-        return depth.reshape(len(values), len(body.radii), -1).max(axis=1) > margin
+        margin = rate * (kin.upper[joint] - kin.lower[joint]) / (len(values) - 1) / 2
+        out = np.zeros_like(coarse)
+        for s in np.flatnonzero(coarse.any(axis=0)):
+            memo = (body.name, float(self.padding), "at", shapes[s][0])
+            kept = self.robot._shapes.get(memo)
+            if kept is not None:
+                out[:, s] = kept[1]
+                continue
+            rows = np.flatnonzero(coarse[:, s])
+            qs = np.tile(0.5 * (kin.lower + kin.upper), (len(rows), 1))
+            qs[:, joint] = values[rows]
+            m = kin.fk(qs)[:, kin.link_index[body.link]]
+            pts = np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]
+            gaps = _shape_gaps(pts.reshape(-1, 3), *_pick(env, [s]))[:, 0]
+            depth = body.radii + self.padding - gaps.reshape(len(rows), -1)
+            out[rows, s] = depth.max(axis=1) > margin
+            self.robot._keep(body, memo, (False, out[:, s].copy()))
+        return out
 
     def beyond_walls(self, a: np.ndarray, qs: np.ndarray) -> np.ndarray:
         """(N,) bool: which configurations of `qs` lie past a wall (`walls`) from `a`:

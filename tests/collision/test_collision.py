@@ -212,6 +212,28 @@ def test_a_post_the_first_link_sweeps_into_is_a_wall_no_goal_past_it_is_reached(
     assert CollisionChecker(spheres, Environment()).walls() == []
 
 
+def test_a_box_by_a_link_one_joint_moves_finds_its_wall_without_making_a_cover(
+    desk_arm,
+) -> None:
+    """The fine cover of a link one planning joint moves (the desk arm's first) is made
+    with the robot: a request whose box comes near that link finds the wall there
+    without making a cover (0.1-0.3 s a link, past a later plan's time)."""
+    spheres = desk_arm[1]
+    kin = spheres.kin
+    assert "link1" in spheres.fine_links()
+    made = spheres.fine_links()
+    q = np.clip(np.zeros(kin.d), kin.lower, kin.upper)
+    q[0] = 1.5
+    fine = spheres.fine_body("link1")
+    m = kin.fk(q)[kin.link_index["link1"]]
+    post = m[:3, :3] @ fine.centres[np.argmax(fine.radii)] + m[:3, 3]
+    env = Environment()
+    env.add("post", Box((0.03, 0.03, 0.03)), Pose(tuple(map(float, post))))
+    walls = CollisionChecker(spheres, env).walls()
+    assert any(w.joint == 0 and w.obstacle == "post" and w.low < 1.5 < w.high for w in walls)
+    assert spheres.fine_links() == made
+
+
 def test_what_a_robot_keeps_per_obstacle_follows_each_scene(desk_arm) -> None:
     """A robot keeps what its sweeps found per obstacle (so that a request's checker
     measures only its new boxes): a post moved to the other side of joint 1 gets its own

@@ -108,16 +108,25 @@ def _hull_depth(hull: trimesh.Trimesh, points: np.ndarray) -> np.ndarray:
     return np.min(offsets[None] - points @ hull.face_normals.T, axis=1)
 
 
-def test_mesh_spheres_cover_the_hull_and_hug_it() -> None:
-    tm = trimesh.creation.icosphere(subdivisions=2, radius=0.1)
-    tm.apply_scale((1.0, 0.5, 2.0))
+@pytest.mark.parametrize(
+    ("subdivisions", "scale", "bulge"),
+    [
+        # a flat 20 x 10 x 40 cm ellipsoid: one sphere around it would reach out 15 cm
+        (2, (1.0, 0.5, 2.0), 0.035),
+        # 20480 faces, 12 x 8 x 24 cm (one sphere: 8 cm out): a patch of its surface
+        # holds dozens of corners, held through the octagon around them
+        (5, (0.6, 0.4, 1.2), 0.025),
+    ],
+)
+def test_mesh_spheres_cover_the_hull_and_hug_it(subdivisions, scale, bulge) -> None:
+    tm = trimesh.creation.icosphere(subdivisions=subdivisions, radius=0.1)
+    tm.apply_scale(scale)
     centres, radii = shape_spheres(Mesh(data=MeshData(tm.vertices, tm.faces)))
     pts, _ = trimesh.sample.sample_surface(tm, 20000, seed=1)
     assert len(_uncovered(np.vstack([pts, tm.vertices]), centres, radii)) == 0
     depth = _hull_depth(tm, centres)
     assert np.all(depth >= -1e-9)
-    # a flat 20 x 10 x 40 cm ellipsoid: one sphere around it would reach out 15 cm
-    assert np.max(radii - depth) < 0.035
+    assert np.max(radii - depth) < bulge
     centres, radii = shape_spheres(Sphere(0.2))
     assert radii[0] == 0.2 and np.all(centres == 0)
 

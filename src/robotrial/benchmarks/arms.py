@@ -55,6 +55,7 @@ from robotrial.console import (
 HELP = "every arm of example-robot-data uploaded and planned: solved, colliding, times"
 STEP = 0.005  # rad (or m): the dense check's step along a trajectory
 BOX_SIZES = (0.05, 0.25)  # m: a random box's edges are drawn in this range
+LATER_MS = 50.0  # ms: what a later plan should take at most, in process
 STARTS_TRIED = 2000  # random configurations drawn for a free start and free goals
 
 # (name, URDF under the corpus's robots folder, what is planned)
@@ -125,6 +126,7 @@ class Request:
     failure: str = ""
     message: str = ""
     seconds: float = 0.0
+    cpu_seconds: float = 0.0  # the process's CPU time: what an idle core would take
     colliding: str = ""  # the planner's rules: what the path touches, "" if nothing
     strict: str = ""  # any link pair but rigid, adjacent and zero-pose ones
 
@@ -157,6 +159,13 @@ class ArmResult:
     def later_median_ms(self, setting: str) -> float:
         times = [r.seconds for r in self.requests if r.setting == setting and r.solved]
         return 1e3 * statistics.median(times) if times else float("nan")
+
+    def later_max_ms(self, setting: str) -> float:
+        return 1e3 * max((r.seconds for r in self.requests if r.setting == setting), default=0.0)
+
+    def later_over(self, limit_s: float, cpu: bool = False) -> int:
+        """How many later plans took over `limit_s` (of the process's CPU with `cpu`)."""
+        return sum((r.cpu_seconds if cpu else r.seconds) > limit_s for r in self.requests)
 
 
 def corpus_root() -> Path:
@@ -354,10 +363,11 @@ def bench_arm(name: str, rel: str, planned: str, root: Path, args, server) -> Ar
             task = TaskRequest(
                 start, goal, joint_names=out.joints, obstacles=obstacles, time_limit=args.time_limit
             )
-            t = time.perf_counter()
+            t, cpu = time.perf_counter(), time.process_time()
             res = planner.plan(task, seed=args.seed + k)
             req = Request(setting, [float(v) for v in goal], res.success, res.failure)
             req.message, req.seconds = res.message, time.perf_counter() - t
+            req.cpu_seconds = time.process_time() - cpu
             if res.success:
                 req.colliding, req.strict = _dense_checks(planner, res, obstacles, strict)
             out.requests.append(req)
@@ -449,6 +459,9 @@ COLUMNS = (
     "first plan (file) s",
     "later median ms free",
     "later median ms boxes",
+    "later max ms free",
+    "later max ms boxes",
+    f"later over {LATER_MS:.0f} ms (CPU)",
 )
 
 
@@ -471,6 +484,9 @@ def row(r: ArmResult) -> list[Any]:
         f"{r.first_plan_file_s:.1f}",
         f"{r.later_median_ms('free'):.0f}",
         f"{r.later_median_ms('boxes'):.0f}",
+        f"{r.later_max_ms('free'):.0f}",
+        f"{r.later_max_ms('boxes'):.0f}",
+        f"{r.later_over(LATER_MS / 1e3)} ({r.later_over(LATER_MS / 1e3, cpu=True)})",
     ]
 
 
@@ -512,7 +528,10 @@ def markdown(results: list[ArmResult], report: dict[str, Any]) -> str:
         "without and then with two random boxes. Every path is checked with MuJoCo every "
         f"{STEP} rad: *colliding* by the planner's rules, *strict* counting every link "
         "pair but rigid, adjacent and zero-pose ones (pairs the self-collision matrix "
-        "leaves out as always or never touching are counted there).",
+        "leaves out as always or never touching are counted there). Later plans are the "
+        "requests after an arm's first, timed in process: their median and slowest, and how "
+        f"many took over {LATER_MS:.0f} ms (in brackets: over {LATER_MS:.0f} ms of the "
+        "process's CPU, what an idle core would take).",
         "",
         "| " + " | ".join(COLUMNS) + " |",
         "| " + " | ".join("---" for _ in COLUMNS) + " |",

@@ -70,9 +70,10 @@ class RobotSpheres:
 
     `spheres` cover the links (default `link_spheres`); `fine`, a tighter cover asked
     only where those touch an obstacle (default `link_fine_spheres` when `spheres` is
-    not given, else none), made on first use by `refine()`, link by link (a second
-    for a link of many faces): a request makes those of the links its start touches
-    with. `fine_self` names the links of close pairs (`self_pairs.CLOSE`: pairs whose
+    not given, else none): those of the links one planning joint moves made here (the
+    walls of any request's obstacles ask them), the others on first use by `refine()`,
+    link by link (0.1-0.3 s each): a request makes those of the links its start
+    touches with. `fine_self` names the links of close pairs (`self_pairs.CLOSE`: pairs whose
     spheres touch where the links do not, as a forearm passing a wrist): every check
     asks their fine covers, once made, where their coarse spheres touch another link's.
     """
@@ -105,6 +106,10 @@ class RobotSpheres:
             self.fine_self = {link for pair in self.close for link in pair}
         self.step = float(step)
         self.resolution = self._resolution(step, seed)
+        # a request's obstacle near a link one planning joint moves makes `walls` ask
+        # its fine cover: made with the robot, not in a request (0.1-0.3 s a link)
+        if self.has_fine:
+            self._add_fine(self._one_joint_links())
 
     def fine_body(self, name: str) -> Body | None:
         """The body `name` with its fine cover as its spheres (named "... (fine)"), or
@@ -146,6 +151,17 @@ class RobotSpheres:
             for b in self.bodies
             for centres, radii in [_arrays(by_link.get(b.link))]
         ]
+
+    def _one_joint_links(self) -> set[str]:
+        """The links of bodies exactly one planning joint moves (a torso's lift carrying
+        the other arm and the head)."""
+        kin = self.kin
+        joints = kin.ancestors & (kin.src >= 0)[None, :]
+        return {
+            b.link
+            for b in self.bodies
+            if len(set(kin.src[joints[kin.link_index[b.link]]].tolist())) == 1
+        }
 
     def _rigid_group(self) -> np.ndarray:
         """Index of the rigid group of each link: links no planning joint separates."""
@@ -545,15 +561,16 @@ class CollisionChecker:
             if body.name == OBJECT or len(joints) != 1:
                 continue
             # the first cover (its sweep kept from `_never_touching`) tells where to look
-            # with the fine one
-            if not self._inside(body, joints, env, shapes).any():
+            # with the fine one: only those grid values are asked of it
+            coarse = self._inside(body, joints, env, shapes)
+            if not coarse.any():
                 continue
             self.robot.refine({body.link})
             fine = self.robot.fine_body(body.name)
             if fine is None:
                 continue
-            inside = self._inside(fine, joints, env, shapes)  # (grid values, obstacles)
             values = np.linspace(self.kin.lower[joints[0]], self.kin.upper[joints[0]], WALL_SAMPLES)
+            inside = self._fine_inside(fine, int(joints[0]), values, coarse, env, shapes)
             edges = np.flatnonzero(np.diff(np.r_[0, inside.any(axis=1).astype(int), 0]))
             for lo, hi in zip(edges[::2], edges[1::2] - 1, strict=True):
                 which = names[int(np.argmax(inside[lo : hi + 1].sum(axis=0)))]
@@ -683,6 +700,40 @@ class CollisionChecker:
         return self.robot.reach_into(body, joints, rates, self.padding, WALL_SAMPLES, env, shapes)[
             1
         ]
+
+    def _fine_inside(
+        self,
+        body: Body,
+        joint: int,
+        values: np.ndarray,
+        coarse: np.ndarray,
+        env: kernels.Shapes,
+        shapes: list,
+    ) -> np.ndarray:
+        """(grid values, obstacles) True where `body` (a fine cover), its one `joint` at
+        `values` (the others at mid-range), is inside an obstacle by more than it moves
+        between grid values: asked only where the first cover is (`coarse`), and kept per
+        body and obstacle as `reach_into`'s answers are."""
+        kin = self.kin
+        rate = (self.robot.arms(body, self.padding) @ self._to_joint)[joint]
+        margin = rate * (kin.upper[joint] - kin.lower[joint]) / (len(values) - 1) / 2
+        out = np.zeros_like(coarse)
+        for s in np.flatnonzero(coarse.any(axis=0)):
+            memo = (body.name, float(self.padding), "at", shapes[s][0])
+            kept = self.robot._shapes.get(memo)
+            if kept is not None:
+                out[:, s] = kept[1]
+                continue
+            rows = np.flatnonzero(coarse[:, s])
+            qs = np.tile(0.5 * (kin.lower + kin.upper), (len(rows), 1))
+            qs[:, joint] = values[rows]
+            m = kin.fk(qs)[:, kin.link_index[body.link]]
+            pts = np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]
+            gaps = _shape_gaps(pts.reshape(-1, 3), *_pick(env, [s]))[:, 0]
+            depth = body.radii + self.padding - gaps.reshape(len(rows), -1)
+            out[rows, s] = depth.max(axis=1) > margin
+            self.robot._keep(body, memo, (False, out[:, s].copy()))
+        return out
 
     def beyond_walls(self, a: np.ndarray, qs: np.ndarray) -> np.ndarray:
         """(N,) bool: which configurations of `qs` lie past a wall (`walls`) from `a`:

@@ -41,6 +41,7 @@ REFINE_ROUNDS = 8  # rounds of moving the chosen centres to lower the bulge
 POLISH_ROUNDS = 2  # rounds of moving the centres off the grid
 POLISH_STEP = 2e-4  # m: the finest move when polishing a centre
 SAG = 2e-4  # m: how far a cylinder's curved surface may stand off its polygon
+FLAT = 2.5e-4  # m: a patch held through an octagon lies within this of its plane
 # The fine cover (`link_fine_spheres`): what the checks ask only where the coarse cover
 # touches something; tighter, so it takes more spheres and finer grids.
 FINE_BULGE = 0.004  # m: its tolerance, at most
@@ -97,9 +98,12 @@ class _Convex:
         order = np.lexsort((corners[:, 2], corners[:, 1], corners[:, 0], owner))
         corners, owner = corners[order], owner[order]
         new = np.r_[True, np.any(np.diff(corners, axis=0) != 0, axis=1) | (np.diff(owner) != 0)]
-        self.vertices, owner = corners[new], owner[new]
+        corners, owner = corners[new], owner[new]
+        inner = corners.mean(axis=0)
+        normal = np.zeros((int(patch.max()) + 1, 3))
+        np.add.at(normal, patch.ravel(), np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]))
+        self.vertices, owner, self.margins = _octagons(corners, owner, normal, margin)
         self.patch_start = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
-        self.margin = margin
         # per-axis odd counts put a grid plane through the middle of thin shapes
         step = float(np.cbrt(np.prod(extent) / grid.candidates))
         counts = 2 * np.ceil(extent / (2 * step)).astype(int) + 1
@@ -107,12 +111,67 @@ class _Convex:
         points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
         # the corners' mean lies inside too, so a slab thinner than the grid still has
         # a candidate
-        points = np.vstack([points, self.vertices.mean(axis=0)])
+        points = np.vstack([points, inner])
         h = np.maximum(depth(points), np.r_[np.full(len(points) - 1, -np.inf), 0.0])
         inside = h >= 0.0
         self.centres, self.depth = points[inside], h[inside]
         self.depth_of = depth
         self.step = step
+
+
+def _octagons(
+    corners: np.ndarray, owner: np.ndarray, normal: np.ndarray, margin: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The points each patch is held by, their patch and each patch's margin. A patch of
+    more than 8 corners within `FLAT` of a plane (a patch of a finely meshed hull) is
+    held through the octagon around them in that plane, at their middle height: a
+    sphere holding its 8 corners, grown by half their spread in height, holds every
+    corner. `corners` are sorted by `owner`; `normal` is each patch's summed face
+    normal."""
+    patches = len(normal)
+    count = np.bincount(owner, minlength=patches)
+    start = np.r_[0, np.cumsum(count)[:-1]]
+    size = np.linalg.norm(normal, axis=1, keepdims=True)
+    n = np.where(size > 0, normal / np.where(size > 0, size, 1.0), [[0.0, 0.0, 1.0]])
+    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    u = np.cross(n, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(n, u)
+    a, b, h = (np.einsum("ij,ij->i", corners, w[owner]) for w in (u, v, n))
+    lo, hi = np.minimum.reduceat, np.maximum.reduceat
+    h0, h1 = lo(h, start), hi(h, start)
+    swap = (count > 8) & (h1 - h0 <= 2 * FLAT)
+    margins = np.full(patches, margin)
+    margins[swap] += 0.5 * (h1 - h0)[swap]
+    if not swap.any():
+        return corners, owner, margins
+    a0, a1, b0, b1 = lo(a, start)[swap], hi(a, start)[swap], lo(b, start)[swap], hi(b, start)[swap]
+    s0, s1 = lo(a + b, start)[swap], hi(a + b, start)[swap]
+    d0, d1 = lo(a - b, start)[swap], hi(a - b, start)[swap]
+    # the octagon's corners: where the lines a = a0, a1 and b = b0, b1 leave it
+    octagon = np.stack(
+        [
+            np.stack(c, axis=-1)
+            for c in (
+                (a1, np.maximum.reduce([b0, a1 - d1, s0 - a1])),
+                (a1, np.minimum.reduce([b1, a1 - d0, s1 - a1])),
+                (a0, np.maximum.reduce([b0, a0 - d1, s0 - a0])),
+                (a0, np.minimum.reduce([b1, a0 - d0, s1 - a0])),
+                (np.maximum.reduce([a0, b1 + d0, s0 - b1]), b1),
+                (np.minimum.reduce([a1, b1 + d1, s1 - b1]), b1),
+                (np.maximum.reduce([a0, b0 + d0, s0 - b0]), b0),
+                (np.minimum.reduce([a1, b0 + d1, s1 - b0]), b0),
+            )
+        ],
+        axis=1,
+    )  # (swapped, 8, 2)
+    u, v, n, mid = u[swap, None], v[swap, None], n[swap, None], 0.5 * (h0 + h1)[swap, None, None]
+    points = octagon[..., :1] * u + octagon[..., 1:] * v + mid * n
+    keep = ~swap[owner]
+    owner = np.r_[owner[keep], np.repeat(np.flatnonzero(swap), 8)]
+    corners = np.vstack([corners[keep], points.reshape(-1, 3)])
+    order = np.argsort(owner, kind="stable")
+    return corners[order], owner[order], margins
 
 
 def _split(tris: np.ndarray, edge: float) -> np.ndarray:
@@ -355,7 +414,7 @@ class _Fit:
         start = np.concatenate(
             [shape.patch_start, len(shape.vertices) + np.arange(len(interior) + 1)]
         )
-        margin = np.r_[np.full(len(shape.patch_start), shape.margin), np.zeros(len(interior))]
+        margin = np.r_[shape.margins, np.zeros(len(interior))]
         self.shape, self.points, self.start, self.margin = shape, points, start, margin
         self.centres, self.depth = cand, h
         self.first_bulge = grid.first_bulge

@@ -325,24 +325,13 @@ class TaskPlanner:
 
     def _solve(self, planner, problem: Problem, checker, found: GoalSearch | None) -> PlanResult:
         """Plan to the goal the IK search found. One the start reaches in a straight line,
-        or a joint-space goal (no `found`), gets the whole time; else the nearest free
-        solution gets half of it, then every free solution found the rest: on arms whose
-        joints turn twice around, the nearest solution can sit in a pocket the start has
-        no free motion into."""
+        or a joint-space goal (no `found`), is the only goal; else every free solution
+        found is one (the goal tree grows from all of them, the nearest first): on arms
+        whose joints turn twice around, the nearest solution can sit in a pocket the
+        start has no free motion into, where a search aimed at it alone spends its time."""
         if found is None or found.direct:
             return planner.solve(problem, checker)
-        t0 = time.perf_counter()
-        half = replace(problem, time_limit=problem.time_limit / 2)
-        res = planner.solve(half, checker)
-        if res.success or res.status != "timeout":
-            return res
-        left = problem.time_limit - (time.perf_counter() - t0)
-        if len(found.free) < 2 or left <= 0:
-            return res
-        second = planner.solve(replace(problem, goals=found.free, time_limit=left), checker)
-        for key in ("nodes", "planning_time"):
-            second.stats[key] = second.stats.get(key, 0) + res.stats.get(key, 0)
-        return second
+        return planner.solve(replace(problem, goals=found.free), checker)
 
     def _remaining(self, stage: str) -> float:
         """Seconds left for the request; _OutOfTime (naming `stage`) when none are, or

@@ -159,6 +159,23 @@ def test_cli_maps_a_log_and_prints_time_per_scan_and_relation_error(room_b_log, 
     assert code == 2 and "--relations scores a --log run" in capsys.readouterr().err
 
 
+def test_a_log_replay_runs_the_pose_graph_in_lockstep_unless_told(room_b_log, tmp_path, capsys):
+    """A replay's result does not hang on the scheduler: the same log twice gives the
+    same trajectory and map; `--param lockstep=false` gives the threaded back end."""
+    log, rel = room_b_log
+    results, maps = [], []
+    for name, extra in (("a", []), ("b", []), ("c", ["--param", "lockstep=false"])):
+        out = tmp_path / name
+        argv = ["slam", "--method", "graph", "--log", str(log), "--relations", str(rel)]
+        assert main([*argv, *extra, "-o", str(out), "--json"]) == 0
+        results.append(json.loads(capsys.readouterr().out))
+        maps.append(out.with_suffix(".pgm").read_bytes())
+    a, b, c = results
+    assert a["back_end"] == b["back_end"] == "lockstep" and c["back_end"] == "threaded"
+    assert a["relations"] == b["relations"] and maps[0] == maps[1]
+    assert a["relations"]["trans_mean"] < 0.03
+
+
 def test_bench_real_runs_what_it_finds_and_skips_the_rest(room_b_log, tmp_path, capsys):
     """A log named like the Intel one runs and is scored, the odometry alone beside it;
     ACES, FR079 and Killian (no fetching) are reported as skipped, naming the folder, and

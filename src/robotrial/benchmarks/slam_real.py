@@ -258,7 +258,7 @@ def _one_run(
     declared = {k: v for k, v in told.items() if k not in params}
     if declared:
         out["declared"] = {"params": declared, "why": why}
-    params = {**declared, **params}
+    params = {**carmen.replay_params(method), **declared, **params}
     if method == "odometry":
         stamps = np.array([s.stamp for s in rec.scans])
         odom = rec.scan_odom

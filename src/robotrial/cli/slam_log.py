@@ -40,7 +40,7 @@ def run_log(args: argparse.Namespace, params: dict[str, str]) -> int:
             f"{Path(args.log).name}: {why}; {args.method} is run with "
             f"{told or 'your values'} (--param overrides)"
         )
-    params = {**declared, **params}
+    params = {**carmen.replay_params(args.method), **declared, **params}
     if log.skipped and not args.json:
         number, why = log.skipped[0]
         console.print(

@@ -176,7 +176,8 @@ class PoseGraphParams(OdometryModel):
     the scan path (False: inline, for comparisons). A pass is swapped in at the first scan
     after it ends, which depends on the timing; with `lockstep`, when the next node is
     added, the scan path waiting for it then if it has not finished: the same scans give
-    the same map whatever the machine's load. Without it, when `backend_max_backlog`
+    the same map whatever the machine's load; a log replay (`robotrial slam --log`,
+    `bench slam --real`) sets it, a live robot does not. Without it, when `backend_max_backlog`
     nodes wait for the worker, the scan path waits for the pass it runs: a log replayed
     far faster than it was taken (MIT Killian Court: 300 times) would otherwise leave the
     loop searches hundreds of nodes behind, made on estimates no closure has corrected

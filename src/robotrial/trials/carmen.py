@@ -79,6 +79,15 @@ def declared_params(log: CarmenLog, method: str) -> tuple[dict[str, float], str]
     return {}, ""
 
 
+def replay_params(method: str) -> dict[str, Any]:
+    """Parameters every log replay sets for a method: the pose graph's back end in
+    lockstep (each pass swapped in when the next node is added, the scan path waiting
+    for it). A log is read far faster than it was taken and its scans do not wait for
+    the scheduler: with the threaded back end which nodes each pass sees, and so the
+    result, would hang on the machine's load. A user's own parameters override them."""
+    return {"lockstep": True} if method == "graph" else {}
+
+
 @dataclass(frozen=True)
 class OdometryDrift:
     """Errors of wheel odometry, to make a raw-odometry log from one whose poses are a
@@ -192,13 +201,16 @@ def find_public(log: PublicLog, folder: Path | None = None) -> tuple[Path | None
 
 
 def summary(run: SlamRun, scores: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Time per scan (ms, mean and p95) and the relation scores of a run."""
+    """Time per scan (ms, mean and p95), the pose graph's back end (threaded or
+    lockstep) and the relation scores of a run."""
     t = run.scan_times
     out: dict[str, Any] = {
         "scans": len(t),
         "time_per_scan_ms": float(t.mean() * 1e3) if len(t) else 0.0,
         "time_per_scan_p95_ms": float(np.percentile(t, 95) * 1e3) if len(t) else 0.0,
     }
+    if "lockstep" in run.extra:
+        out["back_end"] = "lockstep" if run.extra["lockstep"] else "threaded"
     if scores is not None:
         out["relations"] = scores
     return out

@@ -283,6 +283,7 @@ def finish_run(method: str, slam: Slam, times: np.ndarray, wall: float, duration
             "optimize_ms_total": slam.optimize_time * 1e3,
             "backend_ms_total": slam.backend_time * 1e3,
             "background": slam.params.background,
+            "lockstep": slam.params.lockstep,
             "settle_ms": settle_ms,
         }
     else:

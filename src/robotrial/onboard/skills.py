@@ -37,8 +37,6 @@ from scipy.spatial.transform import Rotation
 from robotrial.collision.voxels import VoxelChecker
 from robotrial.geometry import Box, Pose
 from robotrial.kinematics.reference import link_poses
-from robotrial.msgs.builtin_interfaces import Duration
-from robotrial.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
 from robotrial.nav.amcl import compose, inverse
 from robotrial.nav.navigator import Status
 from robotrial.nav.tour import open_spot
@@ -56,6 +54,7 @@ from robotrial.onboard.perception import (
 from robotrial.onboard.robot import Robot
 from robotrial.onboard.voxels import SLAB_DEPTH, Obstacles, RobotBody, VoxelMap, merge_runs
 from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult, robot_spheres
+from robotrial.planning.timing import Trajectory
 from robotrial.ros.plan_task import joint_trajectory
 from robotrial.ros.slam_node import scan_to_beams
 from robotrial.slam.keyframes import Keyframes
@@ -888,17 +887,10 @@ class Skills:
             self._use_lift(lift)
             return
         duration = max(1.5 * abs(lift - now) / LIFT_SPEED, 0.2)
-        points = [
-            JointTrajectoryPoint(
-                positions=[v],
-                velocities=[0.0],
-                accelerations=[],
-                effort=[],
-                time_from_start=Duration.from_sec(t),
-            )
-            for t, v in ((0.0, now), (duration, lift))
-        ]
-        self.robot.ref_pub.publish(JointTrajectory(joint_names=[self.lift_joint], points=points))
+        ends = Trajectory(
+            np.array([0.0, duration]), np.array([[now], [lift]]), np.zeros((2, 1)), np.zeros((2, 1))
+        )
+        self.robot.ref_pub.publish(joint_trajectory([self.lift_joint], ends))
         yield from self.wait(duration + SETTLE)
         self._use_lift(lift)
 

@@ -295,7 +295,13 @@ class TaskPlanner:
         if len(free) < 2:
             return None
         hand = self.kin.link_pose(free[1])[:3, 3]
-        return self.plan(TaskRequest(free[0], hand, joint_names=self.joint_names), seed=0)
+        result = self.plan(TaskRequest(free[0], hand, joint_names=self.joint_names), seed=0)
+        # an answer that went straight leaves the tree search and the shortcut unused:
+        # the first request that needs them would load (or compile) them
+        a, b = free[0], free[1]
+        planner_class("")().solve(Problem(a, b[None], 1.0, 0), checker)
+        shortcut_and_round(np.stack([a, a, b]), checker, np.random.default_rng(0))
+        return result
 
     def plan(
         self,

@@ -234,6 +234,33 @@ def test_a_box_by_a_link_one_joint_moves_finds_its_wall_without_making_a_cover(
     assert spheres.fine_links() == made
 
 
+def test_a_wall_only_the_spheres_bulge_makes_is_told_from_one_the_link_makes(desk_arm) -> None:
+    """A board over the first link's top (its cross cylinder, 3 cm round at 7 cm) at
+    every turn of joint 1. A little above it, only the fine spheres' bulge reaches in:
+    the wall it makes is not sure (the link passes without touching). Pushed 3 mm into
+    the link, the wall is sure."""
+    spheres = desk_arm[1]
+    kin = spheres.kin
+    link = next(b for b in spheres.bodies if b.name == "link1")
+    top = 0.10  # the cross cylinder's top, in link 1's frame
+    reach = float(np.max(link.fine_centres[:, 2] + link.fine_radii)) - top
+    assert reach > 0.002
+    q = np.clip(np.zeros(kin.d), kin.lower, kin.upper)
+    m = kin.fk(q)[kin.link_index["link1"]]
+
+    def walls(gap: float) -> list:
+        centre = m[:3, :3] @ np.array([0.0, 0.0, top + gap + 0.005]) + m[:3, 3]
+        env = Environment()
+        env.add("board", Box((0.1, 0.1, 0.01)), Pose(tuple(map(float, centre))))
+        return [w for w in CollisionChecker(spheres, env).walls() if w.body == "link1"]
+
+    above = walls(reach / 3)  # the fine spheres reach 2/3 of their bulge into the board
+    assert above and not any(w.sure for w in above)
+    assert all(reach <= w.bulge + 1e-9 for w in above)
+    into = walls(-0.003)
+    assert into and all(w.sure for w in into)
+
+
 def test_what_a_robot_keeps_per_obstacle_follows_each_scene(desk_arm) -> None:
     """A robot keeps what its sweeps found per obstacle (so that a request's checker
     measures only its new boxes): a post moved to the other side of joint 1 gets its own

@@ -18,7 +18,12 @@ import numpy as np
 
 from robotrial.collision import kernels
 from robotrial.collision.self_pairs import rigid_groups, self_collision_pairs
-from robotrial.collision.spheres import link_fine_spheres, link_spheres, shape_spheres
+from robotrial.collision.spheres import (
+    inscribed_radii,
+    link_fine_spheres,
+    link_spheres,
+    shape_spheres,
+)
 from robotrial.geometry import Box, Cylinder, Mesh, Pose, Shape, Sphere
 from robotrial.kinematics.chain import PRISMATIC, Kinematics
 from robotrial.model.robot import CollisionSphere
@@ -32,13 +37,20 @@ SHAPES_KEPT = 16384  # (body, shape) answers of `RobotSpheres.reach_into` kept p
 class Wall:
     """Values `low`..`high` of planning joint `joint` (an index) that no motion passes:
     at each of them `body`, which no other planning joint moves, is inside `obstacle`
-    (its fine cover, by more than it moves between grid values)."""
+    (its fine cover, by more than it moves between grid values). `sure` when the link
+    itself is, somewhere in the range (the balls it holds inside its shapes are:
+    `RobotSpheres.inner_body`); else it may pass closer than `bulge` (m: how far its fine
+    spheres stand out of it, at most) without touching, which the planner's spheres do
+    not tell apart from a contact. (The walls of links two planning joints move,
+    `CollisionChecker._pair_walls`, are taken as sure.)"""
 
     joint: int
     low: float
     high: float
     body: str
     obstacle: str
+    sure: bool = True
+    bulge: float = 0.0
 
     def crossed(self, a: np.ndarray, qs: np.ndarray) -> np.ndarray:
         """(N,) bool: which configurations of `qs` (N, d) a motion from `a` reaches only
@@ -52,7 +64,8 @@ class Wall:
 class Body:
     """A named rigid set of spheres on link `link` (centres in that link's frame), and
     optionally a finer cover of the same shapes, asked where the first one touches an
-    obstacle (see `link_fine_spheres`)."""
+    obstacle (see `link_fine_spheres`), with the radius of the ball the link holds around
+    each of its centres (`inscribed_radii`)."""
 
     name: str
     link: str
@@ -60,6 +73,7 @@ class Body:
     radii: np.ndarray
     fine_centres: np.ndarray | None = None
     fine_radii: np.ndarray | None = None
+    fine_inner: np.ndarray | None = None
 
 
 class RobotSpheres:
@@ -73,9 +87,11 @@ class RobotSpheres:
     not given, else none): those of the links one planning joint moves made here (the
     walls of any request's obstacles ask them), the others on first use by `refine()`,
     link by link (0.1-0.3 s each): a request makes those of the links its start
-    touches with. `fine_self` names the links of close pairs (`self_pairs.CLOSE`: pairs whose
-    spheres touch where the links do not, as a forearm passing a wrist): every check
-    asks their fine covers, once made, where their coarse spheres touch another link's.
+    touches with. A given `fine` cover stands for the links' shapes (walls take its
+    spheres whole, not shrunk to what the shapes hold: `inner_body`). `fine_self`
+    names the links of close pairs (`self_pairs.CLOSE`: pairs whose spheres touch where
+    the links do not, as a forearm passing a wrist): every check asks their fine
+    covers, once made, where their coarse spheres touch another link's.
     """
 
     def __init__(
@@ -121,6 +137,24 @@ class RobotSpheres:
             own, name=f"{own.name} (fine)", centres=own.fine_centres, radii=own.fine_radii
         )
 
+    def inner_body(self, name: str) -> Body | None:
+        """The body `name` as the balls its link surely holds: its fine spheres, each
+        shrunk by how far it stands out of the link (named "... (inner)"); where they
+        reach into something, the link does. None while its fine cover is not made."""
+        own = next(b for b in self.bodies if b.name == name)
+        if own.fine_centres is None or own.fine_inner is None:
+            return None
+        keep = own.fine_inner > 0.0
+        return replace(
+            own,
+            name=f"{own.name} (inner)",
+            centres=own.fine_centres[keep],
+            radii=own.fine_inner[keep],
+            fine_centres=None,
+            fine_radii=None,
+            fine_inner=None,
+        )
+
     def refine(self, links: Collection[str] | None = None) -> None:
         """Give the bodies of `links` (default: every body) their fine covers (made here
         unless given), once each."""
@@ -144,10 +178,18 @@ class RobotSpheres:
         """Give the bodies of `links` their fine covers."""
         if not links:
             return
-        fine = self._fine if self._fine is not None else link_fine_spheres(self.kin.model, links)
-        by_link = _by_link(fine)
+        given = self._fine is not None
+        fine = self._fine if given else link_fine_spheres(self.kin.model, links)
+        by_link = _by_link(s for s in fine if s.link in links)
+        # given spheres stand for the links' shapes: nothing of them stands out
+        inner = {
+            link: _arrays(group)[1] if given else inscribed_radii(self.kin.model, group)
+            for link, group in by_link.items()
+        }
         self.bodies = [
-            replace(b, fine_centres=centres, fine_radii=radii) if b.link in links else b
+            replace(b, fine_centres=centres, fine_radii=radii, fine_inner=inner.get(b.link))
+            if b.link in links
+            else b
             for b in self.bodies
             for centres, radii in [_arrays(by_link.get(b.link))]
         ]
@@ -190,7 +232,7 @@ class RobotSpheres:
         for b in self.bodies:
             lb = kin.link_index[b.link]
             m = poses[:, lb]
-            world = np.einsum("nij,sj->nsi", m[:, :3, :3], b.centres) + m[:, None, :3, 3]
+            world = _placed(m, b.centres)
             far = max(far, float(np.max(np.linalg.norm(world - self.origin, axis=-1) + b.radii)))
         self.reach = 1.1 * far + 0.05
 
@@ -216,7 +258,7 @@ class RobotSpheres:
                 if not kin.ancestors[lb, k]:
                     continue
                 m = poses[:, lb]
-                world = np.einsum("nij,sj->nsi", m[:, :3, :3], b.centres) + m[:, None, :3, 3]
+                world = _placed(m, b.centres)
                 # from the joint's origin, not its axis: a finer grid than the travel needs
                 r = np.linalg.norm(world - poses[:, k, None, :3, 3], axis=-1) + b.radii
                 lever[s] = max(lever[s], float(r.max()) * abs(kin.mult[k]))
@@ -235,7 +277,7 @@ class RobotSpheres:
         lb = kin.link_index[body.link]
         out = np.zeros(len(kin.link_names))
         m = self._poses[:, lb]
-        world = np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]
+        world = _placed(m, body.centres)
         for k in range(len(kin.link_names)):
             if kin.src[k] < 0 or not kin.ancestors[lb, k]:
                 continue
@@ -268,9 +310,7 @@ class RobotSpheres:
         for j, values in zip(joints, np.meshgrid(*axes, indexing="ij"), strict=True):
             qs[:, j] = values.ravel()
         m = kin.fk(qs)[:, kin.link_index[body.link]]
-        pts = (np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]).reshape(
-            -1, 3
-        )
+        pts = _placed(m, body.centres).reshape(-1, 3)
         out = (pts, np.tile(body.radii, len(qs)) + padding, float(margin))
         if body.name != OBJECT:
             self._memo[key] = out
@@ -285,45 +325,58 @@ class RobotSpheres:
         samples: int,
         env: kernels.Shapes,
         shapes: list[tuple[bytes, np.ndarray, np.ndarray]],
+        rows: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Where `body`, its `joints` swept (`sweep`), meets each shape of `env` (the
         kernels' arrays; `shapes`, their `_each_shape`): (shapes,) True where it never
         comes within what it moves between grid points of the shape, and (grid
         configurations, shapes) True where it is inside the shape by more than that.
+        With `rows` ((grid configurations, shapes) bool), only those are asked: the
+        others answer not inside, and "never" speaks of the asked ones alone.
         Kept per body and shape, the last SHAPES_KEPT answers (a world's shapes are the
         same in every request, and a request's boxes come back while its user moves the
-        goal); a shape beyond the sweep's bounding box by more than a sphere's radius is
-        answered without a look at each sphere."""
+        goal); the grid configurations whose spheres' bounding box is farther from a
+        shape's than a sphere's radius (and what it moves) are answered without a look at
+        each sphere."""
         pts, radii, margin = self.sweep(body, joints, rates, padding, samples)
         per = len(body.radii)
         grid = len(pts) // per
-        key = (f"bound {samples}", body.name, float(padding))
-        bound = self._memo.get(key)
-        if bound is None or body.name == OBJECT:
-            bound = (pts.min(axis=0), pts.max(axis=0))
+        key = (f"bounds {samples}", body.name, float(padding))
+        bounds = self._memo.get(key)
+        if bounds is None or body.name == OBJECT:
+            each = pts.reshape(grid, per, 3)
+            bounds = (each.min(axis=1), each.max(axis=1))
             if body.name != OBJECT:
-                self._memo[key] = bound
+                self._memo[key] = bounds
         far = float(radii.max()) + margin
+        asked = np.ones((grid, len(shapes)), dtype=bool) if rows is None else rows.copy()
         never = np.zeros(len(shapes), dtype=bool)
         inside = np.zeros((grid, len(shapes)), dtype=bool)
         todo = []
         for s, (key, lo, hi) in enumerate(shapes):
-            memo = (body.name, float(padding), samples, key)
+            memo = (body.name, float(padding), samples, rows is None, key)
             kept = self._shapes.get(memo) if body.name != OBJECT else None
             if kept is not None:
                 self._shapes.move_to_end(memo)
                 never[s], inside[:, s] = kept
-            elif _box_gap(bound[0], bound[1], lo, hi) > far:
+                continue
+            asked[:, s] &= _box_gap(bounds[0], bounds[1], lo, hi) <= far
+            if asked[:, s].any():
+                todo.append(s)
+            else:
                 never[s] = True
                 self._keep(body, memo, (True, inside[:, s].copy()))
-            else:
-                todo.append(s)
         if todo:
-            depth = radii[:, None] - _shape_gaps(pts, *_pick(env, todo))
+            # the grid configurations any shape asks, and only those
+            at = np.flatnonzero(asked[:, todo].any(axis=1))
+            depth = radii.reshape(grid, per)[at].reshape(-1, 1) - _shape_gaps(
+                pts.reshape(grid, per, 3)[at].reshape(-1, 3), *_pick(env, todo)
+            )
             never[todo] = depth.max(axis=0) < -margin
-            inside[:, todo] = depth.reshape(grid, per, -1).max(axis=1) > margin
+            deep = depth.reshape(len(at), per, -1).max(axis=1) > margin
+            inside[at[:, None], todo] = deep & asked[at][:, todo]
             for s in todo:
-                memo = (body.name, float(padding), samples, shapes[s][0])
+                memo = (body.name, float(padding), samples, rows is None, shapes[s][0])
                 self._keep(body, memo, (bool(never[s]), inside[:, s].copy()))
         return never, inside
 
@@ -561,20 +614,26 @@ class CollisionChecker:
             if body.name == OBJECT or len(joints) != 1:
                 continue
             # the first cover (its sweep kept from `_never_touching`) tells where to look
-            # with the fine one: only those grid values are asked of it
+            # with the balls the fine one holds inside the link: only those grid values
             coarse = self._inside(body, joints, env, shapes)
             if not coarse.any():
                 continue
             self.robot.refine({body.link})
-            fine = self.robot.fine_body(body.name)
-            if fine is None:
+            fine, inner = self.robot.fine_body(body.name), self.robot.inner_body(body.name)
+            if fine is None or inner is None:
                 continue
+            inside = self._inside(fine, joints, env, shapes, rows=coarse)
+            sure = self._inside(inner, joints, env, shapes, rows=inside)
+            own = next(b for b in self.robot.bodies if b.name == body.name)
+            bulge = float(np.max(own.fine_radii - own.fine_inner))
             values = np.linspace(self.kin.lower[joints[0]], self.kin.upper[joints[0]], WALL_SAMPLES)
-            inside = self._fine_inside(fine, int(joints[0]), values, coarse, env, shapes)
             edges = np.flatnonzero(np.diff(np.r_[0, inside.any(axis=1).astype(int), 0]))
             for lo, hi in zip(edges[::2], edges[1::2] - 1, strict=True):
-                which = names[int(np.argmax(inside[lo : hi + 1].sum(axis=0)))]
-                self._walls.append(Wall(int(joints[0]), values[lo], values[hi], body.name, which))
+                s = int(np.argmax(inside[lo : hi + 1].sum(axis=0)))
+                wall = Wall(int(joints[0]), values[lo], values[hi], body.name, names[s])
+                self._walls.append(
+                    replace(wall, sure=bool(sure[lo : hi + 1, s].any()), bulge=bulge)
+                )
         key = ("pair walls", "", self.padding)
         if key not in self.robot._memo:
             self.robot._memo[key] = self._pair_walls()
@@ -692,48 +751,20 @@ class CollisionChecker:
         return np.hstack(cols)
 
     def _inside(
-        self, body: Body, joints: np.ndarray, env: kernels.Shapes, shapes: list
-    ) -> np.ndarray:
-        """(grid values, obstacles) True where `body`, its one joint swept over its range,
-        is inside an obstacle by more than it moves between grid values."""
-        rates = self.robot.arms(body, self.padding) @ self._to_joint
-        return self.robot.reach_into(body, joints, rates, self.padding, WALL_SAMPLES, env, shapes)[
-            1
-        ]
-
-    def _fine_inside(
         self,
         body: Body,
-        joint: int,
-        values: np.ndarray,
-        coarse: np.ndarray,
+        joints: np.ndarray,
         env: kernels.Shapes,
         shapes: list,
+        rows: np.ndarray | None = None,
     ) -> np.ndarray:
-        """(grid values, obstacles) True where `body` (a fine cover), its one `joint` at
-        `values` (the others at mid-range), is inside an obstacle by more than it moves
-        between grid values: asked only where the first cover is (`coarse`), and kept per
-        body and obstacle as `reach_into`'s answers are."""
-        kin = self.kin
-        rate = (self.robot.arms(body, self.padding) @ self._to_joint)[joint]
-        margin = rate * (kin.upper[joint] - kin.lower[joint]) / (len(values) - 1) / 2
-        out = np.zeros_like(coarse)
-        for s in np.flatnonzero(coarse.any(axis=0)):
-            memo = (body.name, float(self.padding), "at", shapes[s][0])
-            kept = self.robot._shapes.get(memo)
-            if kept is not None:
-                out[:, s] = kept[1]
-                continue
-            rows = np.flatnonzero(coarse[:, s])
-            qs = np.tile(0.5 * (kin.lower + kin.upper), (len(rows), 1))
-            qs[:, joint] = values[rows]
-            m = kin.fk(qs)[:, kin.link_index[body.link]]
-            pts = np.einsum("nij,sj->nsi", m[:, :3, :3], body.centres) + m[:, None, :3, 3]
-            gaps = _shape_gaps(pts.reshape(-1, 3), *_pick(env, [s]))[:, 0]
-            depth = body.radii + self.padding - gaps.reshape(len(rows), -1)
-            out[rows, s] = depth.max(axis=1) > margin
-            self.robot._keep(body, memo, (False, out[:, s].copy()))
-        return out
+        """(grid values, obstacles) True where `body`, its one joint swept over its range,
+        is inside an obstacle by more than it moves between grid values (of `rows` only,
+        when given: `RobotSpheres.reach_into`)."""
+        rates = self.robot.arms(body, self.padding) @ self._to_joint
+        return self.robot.reach_into(
+            body, joints, rates, self.padding, WALL_SAMPLES, env, shapes, rows
+        )[1]
 
     def beyond_walls(self, a: np.ndarray, qs: np.ndarray) -> np.ndarray:
         """(N,) bool: which configurations of `qs` lie past a wall (`walls`) from `a`:
@@ -992,6 +1023,12 @@ def _arrays(group: list[CollisionSphere] | None) -> tuple[Any, Any]:
     return centres, np.array([s.radius for s in group], dtype=float)
 
 
+def _placed(poses: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """(N, S, 3): points `centres` (S, 3) of a link placed by each of its `poses` (N, 4, 4);
+    a stacked matrix product (an unoptimised einsum takes ten times as long)."""
+    return centres @ poses[:, :3, :3].transpose(0, 2, 1) + poses[:, None, :3, 3]
+
+
 def _by_link(spheres: Iterable[CollisionSphere]) -> dict[str, list[CollisionSphere]]:
     out: dict[str, list[CollisionSphere]] = {}
     for s in spheres:
@@ -1051,10 +1088,11 @@ def _pick(env: kernels.Shapes, which: Sequence[int]) -> kernels.Shapes:
     )
 
 
-def _box_gap(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray, hi_b: np.ndarray) -> float:
-    """Distance between two axis-aligned boxes given by their corners (0 where they meet)."""
+def _box_gap(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray, hi_b: np.ndarray) -> np.ndarray:
+    """Distance between axis-aligned boxes given by their corners (0 where they meet), over
+    the leading axes of the corners (..., 3)."""
     gap = np.maximum(np.maximum(lo_a - hi_b, lo_b - hi_a), 0.0)
-    return float(np.sqrt(gap @ gap))
+    return np.sqrt(np.sum(gap * gap, axis=-1))
 
 
 def _shape_gaps(pts, box_inv, box_half, cyl_inv, cyl_r, cyl_h, sph_c, sph_r) -> np.ndarray:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Collection
+from collections.abc import Collection, Sequence
 from functools import lru_cache
 from typing import NamedTuple
 
@@ -504,9 +504,7 @@ def _box(size: tuple[float, float, float], grid: _Grid) -> _Convex:
     extent = np.asarray(size, dtype=float)
     half = extent / 2
     tm = trimesh.creation.box(extents=extent)
-    normals = np.vstack([np.eye(3), -np.eye(3)])
-    offsets = np.concatenate([half, half])
-    return _Convex(tm.vertices, tm.faces, 0.0, -half, half, _polyhedron(normals, offsets), grid)
+    return _Convex(tm.vertices, tm.faces, 0.0, -half, half, _solid(("box", size)), grid)
 
 
 def _cylinder(radius: float, length: float, grid: _Grid) -> _Convex:
@@ -518,16 +516,27 @@ def _cylinder(radius: float, length: float, grid: _Grid) -> _Convex:
     sag = radius * (1.0 - np.cos(np.pi / sections))
     tm = trimesh.creation.cylinder(radius=radius, height=length, sections=sections)
 
-    solid = _Solid(np.zeros((0, 3)), np.zeros(0), np.array([radius, length / 2]))
     half = np.array([radius, radius, length / 2])
+    solid = _solid(("cylinder", radius, length))
     return _Convex(tm.vertices, tm.faces, float(sag), -half, half, solid, grid)
 
 
 def _hull(mesh: Mesh, grid: _Grid) -> _Convex:
     """The (scaled) convex hull of a mesh: what MuJoCo collides with."""
-    vertices, faces, normals, offsets = _hull_planes(_key(mesh))
+    key = _key(mesh)
+    vertices, faces, _, _ = _hull_planes(key)
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    return _Convex(vertices, faces, 0.0, lo, hi, _polyhedron(normals, offsets), grid)
+    return _Convex(vertices, faces, 0.0, lo, hi, _solid(key), grid)
+
+
+def _solid(key: tuple) -> _Solid:
+    """The solid of a box, cylinder or mesh (its convex hull) by its `_key`."""
+    if key[0] == "box":
+        half = np.asarray(key[1], dtype=float) / 2
+        return _polyhedron(np.vstack([np.eye(3), -np.eye(3)]), np.concatenate([half, half]))
+    if key[0] == "cylinder":
+        return _Solid(np.zeros((0, 3)), np.zeros(0), np.array([key[1], key[2] / 2]))
+    return _polyhedron(*_hull_planes(key)[2:])
 
 
 @lru_cache(maxsize=64)
@@ -642,6 +651,30 @@ def link_fine_spheres(
     the coarse cover touches something, so that a link passing a board a centimetre
     away is not called colliding. Only of `links` when given."""
     return _link_covers(model, FINE_SPHERES, FINE, links)
+
+
+def inscribed_radii(model: RobotModel, spheres: Sequence[CollisionSphere]) -> np.ndarray:
+    """(n,) the radius of the ball each sphere's link surely holds around its centre: the
+    centre's depth in the deepest of the link's collision shapes (a mesh through its
+    convex hull, as MuJoCo collides it), at most the sphere's radius, 0 outside them all.
+    Where that ball reaches into something by d, the link surely does; the sphere itself
+    may reach in by up to its bulge (radius less this) where the link does not."""
+    links = {link.name: link for link in model.links}
+    centres = np.array([s.center for s in spheres], dtype=float).reshape(-1, 3)
+    radii = np.array([s.radius for s in spheres], dtype=float)
+    owner = np.array([s.link for s in spheres])
+    depth = np.zeros(len(spheres))
+    for name in set(owner.tolist()) & set(links):
+        mine = np.flatnonzero(owner == name)
+        for col in links[name].collisions:
+            m = np.linalg.inv(col.origin.matrix())
+            p = centres[mine] @ m[:3, :3].T + m[:3, 3]
+            if isinstance(col.geometry, Sphere):
+                h = col.geometry.radius - np.linalg.norm(p, axis=1)
+            else:
+                h = _solid(_key(col.geometry))(p)
+            depth[mine] = np.maximum(depth[mine], h)
+    return np.minimum(depth, radii)
 
 
 def _link_covers(

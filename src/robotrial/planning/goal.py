@@ -132,7 +132,8 @@ class GoalSearch:
     """What `search` found: `free`, the free solutions on the start's side of the walls,
     nearest the start first; `direct`, whether the start reaches the first of them in a
     straight line; `best`, the attempt nearest the target (for a message when nothing
-    converged), with its errors in m and rad."""
+    converged), with its errors in m and rad; `past_wall`, the solutions past a wall
+    (not checked for collisions), and how many on the start's side collide."""
 
     free: np.ndarray
     direct: bool
@@ -141,6 +142,8 @@ class GoalSearch:
     orientation_error: float
     converged: int
     seeds_tried: int
+    past_wall: np.ndarray
+    colliding: int
 
 
 def seeds(kin: Kinematics, n: int = SEEDS) -> np.ndarray:
@@ -214,4 +217,6 @@ def search(
         float(rerr[i]),
         int(np.count_nonzero(outcome > MISSED)),
         int(tried),
+        qs[outcome == PAST_WALL],
+        int(np.count_nonzero(outcome == COLLIDING)),
     )

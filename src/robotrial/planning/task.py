@@ -295,7 +295,13 @@ class TaskPlanner:
         if len(free) < 2:
             return None
         hand = self.kin.link_pose(free[1])[:3, 3]
-        return self.plan(TaskRequest(free[0], hand, joint_names=self.joint_names), seed=0)
+        result = self.plan(TaskRequest(free[0], hand, joint_names=self.joint_names), seed=0)
+        # an answer that went straight leaves the tree search and the shortcut unused:
+        # the first request that needs them would load (or compile) them
+        a, b = free[0], free[1]
+        planner_class("")().solve(Problem(a, b[None], 1.0, 0), checker)
+        shortcut_and_round(np.stack([a, a, b]), checker, np.random.default_rng(0))
+        return result
 
     def plan(
         self,
@@ -534,9 +540,12 @@ class TaskPlanner:
         t_ik = time.perf_counter()
         found = search(self.kin, ik_target, start, checker, self.seeds)
         finer = None
-        # the finer cover can free a converged solution; none converged, it has none to free
+        # the finer cover can free a converged solution; none converged, or all of them
+        # past a wall, it has none to free
+        wall = _wall_past(checker, start, found)
         if (
-            not len(found.free)
+            wall is None
+            and not len(found.free)
             and found.converged
             and (finer := checker.finer()) not in (None, checker)
         ):
@@ -556,13 +565,19 @@ class TaskPlanner:
             return None
         rng = np.random.default_rng(seed)
         free_ik = partial(solve_ik, self.kin, ik_target, start, rng=rng, batch=4, wanted=2)
-        if w := _wall_before(finer or checker, start, free_ik):
+        if w := wall or _wall_before(finer or checker, start, free_ik):
+            where = (
+                f"where {w.body} runs into {w.obstacle}"
+                if w.sure
+                else f"where {w.body} passes within {1e3 * w.bulge:.0f} mm of {w.obstacle} "
+                "(closer than the planner's spheres tell from touching it)"
+            )
             self._fail(
                 result,
                 "unreachable",
-                f"goal out of reach from the start: its free IK solutions have "
+                f"goal out of reach from the start: its IK solutions have "
                 f"{self.kin.joint_names[w.joint]} past {w.low:.2f} to {w.high:.2f}, "
-                f"where {w.body} runs into {w.obstacle} whatever the other joints do",
+                f"{where} whatever the other joints do",
             )
             return None
         free = solve_ik(self.kin, ik_target, start, rng=rng, wanted=1)
@@ -644,6 +659,14 @@ def time_limit(asked: float) -> float | None:
             f"{MAX_TIME_LIMIT:g} s, got {float(asked):g}"
         )
     return float(asked) if asked > 0 else None
+
+
+def _wall_past(checker: CollisionChecker, start: np.ndarray, found: GoalSearch) -> Wall | None:
+    """The wall of `checker` that the goal search's solutions lie past, when none of them
+    lies on the start's side (free or colliding), or None."""
+    if len(found.free) or found.colliding or not len(found.past_wall):
+        return None
+    return next((w for w in checker.walls() if w.crossed(start, found.past_wall[:1])[0]), None)
 
 
 def _wall_before(checker: CollisionChecker, start: np.ndarray, free_ik: Callable) -> Wall | None:

@@ -127,6 +127,50 @@ def _search(
     return qs, outcome, perr, rerr, n
 
 
+@nb.njit(cache=True, nogil=True)
+def _found(unit, target, with_rotation, lower, upper, kin_arrays, ancestors, tip, *rest):
+    """`_search`, and what the caller keeps of it: the free solutions of the kind that
+    ended the search (reached straight, else the others), nearest `start` first; whether
+    they were reached straight; the attempt nearest the target with its errors; how many
+    seeds converged; how many were tried."""
+    start = rest[2]
+    qs, outcome, perr, rerr, tried = _search(
+        unit, target, with_rotation, lower, upper, kin_arrays, ancestors, tip, *rest
+    )
+    direct = False
+    converged = 0
+    best = 0
+    for b in range(tried):
+        direct = direct or outcome[b] == DIRECT
+        converged += outcome[b] > MISSED
+        if perr[b] + 0.1 * rerr[b] < perr[best] + 0.1 * rerr[best]:
+            best = b
+    kind = DIRECT if direct else FREE
+    rows = np.array([b for b in range(tried) if outcome[b] == kind], dtype=np.int64)
+    far = np.empty(rows.shape[0])
+    for r in range(rows.shape[0]):
+        v = 0.0
+        for j in range(start.shape[0]):
+            v += (qs[rows[r], j] - start[j]) ** 2
+        far[r] = v
+    free = qs[rows[np.argsort(far, kind="mergesort")]]
+    return free, direct, qs[best].copy(), perr[best], rerr[best], converged, tried
+
+
+_NO_WALLS = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))
+
+
+def _wall_arrays(walls: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The walls' joints, lows and highs as the compiled search takes them."""
+    if not walls:
+        return _NO_WALLS
+    return (
+        np.array([w.joint for w in walls], dtype=np.int64),
+        np.array([w.low for w in walls], dtype=float),
+        np.array([w.high for w in walls], dtype=float),
+    )
+
+
 @dataclass
 class GoalSearch:
     """What `search` found: `free`, the free solutions on the start's side of the walls,
@@ -181,8 +225,7 @@ def search(
         t = np.ascontiguousarray(tgt)
     else:
         t[:3, 3] = tgt
-    walls = checker.walls()
-    qs, outcome, perr, rerr, tried = _search(
+    free, direct, best, perr, rerr, converged, tried = _found(
         fixed_seeds,
         t,
         rotation,
@@ -196,22 +239,7 @@ def search(
         start,
         wanted,
         after_free,
-        np.array([w.joint for w in walls], dtype=np.int64),
-        np.array([w.low for w in walls], dtype=float),
-        np.array([w.high for w in walls], dtype=float),
+        *_wall_arrays(checker.walls()),
         *checker.kernel_args(),
     )
-    direct = bool(np.any(outcome == DIRECT))
-    free = qs[outcome == DIRECT] if direct else qs[outcome == FREE]
-    free = free[np.argsort(np.linalg.norm(free - start, axis=1), kind="stable")]
-    score = perr + 0.1 * rerr
-    i = int(np.argmin(score))
-    return GoalSearch(
-        free,
-        direct,
-        qs[i],
-        float(perr[i]),
-        float(rerr[i]),
-        int(np.count_nonzero(outcome > MISSED)),
-        int(tried),
-    )
+    return GoalSearch(free, direct, best, perr, rerr, converged, tried)

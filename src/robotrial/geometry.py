@@ -8,6 +8,7 @@ second) only where a matrix or angles are read back.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,12 +19,25 @@ Quat = tuple[float, float, float, float]
 IDENTITY_QUAT: Quat = (0.0, 0.0, 0.0, 1.0)
 
 
+def _floats(v, n: int) -> bool:
+    """`v` is a tuple of `n` Python floats already (most poses are made so)."""
+    return type(v) is tuple and len(v) == n and all(type(x) is float for x in v)
+
+
 def _vec3(v) -> Vec3:
+    if _floats(v, 3):
+        return v
     a = np.asarray(v, dtype=float).reshape(3)
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
 def _quat(q) -> Quat:
+    if _floats(q, 4):
+        n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        if n == 1.0:
+            return q
+        if math.isfinite(n) and n >= 1e-12:
+            return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
     a = np.asarray(q, dtype=float).reshape(4)
     n = float(np.linalg.norm(a))
     if not np.isfinite(n) or n < 1e-12:

@@ -114,6 +114,21 @@ def test_errors_name_the_field_path() -> None:
         PlanTask.Response.from_dict({"success": "yes"})
 
 
+def test_decoded_messages_own_their_lists_and_defaults() -> None:
+    data = {"name": ["a", "b"], "position": [1.0, 2.0]}
+    a = JointState.from_dict(data)
+    a.name.append("c")
+    a.position.append(3.0)
+    assert data == {"name": ["a", "b"], "position": [1.0, 2.0]}
+    b, c = JointState.from_dict({}), JointState.from_dict({})
+    b.velocity.append(1.0)
+    b.header.frame_id = "arm"
+    assert c.velocity == [] and c.header.frame_id == ""
+    assert JointState.from_dict({"position": [1, 2.5]}).position == [1.0, 2.5]
+    with pytest.raises(MessageError, match=r"JointState\.name\[1\]: expected a string"):
+        JointState.from_dict({"name": ["a", 2]})
+
+
 def test_plan_task_matches_design() -> None:
     req = [s.name for s in PlanTask.Request.__fields_spec__]
     resp = [s.name for s in PlanTask.Response.__fields_spec__]

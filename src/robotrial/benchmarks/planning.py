@@ -503,12 +503,15 @@ def service_breakdown(
     other = None if baseline is None else _Answerer(baseline)
     old_total: list[float] = []
     old_cpu: list[float] = []
-    # each call's turns start one variant later than the last one's, so that none always
-    # follows the baseline's process (which leaves the caches cold for the next)
-    turns = [*planners, *(["baseline"] if other is not None else [])]
+    # each call's in-process turns start one variant later than the last one's, and the
+    # baseline's process (which leaves the caches cold for the next turn) answers last:
+    # each in-process variant then follows it equally often (rotating it in with the
+    # others had the compiled answer follow it in two calls of three, the reference in one)
+    ring = list(planners)
     with progress("service breakdown", calls + 3, enabled=show) as advance:
         for k in range(calls + 3):
-            for which in turns[k % len(turns) :] + turns[: k % len(turns)]:
+            turns = ring[k % len(ring) :] + ring[: k % len(ring)]
+            for which in turns + (["baseline"] if other is not None else []):
                 if other is not None and which == "baseline":
                     ok, wall, used = other.answer()
                     if k >= 3 and ok:

@@ -158,7 +158,8 @@ def descend(
     work,
 ):
     """Levenberg-Marquardt damped least squares from `q`, in place, clipped to the
-    limits; `work` from `scratch`. Returns (position error, orientation error,
+    limits (a joint at a limit that a step would push past is left out of that step);
+    `work` from `scratch`. Returns (position error, orientation error,
     converged)."""
     _parent, _origin, jtype, axis, src, mult, _offset, _const = kin_arrays
     # two sets of poses and errors, the current configuration's and the trial's, swapped
@@ -187,6 +188,16 @@ def descend(
                 for k in range(d):
                     jac[i, k] *= ROT_WEIGHT
         _damped_step(jac, rows, lam, err, a, y, dq)
+        # a joint held at a limit that the step pushes further out takes no part in it:
+        # the other joints make up for it (clipped, it would shorten every later step)
+        pinned = False
+        for k in range(d):
+            if (q[k] <= lower[k] and dq[k] < 0.0) or (q[k] >= upper[k] and dq[k] > 0.0):
+                for i in range(rows):
+                    jac[i, k] = 0.0
+                pinned = True
+        if pinned:
+            _damped_step(jac, rows, lam, err, a, y, dq)
         step = 0.0
         for i in range(d):
             step = max(step, abs(dq[i]))

@@ -7,6 +7,7 @@ sphere model in `robotrial.collision` is one such checker, MuJoCo another.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
@@ -84,8 +85,8 @@ class PlanResult:
 
 def path_length(path: np.ndarray) -> float:
     """Joint-space length of a path (sum of Euclidean segment lengths)."""
-    p = np.asarray(path, dtype=float)
-    return float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))) if len(p) > 1 else 0.0
+    p = np.asarray(path, dtype=float).tolist()
+    return float(sum(map(math.dist, p[:-1], p[1:])))
 
 
 class Tree:

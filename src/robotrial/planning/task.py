@@ -21,7 +21,7 @@ import pickle
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
@@ -227,6 +227,7 @@ class TaskPlanner:
         self.kin = Kinematics(robot, self.joint_names, fixed)
         self.spheres = robot_spheres(self.kin)
         self.seeds = seeds(self.kin)
+        self._limits = (self.kin.lower.tolist(), self.kin.upper.tolist())
         self.padding = float(padding)
         self.validate = validate
         lim = {j.name: j.limit for j in robot.joints}
@@ -253,9 +254,9 @@ class TaskPlanner:
 
     # --- request parsing ---------------------------------------------------------
 
-    def start_from(self, names: list[str], positions: list[float]) -> np.ndarray:
+    def start_from(self, names: list[str], positions: Sequence[float]) -> np.ndarray:
         """The planning joints' values from a JointState's names and positions."""
-        pos = np.asarray(positions, dtype=float)
+        pos = positions.tolist() if isinstance(positions, np.ndarray) else list(positions)
         if not names:
             if len(pos) == self.kin.d:
                 names = self.joint_names
@@ -272,15 +273,15 @@ class TaskPlanner:
         missing = [n for n in self.joint_names if n not in given]
         if missing:
             raise TaskError(f"current_joints lacks the planning joints {missing}")
-        q = np.array([given[n] for n in self.joint_names])
-        if not np.all(np.isfinite(q)):
+        q = [float(given[n]) for n in self.joint_names]
+        if not all(map(math.isfinite, q)):
             raise TaskError("current_joints has a non-finite position")
-        for n, v, lo, hi in zip(self.joint_names, q, self.kin.lower, self.kin.upper, strict=True):
+        for n, v, lo, hi in zip(self.joint_names, q, *self._limits, strict=True):
             if v < lo - 1e-3 or v > hi + 1e-3:
                 raise TaskError(
                     f"current_joints: {n} = {v:.4f} is outside its limits [{lo:.4f}, {hi:.4f}]"
                 )
-        return np.clip(q, self.kin.lower, self.kin.upper)
+        return np.array([min(max(v, lo), hi) for v, lo, hi in zip(q, *self._limits, strict=True)])
 
     # --- the service -------------------------------------------------------------
 
@@ -381,7 +382,7 @@ class TaskPlanner:
         return scene
 
     def _plan(self, request: TaskRequest, seed: int | None, result: TaskResult) -> None:
-        start = self.start_from(list(request.joint_names), list(request.positions))
+        start = self.start_from(list(request.joint_names), request.positions)
         stats = result.stats
         result.start = start
 
@@ -653,7 +654,7 @@ def time_limit(asked: float) -> float | None:
     """The seconds a whole answer may take: `asked`, or None for 0 (the default: the
     planner alone is held to DEFAULT_TIME_LIMIT, so that a first request that compiles
     the kernels is answered); TaskError for a negative, non-finite or too long limit."""
-    if not np.isfinite(asked) or asked < 0 or asked > MAX_TIME_LIMIT:
+    if not math.isfinite(asked) or asked < 0 or asked > MAX_TIME_LIMIT:
         raise TaskError(
             f"time_limit must be 0 (the default: {DEFAULT_TIME_LIMIT:g} s of planning) to "
             f"{MAX_TIME_LIMIT:g} s, got {float(asked):g}"

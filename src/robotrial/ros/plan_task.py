@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import replace
 from functools import cache
 from typing import Any
 
@@ -16,7 +15,7 @@ import numpy as np
 
 from robotrial.geometry import Box, Pose
 from robotrial.msgs.builtin_interfaces import Duration
-from robotrial.msgs.core import Dialect, Message
+from robotrial.msgs.core import Dialect, Message, encode_given
 from robotrial.msgs.robotrial_msgs import Box as BoxMsg
 from robotrial.msgs.robotrial_msgs import PlanTaskRequest, PlanTaskResponse
 from robotrial.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
@@ -117,12 +116,10 @@ def task_request(request: PlanTaskRequest) -> TaskRequest:
 
 def joint_trajectory(names: list[str], traj: Trajectory) -> JointTrajectory:
     """A trajectory_msgs/JointTrajectory of the samples (time from the start)."""
-    sec, nanosec = np.divmod(np.round(traj.t * 1e9).astype(np.int64), 1_000_000_000)
     points = [
-        JointTrajectoryPoint(q, qd, qdd, [], Duration(s, ns))
-        for s, ns, q, qd, qdd in zip(
-            sec.tolist(),
-            nanosec.tolist(),
+        JointTrajectoryPoint(q, qd, qdd, [], Duration(*divmod(ns, 1_000_000_000)))
+        for ns, q, qd, qdd in zip(
+            np.round(traj.t * 1e9).astype(np.int64).tolist(),
             traj.q.tolist(),
             traj.qd.tolist(),
             traj.qdd.tolist(),
@@ -141,10 +138,8 @@ class _Answer(PlanTaskResponse):
         points = _points(self.trajectory.points, dialect)
         if points is None:  # a non-finite number: the generic encoder writes it as null
             return super().to_dict(dialect)
-        head = replace(self, trajectory=replace(self.trajectory, points=[]))
-        out = PlanTaskResponse.to_dict(head, dialect)
-        out["trajectory"]["points"] = points
-        return out
+        trajectory = encode_given(self.trajectory, dialect, {"points": points})
+        return encode_given(self, dialect, {"trajectory": trajectory})
 
 
 @cache

@@ -48,6 +48,7 @@ _FAR = np.float32(1e30)  # a gap larger than any scene
 _EPS = np.float32(1e-5)
 _F0, _F1 = np.float32(0.0), np.float32(1.0)
 _TINY = np.float32(1e-12)
+_ROUND_UP = np.float32(1.0 + 1e-6)
 _SHAPE_BITS = 20  # env item: body << 20 | shape
 _PAIR = 1 << 40  # pair item: _PAIR + pair
 
@@ -151,8 +152,9 @@ class Model(NamedTuple):
     mimic multiplier and offset, value when undriven. The bodies: node, bounding sphere
     (centre in the node's frame, radius), coarse and fine runs of spheres [start, end),
     sphere centres (one row per axis) and radii. Which bodies can touch obstacles, the
-    self pairs (upper body first), how fast bodies move and pairs close in per unit of
-    each joint, the check resolution and joint limits, the padding against obstacles.
+    self pairs (upper body first), how fast bodies move and then pairs close in per unit
+    of each joint (one row per joint, padded to whole blocks of lanes), the check
+    resolution and joint limits, the padding against obstacles.
     The obstacles: boxes and cylinders (inverse poses, half extents; radii and half
     lengths) and spheres (centres, radii). Where the item lists start in the work
     integers: every item, those reachable inside the joint limits, room for one list."""
@@ -176,8 +178,7 @@ class Model(NamedTuple):
     radius: np.ndarray
     env_bodies: np.ndarray
     pairs: np.ndarray
-    body_rate: np.ndarray
-    pair_rate: np.ndarray
+    rate: np.ndarray
     resolution: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
@@ -264,9 +265,9 @@ def model(floats, ints) -> Model:
     b = _dims(ints, 8)[0]  # bodies
     s = _dims(ints, 15)[1]  # spheres
     p = _dims(ints, 18)[0]  # pairs
-    d = _dims(ints, 21)[0]  # joints
-    nb_, nc = _dims(ints, 25)[0], _dims(ints, 27)[0]
-    ns = _dims(ints, 30)[0]
+    d, nr = _dims(ints, 19)  # joints, rates (bodies and pairs, padded)
+    nb_, nc = _dims(ints, 24)[0], _dims(ints, 26)[0]
+    ns = _dims(ints, 29)[0]
     return Model(
         _i(ints, 0),
         _view(_f(floats, ints, 1), n, 4, 4),
@@ -287,21 +288,30 @@ def model(floats, ints) -> Model:
         _f(floats, ints, 16),
         _i(ints, 17),
         _view(_i(ints, 18), p, 2, 0),
-        _view(_f(floats, ints, 19), b, d, 0),
-        _view(_f(floats, ints, 20), p, d, 0),
+        _view(_f(floats, ints, 19), d, nr, 0),
+        _f(floats, ints, 20),
         _f(floats, ints, 21),
         _f(floats, ints, 22),
         _f(floats, ints, 23),
-        _f(floats, ints, 24),
-        _view(_f(floats, ints, 25), nb_, 4, 4),
-        _view(_f(floats, ints, 26), nb_, 3, 0),
-        _view(_f(floats, ints, 27), nc, 4, 4),
+        _view(_f(floats, ints, 24), nb_, 4, 4),
+        _view(_f(floats, ints, 25), nb_, 3, 0),
+        _view(_f(floats, ints, 26), nc, 4, 4),
+        _f(floats, ints, 27),
         _f(floats, ints, 28),
-        _f(floats, ints, 29),
-        _view(_f(floats, ints, 30), ns, 3, 0),
-        _f(floats, ints, 31),
+        _view(_f(floats, ints, 29), ns, 3, 0),
+        _f(floats, ints, 30),
         _i(ints, _LISTS),
     )
+
+
+def rates(body_rate: np.ndarray, pair_rate: np.ndarray) -> np.ndarray:
+    """The `rate` field from the bodies' (bodies, d) and the pairs' (pairs, d) rates: one
+    row per joint, bodies then pairs, zeros up to a whole number of lane blocks."""
+    both = np.vstack([body_rate, pair_rate]).T
+    n = -(-both.shape[1] // LANES) * LANES
+    out = np.zeros((both.shape[0], max(n, LANES)))
+    out[:, : both.shape[1]] = both
+    return out
 
 
 def item_lists(never: np.ndarray, n_pairs: int) -> tuple[np.ndarray, np.ndarray]:
@@ -981,8 +991,8 @@ def _sweep(floats, ints, work, work_ints, a, b, x0, x1, floor, i0, i1) -> int:
 def motion_free(floats, ints, work, work_ints, a, b) -> bool:
     """Is the straight joint-space motion a -> b free? `a` is assumed free, `b` is checked.
 
-    A body moves at most body_rate[b] . |b - a| metres over the motion (pair_rate likewise
-    for two bodies closing in), so a point whose clearance is c (in units of the motion)
+    A body moves at most rate[:, b] . |b - a| metres over the motion (likewise for two
+    bodies of a pair closing in), so a point whose clearance is c (in units of the motion)
     proves the stretch within c of it free. The first block checks b and seven points
     spread evenly before it, plainly: a blocked motion usually fails there. It also
     lists the items that come within reach of the motion at all; the later blocks look
@@ -999,19 +1009,20 @@ def motion_free(floats, ints, work, work_ints, a, b) -> bool:
     # what is left unproved between two free points is at most half a resolution step
     # (the dense validation's step): a full step let a finger graze a box in between
     floor = 0.5 / max(np.ceil(span), 1.0)
-    dq = _stack64(1, MAX_NODES)  # how far each joint moves
-    for j in range(d):
-        dq[0, j] = abs(b[j] - a[j])
-    for i in range(n_bodies):
-        v = 0.0
+    # each body's and pair's speed, a block of them at a time: the rates' rows are
+    # joints, so the lanes take eight bodies (pairs) at once; rounded up a little, as
+    # single precision could round a sum down
+    speed = _stack(1, LANES)
+    n_rates = n_bodies + n_pairs
+    for i in range(0, n_rates, LANES):
+        for lane in range(LANES):
+            speed[0, lane] = _F0
         for j in range(d):
-            v += m.body_rate[i, j] * dq[0, j]
-        work[i] = v
-    for i in range(n_pairs):
-        v = 0.0
-        for j in range(d):
-            v += m.pair_rate[i, j] * dq[0, j]
-        work[n_bodies + i] = v
+            dq = np.float32(abs(b[j] - a[j]))
+            for lane in range(LANES):
+                speed[0, lane] += m.rate[j, i + lane] * dq
+        for lane in range(min(LANES, n_rates - i)):
+            work[i + lane] = speed[0, lane] * _ROUND_UP
     qs = _stack(MAX_NODES, LANES)
     caps = _stack(1, LANES)
     out = _stack(1, LANES)

@@ -27,7 +27,8 @@ def _hand(pitch: float) -> np.ndarray:
 
 
 def _seen(kind: ObjectKind, pose: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Points of a cylinder's surface (base frame) that face the camera, 1 mm of noise."""
+    """Points of a cylinder's surface (base frame) that face the camera, with the head
+    depth camera's 5 mm of noise."""
     r, h = kind.width / 2, kind.height
     a, z = np.meshgrid(
         np.linspace(0, 2 * np.pi, 72, endpoint=False), np.linspace(-h / 2, h / 2, 25)
@@ -42,7 +43,7 @@ def _seen(kind: ObjectKind, pose: np.ndarray, rng: np.random.Generator) -> np.nd
     local, normals = np.vstack([side, top]), np.vstack([side_n, top_n])
     pts = local @ pose[:3, :3].T + pose[:3, 3]
     facing = np.einsum("ij,ij->i", normals @ pose[:3, :3].T, CAMERA - pts) > 0
-    return pts[facing] + rng.normal(0.0, 0.001, (int(facing.sum()), 3))
+    return pts[facing] + rng.normal(0.0, 0.005, (int(facing.sum()), 3))
 
 
 @pytest.mark.parametrize("turn", [-12.0, 9.0, 21.0])
@@ -63,8 +64,8 @@ def test_a_cup_turned_in_a_pitched_grasp_is_measured_from_its_sides_and_top(turn
     stray = pose[:3, 3] + rng.uniform(-0.05, 0.05, (15, 3))  # a finger's edge, the table
     fit = fit_held(np.vstack([pts, stray]), CUP, tcp, believed.rotation, believed.in_hand)
     assert fit is not None
-    assert abs(np.rad2deg(fit.turn) - turn) < 1.0
-    assert np.linalg.norm(fit.centre - true_centre) < 0.002
+    assert abs(np.rad2deg(fit.turn) - turn) < 2.0
+    assert np.linalg.norm(fit.centre - true_centre) < 0.003
     # set down with the hand pitched so, the cup stands upright and its lowest point is
     # its bottom's middle, half its height below its centre
     pitch = upright_pitch(fit.rotation, SIDE_GRASP.as_matrix())

@@ -22,9 +22,10 @@ from robotrial.onboard.catalogue import ObjectKind
 
 MIN_POINTS = 30  # fewer points of the object in view, and the fit is not made
 MAX_TURN = np.deg2rad(45.0)  # rad the object may have turned in the hand
-FIT_SCALE = 0.003  # m: residuals past this count less (the robust loss's scale)
-FIT_RMS = 0.004  # m: a fit whose typical point lies farther off its surface is refused
-INLIER = 0.006  # m: points this close to the fitted surface are its own
+# m: residuals past this count less (the robust loss's scale: the head's depth noise)
+FIT_SCALE = 0.005
+FIT_RMS = 0.008  # m: a fit whose typical point lies farther off its surface is refused
+INLIER = 0.015  # m: points this close to the fitted surface are its own
 STARTS = np.deg2rad((0.0, -15.0, 15.0, -30.0, 30.0))  # turns the fit starts from
 
 

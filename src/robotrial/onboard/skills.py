@@ -101,6 +101,11 @@ VIEW_RANGE = 4.0  # m, farther points are too coarse to classify
 SEEN_ERROR = 0.02
 HELD_SEARCH = 0.025  # m beyond the held object's outline where its points are looked for
 HELD_CUT = 0.01  # m, the robot's body grown by this when the held object is measured
+# m aside of and above the place where the held object is shown to the head camera: held
+# out ahead, the arm (pitched down as the line of sight is) hides it; 15 cm aside, the
+# camera sees a third of the side that faces it and some of its top
+SHOW_ASIDE = 0.15
+SHOW_UP = 0.15
 FLOOR_THICKNESS = 0.1  # m
 COLUMN_HEIGHT = 2.0  # m, how tall what the LiDAR mapped is taken to be
 COLUMN_CLEAR = 0.03  # m round the arm where a mapped cell is not taken for a column
@@ -1166,7 +1171,7 @@ class Skills:
             raise SkillFailed(
                 "slipped",
                 f"the {kind.name} moved {100 * moved:.1f} cm in the hand since the grasp "
-                "(seen by the head camera above the place)",
+                "(seen by the head camera by the place)",
             )
         held.in_hand, held.rotation = fit.centre, fit.rotation
         log.info(
@@ -1190,8 +1195,9 @@ class Skills:
         return float(max(s.height_at(local[None, :2])[0] for s in under))
 
     def place(self, point: np.ndarray, height: float) -> Iterator[None]:
-        """Set the held object down with its centre over `point` (map x, y) on the
-        surface at `height`, let go, and back out."""
+        """Set the held object down upright with the middle of its bottom over `point`
+        (map x, y) on the surface at `height`, let go, and back out: measured in the hand
+        by the head camera first (`_show_held`)."""
         held = self.held
         assert held is not None
         target = np.array([point[0], point[1], height + held.kind.height / 2])
@@ -1207,24 +1213,24 @@ class Skills:
         if seen is not None and abs(seen - height) < 0.03:
             target[2] = seen + held.kind.height / 2
             local = to_base(base, target)
-        orientation = self.orientation(local, held.pitch)
-        hand = self._set_down_at(local, orientation)
         yield from self.move_lift(way.lift if way is not None else 0.0)
-        yield from self.move_arm(base, "arm_planning", self._lifted(hand), orientation)
-        self.check_grip("lowering it")
-        # above the point, the head camera sees the object: where it truly sits and how
-        # it is turned in the hand; the hand is pitched so that it stands upright
-        ways = [orientation]
-        if self.measure_held():
+        # the camera's measure of the object in the hand; the hand pitched so that it
+        # then stands upright comes first
+        ways = [self.orientation(local, held.pitch)]
+        if (yield from self._show_held(base, local)):
             assert held.rotation is not None
             pitch = upright_pitch(held.rotation, SIDE_GRASP.as_matrix())
             ways.insert(0, self.orientation(local, pitch))
-        # the camera's correction can put the goal where the arm grazes the table's
-        # voxels: let the object go from a little higher then
-        self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
-        obstacles = self._obstacles(base)
         for orientation in ways:
             hand = self._set_down_at(local, orientation)
+            self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
+            obstacles = self._obstacles(base)
+            res = self.plan(self.arm_q(), obstacles, self._lifted(hand), orientation)
+            if not res.success:
+                continue
+            yield from self.follow(res)
+            self.check_grip("lowering it")
+            # let the object go from a little higher where the arm would graze the top
             for drop in RELEASE_HEIGHTS:
                 goal = hand + np.array([0.0, 0.0, drop])
                 res = self.plan(self.arm_q(), obstacles, goal, orientation)
@@ -1253,6 +1259,25 @@ class Skills:
         if res.success:
             yield from self.follow(res)
         yield from self.straight(-STANDOFF)
+
+    def _show_held(self, base: np.ndarray, local: np.ndarray) -> Generator[None, None, bool]:
+        """Hold the object up beside the place (`local`, base frame), where the head
+        camera sees it (held out straight ahead, the arm hides it from the head), and
+        measure it in the hand there (`measure_held`); from where the arm is when it
+        gets to neither side."""
+        held = self.held
+        assert held is not None
+        for side in (SHOW_ASIDE, -SHOW_ASIDE):
+            centre = local + np.array([0.0, side, SHOW_UP])
+            orientation = self.orientation(centre, held.pitch)
+            hand = centre - orientation.apply(held.in_hand)
+            self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
+            res = self.plan(self.arm_q(), self._obstacles(base), hand, orientation)
+            if res.success:
+                yield from self.follow(res)
+                self.check_grip("holding it up to the camera")
+                break
+        return self.measure_held()
 
     def _set_down_at(self, local: np.ndarray, orientation: Rotation) -> np.ndarray:
         """Where the tool point goes (base frame), the hand at `orientation`, to set the

@@ -89,3 +89,28 @@ def test_a_cup_let_go_tilted_lands_on_its_rim_below_its_centre() -> None:
     want = 0.05 * np.cos(np.deg2rad(20.0)) + 0.03 * np.sin(np.deg2rad(20.0))
     assert lowest(CUP, tilt) == pytest.approx(want, abs=1e-6)
     assert bottom(CUP, tilt)[0] == pytest.approx(-0.05 * np.sin(np.deg2rad(20.0)), abs=1e-6)
+
+
+def test_a_box_seen_on_the_face_a_finger_holds_keeps_the_turn_it_was_believed_to_have() -> None:
+    # home 31: the 7 cm cube shown to the camera on the face its finger holds, its
+    # outline hidden (the finger, the pixels at its edges), and a strip of its back; that
+    # face lies in the same plane at every turn about the fingers' line
+    can = ObjectKind("can", "box", (0.07, 0.07, 0.07), (0.75, 0.72, 0.68))
+    tcp = _hand(0.0)
+    believed = Held(can, np.array([0.0, 0.0, 0.04]), can.grip_width, 0.0)
+    assert believed.rotation is not None
+    c, s = np.cos(np.deg2rad(8.0)), np.sin(np.deg2rad(8.0))
+    pose = np.eye(4)
+    pose[:3, :3] = (
+        tcp[:3, :3] @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]) @ believed.rotation
+    )
+    pose[:3, 3] = tcp[:3, :3] @ believed.in_hand + tcp[:3, 3]
+    u = np.linspace(-0.025, 0.025, 18)
+    a, b = (g.ravel() for g in np.meshgrid(u, u))
+    side = np.column_stack([a, np.full_like(a, -0.035), b])  # the face towards the camera
+    back = np.column_stack([np.full(8, -0.035), np.linspace(-0.035, -0.025, 8), np.zeros(8)])
+    rng = np.random.default_rng(1)
+    pts = np.vstack([side, back]) @ pose[:3, :3].T + pose[:3, 3]
+    pts += rng.normal(0.0, 0.005, pts.shape)
+    fit = fit_held(pts, can, tcp, believed.rotation, believed.in_hand)
+    assert fit is None or fit.turn == 0.0

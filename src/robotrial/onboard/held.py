@@ -27,6 +27,12 @@ FIT_SCALE = 0.005
 FIT_RMS = 0.008  # m: a fit whose typical point lies farther off its surface is refused
 INLIER = 0.015  # m: points this close to the fitted surface are its own
 STARTS = np.deg2rad((0.0, -15.0, 15.0, -30.0, 30.0))  # turns the fit starts from
+# the fit's standard deviations past which the points do not determine the turn (rad),
+# then the centre (m): the apartment's cup, a third of its side and some of its top in
+# view, 0.7 degrees and 0.4-0.6 mm; a 7 cm cube seen on the face a finger holds and an
+# edge of another, 4.3 degrees and 1.5-2.5 mm
+TURN_SPREAD = np.deg2rad(2.0)
+SHIFT_SPREAD = 0.004
 
 
 @dataclass(frozen=True)
@@ -93,22 +99,43 @@ def fit_held(
         return signed_distance(kind, (local - c) @ rot)
 
     bounds = ([-MAX_TURN, -reach, -reach], [MAX_TURN, reach, reach])
-    best = None
-    for start in STARTS:
-        res = least_squares(
-            residuals, np.array([start, 0.0, 0.0]), bounds=bounds, loss="soft_l1", f_scale=FIT_SCALE
+    fits = [_solve(residuals, np.array([start, 0.0, 0.0]), bounds) for start in STARTS]
+    best = min(fits, key=lambda r: r.cost)
+    spread = _spread(best)
+    if spread is not None and spread[0] > TURN_SPREAD:
+        # the faces in view do not show the turn (a box seen on the face the fingers
+        # hold): the centre alone, the turn kept as believed
+        best = _solve(
+            lambda x: residuals(np.array([0.0, *x])), np.zeros(2), (bounds[0][1:], bounds[1][1:])
         )
-        if best is None or res.cost < best.cost:
-            best = res
-    assert best is not None
+        best.x = np.array([0.0, *best.x])
+        spread = _spread(best)
+        if spread is not None:
+            spread = np.array([0.0, *spread])
     near = np.abs(best.fun) < INLIER
-    if near.sum() < MIN_POINTS:
+    if spread is None or spread[1:].max() > SHIFT_SPREAD or near.sum() < MIN_POINTS:
         return None
     rms = float(np.sqrt(np.mean(best.fun[near] ** 2)))
     if rms > FIT_RMS:
         return None
     rot, c = pose(best.x)
     return HeldFit(rot, c, float(best.x[0]), int(near.sum()), rms)
+
+
+def _solve(residuals, start: np.ndarray, bounds):
+    return least_squares(residuals, start, bounds=bounds, loss="soft_l1", f_scale=FIT_SCALE)
+
+
+def _spread(res) -> np.ndarray | None:
+    """The standard deviations of a fit's unknowns (from its Jacobian and the typical
+    residual of the points on the surface); None when they are not determined."""
+    near = np.abs(res.fun) < INLIER
+    if near.sum() < MIN_POINTS:
+        return None
+    info = res.jac.T @ res.jac
+    if np.linalg.cond(info) > 1e12:
+        return None
+    return np.sqrt(np.diag(np.linalg.inv(info)) * np.mean(res.fun[near] ** 2))
 
 
 def upright_pitch(rotation: np.ndarray, hand: np.ndarray) -> float:

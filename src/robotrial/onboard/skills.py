@@ -1221,21 +1221,21 @@ class Skills:
             assert held.rotation is not None
             pitch = upright_pitch(held.rotation, SIDE_GRASP.as_matrix())
             ways.insert(0, self.orientation(local, pitch))
+        # straight down from where it was shown (the object creeps out of the fingers
+        # with every motion held pitched), else by the point above the place
         for orientation in ways:
             hand = self._set_down_at(local, orientation)
             self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
             obstacles = self._obstacles(base)
+            res = self._release_plan(obstacles, hand, orientation)
+            if res.success:
+                break
             res = self.plan(self.arm_q(), obstacles, self._lifted(hand), orientation)
             if not res.success:
                 continue
             yield from self.follow(res)
             self.check_grip("lowering it")
-            # let the object go from a little higher where the arm would graze the top
-            for drop in RELEASE_HEIGHTS:
-                goal = hand + np.array([0.0, 0.0, drop])
-                res = self.plan(self.arm_q(), obstacles, goal, orientation)
-                if res.success:
-                    break
+            res = self._release_plan(obstacles, hand, orientation)
             if res.success:
                 break
         if not res.success:
@@ -1259,6 +1259,15 @@ class Skills:
         if res.success:
             yield from self.follow(res)
         yield from self.straight(-STANDOFF)
+
+    def _release_plan(self, obstacles: Obstacles, hand: np.ndarray, orientation: Rotation):
+        """The arm's motion from where it is to let the held object go with the tool point
+        at `hand`, or a little higher where the arm would graze the top there."""
+        for drop in RELEASE_HEIGHTS:
+            res = self.plan(self.arm_q(), obstacles, hand + np.array([0.0, 0.0, drop]), orientation)
+            if res.success:
+                break
+        return res
 
     def _show_held(self, base: np.ndarray, local: np.ndarray) -> Generator[None, None, bool]:
         """Hold the object up beside the place (`local`, base frame), where the head

@@ -43,13 +43,11 @@ from robotrial.nav.tour import open_spot
 from robotrial.onboard.catalogue import Catalogue, ObjectKind
 from robotrial.onboard.explore import MARGIN as EXPLORE_MARGIN
 from robotrial.onboard.explore import Explorer, follow_route, navigation_values
+from robotrial.onboard.held import bottom, fit_held, lowest, upright_pitch
 from robotrial.onboard.perception import (
-    MIN_SIDE_POINTS,
-    SIDE_BELOW_TOP,
     Detection,
     ObjectDetector,
     Surface,
-    fit_circle,
 )
 from robotrial.onboard.robot import Robot
 from robotrial.onboard.voxels import SLAB_DEPTH, Obstacles, RobotBody, VoxelMap, merge_runs
@@ -101,9 +99,13 @@ VIEW_RANGE = 4.0  # m, farther points are too coarse to classify
 # m the seen centre of an object may lie off its true one (a box's centre from its top
 # face, seen from a metre or more at a slant), and so its own voxels off the seen outline
 SEEN_ERROR = 0.02
-HELD_SEARCH = 0.025  # m around where the held object's top should be
+HELD_SEARCH = 0.025  # m beyond the held object's outline where its points are looked for
 HELD_CUT = 0.01  # m, the robot's body grown by this when the held object is measured
-TOP_FACE = 0.006  # m below the highest points that are still the top face
+# m aside of and above the place where the held object is shown to the head camera: held
+# out ahead, the arm (pitched down as the line of sight is) hides it; 15 cm aside, the
+# camera sees a third of the side that faces it and some of its top
+SHOW_ASIDE = 0.15
+SHOW_UP = 0.15
 FLOOR_THICKNESS = 0.1  # m
 COLUMN_HEIGHT = 2.0  # m, how tall what the LiDAR mapped is taken to be
 COLUMN_CLEAR = 0.03  # m round the arm where a mapped cell is not taken for a column
@@ -176,12 +178,19 @@ class Way:
 @dataclass
 class Held:
     """What the hand holds: its kind, its centre in the tool frame (m), the fingers'
-    opening on it and the pitch of the grasp."""
+    opening on it, the pitch of the grasp and its orientation in the hand."""
 
     kind: ObjectKind
     in_hand: np.ndarray
     width: float
-    pitch: float = 0.0  # rad the grasp's approach was pitched down (placed so again)
+    pitch: float = 0.0  # rad the grasp's approach was pitched down
+    # its orientation in the tool frame (3x3); None: standing upright, as when grasped
+    rotation: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.rotation is None:
+            upright = SIDE_GRASP.inv() * Rotation.from_euler("y", -self.pitch)
+            self.rotation = upright.as_matrix()
 
 
 @dataclass
@@ -586,14 +595,12 @@ class Skills:
         return [floor, *boxes]
 
     def _held_pose(self, q: np.ndarray) -> np.ndarray:
-        """The held object's pose (4x4, base frame) with the arm at `q`: the tool's
-        orientation with the grasp's pitch taken out (the object stood upright when
-        grasped), its centre where it sits in the hand."""
-        assert self.held is not None
+        """The held object's pose (4x4, base frame) with the arm at `q`: where it sits and
+        how it is turned in the hand, carried along with the tool."""
+        assert self.held is not None and self.held.rotation is not None
         tcp = self.planner.kin.link_pose(q)
         pose = tcp.copy()
-        upright = SIDE_GRASP.inv() * Rotation.from_euler("y", -self.held.pitch) * SIDE_GRASP
-        pose[:3, :3] = tcp[:3, :3] @ upright.as_matrix()
+        pose[:3, :3] = tcp[:3, :3] @ self.held.rotation
         pose[:3, 3] = tcp[:3, :3] @ self.held.in_hand + tcp[:3, 3]
         return pose
 
@@ -842,7 +849,7 @@ class Skills:
         for pitch in pitches:
             orientation = self.orientation(local, pitch, None if self.held else face)
             if self.held is not None:  # let go from as high as the place may
-                hand = local - orientation.apply(self.held.in_hand)
+                hand = self._set_down_at(local, orientation)
                 hand[2] += RELEASE_HEIGHTS[-1]
                 points = (self._lifted(hand), hand)
             else:
@@ -1137,51 +1144,44 @@ class Skills:
         )
 
     def measure_held(self) -> bool:
-        """Where the held object's centre is in the hand, from the head camera: the
-        points of its top face (the robot's own body cut out close, 1 cm) around where
-        it should be; False (nothing changed) when too few are seen."""
+        """Where the held object sits and how it is turned in the hand, from the head
+        camera: its pose fitted to the points seen of it, its top and sides, round where
+        it should be (the robot's own body cut out close, 1 cm; `held.fit_held`); False
+        (nothing changed) when too few are seen or no pose fits them."""
         held = self.held
         if held is None:
             return False
         kind = held.kind
         frame = self.robot.capture()
         pts, _ = frame.points(1)
-        tcp = self.planner.kin.link_pose(self.arm_q())
-        expected = self._held_pose(self.arm_q())[:3, 3]
-        top = expected[2] + kind.height / 2
-        near = (np.hypot(*(pts[:, :2] - expected[:2]).T) < kind.width / 2 + HELD_SEARCH) & (
-            np.abs(pts[:, 2] - top) < HELD_SEARCH
-        )
-        pts = pts[near]
+        q = self.arm_q()
+        tcp = self.planner.kin.link_pose(q)
+        expected = self._held_pose(q)[:3, 3]
+        reach = float(np.linalg.norm(kind.size)) / 2 + HELD_SEARCH
+        pts = pts[np.linalg.norm(pts - expected, axis=1) < reach]
         pts = pts[~self.body.mask(pts, self.robot.joints, padding=HELD_CUT)]
-        if len(pts) < 15:
-            log.info("held %s: %d points near where it should be", kind.name, len(pts))
+        assert held.rotation is not None
+        fit = fit_held(pts, kind, tcp, held.rotation, held.in_hand)
+        if fit is None:
+            log.info("held %s: no pose fits the %d points round it", kind.name, len(pts))
             return False
-        z = float(np.percentile(pts[:, 2], 95))
-        side = pts[:, 2] < z - SIDE_BELOW_TOP
-        if kind.shape == "cylinder" and side.sum() >= MIN_SIDE_POINTS:
-            view = expected[:2] - frame.viewpoint[:2]
-            c = fit_circle(pts[side, :2], kind.width / 2, view / max(np.linalg.norm(view), 1e-9))
-        else:
-            face = pts[pts[:, 2] > z - TOP_FACE]
-            if len(face) < 10:
-                return False
-            c = face[:, :2].mean(axis=0)
-        centre = np.array([c[0], c[1], z - kind.height / 2])
+        centre = tcp[:3, :3] @ fit.centre + tcp[:3, 3]
         moved = float(np.linalg.norm(centre - expected))
         if moved > kind.width / 2:
             raise SkillFailed(
                 "slipped",
                 f"the {kind.name} moved {100 * moved:.1f} cm in the hand since the grasp "
-                "(seen by the head camera above the place)",
+                "(seen by the head camera by the place)",
             )
-        before = held.in_hand
-        held.in_hand = (np.linalg.inv(tcp) @ np.append(centre, 1.0))[:3]
+        held.in_hand, held.rotation = fit.centre, fit.rotation
         log.info(
-            "held %s measured %.1f mm from where the grasp put it (in the hand: %s mm)",
+            "held %s measured %.1f mm from where it was believed, turned %.1f deg in the hand "
+            "(%d points, %.1f mm off its surface)",
             kind.name,
             1e3 * moved,
-            np.round(1e3 * (held.in_hand - before), 1).tolist(),
+            np.rad2deg(fit.turn),
+            fit.points,
+            1e3 * fit.rms,
         )
         self.log.held_correction = moved
         return True
@@ -1195,8 +1195,9 @@ class Skills:
         return float(max(s.height_at(local[None, :2])[0] for s in under))
 
     def place(self, point: np.ndarray, height: float) -> Iterator[None]:
-        """Set the held object down with its centre over `point` (map x, y) on the
-        surface at `height`, let go, and back out."""
+        """Set the held object down upright with the middle of its bottom over `point`
+        (map x, y) on the surface at `height`, let go, and back out: measured in the hand
+        by the head camera first (`_show_held`)."""
         held = self.held
         assert held is not None
         target = np.array([point[0], point[1], height + held.kind.height / 2])
@@ -1212,21 +1213,29 @@ class Skills:
         if seen is not None and abs(seen - height) < 0.03:
             target[2] = seen + held.kind.height / 2
             local = to_base(base, target)
-        orientation = self.orientation(local, held.pitch)
-        hand = local - orientation.apply(held.in_hand)
         yield from self.move_lift(way.lift if way is not None else 0.0)
-        yield from self.move_arm(base, "arm_planning", self._lifted(hand), orientation)
-        self.check_grip("lowering it")
-        # above the point, the head camera sees the object's top: where it truly sits in
-        # the hand, and so where the hand must go
-        if self.measure_held():
-            hand = local - orientation.apply(held.in_hand)
-        # the camera's correction can put the goal where the arm grazes the table's
-        # voxels: let the object go from a little higher then
-        self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
-        obstacles = self._obstacles(base)
-        for drop in RELEASE_HEIGHTS:
-            res = self.plan(self.arm_q(), obstacles, hand + np.array([0.0, 0.0, drop]), orientation)
+        # the camera's measure of the object in the hand; the hand pitched so that it
+        # then stands upright comes first
+        ways = [self.orientation(local, held.pitch)]
+        if (yield from self._show_held(base, local)):
+            assert held.rotation is not None
+            pitch = upright_pitch(held.rotation, SIDE_GRASP.as_matrix())
+            ways.insert(0, self.orientation(local, pitch))
+        # straight down from where it was shown (the object creeps out of the fingers
+        # with every motion held pitched), else by the point above the place
+        for orientation in ways:
+            hand = self._set_down_at(local, orientation)
+            self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
+            obstacles = self._obstacles(base)
+            res = self._release_plan(obstacles, hand, orientation)
+            if res.success:
+                break
+            res = self.plan(self.arm_q(), obstacles, self._lifted(hand), orientation)
+            if not res.success:
+                continue
+            yield from self.follow(res)
+            self.check_grip("lowering it")
+            res = self._release_plan(obstacles, hand, orientation)
             if res.success:
                 break
         if not res.success:
@@ -1250,6 +1259,47 @@ class Skills:
         if res.success:
             yield from self.follow(res)
         yield from self.straight(-STANDOFF)
+
+    def _release_plan(self, obstacles: Obstacles, hand: np.ndarray, orientation: Rotation):
+        """The arm's motion from where it is to let the held object go with the tool point
+        at `hand`, or a little higher where the arm would graze the top there."""
+        for drop in RELEASE_HEIGHTS:
+            res = self.plan(self.arm_q(), obstacles, hand + np.array([0.0, 0.0, drop]), orientation)
+            if res.success:
+                break
+        return res
+
+    def _show_held(self, base: np.ndarray, local: np.ndarray) -> Generator[None, None, bool]:
+        """Hold the object up beside the place (`local`, base frame), where the head
+        camera sees it (held out straight ahead, the arm hides it from the head), and
+        measure it in the hand there (`measure_held`); from where the arm is when it
+        gets to neither side."""
+        held = self.held
+        assert held is not None
+        for side in (SHOW_ASIDE, -SHOW_ASIDE):
+            centre = local + np.array([0.0, side, SHOW_UP])
+            orientation = self.orientation(centre, held.pitch)
+            hand = centre - orientation.apply(held.in_hand)
+            self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
+            res = self.plan(self.arm_q(), self._obstacles(base), hand, orientation)
+            if res.success:
+                yield from self.follow(res)
+                self.check_grip("holding it up to the camera")
+                break
+        return self.measure_held()
+
+    def _set_down_at(self, local: np.ndarray, orientation: Rotation) -> np.ndarray:
+        """Where the tool point goes (base frame), the hand at `orientation`, to set the
+        held object down with the middle of the face it comes to stand on over `local`
+        (the object's centre standing upright, base frame) and its lowest point on the
+        surface under it."""
+        held = self.held
+        assert held is not None and held.rotation is not None
+        rot = orientation.as_matrix() @ held.rotation
+        surface = local[2] - held.kind.height / 2
+        centre = local - bottom(held.kind, rot)
+        centre[2] = surface + lowest(held.kind, rot)
+        return centre - orientation.apply(held.in_hand)
 
     def _reach(
         self, local: np.ndarray, base: np.ndarray, kind: ObjectKind, face: float | None = None

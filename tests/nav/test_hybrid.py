@@ -378,15 +378,11 @@ def test_a_base_askew_in_a_doorway_a_few_mm_off_a_jamb_drives_on_out_of_it():
     nav = Navigator(m.occupied, m.origin, m.resolution, fp, config, m.unknown)
     goal = np.array([1.2, 1.8, np.pi / 2])
     nav.set_goal(*goal)
-    poses = _drive(
-        nav,
-        start,
-        m.occupied,
-        m.origin,
-        m.resolution,
-        lambda p: np.hypot(*(p[:2] - goal[:2])) < 0.3,
-        600,
-    )
+
+    def near(p: np.ndarray) -> bool:
+        return bool(np.hypot(*(p[:2] - goal[:2])) < 0.3)
+
+    poses = _drive(nav, start, m.occupied, m.origin, m.resolution, near, 600)
     pose = poses[-1]
     assert np.hypot(*(pose[:2] - goal[:2])) < 0.3, (
         f"{nav.status.value} at {pose.round(2)}: {nav.message}"

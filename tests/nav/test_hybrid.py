@@ -344,3 +344,47 @@ def test_a_goal_just_past_a_doorway_is_not_turned_to_where_the_rear_sweeps_the_j
     poses = _drive(nav, start, m.occupied, m.origin, m.resolution, lambda p: False, 1500)
     assert nav.status is Status.SUCCEEDED, nav.message
     assert rectangle_clearance(cm, poses).min() > 0.0
+
+
+def test_a_base_askew_in_a_doorway_a_few_mm_off_a_jamb_drives_on_out_of_it():
+    """After exploring, the search's first drive may leave the base in a 0.8 m doorway
+    18 deg off square, its rectangle 5 mm clear of a jamb as mapped (a generated home's
+    search, 0 looks from 0 places). The footprint's cell masks take the yaw to the
+    nearest 2.5 deg, which moves the corners of a 0.99 m base up to 1 cm, and call that
+    pose and every motion from it touching; the exact rectangle decides, so the base
+    drives on through the doorway, touching nothing on the map, instead of giving up
+    stuck."""
+    from robotrial.model.gridmap import world_map
+    from robotrial.model.world import load_world_text
+    from robotrial.trials.nav import navigator_config
+    from tests.trials.test_verdict import two_rooms
+
+    m = world_map(load_world_text(two_rooms(0.8)))
+    fp = Footprint(0.99, 0.67)
+    cm = Costmap(m.occupied, m.origin, m.resolution, fp)
+    yaw = np.pi - 0.31  # facing the first room, its rear in the doorway
+    low, high = 1.5, 1.9  # slid north towards the northern jamb until 5 mm are left
+    for _ in range(40):
+        mid = 0.5 * (low + high)
+        if rectangle_clearance(cm, np.array([[2.83, mid, yaw]]))[0] > 0.005:
+            low = mid
+        else:
+            high = mid
+    start = np.array([2.83, low, yaw])
+    assert footprint_hits(cm, start[None], 0.0)[0], "the cell masks call it touching"
+    config = navigator_config(0.3, 2.0, 1.0, "hybrid", 3.0)
+    hybrid = replace(config.hybrid, margin=0.01)
+    config = replace(config, costmap_resolution=None, hybrid=hybrid)
+    nav = Navigator(m.occupied, m.origin, m.resolution, fp, config, m.unknown)
+    goal = np.array([1.2, 1.8, np.pi / 2])
+    nav.set_goal(*goal)
+
+    def near(p: np.ndarray) -> bool:
+        return bool(np.hypot(*(p[:2] - goal[:2])) < 0.3)
+
+    poses = _drive(nav, start, m.occupied, m.origin, m.resolution, near, 600)
+    pose = poses[-1]
+    assert np.hypot(*(pose[:2] - goal[:2])) < 0.3, (
+        f"{nav.status.value} at {pose.round(2)}: {nav.message}"
+    )
+    assert rectangle_clearance(cm, poses).min() >= 0.0

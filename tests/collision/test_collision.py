@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import copy
+from collections import OrderedDict
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -217,7 +220,8 @@ def test_a_box_by_a_link_one_joint_moves_finds_its_wall_without_making_a_cover(
 ) -> None:
     """The fine cover of a link one planning joint moves (the desk arm's first) is made
     with the robot: a request whose box comes near that link finds the wall there
-    without making a cover (0.1-0.3 s a link, past a later plan's time)."""
+    without making a cover (0.1-0.3 s a link, past a later plan's time). Its sweeps,
+    placed with the robot too, find the walls that sweeps placed on demand find."""
     spheres = desk_arm[1]
     kin = spheres.kin
     assert "link1" in spheres.fine_links()
@@ -232,6 +236,9 @@ def test_a_box_by_a_link_one_joint_moves_finds_its_wall_without_making_a_cover(
     walls = CollisionChecker(spheres, env).walls()
     assert any(w.joint == 0 and w.obstacle == "post" and w.low < 1.5 < w.high for w in walls)
     assert spheres.fine_links() == made
+    on_demand = copy.copy(spheres)
+    on_demand._memo, on_demand._shapes = {}, OrderedDict()
+    assert CollisionChecker(on_demand, env).walls() == walls
 
 
 def test_a_wall_only_the_spheres_bulge_makes_is_told_from_one_the_link_makes(desk_arm) -> None:

@@ -114,7 +114,7 @@ class RobotSpheres:
         self.refined = False
         # what every checker of this robot computes alike, by (what, body, padding):
         # a request builds a checker, and these took half its time
-        self._memo: dict[tuple[str, str, float], Any] = {}
+        self._memo: dict[tuple, Any] = {}
         self._shapes: OrderedDict[tuple, tuple[bool, np.ndarray]] = OrderedDict()
         self.disabled, self.reasons, self.close = self._disable_pairs(samples, seed)
         self.fine_self: set[str] = set()
@@ -126,6 +126,7 @@ class RobotSpheres:
         # its fine cover: made with the robot, not in a request (0.1-0.3 s a link)
         if self.has_fine:
             self._add_fine(self._one_joint_links())
+        self._sweep_ahead(self._one_joint_links())
 
     def fine_body(self, name: str) -> Body | None:
         """The body `name` with its fine cover as its spheres (named "... (fine)"), or
@@ -270,24 +271,29 @@ class RobotSpheres:
         per unit of each link's joint: the farthest it gets from the joint's axis (the
         sampled maximum plus 10 %) for a revolute joint, 1 for a prismatic one, 0 for
         joints that do not move it. Times |mult| (mimic joints)."""
-        key = ("arms", body.name, float(padding))
+        kin = self.kin
+        levers = self._levers(body)
+        moved = (kin.src >= 0) & kin.ancestors[kin.link_index[body.link]]
+        out = np.where(kin.jtype == PRISMATIC, 1.0, 1.1 * (levers + padding)) * np.abs(kin.mult)
+        return np.where(moved, out, 0.0)
+
+    def _levers(self, body: Body) -> np.ndarray:
+        """(links,) the farthest a surface point of `body` gets from each joint's axis over
+        the sampled configurations (0 for joints that do not move it): `arms` less its
+        padding and margin, kept per body."""
+        key = ("levers", body.name)
         if body.name != OBJECT and key in self._memo:
             return self._memo[key]
         kin = self.kin
         lb = kin.link_index[body.link]
         out = np.zeros(len(kin.link_names))
-        m = self._poses[:, lb]
-        world = _placed(m, body.centres)
+        world = _placed(self._poses[:, lb], body.centres)
         for k in range(len(kin.link_names)):
-            if kin.src[k] < 0 or not kin.ancestors[lb, k]:
-                continue
-            if kin.jtype[k] == PRISMATIC:
-                out[k] = abs(kin.mult[k])
+            if kin.src[k] < 0 or not kin.ancestors[lb, k] or kin.jtype[k] == PRISMATIC:
                 continue
             u = self._poses[:, k, :3, :3] @ kin.axis[k]
             arm = np.cross(world - self._poses[:, k, None, :3, 3], u[:, None, :])
-            r = np.linalg.norm(arm, axis=-1) + body.radii
-            out[k] = 1.1 * (float(r.max()) + padding) * abs(kin.mult[k])
+            out[k] = float((np.linalg.norm(arm, axis=-1) + body.radii).max())
         if body.name != OBJECT:
             self._memo[key] = out
         return out
@@ -299,22 +305,60 @@ class RobotSpheres:
         grid, the others at mid-range: the sphere centres (N, 3), their radii grown by
         `padding`, and how far a sphere may move between grid points (`rates`: the body's
         travel per unit of each planning joint)."""
-        key = (f"sweep {samples}", body.name, float(padding))
-        if body.name != OBJECT and key in self._memo:
-            return self._memo[key]
+        kin = self.kin
+        qs, per = self._grid(joints, samples)
+        key = ("sweep", body.name, samples, tuple(int(j) for j in joints))
+        pts = self._memo.get(key) if body.name != OBJECT else None
+        if pts is None:
+            pts = self._place_on_grid(body, kin.fk(qs)[:, kin.link_index[body.link]], key)
+        margin = sum(rates[j] * (kin.upper[j] - kin.lower[j]) / (per - 1) / 2 for j in joints)
+        return pts, np.tile(body.radii, len(qs)) + padding, float(margin)
+
+    def _grid(self, joints: np.ndarray, samples: int) -> tuple[np.ndarray, int]:
+        """The configurations of `sweep`'s grid over `joints` (the others at mid-range) and
+        how many values each joint takes."""
         kin = self.kin
         per = samples if len(joints) == 1 else int(np.sqrt(3 * samples))
         axes = [np.linspace(kin.lower[j], kin.upper[j], per) for j in joints]
-        margin = sum(rates[j] * (kin.upper[j] - kin.lower[j]) / (per - 1) / 2 for j in joints)
         qs = np.tile(0.5 * (kin.lower + kin.upper), (per ** len(joints), 1))
         for j, values in zip(joints, np.meshgrid(*axes, indexing="ij"), strict=True):
             qs[:, j] = values.ravel()
-        m = kin.fk(qs)[:, kin.link_index[body.link]]
-        pts = _placed(m, body.centres).reshape(-1, 3)
-        out = (pts, np.tile(body.radii, len(qs)) + padding, float(margin))
+        return qs, per
+
+    def _place_on_grid(self, body: Body, poses: np.ndarray, key: tuple) -> np.ndarray:
+        """`body`'s sphere centres placed by its link's `poses` on a grid, (N, 3); kept
+        under `key` with their bounding box per grid configuration (not for a held
+        object, which changes)."""
+        each = _placed(poses, body.centres)
+        pts = each.reshape(-1, 3)
         if body.name != OBJECT:
-            self._memo[key] = out
-        return out
+            self._memo[key] = pts
+            self._memo[("bounds", *key[1:])] = (each.min(axis=1), each.max(axis=1))
+        return pts
+
+    def _sweep_ahead(self, links: Collection[str]) -> None:
+        """The box-free part of the walls' sweeps of the bodies of `links`, each moved by
+        one planning joint (a torso's lift carrying the other arm and the head): their
+        covers (first, fine, inner) placed on the joint's grid, with their bounding boxes
+        and levers. A request's new box then costs only the test against them, not
+        forward kinematics and placement of every carried body (5-10 ms each under load)."""
+        kin = self.kin
+        by_joint: dict[int, list[Body]] = {}
+        for b in self.bodies:
+            if b.link not in links:
+                continue
+            lb = kin.link_index[b.link]
+            (joint,) = set(kin.src[kin.ancestors[lb] & (kin.src >= 0)].tolist())
+            covers = (b, self.fine_body(b.name), self.inner_body(b.name))
+            by_joint.setdefault(int(joint), []).extend(c for c in covers if c is not None)
+        for joint, bodies in by_joint.items():
+            joints = np.array([joint])
+            qs, _ = self._grid(joints, WALL_SAMPLES)
+            poses = kin.fk(qs)
+            for body in bodies:
+                self._levers(body)
+                key = ("sweep", body.name, WALL_SAMPLES, (joint,))
+                self._place_on_grid(body, poses[:, kin.link_index[body.link]], key)
 
     def reach_into(
         self,
@@ -341,13 +385,10 @@ class RobotSpheres:
         pts, radii, margin = self.sweep(body, joints, rates, padding, samples)
         per = len(body.radii)
         grid = len(pts) // per
-        key = (f"bounds {samples}", body.name, float(padding))
-        bounds = self._memo.get(key)
+        bounds = self._memo.get(("bounds", body.name, samples, tuple(int(j) for j in joints)))
         if bounds is None or body.name == OBJECT:
             each = pts.reshape(grid, per, 3)
             bounds = (each.min(axis=1), each.max(axis=1))
-            if body.name != OBJECT:
-                self._memo[key] = bounds
         far = float(radii.max()) + margin
         asked = np.ones((grid, len(shapes)), dtype=bool) if rows is None else rows.copy()
         never = np.zeros(len(shapes), dtype=bool)

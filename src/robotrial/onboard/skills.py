@@ -74,9 +74,12 @@ REACHES = (0.5, 0.45, 0.55, 0.6, 0.65)
 FAR_REACHES = np.arange(max(REACHES) + 0.05, 1.3, 0.05)
 GRASP_BACKOFF = 0.1  # m, pre-grasp distance along the approach
 LINE_STEP = 0.005  # m between the IK solutions of a motion kept on a line
-LINE_JOINT_STEP = 0.5  # rad a joint may turn in one such step (more: a jump to another branch)
 LINE_PERIOD = 0.1  # s between the samples of such a motion's trajectory
+LINE_CHECK = 0.01  # s between the positions checked on the way
+LINE_TOLERANCE = 0.002  # m the tool point may stray from the line
+LINE_TURN = 0.05  # rad the hand may turn from its orientation on the way
 GRASP_MARGIN = 0.003  # m kept between the object and the palm
+BASE_SHIFT = 0.003  # m the object seems to move as the base is measured again before a grasp
 LIFT = 0.06  # m
 # m the hand draws back towards the arm while it lifts: straight up from a grasp at the
 # edge of reach is out of reach (over a 0.9 m top, from 0.45 m out)
@@ -700,19 +703,30 @@ class Skills:
         line. A plan to an IK goal moves the joints straight, and where the line passes
         near the wrist's singularity (two of its joints turning 2 rad each way over a
         10 cm approach 15 degrees down) the hand swings 1 cm aside on the way, into the
-        object it is to grasp."""
+        object it is to grasp, or onto its top."""
         q = self.arm_q()
-        path = self._along_line(q, goal, orientation)
+        kin = self.planner.kin
+        start = kin.link_pose(q)[:3, 3]
+        path = self._along_line(q, start, goal, orientation)
         if path is None:
+            return None
+        planner = self.planner
+        trajectory = time_parameterize(path, planner.vmax, planner.amax, LINE_PERIOD)
+        moved = trajectory.tracked(LINE_CHECK)
+        tcp = kin.fk(moved)[:, kin.link_index[kin.model.end_effector]]
+        off = np.linalg.norm(np.cross(tcp[:, :3, 3] - start, goal - start), axis=1)
+        off /= max(float(np.linalg.norm(goal - start)), 1e-9)
+        turn = (Rotation.from_matrix(tcp[:, :3, :3]) * orientation.inv()).magnitude()
+        if off.max() > LINE_TOLERANCE or turn.max() > LINE_TURN:
+            log.info("off the line by %.1f mm, %.3f rad", 1e3 * off.max(), turn.max())
             return None
         # the end checked free and the scene's checker made by the planner
         res = self.plan(q, obstacles, joints=path[-1], check_only=True)
         if not res.success or res.checker is None:
             return None
-        if not np.all(res.checker.valid(densify(path, float(np.min(res.checker.resolution))))):
+        if not np.all(res.checker.valid(densify(moved, float(np.min(res.checker.resolution))))):
             return None
-        planner = self.planner
-        res.trajectory = time_parameterize(path, planner.vmax, planner.amax, LINE_PERIOD)
+        res.trajectory = trajectory
         res.message = f"along a line, {len(path)} waypoints"
         self.log.arm_plans.append(
             {
@@ -726,13 +740,12 @@ class Skills:
         return res
 
     def _along_line(
-        self, q: np.ndarray, goal: np.ndarray, orientation: Rotation
+        self, q: np.ndarray, start: np.ndarray, goal: np.ndarray, orientation: Rotation
     ) -> np.ndarray | None:
-        """The arm's joints at small steps of the hand from where it is at `q` along the
-        line to `goal` (base frame), at `orientation`, each solved from the one before;
-        None when a step finds no solution near the last."""
+        """The arm's joints at small steps of the hand from `start` (where it is at `q`)
+        along the line to `goal` (base frame), at `orientation`, each solved from the one
+        before; None when a step finds no solution."""
         kin = self.planner.kin
-        start = kin.link_pose(q)[:3, 3]
         steps = max(1, int(np.ceil(np.linalg.norm(goal - start) / LINE_STEP)))
         pose = np.eye(4)
         pose[:3, :3] = orientation.as_matrix()
@@ -740,7 +753,7 @@ class Skills:
         for k in range(1, steps + 1):
             pose[:3, 3] = start + (np.asarray(goal) - start) * k / steps
             res = solve_ik(kin, pose, path[-1], restarts=1, batch=1, wanted=1)
-            if not res.success or np.max(np.abs(res.q - path[-1])) > LINE_JOINT_STEP:
+            if not res.success:
                 return None
             path.append(res.q)
         return np.array(path)
@@ -1107,6 +1120,16 @@ class Skills:
         orientation = self.orientation(local, pitch, face)
         self.robot.grip(self.finger_open, self.robot.setup.grip_force)
         yield from self.move_arm(base, "no_grasp_pose", pre, orientation, keep_out=keep_out)
+        # the lift's and the arm's motions can turn the base a little (0.3 degrees put the
+        # hand 6 mm aside at 1 m, more than the 5 mm the fingers open wider than a can):
+        # the grasp from the base's pose measured again
+        now = yield from self.docked_pose()
+        if np.linalg.norm(to_base(now, seen.position) - local) > BASE_SHIFT:
+            log.info("the base moved %s before the grasp", np.round(now - base, 4).tolist())
+            base, local = now, to_base(now, seen.position)
+            face = None if seen.face is None else seen.face - float(base[2])
+            _, grasp = self._grasp_points(local, kind, pitch, face)
+            orientation = self.orientation(local, pitch, face)
         yield from self.move_arm(
             base, "no_grasp_pose", grasp, orientation, keep_out=keep_out, straight=True
         )

@@ -829,12 +829,9 @@ class Skills:
 
     # --- going to a work site ----------------------------------------------------------
 
-    def base_candidates(
-        self, xy: np.ndarray, reaches: Sequence[float] = REACHES
-    ) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Base poses (and their staging poses STANDOFF behind) that face `xy` from one of
-        `reaches` (arm base to `xy`), free on the built map: those whose stage has room to
-        turn first, then by reach in the order given, the most clearance first."""
+    def _footprint_clearance(self, pose: np.ndarray) -> float:
+        """How far (m) the footprint's outline at `pose` (map x, y, yaw) stands from the
+        built map's blocked cells; -1 when it leaves the map."""
         half_l, half_w = self.footprint.length / 2, self.footprint.width / 2
         u = np.linspace(-1, 1, 9)
         outline = np.concatenate(
@@ -845,19 +842,24 @@ class Skills:
                 np.column_stack([np.full_like(u, -half_l), half_w * u]),
             ]
         )
+        c, s = np.cos(pose[2]), np.sin(pose[2])
+        px = pose[0] + c * outline[:, 0] - s * outline[:, 1]
+        py = pose[1] + s * outline[:, 0] + c * outline[:, 1]
+        col = np.floor((px - self.map_origin[0]) / self.map_res).astype(int)
+        row = np.floor((py - self.map_origin[1]) / self.map_res).astype(int)
+        rows, cols = self.clearance.shape
+        inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
+        if not inside.all():
+            return -1.0
+        return float(self.clearance[row, col].min())
 
-        def clearance(pose: np.ndarray) -> float:
-            c, s = np.cos(pose[2]), np.sin(pose[2])
-            px = pose[0] + c * outline[:, 0] - s * outline[:, 1]
-            py = pose[1] + s * outline[:, 0] + c * outline[:, 1]
-            col = np.floor((px - self.map_origin[0]) / self.map_res).astype(int)
-            row = np.floor((py - self.map_origin[1]) / self.map_res).astype(int)
-            rows, cols = self.clearance.shape
-            inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
-            if not inside.all():
-                return -1.0
-            return float(self.clearance[row, col].min())
-
+    def base_candidates(
+        self, xy: np.ndarray, reaches: Sequence[float] = REACHES
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Base poses (and their staging poses STANDOFF behind) that face `xy` from one of
+        `reaches` (arm base to `xy`), free on the built map: those whose stage has room to
+        turn first, then by reach in the order given, the most clearance first."""
+        clearance = self._footprint_clearance
         turn = self.footprint.circumscribed_radius + 0.1  # room to turn at a stage
         out = []
         for k, reach in enumerate(reaches):
@@ -1367,6 +1369,10 @@ class Skills:
             if abs(shift) < 0.005:
                 continue
             moved = compose(base, np.array([shift, 0.0, 0.0]))
+            # a move nearer must leave the footprint clear of the top (home 28: 11 cm
+            # forward put the bumper on a counter)
+            if shift > 0 and self._footprint_clearance(moved) < BASE_CLEAR:
+                continue
             if self._reaches(moved, point, kind, face) is not None:
                 yield from self.straight(shift, speed=0.06)
                 return

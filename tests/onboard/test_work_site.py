@@ -14,9 +14,10 @@ from scipy import ndimage
 
 from robotrial.benchmarks.reach import EDGE_GAP, skills_at_stow, takes_and_sets_down
 from robotrial.onboard.catalogue import ObjectKind
-from robotrial.onboard.skills import REACHES, Skills
+from robotrial.onboard.skills import REACHES, Sighting, SkillFailed, Skills
 
 CAN = ObjectKind("can", "box", (0.07, 0.07, 0.07), (0.8, 0.1, 0.1))
+BOOK = ObjectKind("book", "box", (0.06, 0.06, 0.06), (0.1, 0.3, 0.8))
 
 
 @pytest.fixture(scope="module")
@@ -71,15 +72,7 @@ def test_a_work_site_is_offered_where_its_stage_has_no_room_to_turn(skills: Skil
     # home 23's can stands 0.21 m in from a sofa's free side and 0.27 m from its end,
     # which is 0.3 m from a wall: a stage behind a site facing it is 0.57 m from that
     # wall, less than the footprint's turning circle
-    from robotrial.benchmarks.chores import CHORE_HOMES
-    from robotrial.model.gridmap import world_map
-    from robotrial.model.homegen import generate_home
-
-    world = generate_home(23, spec=CHORE_HOMES)
-    grid = world_map(world, 0.025)
-    skills.map_blocked = skills.map_walls = np.asarray(grid.occupied, dtype=bool)
-    skills.map_origin, skills.map_res = np.asarray(grid.origin, dtype=float), grid.resolution
-    skills.clearance = ndimage.distance_transform_edt(~skills.map_blocked) * grid.resolution
+    world = _on_true_map(skills, 23)
     can = next(o for o in world.objects if o.name == "can").pose.xyz
     sites = skills.base_candidates(np.array(can[:2]))
     assert sites
@@ -87,6 +80,47 @@ def test_a_work_site_is_offered_where_its_stage_has_no_room_to_turn(skills: Skil
         ahead = base[:2] - stage[:2]
         towards = np.array(can[:2]) - base[:2]
         assert np.dot(ahead, towards) > 0  # the stage is behind the site, facing the can
+
+
+def _on_true_map(skills: Skills, home: int):
+    """Give the skills the true plan's map of a chore home (2.5 cm cells, the map frame
+    the world's); the home's World."""
+    from robotrial.benchmarks.chores import CHORE_HOMES
+    from robotrial.model.gridmap import world_map
+    from robotrial.model.homegen import generate_home
+
+    world = generate_home(home, spec=CHORE_HOMES)
+    grid = world_map(world, 0.025)
+    skills.map_blocked = skills.map_walls = np.asarray(grid.occupied, dtype=bool)
+    skills.map_origin, skills.map_res = np.asarray(grid.origin, dtype=float), grid.resolution
+    skills.clearance = ndimage.distance_transform_edt(~skills.map_blocked) * grid.resolution
+    return world
+
+
+def test_a_book_on_a_round_table_in_a_corner_is_said_to_be_out_of_reach(skills: Skills) -> None:
+    # home 17: a book 0.30 m in from a round table's rim, the rim towards it 5-7 cm off
+    # two walls; from every side the robot can come to, its square front meets the rim
+    # with the book 0.69 m or more from the arm's base (0.80 m facing it straight, 4 cm
+    # off the table), and the arm reaches 0.65 m
+    world = _on_true_map(skills, 17)
+    book = np.array(next(o for o in world.objects if o.name == "book").pose.xyz[:2])
+    # the book's room only: from the next room, through the wall, the plan's map has a
+    # pose 0.65 m off (not a way in; the robot's own map had none there)
+    (x0, y0), (x1, y1) = world.room("Room 1").bounds
+    rows, cols = skills.clearance.shape
+    x = skills.map_origin[0] + (np.arange(cols) + 0.5) * skills.map_res
+    y = skills.map_origin[1] + (np.arange(rows) + 0.5) * skills.map_res
+    inside = ((y >= y0) & (y <= y1))[:, None] & ((x >= x0) & (x <= x1))[None, :]
+    skills.map_blocked = skills.map_blocked | ~inside
+    skills.clearance = ndimage.distance_transform_edt(~skills.map_blocked) * skills.map_res
+    assert not skills.base_candidates(book)
+    with pytest.raises(SkillFailed) as failed:
+        next(skills.approach(Sighting(BOOK, np.array([*book, 0.78]), None)))  # type: ignore[arg-type]
+    assert failed.value.cause == "no_base_pose"
+    words = failed.value.reason
+    assert "the book is out of the robot's reach" in words
+    assert "leaves it 0.80 m from the arm's base, 0.15 m too far" in words
+    assert "the arm reaches 0.65 m from its base, about 0.45 m in from the edge" in words
 
 
 def _can_voxels(skills: Skills, centre: np.ndarray) -> None:
@@ -187,3 +221,38 @@ def test_the_arm_folds_from_over_a_table_the_lidar_mapped(skills: Skills) -> Non
     finally:
         skills.robot.joints = stow
         del skills.map_walls
+
+
+def _off_line(skills: Skills, q: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """How far (m) the tool point strays from the line through `a` and `b` over the
+    joint samples `q`."""
+    kin = skills.planner.kin
+    tip = kin.fk(q)[:, kin.link_index[kin.model.end_effector], :3, 3] - a
+    along = (b - a) / np.linalg.norm(b - a)
+    return float(np.max(np.linalg.norm(tip - np.outer(tip @ along, along), axis=1)))
+
+
+def test_the_hand_keeps_to_the_line_of_its_approach_to_a_grasp(skills: Skills) -> None:
+    # home 32: a can 0.2 m in on a 0.75 m table, grasped 15 degrees down; the line from
+    # the pre-grasp to the grasp passes near the wrist's singularity, and the arm moved
+    # straight in joint space to the grasp's IK goal swung the fingers into the can
+    from robotrial.benchmarks.reach import top_seen
+
+    top_seen(skills, 0.75, 0.8)
+    local = np.array([1.006, -0.039, 0.785])
+    pitch = np.deg2rad(15.0)
+    orientation = skills.orientation(local, pitch, 0.0)
+    pre, grasp = skills._grasp_points(local, CAN, pitch, 0.0)
+    obstacles = skills._obstacles(np.zeros(3), skills._keep_out(local, CAN))
+    at = skills.plan(skills.arm_q(), obstacles, pre, orientation, check_only=True)
+    assert at.success, at.message
+    stow = dict(skills.robot.joints)
+    skills.robot.joints = dict(zip(skills.arm_names, at.trajectory.q[-1].tolist(), strict=True))
+    try:
+        direct = skills.plan(skills.arm_q(), obstacles, grasp, orientation, check_only=True)
+        line = skills._line_motion(grasp, orientation, obstacles)
+    finally:
+        skills.robot.joints = stow
+    assert direct.success and line is not None
+    assert _off_line(skills, direct.trajectory.tracked(0.01), pre, grasp) > 0.003
+    assert _off_line(skills, line.trajectory.tracked(0.01), pre, grasp) < 0.001

@@ -36,6 +36,7 @@ from scipy.spatial.transform import Rotation
 
 from robotrial.collision.voxels import VoxelChecker
 from robotrial.geometry import Box, Pose
+from robotrial.kinematics.ik import solve_ik
 from robotrial.kinematics.reference import link_poses
 from robotrial.nav.amcl import compose, inverse
 from robotrial.nav.navigator import Status
@@ -51,8 +52,9 @@ from robotrial.onboard.perception import (
 )
 from robotrial.onboard.robot import Robot
 from robotrial.onboard.voxels import SLAB_DEPTH, Obstacles, RobotBody, VoxelMap, merge_runs
+from robotrial.planning.smoothing import densify
 from robotrial.planning.task import TaskPlanner, TaskRequest, TaskResult, robot_spheres
-from robotrial.planning.timing import Trajectory
+from robotrial.planning.timing import Trajectory, time_parameterize
 from robotrial.ros.plan_task import joint_trajectory
 from robotrial.ros.slam_node import scan_to_beams
 from robotrial.slam.keyframes import Keyframes
@@ -62,13 +64,20 @@ from robotrial.slam.scan import wrap
 log = logging.getLogger(__name__)
 
 STANDOFF = 0.35  # m driven straight in to a work site and back out
+BASE_CLEAR = 0.04  # m a work site's footprint keeps clear of the map's occupied cells
 # m, arm base to the object, in the plane, in this order: the side grasp and its lift
 # reach 0.65 m over tops 0.75-0.9 m high (the mobile manipulator's shoulder at 0.9 m)
 REACHES = (0.5, 0.45, 0.55, 0.6, 0.65)
 # m, tried to say how far the nearest free pose is
 FAR_REACHES = np.arange(max(REACHES) + 0.05, 1.3, 0.05)
 GRASP_BACKOFF = 0.1  # m, pre-grasp distance along the approach
+LINE_STEP = 0.005  # m between the IK solutions of a motion kept on a line
+LINE_PERIOD = 0.1  # s between the samples of such a motion's trajectory
+LINE_CHECK = 0.01  # s between the positions checked on the way
+LINE_TOLERANCE = 0.002  # m the tool point may stray from the line
+LINE_TURN = 0.05  # rad the hand may turn from its orientation on the way
 GRASP_MARGIN = 0.003  # m kept between the object and the palm
+BASE_SHIFT = 0.003  # m the object seems to move as the base is measured again before a grasp
 LIFT = 0.06  # m
 # m the hand draws back towards the arm while it lifts: straight up from a grasp at the
 # edge of reach is out of reach (over a 0.9 m top, from 0.45 m out)
@@ -677,14 +686,84 @@ class Skills:
         orientation: Rotation | None = None,
         joints: np.ndarray | None = None,
         keep_out=(),
+        straight: bool = False,
     ) -> Iterator[None]:
         """Plan and follow an arm motion in the voxel scene, the robot standing at `base`;
-        `cause` names the failure."""
+        `cause` names the failure. With `straight`, the hand keeps its orientation on the
+        line to `local` (`_along_line`) where the arm can; else any free motion."""
         self.voxels.clear_body(self.body, base, self.robot.joints, self._held_shapes())
-        res = self.plan(self.arm_q(), self._obstacles(base, keep_out), local, orientation, joints)
+        obstacles = self._obstacles(base, keep_out)
+        res = None
+        if straight and local is not None and orientation is not None:
+            res = self._line_motion(local, orientation, obstacles)
+        if res is None:
+            res = self.plan(self.arm_q(), obstacles, local, orientation, joints)
         if not res.success:
             raise SkillFailed(cause, f"arm planning: {res.message}")
         yield from self.follow(res)
+
+    def _line_motion(
+        self, goal: np.ndarray, orientation: Rotation, obstacles: Obstacles
+    ) -> TaskResult | None:
+        """A motion of the hand from where it is along the line to `goal` (base frame),
+        keeping `orientation`, free in `obstacles`; None when the arm cannot keep to the
+        line. A plan to an IK goal moves the joints straight, and where the line passes
+        near the wrist's singularity (two of its joints turning 2 rad each way over a
+        10 cm approach 15 degrees down) the hand swings 1 cm aside on the way, into the
+        object it is to grasp, or onto its top."""
+        q = self.arm_q()
+        kin = self.planner.kin
+        start = kin.link_pose(q)[:3, 3]
+        path = self._along_line(q, start, goal, orientation)
+        if path is None:
+            return None
+        planner = self.planner
+        trajectory = time_parameterize(path, planner.vmax, planner.amax, LINE_PERIOD)
+        moved = trajectory.tracked(LINE_CHECK)
+        tcp = kin.fk(moved)[:, kin.link_index[kin.model.end_effector]]
+        off = np.linalg.norm(np.cross(tcp[:, :3, 3] - start, goal - start), axis=1)
+        off /= max(float(np.linalg.norm(goal - start)), 1e-9)
+        turn = (Rotation.from_matrix(tcp[:, :3, :3]) * orientation.inv()).magnitude()
+        if off.max() > LINE_TOLERANCE or turn.max() > LINE_TURN:
+            log.info("off the line by %.1f mm, %.3f rad", 1e3 * off.max(), turn.max())
+            return None
+        # the end checked free and the scene's checker made by the planner
+        res = self.plan(q, obstacles, joints=path[-1], check_only=True)
+        if not res.success or res.checker is None:
+            return None
+        if not np.all(res.checker.valid(densify(moved, float(np.min(res.checker.resolution))))):
+            return None
+        res.trajectory = trajectory
+        res.message = f"along a line, {len(path)} waypoints"
+        self.log.arm_plans.append(
+            {
+                "phase": self.log.phase,
+                "success": True,
+                "planning_time": round(res.planning_time, 4),
+                "obstacles": len(obstacles),
+                "message": res.message,
+            }
+        )
+        return res
+
+    def _along_line(
+        self, q: np.ndarray, start: np.ndarray, goal: np.ndarray, orientation: Rotation
+    ) -> np.ndarray | None:
+        """The arm's joints at small steps of the hand from `start` (where it is at `q`)
+        along the line to `goal` (base frame), at `orientation`, each solved from the one
+        before; None when a step finds no solution."""
+        kin = self.planner.kin
+        steps = max(1, int(np.ceil(np.linalg.norm(goal - start) / LINE_STEP)))
+        pose = np.eye(4)
+        pose[:3, :3] = orientation.as_matrix()
+        path = [q]
+        for k in range(1, steps + 1):
+            pose[:3, 3] = start + (np.asarray(goal) - start) * k / steps
+            res = solve_ik(kin, pose, path[-1], restarts=1, batch=1, wanted=1)
+            if not res.success:
+                return None
+            path.append(res.q)
+        return np.array(path)
 
     def arm_to_pose(self, name: str) -> Iterator[None]:
         """Move the arm to one of the robot's named poses (stow, carry) unless there."""
@@ -757,12 +836,9 @@ class Skills:
 
     # --- going to a work site ----------------------------------------------------------
 
-    def base_candidates(
-        self, xy: np.ndarray, reaches: Sequence[float] = REACHES
-    ) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Base poses (and their staging poses STANDOFF behind) that face `xy` from one of
-        `reaches` (arm base to `xy`), free on the built map: those whose stage has room to
-        turn first, then by reach in the order given, the most clearance first."""
+    def _footprint_clearance(self, pose: np.ndarray) -> float:
+        """How far (m) the footprint's outline at `pose` (map x, y, yaw) stands from the
+        built map's blocked cells; -1 when it leaves the map."""
         half_l, half_w = self.footprint.length / 2, self.footprint.width / 2
         u = np.linspace(-1, 1, 9)
         outline = np.concatenate(
@@ -773,19 +849,24 @@ class Skills:
                 np.column_stack([np.full_like(u, -half_l), half_w * u]),
             ]
         )
+        c, s = np.cos(pose[2]), np.sin(pose[2])
+        px = pose[0] + c * outline[:, 0] - s * outline[:, 1]
+        py = pose[1] + s * outline[:, 0] + c * outline[:, 1]
+        col = np.floor((px - self.map_origin[0]) / self.map_res).astype(int)
+        row = np.floor((py - self.map_origin[1]) / self.map_res).astype(int)
+        rows, cols = self.clearance.shape
+        inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
+        if not inside.all():
+            return -1.0
+        return float(self.clearance[row, col].min())
 
-        def clearance(pose: np.ndarray) -> float:
-            c, s = np.cos(pose[2]), np.sin(pose[2])
-            px = pose[0] + c * outline[:, 0] - s * outline[:, 1]
-            py = pose[1] + s * outline[:, 0] + c * outline[:, 1]
-            col = np.floor((px - self.map_origin[0]) / self.map_res).astype(int)
-            row = np.floor((py - self.map_origin[1]) / self.map_res).astype(int)
-            rows, cols = self.clearance.shape
-            inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
-            if not inside.all():
-                return -1.0
-            return float(self.clearance[row, col].min())
-
+    def base_candidates(
+        self, xy: np.ndarray, reaches: Sequence[float] = REACHES
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Base poses (and their staging poses STANDOFF behind) that face `xy` from one of
+        `reaches` (arm base to `xy`), free on the built map: those whose stage has room to
+        turn first, then by reach in the order given, the most clearance first."""
+        clearance = self._footprint_clearance
         turn = self.footprint.circumscribed_radius + 0.1  # room to turn at a stage
         out = []
         for k, reach in enumerate(reaches):
@@ -795,7 +876,7 @@ class Skills:
                 base = np.array([centre[0], centre[1], th])
                 stage = np.array([*(centre - STANDOFF * d), th])
                 c1, c2 = clearance(base), clearance(stage)
-                if c1 >= 0.04 and c2 >= 0.15:
+                if c1 >= BASE_CLEAR and c2 >= 0.15:
                     # a stage without room to turn on the spot comes after every other:
                     # the navigator gets there and away by arcs, where the room allows
                     cramped = self._clear_at(stage[:2]) < turn
@@ -804,17 +885,25 @@ class Skills:
         return [(b, s) for *_, b, s in out]
 
     def _out_of_reach(self, xy: np.ndarray, what: str) -> str:
-        """Why no base pose serves `xy` (map): how far from the arm's base the nearest
-        free pose facing it would leave it."""
+        """Why no base pose serves `xy` (map), in a buyer's words: how far from the arm's
+        base the nearest free pose facing it would leave it, how far the arm reaches and
+        so how far in from a top's edge it takes things."""
         reach = next((r for r in FAR_REACHES if self.base_candidates(xy, (float(r),))), None)
-        where = (
-            f"the nearest free base pose facing it leaves it {reach:.2f} m from the arm's base"
-            if reach is not None
-            else f"no free base pose faces it from within {FAR_REACHES[-1]:.2f} m"
+        front = self.footprint.length / 2 - self.arm_offset  # the arm's base behind the front
+        edge = np.floor((max(REACHES) - front - BASE_CLEAR) / 0.05 + 1e-6) * 0.05
+        arm = (
+            f"the arm reaches {max(REACHES):.2f} m from its base, about {edge:.2f} m in "
+            "from the edge of a top the robot stands square to"
         )
+        if reach is None:
+            return (
+                f"the {what} is out of the robot's reach: no free spot on its map lets the "
+                f"robot face it from within {FAR_REACHES[-1]:.2f} m; {arm}"
+            )
         return (
-            f"no free base pose on the map within the arm's reach of the {what}: {where}; "
-            f"the arm reaches {min(REACHES):.2f}-{max(REACHES):.2f} m"
+            f"the {what} is out of the robot's reach: the nearest the robot can stand "
+            f"facing it (clear of what is around it on its map) leaves it {reach:.2f} m "
+            f"from the arm's base, {reach - max(REACHES):.2f} m too far; {arm}"
         )
 
     def _reaches(
@@ -1040,7 +1129,19 @@ class Skills:
         orientation = self.orientation(local, pitch, face)
         self.robot.grip(self.finger_open, self.robot.setup.grip_force)
         yield from self.move_arm(base, "no_grasp_pose", pre, orientation, keep_out=keep_out)
-        yield from self.move_arm(base, "no_grasp_pose", grasp, orientation, keep_out=keep_out)
+        # the lift's and the arm's motions can turn the base a little (0.3 degrees put the
+        # hand 6 mm aside at 1 m, more than the 5 mm the fingers open wider than a can):
+        # the grasp from the base's pose measured again
+        now = yield from self.docked_pose()
+        if np.linalg.norm(to_base(now, seen.position) - local) > BASE_SHIFT:
+            log.info("the base moved %s before the grasp", np.round(now - base, 4).tolist())
+            base, local = now, to_base(now, seen.position)
+            face = None if seen.face is None else seen.face - float(base[2])
+            _, grasp = self._grasp_points(local, kind, pitch, face)
+            orientation = self.orientation(local, pitch, face)
+        yield from self.move_arm(
+            base, "no_grasp_pose", grasp, orientation, keep_out=keep_out, straight=True
+        )
         width = yield from self.close()
         if width < kind.grip_width - GRIP_SLACK:
             raise SkillFailed(
@@ -1064,7 +1165,12 @@ class Skills:
         # the object rests on the top until it is lifted: the lift starts there
         lift_keep_out = self._keep_out(local, kind, support=True)
         yield from self.move_arm(
-            base, "arm_planning", self._lifted(grasp), orientation, keep_out=lift_keep_out
+            base,
+            "arm_planning",
+            self._lifted(grasp),
+            orientation,
+            keep_out=lift_keep_out,
+            straight=True,
         )
         self.check_grip("lifting")
         yield from self.straight(-STANDOFF)
@@ -1313,6 +1419,10 @@ class Skills:
             if abs(shift) < 0.005:
                 continue
             moved = compose(base, np.array([shift, 0.0, 0.0]))
+            # a move nearer must leave the footprint clear of the top (home 28: 11 cm
+            # forward put the bumper on a counter)
+            if shift > 0 and self._footprint_clearance(moved) < BASE_CLEAR:
+                continue
             if self._reaches(moved, point, kind, face) is not None:
                 yield from self.straight(shift, speed=0.06)
                 return

@@ -661,16 +661,20 @@ class Skills:
             res.planning_time,
         )
         if not check_only:
-            self.log.arm_plans.append(
-                {
-                    "phase": self.log.phase,
-                    "success": res.success,
-                    "planning_time": round(res.planning_time, 4),
-                    "obstacles": len(obstacles),
-                    "message": res.message,
-                }
-            )
+            self._log_plan(res, obstacles)
         return res
+
+    def _log_plan(self, res: TaskResult, obstacles: Obstacles) -> None:
+        """Keep an arm motion's outcome in the run's log."""
+        self.log.arm_plans.append(
+            {
+                "phase": self.log.phase,
+                "success": res.success,
+                "planning_time": round(res.planning_time, 4),
+                "obstacles": len(obstacles),
+                "message": res.message,
+            }
+        )
 
     def follow(self, res: TaskResult) -> Iterator[None]:
         """Send a planned trajectory to the arm and wait for it to end."""
@@ -735,15 +739,7 @@ class Skills:
             return None
         res.trajectory = trajectory
         res.message = f"along a line, {len(path)} waypoints"
-        self.log.arm_plans.append(
-            {
-                "phase": self.log.phase,
-                "success": True,
-                "planning_time": round(res.planning_time, 4),
-                "obstacles": len(obstacles),
-                "message": res.message,
-            }
-        )
+        self._log_plan(res, obstacles)
         return res
 
     def _along_line(
@@ -1419,8 +1415,8 @@ class Skills:
             if abs(shift) < 0.005:
                 continue
             moved = compose(base, np.array([shift, 0.0, 0.0]))
-            # a move nearer must leave the footprint clear of the top (home 28: 11 cm
-            # forward put the bumper on a counter)
+            # a move nearer must leave the footprint clear of the top it faces: the arm's
+            # reach alone would put the bumper on a counter
             if shift > 0 and self._footprint_clearance(moved) < BASE_CLEAR:
                 continue
             if self._reaches(moved, point, kind, face) is not None:

@@ -667,7 +667,7 @@ def _wall_past(checker: CollisionChecker, start: np.ndarray, found: GoalSearch) 
     lies on the start's side (free or colliding), or None."""
     if len(found.free) or found.colliding or not len(found.past_wall):
         return None
-    return next((w for w in checker.walls() if w.crossed(start, found.past_wall[:1])[0]), None)
+    return _crossed(checker.walls(), start, found.past_wall[:1])
 
 
 def _wall_before(checker: CollisionChecker, start: np.ndarray, free_ik: Callable) -> Wall | None:
@@ -677,7 +677,11 @@ def _wall_before(checker: CollisionChecker, start: np.ndarray, free_ik: Callable
     past = free_ik(accept=checker.valid) if walls else None
     if past is None or not past.success:
         return None
-    q = np.atleast_2d(past.q)
+    return _crossed(walls, start, np.atleast_2d(past.q))
+
+
+def _crossed(walls: list[Wall], start: np.ndarray, q: np.ndarray) -> Wall | None:
+    """The first of `walls` between `start` and the configuration `q` (1, d), or None."""
     return next((w for w in walls if w.crossed(start, q)[0]), None)
 
 

@@ -269,11 +269,14 @@ class TaskPlanner:
                 )
         if len(names) != len(pos):
             raise TaskError(f"current_joints has {len(names)} names but {len(pos)} positions")
-        given = dict(zip(names, pos, strict=True))
-        missing = [n for n in self.joint_names if n not in given]
-        if missing:
-            raise TaskError(f"current_joints lacks the planning joints {missing}")
-        q = [float(given[n]) for n in self.joint_names]
+        if names == self.joint_names:  # as the page and `robotrial plan` send them
+            q = [float(v) for v in pos]
+        else:
+            given = dict(zip(names, pos, strict=True))
+            missing = [n for n in self.joint_names if n not in given]
+            if missing:
+                raise TaskError(f"current_joints lacks the planning joints {missing}")
+            q = [float(given[n]) for n in self.joint_names]
         if not all(map(math.isfinite, q)):
             raise TaskError("current_joints has a non-finite position")
         for n, v, lo, hi in zip(self.joint_names, q, *self._limits, strict=True):

@@ -441,9 +441,10 @@ class TaskPlanner:
 
         # --- plan, shortcut, round, time, validate; retry finer if MuJoCo disagrees
         try:
-            planner = planner_class(request.planner)()
+            kind = planner_class(request.planner)
         except ValueError as exc:
             raise TaskError(f"planner: {exc}") from None
+        planner = None  # made when a path is to be planned (a straight one is not)
         limit = request.time_limit if request.time_limit > 0 else DEFAULT_TIME_LIMIT
         for attempt in range(3):
             left = min(limit, self._remaining("planning"))
@@ -460,17 +461,18 @@ class TaskPlanner:
             # the goal search proved the straight motion free with the first checker
             straight = attempt == 0 and found is not None and found.direct
             if straight:
-                res = PlanResult(True, np.stack([start, goal]), "solved", {"planning_time": 0.0})
+                res = PlanResult(True, np.array((start, goal)), "solved", {"planning_time": 0.0})
             else:
+                planner = planner or kind()
                 res = self._solve(planner, Problem(start, goal[None], left, seed), checker, found)
             stats.update({f"planner_{k}": v for k, v in res.stats.items()})
-            stats["planner"] = planner.name
+            stats["planner"] = kind.name
             stats["attempts"] = attempt + 1
             if not res.success and res.status == "timeout":
                 self._fail(
                     result,
                     "timeout",
-                    f"no path found by {planner.name} within its time limit of {limit:g} s "
+                    f"no path found by {kind.name} within its time limit of {limit:g} s "
                     f"({res.stats.get('nodes', 0)} nodes explored)",
                 )
                 return
@@ -478,7 +480,7 @@ class TaskPlanner:
                 self._fail(
                     result,
                     "planning_failed",
-                    f"{planner.name} stopped without a path ({res.status.replace('_', ' ')}, "
+                    f"{kind.name} stopped without a path ({res.status.replace('_', ' ')}, "
                     f"attempt {attempt + 1} of 3 with a padding of "
                     f"{1e3 * checker.padding:.0f} mm)",
                 )
@@ -509,16 +511,16 @@ class TaskPlanner:
         result.checker = checker
         stats["path_length"] = path_length(path)
         stats["waypoints"] = len(path)
-        stats["duration"] = traj.duration
+        stats["duration"] = duration = traj.duration
         checked = ", validated with MuJoCo" if exact is not None else ""
         result.success = True
         how = (
             "a straight motion to the goal, free as the goal search found it"
             if straight
-            else f"planned with {planner.name} in {res.planning_time * 1e3:.1f} ms"
+            else f"planned with {kind.name} in {res.planning_time * 1e3:.1f} ms"
         )
         result.message = (
-            f"{how}; {len(path)} waypoints, {traj.duration:.2f} s trajectory{checked}{held_note}"
+            f"{how}; {len(path)} waypoints, {duration:.2f} s trajectory{checked}{held_note}"
         )
 
     def _ik_goal(

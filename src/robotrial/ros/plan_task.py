@@ -149,10 +149,11 @@ class _Timed(JointTrajectory):
         return self.points
 
     def written(self, dialect: Dialect) -> list[dict] | None:
-        """The points' rosbridge JSON objects from the arrays while no point message has
-        been made (one could have been changed since), and every number is finite."""
+        """The points' rosbridge JSON objects: from the arrays while no point message has
+        been made (one could have been changed since), else from the messages (the node
+        publishes the trajectory before it answers); None when a number is not finite."""
         if "points" in self.__dict__:
-            return None
+            return _points(self.points, dialect)
         traj = self.timed
         if not math.isfinite(float(traj.q.sum() + traj.qd.sum() + traj.qdd.sum())):
             return None  # the generic encoder writes a non-finite number as null
@@ -188,6 +189,28 @@ class _Answer(PlanTaskResponse):
             return super().to_dict(dialect)
         written = encode_given(trajectory, dialect, {"points": points})
         return encode_given(self, dialect, {"trajectory": written})
+
+
+def _points(points: list[JointTrajectoryPoint], dialect: Dialect) -> list[dict] | None:
+    """Trajectory point messages as rosbridge JSON objects, or None when a number is not
+    finite."""
+    pos, vel, acc, eff, when = _spelling(JointTrajectoryPoint, dialect)
+    sec, nanosec = _spelling(Duration, dialect)
+    out = []
+    total = 0.0  # finite only when every number is (an overflow just takes the slow path)
+    for p in points:
+        t = p.time_from_start
+        out.append(
+            {
+                pos: p.positions,
+                vel: p.velocities,
+                acc: p.accelerations,
+                eff: p.effort,
+                when: {sec: t.sec, nanosec: t.nanosec},
+            }
+        )
+        total += sum(p.positions) + sum(p.velocities) + sum(p.accelerations) + sum(p.effort)
+    return out if math.isfinite(total) else None
 
 
 @cache

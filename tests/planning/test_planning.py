@@ -278,11 +278,19 @@ def test_plan_task_answers_the_g2rviewer_request(planner) -> None:
 def test_the_answer_is_written_as_the_generic_encoder_writes_it(planner) -> None:
     from robotrial.msgs.core import _encode
 
-    resp = answer(planner, _request(), seed=0)[0]
-    assert resp.success and len(resp.trajectory.points) > 2
     for dialect in ("ros2", "ros1"):
-        assert json.dumps(resp.to_dict(dialect)) == json.dumps(_encode(resp, dialect, False))
+        resp = answer(planner, _request(), seed=0)[0]
+        written = json.dumps(resp.to_dict(dialect))  # from the arrays: no point read yet
+        assert resp.success and len(resp.trajectory.points) > 2
+        assert written == json.dumps(_encode(resp, dialect, False))
+    resp.trajectory.points[1].positions[0] += 0.5  # a point read and changed is written so
+    assert resp.to_dict()["trajectory"]["points"][1]["positions"][0] == pytest.approx(
+        resp.trajectory.points[1].positions[0]
+    )
     resp.trajectory.points[1].velocities[0] = float("nan")  # written as null, as before
+    assert resp.to_dict()["trajectory"]["points"][1]["velocities"][0] is None
+    resp = answer(planner, _request(), seed=0)[0]
+    resp.trajectory.timed.qd[1, 0] = float("nan")  # in the arrays, before any point is read
     assert resp.to_dict()["trajectory"]["points"][1]["velocities"][0] is None
 
 

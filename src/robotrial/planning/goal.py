@@ -23,7 +23,7 @@ import numpy as np
 
 from robotrial.collision.kernels import config_free, motion_free
 from robotrial.collision.sphere_model import CollisionChecker
-from robotrial.kinematics.chain import Kinematics
+from robotrial.kinematics.chain import Kinematics, TreeArrays
 from robotrial.kinematics.ik import descend, halton, scratch
 
 SEEDS = 256  # Halton seeds after the start's joints, at most
@@ -140,11 +140,31 @@ def _search(
 
 
 @nb.njit(cache=True, nogil=True)
-def _found(unit, target, with_rotation, lower, upper, kin_arrays, ancestors, tip, *rest):
+def _found(
+    unit,
+    target,
+    with_rotation,
+    lower,
+    upper,
+    parent,
+    origin,
+    jtype,
+    axis,
+    src,
+    mult,
+    offset,
+    const,
+    ancestors,
+    tip,
+    *rest,
+):
     """`_search`, and what the caller keeps of it: the free solutions of the kind that
     ended the search (reached straight, else the others), nearest `start` first; whether
     they were reached straight; the attempt nearest the target with its errors; how many
-    seeds converged; how many were tried; the solutions past a wall; how many collided."""
+    seeds converged; how many were tried; the solutions past a wall; how many collided.
+    The tree's arrays come one by one: a tuple argument costs the call microseconds
+    to type."""
+    kin_arrays = TreeArrays(parent, origin, jtype, axis, src, mult, offset, const)
     start = rest[2]
     qs, outcome, perr, rerr, tried = _search(
         unit, target, with_rotation, lower, upper, kin_arrays, ancestors, tip, *rest
@@ -259,7 +279,7 @@ def search(
         rotation,
         kin.lower,
         kin.upper,
-        kin._args(),
+        *kin._args(),
         kin.ancestors,
         kin.tip,
         tol_pos,

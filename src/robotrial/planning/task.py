@@ -269,11 +269,14 @@ class TaskPlanner:
                 )
         if len(names) != len(pos):
             raise TaskError(f"current_joints has {len(names)} names but {len(pos)} positions")
-        given = dict(zip(names, pos, strict=True))
-        missing = [n for n in self.joint_names if n not in given]
-        if missing:
-            raise TaskError(f"current_joints lacks the planning joints {missing}")
-        q = [float(given[n]) for n in self.joint_names]
+        if names == self.joint_names:  # as the page and `robotrial plan` send them
+            q = [float(v) for v in pos]
+        else:
+            given = dict(zip(names, pos, strict=True))
+            missing = [n for n in self.joint_names if n not in given]
+            if missing:
+                raise TaskError(f"current_joints lacks the planning joints {missing}")
+            q = [float(given[n]) for n in self.joint_names]
         if not all(map(math.isfinite, q)):
             raise TaskError("current_joints has a non-finite position")
         for n, v, lo, hi in zip(self.joint_names, q, *self._limits, strict=True):
@@ -438,9 +441,10 @@ class TaskPlanner:
 
         # --- plan, shortcut, round, time, validate; retry finer if MuJoCo disagrees
         try:
-            planner = planner_class(request.planner)()
+            kind = planner_class(request.planner)
         except ValueError as exc:
             raise TaskError(f"planner: {exc}") from None
+        planner = None  # made when a path is to be planned (a straight one is not)
         limit = request.time_limit if request.time_limit > 0 else DEFAULT_TIME_LIMIT
         for attempt in range(3):
             left = min(limit, self._remaining("planning"))
@@ -457,17 +461,18 @@ class TaskPlanner:
             # the goal search proved the straight motion free with the first checker
             straight = attempt == 0 and found is not None and found.direct
             if straight:
-                res = PlanResult(True, np.stack([start, goal]), "solved", {"planning_time": 0.0})
+                res = PlanResult(True, np.array((start, goal)), "solved", {"planning_time": 0.0})
             else:
+                planner = planner or kind()
                 res = self._solve(planner, Problem(start, goal[None], left, seed), checker, found)
             stats.update({f"planner_{k}": v for k, v in res.stats.items()})
-            stats["planner"] = planner.name
+            stats["planner"] = kind.name
             stats["attempts"] = attempt + 1
             if not res.success and res.status == "timeout":
                 self._fail(
                     result,
                     "timeout",
-                    f"no path found by {planner.name} within its time limit of {limit:g} s "
+                    f"no path found by {kind.name} within its time limit of {limit:g} s "
                     f"({res.stats.get('nodes', 0)} nodes explored)",
                 )
                 return
@@ -475,7 +480,7 @@ class TaskPlanner:
                 self._fail(
                     result,
                     "planning_failed",
-                    f"{planner.name} stopped without a path ({res.status.replace('_', ' ')}, "
+                    f"{kind.name} stopped without a path ({res.status.replace('_', ' ')}, "
                     f"attempt {attempt + 1} of 3 with a padding of "
                     f"{1e3 * checker.padding:.0f} mm)",
                 )
@@ -506,16 +511,16 @@ class TaskPlanner:
         result.checker = checker
         stats["path_length"] = path_length(path)
         stats["waypoints"] = len(path)
-        stats["duration"] = traj.duration
+        stats["duration"] = duration = traj.duration
         checked = ", validated with MuJoCo" if exact is not None else ""
         result.success = True
         how = (
             "a straight motion to the goal, free as the goal search found it"
             if straight
-            else f"planned with {planner.name} in {res.planning_time * 1e3:.1f} ms"
+            else f"planned with {kind.name} in {res.planning_time * 1e3:.1f} ms"
         )
         result.message = (
-            f"{how}; {len(path)} waypoints, {traj.duration:.2f} s trajectory{checked}{held_note}"
+            f"{how}; {len(path)} waypoints, {duration:.2f} s trajectory{checked}{held_note}"
         )
 
     def _ik_goal(

@@ -116,41 +116,84 @@ def task_request(request: PlanTaskRequest) -> TaskRequest:
 
 def joint_trajectory(names: list[str], traj: Trajectory) -> JointTrajectory:
     """A trajectory_msgs/JointTrajectory of the samples (time from the start)."""
-    points = [
+    return JointTrajectory(joint_names=list(names), points=_point_messages(traj))
+
+
+def _point_messages(traj: Trajectory) -> list[JointTrajectoryPoint]:
+    return [
         JointTrajectoryPoint(q, qd, qdd, [], Duration(*divmod(ns, 1_000_000_000)))
         for ns, q, qd, qdd in zip(
-            np.round(traj.t * 1e9).astype(np.int64).tolist(),
-            traj.q.tolist(),
-            traj.qd.tolist(),
-            traj.qdd.tolist(),
-            strict=True,
+            _nanoseconds(traj), traj.q.tolist(), traj.qd.tolist(), traj.qdd.tolist(), strict=True
         )
     ]
-    return JointTrajectory(joint_names=list(names), points=points)
+
+
+def _nanoseconds(traj: Trajectory) -> list[int]:
+    return np.round(traj.t * 1e9).astype(np.int64).tolist()
+
+
+class _Timed(JointTrajectory):
+    """A JointTrajectory whose points are made from the trajectory's arrays when first
+    read: until then (the service writes its answer and nothing reads the points) its
+    rosbridge JSON comes straight from the arrays, without a message per point."""
+
+    def __init__(self, names: list[str], traj: Trajectory) -> None:
+        super().__init__(joint_names=list(names))
+        del self.points
+        self.timed = traj
+
+    def __getattr__(self, name: str) -> Any:
+        if name != "points":
+            raise AttributeError(name)
+        self.points = _point_messages(self.timed)
+        return self.points
+
+    def written(self, dialect: Dialect) -> list[dict] | None:
+        """The points' rosbridge JSON objects: from the arrays while no point message has
+        been made (one could have been changed since), else from the messages (the node
+        publishes the trajectory before it answers); None when a number is not finite."""
+        if "points" in self.__dict__:
+            return _points(self.points, dialect)
+        traj = self.timed
+        if not math.isfinite(float(traj.q.sum() + traj.qd.sum() + traj.qdd.sum())):
+            return None  # the generic encoder writes a non-finite number as null
+        pos, vel, acc, eff, when = _spelling(JointTrajectoryPoint, dialect)
+        sec, nanosec = _spelling(Duration, dialect)
+        return [
+            {
+                pos: q,
+                vel: qd,
+                acc: qdd,
+                eff: [],
+                when: {sec: ns // 1_000_000_000, nanosec: ns % 1_000_000_000},
+            }
+            for ns, q, qd, qdd in zip(
+                _nanoseconds(traj),
+                traj.q.tolist(),
+                traj.qd.tolist(),
+                traj.qdd.tolist(),
+                strict=True,
+            )
+        ]
 
 
 class _Answer(PlanTaskResponse):
     """A PlanTask response whose rosbridge JSON (`to_dict`) writes the trajectory's points
-    straight from their lists: the generic encoder converts every field of every point
-    by its type, about five times the time for a trajectory of 20 points."""
+    straight from its arrays (`_Timed`): the generic encoder converts every field of every
+    point message by its type, about five times the time for a trajectory of 20 points."""
 
     def to_dict(self, dialect: Dialect = "ros2") -> dict[str, Any]:
-        points = _points(self.trajectory.points, dialect)
-        if points is None:  # a non-finite number: the generic encoder writes it as null
+        trajectory = self.trajectory
+        points = trajectory.written(dialect) if isinstance(trajectory, _Timed) else None
+        if points is None:
             return super().to_dict(dialect)
-        trajectory = encode_given(self.trajectory, dialect, {"points": points})
-        return encode_given(self, dialect, {"trajectory": trajectory})
-
-
-@cache
-def _spelling(cls: type[Message], dialect: Dialect) -> list[str]:
-    """The keys of `cls`'s fields in `dialect`'s JSON, in field order."""
-    rename = cls.__ros1__.rename if dialect == "ros1" else {}
-    return [rename.get(f.name, f.name) for f in cls.__fields_spec__]
+        written = encode_given(trajectory, dialect, {"points": points})
+        return encode_given(self, dialect, {"trajectory": written})
 
 
 def _points(points: list[JointTrajectoryPoint], dialect: Dialect) -> list[dict] | None:
-    """Trajectory points as rosbridge JSON objects, or None when a number is not finite."""
+    """Trajectory point messages as rosbridge JSON objects, or None when a number is not
+    finite."""
     pos, vel, acc, eff, when = _spelling(JointTrajectoryPoint, dialect)
     sec, nanosec = _spelling(Duration, dialect)
     out = []
@@ -170,6 +213,13 @@ def _points(points: list[JointTrajectoryPoint], dialect: Dialect) -> list[dict] 
     return out if math.isfinite(total) else None
 
 
+@cache
+def _spelling(cls: type[Message], dialect: Dialect) -> list[str]:
+    """The keys of `cls`'s fields in `dialect`'s JSON, in field order."""
+    rename = cls.__ros1__.rename if dialect == "ros1" else {}
+    return [rename.get(f.name, f.name) for f in cls.__fields_spec__]
+
+
 def plan_task_response(result: TaskResult) -> PlanTaskResponse:
     """The PlanTask response of a result, with MoveIt's error code for its failure."""
     traj = result.trajectory if result.success else None
@@ -177,9 +227,7 @@ def plan_task_response(result: TaskResult) -> PlanTaskResponse:
         success=result.success,
         message=result.message,
         goal_joints=[] if traj is None else traj.q[-1].tolist(),
-        trajectory=JointTrajectory()
-        if traj is None
-        else joint_trajectory(result.joint_names, traj),
+        trajectory=JointTrajectory() if traj is None else _Timed(result.joint_names, traj),
         planning_time=result.planning_time,
         error_code=ERROR_CODES[result.failure],
         object_held=result.object_held,

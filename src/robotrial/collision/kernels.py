@@ -773,7 +773,9 @@ def _bound(m, qb, poses, scratch, bounds, ready, b, placed) -> int:
 
 
 @nb.njit(cache=True, _nrt=False, nogil=True, fastmath=_FAST)
-def _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_reach, stop):
+def _block(
+    floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_reach, stop, twice, again
+):
     """Check the block of configurations qs[:, lane] (one per lane) against the items
     work_ints[i0:i1] and write each lane's clearance to out[0, lane]: the smallest gap
     over how fast its body (pair) moves along the motion (the speeds in `work`, m per
@@ -784,7 +786,10 @@ def _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_r
     the check stops at the first contact and returns the position of the item in
     contact, else -1. With keep_at >= 0, the items within keep_reach of some lane (over
     their speed) are also written to work_ints[keep_at:] (the items a motion's later
-    checks need: see `motion_free`), and their count is returned too."""
+    checks need: see `motion_free`), and their count is returned too; then, with `twice`
+    and no contact found, the same configurations are checked a second time against the
+    items kept, with caps again[0, lane] (the clearances a motion's proof needs): the
+    poses and bounding spheres already placed serve both, and out holds the second's."""
     m = model(floats, ints)
     n_bodies = m.node.shape[0]
     memo = work[n_bodies + m.pairs.shape[0] + 2 * GAP_STACK :]  # fine spheres that touched
@@ -814,85 +819,105 @@ def _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, keep_at, keep_r
     pad = m.pad[0] + _EPS
     reach_kept = np.float32(keep_reach)
     deferred = m.lists[3]  # room for the self pairs to open after the obstacles
-    n_pairs = kept = 0
-    for it in range(i0, i1):
-        item = work_ints[it]
-        env = item < _PAIR
-        if env:
-            a = b = max(m.env_bodies[item >> _SHAPE_BITS], 0)
-            k = item & ((1 << _SHAPE_BITS) - 1)
-        else:
-            p = item - _PAIR
-            a, b = max(m.pairs[p, 0], 0), max(m.pairs[p, 1], 0)
-        for body in (a, b):  # one call site: each inlined copy costs compile time
-            placed = _bound(m, qb, poses, scratch, bounds, ready, body, placed)
-        if env:
-            v = np.float32(work[b])
-            r = m.bound_r[b] + pad
-            _bound_gaps2(m, k, bounds, b, gap2)
-        else:
-            v = np.float32(work[n_bodies + p])
-            r = m.bound_r[a] + m.bound_r[b] + _EPS
-            _pair_gaps2(bounds, a, b, gap2)
-        near = False
-        for lane in range(LANES):
-            lim = r + max(best[0, lane], _F0) * v
-            near |= gap2[0, lane] <= lim * lim
-        if keep_at >= 0:
-            keep = False
-            lim = r + reach_kept * v
+    kept = 0
+    for second in range(2):
+        if second:  # the same configurations again, the items kept, the caps asked
+            if not twice or keep_at < 0:
+                break
+            i0, i1 = keep_at, keep_at + kept
             for lane in range(LANES):
-                keep |= gap2[0, lane] <= lim * lim
-            if keep:
-                work_ints[keep_at + kept] = item
-                kept += 1
-        if not near:
-            continue
-        if item >= _PAIR:  # self pairs cost more: after the obstacles
-            work_ints[deferred + n_pairs] = it
-            n_pairs += 1
-            continue
-        for lane in range(LANES):
-            reach[0, lane] = max(best[0, lane], _F0) * v + pad
-        _node_pose(poses, m.node[b], pose)
-        hit = _env_gap(m, k, b, pose, reach, pad, stop, gap2, gap, fine, memo)
-        if hit and stop:
-            return it, kept
-        for lane in range(LANES):
-            best[0, lane] = min(best[0, lane], gap[0, lane] / max(v, _TINY))
-    for o in range(n_pairs):
-        it = work_ints[deferred + o]
-        p = work_ints[it] - _PAIR
-        a, b = max(m.pairs[p, 0], 0), max(m.pairs[p, 1], 0)
-        v = np.float32(work[n_bodies + p])
-        for lane in range(LANES):
-            reach[0, lane] = max(best[0, lane], _F0) * v + _EPS
-        # where the coarse spheres touch, the fine runs decide (both covers hold the
-        # links, so the larger gap is still no more than theirs); one call site
-        refined = m.fine_end[a] > m.fine_start[a] or m.fine_end[b] > m.fine_start[b]
-        for level in range(2):
-            if level == 1:
-                touch = False
+                best[0, lane] = again[0, lane]
+        n_pairs = 0
+        for it in range(i0, i1):
+            item = work_ints[it]
+            env = item < _PAIR
+            if env:
+                a = b = max(m.env_bodies[item >> _SHAPE_BITS], 0)
+                k = item & ((1 << _SHAPE_BITS) - 1)
+            else:
+                p = item - _PAIR
+                a, b = max(m.pairs[p, 0], 0), max(m.pairs[p, 1], 0)
+            for body in (a, b):  # one call site: each inlined copy costs compile time
+                placed = _bound(m, qb, poses, scratch, bounds, ready, body, placed)
+            if env:
+                v = np.float32(work[b])
+                r = m.bound_r[b] + pad
+                _bound_gaps2(m, k, bounds, b, gap2)
+            else:
+                v = np.float32(work[n_bodies + p])
+                r = m.bound_r[a] + m.bound_r[b] + _EPS
+                _pair_gaps2(bounds, a, b, gap2)
+            near = False
+            for lane in range(LANES):
+                lim = r + max(best[0, lane], _F0) * v
+                near |= gap2[0, lane] <= lim * lim
+            if keep_at >= 0 and not second:
+                keep = False
+                lim = r + reach_kept * v
                 for lane in range(LANES):
-                    touch |= gap[0, lane] <= _EPS
-                    coarse[0, lane] = gap[0, lane]
-                if not (touch and refined):
-                    break
-            _pair_gaps(
-                m, poses, a, b, reach, bounds, pose, centres, point, listed, gap2, gap, level == 1
-            )
-            if level == 1:
-                for lane in range(LANES):
-                    gap[0, lane] = max(gap[0, lane], coarse[0, lane])
-        hit = False
+                    keep |= gap2[0, lane] <= lim * lim
+                if keep:
+                    work_ints[keep_at + kept] = item
+                    kept += 1
+            if not near:
+                continue
+            if item >= _PAIR:  # self pairs cost more: after the obstacles
+                work_ints[deferred + n_pairs] = it
+                n_pairs += 1
+                continue
+            for lane in range(LANES):
+                reach[0, lane] = max(best[0, lane], _F0) * v + pad
+            _node_pose(poses, m.node[b], pose)
+            hit = _env_gap(m, k, b, pose, reach, pad, stop, gap2, gap, fine, memo)
+            if hit and stop:
+                return it, kept
+            for lane in range(LANES):
+                best[0, lane] = min(best[0, lane], gap[0, lane] / max(v, _TINY))
+        for o in range(n_pairs):
+            it = work_ints[deferred + o]
+            p = work_ints[it] - _PAIR
+            a, b = max(m.pairs[p, 0], 0), max(m.pairs[p, 1], 0)
+            v = np.float32(work[n_bodies + p])
+            for lane in range(LANES):
+                reach[0, lane] = max(best[0, lane], _F0) * v + _EPS
+            # where the coarse spheres touch, the fine runs decide (both covers hold the
+            # links, so the larger gap is still no more than theirs); one call site
+            refined = m.fine_end[a] > m.fine_start[a] or m.fine_end[b] > m.fine_start[b]
+            for level in range(2):
+                if level == 1:
+                    touch = False
+                    for lane in range(LANES):
+                        touch |= gap[0, lane] <= _EPS
+                        coarse[0, lane] = gap[0, lane]
+                    if not (touch and refined):
+                        break
+                _pair_gaps(
+                    m,
+                    poses,
+                    a,
+                    b,
+                    reach,
+                    bounds,
+                    pose,
+                    centres,
+                    point,
+                    listed,
+                    gap2,
+                    gap,
+                    level == 1,
+                )
+                if level == 1:
+                    for lane in range(LANES):
+                        gap[0, lane] = max(gap[0, lane], coarse[0, lane])
+            hit = False
+            for lane in range(LANES):
+                g = gap[0, lane] - _EPS
+                hit |= g <= _F0
+                best[0, lane] = min(best[0, lane], g / max(v, _TINY))
+            if hit and stop:
+                return it, kept
         for lane in range(LANES):
-            g = gap[0, lane] - _EPS
-            hit |= g <= _F0
-            best[0, lane] = min(best[0, lane], g / max(v, _TINY))
-        if hit and stop:
-            return it, kept
-    for lane in range(LANES):
-        out[0, lane] = best[0, lane]
+            out[0, lane] = best[0, lane]
     return -1, kept
 
 
@@ -911,7 +936,9 @@ def config_free(floats, ints, work, work_ints, q) -> bool:
     for lane in range(LANES):
         caps[0, lane] = 0.0
     lists = _i(ints, _LISTS)  # every item, then the reachable ones, then the pool
-    it, _ = _block(floats, ints, work, work_ints, qs, caps, out, lists[0], lists[1], -1, 0.0, True)
+    it, _ = _block(
+        floats, ints, work, work_ints, qs, caps, out, lists[0], lists[1], -1, 0.0, True, False, caps
+    )
     return it < 0
 
 
@@ -931,8 +958,9 @@ def valid_batch(qs, out, floats, ints, work, work_ints) -> None:
             for j in range(d):
                 block[j, lane] = qs[row, j]
         _block(
-            floats, ints, work, work_ints, block, caps, clear, lists[0], lists[1], -1, 0.0, False
-        )
+            floats, ints, work, work_ints, block, caps, clear, lists[0], lists[1], -1, 0.0, False,
+            False, caps,
+        )  # fmt: skip
         for lane in range(min(LANES, n - i)):
             out[i + lane] = clear[0, lane] >= 0.0
 
@@ -947,6 +975,18 @@ def _to_front(items, first, i) -> None:
         items[i] = items[i - 1]
         i -= 1
     items[first] = item
+
+
+@nb.njit(cache=True, inline="always")
+def _blocked(work_ints, r0, r1, it) -> bool:
+    """False, after bringing the item in contact (at position `it` of a motion's pool)
+    to the front of the reachable list: the next motion looks at it first."""
+    item = work_ints[it]
+    for i in range(r0, r1):
+        if work_ints[i] == item:
+            _to_front(work_ints, r0, i)
+            break
+    return False
 
 
 @nb.njit(cache=True, inline="always")
@@ -981,7 +1021,9 @@ def _sweep(floats, ints, work, work_ints, a, b, x0, x1, floor, i0, i1) -> int:
     for i in range(1, n, LANES):
         for lane in range(LANES):
             _fill(qs, a, b, lane, x0 + (x1 - x0) * min(i + lane, n) / n)
-        it, _ = _block(floats, ints, work, work_ints, qs, caps, out, i0, i1, -1, 0.0, True)
+        it, _ = _block(
+            floats, ints, work, work_ints, qs, caps, out, i0, i1, -1, 0.0, True, False, caps
+        )
         if it >= 0:
             return it
     return -1
@@ -1025,24 +1067,30 @@ def motion_free(floats, ints, work, work_ints, a, b) -> bool:
             work[i + lane] = speed[0, lane] * _ROUND_UP
     qs = _stack(MAX_NODES, LANES)
     caps = _stack(1, LANES)
+    again = _stack(1, LANES)
     out = _stack(1, LANES)
     plan = _stack64(4, LANES)  # per stretch in a block: lo, hi, its first lane, its lanes
     lists = m.lists
     r0, r1, pool = lists[1], lists[2], lists[2]
     # a plain check of b and seven points spread before it first (no clearances: a
-    # blocked motion fails here, at the least cost); it lists the items in reach too
+    # blocked motion fails here, at the least cost); it lists the items in reach too,
+    # and unless those points are no farther apart than the floor, it then checks them
+    # again against those items for what they prove around them (their poses kept)
     for lane in range(LANES):
         _fill(qs, a, b, lane, (lane + 1.0) / LANES)
         caps[0, lane] = 0.0
-    it, kept = _block(floats, ints, work, work_ints, qs, caps, out, r0, r1, pool, 1.0 / LANES, True)
-    if it >= 0:
+        again[0, lane] = (1.0 if lane == 0 else 0.5) / LANES
+    twice = floor < 1.0 / LANES
+    it, kept = _block(
+        floats, ints, work, work_ints, qs, caps, out, r0, r1, pool, 1.0 / LANES, True, twice, again
+    )
+    if 0 <= it < pool:
         _to_front(work_ints, r0, it)
         return False
-    if floor >= 1.0 / LANES:  # the points checked are no farther apart than the floor
+    if it >= 0:
+        return _blocked(work_ints, r0, r1, it)
+    if not twice:
         return True
-    for lane in range(LANES):  # what the same points prove around them
-        caps[0, lane] = (1.0 if lane == 0 else 0.5) / LANES
-    _block(floats, ints, work, work_ints, qs, caps, out, pool, pool + kept, -1, 0.0, True)
     at = n_bodies + n_pairs
     top = 0
     edge = 0.0  # where the proof of the last free point ends
@@ -1076,8 +1124,9 @@ def motion_free(floats, ints, work, work_ints, a, b) -> bool:
                 qs[j, lane] = qs[j, used - 1]
             caps[0, lane] = 0.0
         it, _ = _block(
-            floats, ints, work, work_ints, qs, caps, out, pool, pool + kept, -1, 0.0, True
-        )
+            floats, ints, work, work_ints, qs, caps, out, pool, pool + kept, -1, 0.0, True,
+            False, caps,
+        )  # fmt: skip
         if it >= 0:
             break
         for g in range(n_plans):
@@ -1101,12 +1150,7 @@ def motion_free(floats, ints, work, work_ints, a, b) -> bool:
                 break
     if it < 0:
         return True
-    item = work_ints[it]  # in the pool: bring it forward in the reachable list too
-    for i in range(r0, r1):
-        if work_ints[i] == item:
-            _to_front(work_ints, r0, i)
-            break
-    return False
+    return _blocked(work_ints, r0, r1, it)
 
 
 @nb.njit(cache=True, _nrt=False, nogil=True)

@@ -878,9 +878,11 @@ class Skills:
         """Base poses (and their staging poses STANDOFF behind) from which the arm's base
         is one of `reaches` from `xy`, the object straight ahead or up to ASIDE off the
         heading (between furniture, a base turned from the object often fits where one
-        facing it does not), free on the built map (`site_clearance`): those whose stage
-        has room to turn first, then by reach in the order given, the object nearest
-        straight ahead, the most clearance first."""
+        facing it does not), free on the built map (`site_clearance`): those at the edge
+        of the arm's reach (max REACHES: the object seen again 2 cm further from there is
+        out of reach) after every other, then those whose stage has room to turn first,
+        then by reach in the order given, the object nearest straight ahead, the most
+        clearance first."""
         clearance = self._footprint_clearance
         turn = self.footprint.circumscribed_radius + 0.1  # room to turn at a stage
         out = []
@@ -902,8 +904,9 @@ class Skills:
                         # the navigator gets there and away by arcs, where the room allows
                         cramped = self._clear_at(stage[:2]) < turn
                         rank = -min(c1, 0.2) - 0.5 * min(c2, 0.5)
-                        out.append((cramped, k, abs(aside), rank, base, stage))
-        out.sort(key=lambda r: r[:4])
+                        edge = reach >= max(REACHES)
+                        out.append((edge, cramped, k, abs(aside), rank, base, stage))
+        out.sort(key=lambda r: r[:5])
         return [(b, s) for *_, b, s in out]
 
     def _out_of_reach(self, xy: np.ndarray, what: str) -> str:

@@ -914,12 +914,7 @@ class Skills:
         base the nearest free pose facing it would leave it, how far the arm reaches and
         so how far in from a top's edge it takes things."""
         reach = next((r for r in FAR_REACHES if self.base_candidates(xy, (float(r),))), None)
-        front = self.footprint.length / 2 - self.arm_offset  # the arm's base behind the front
-        edge = np.floor((max(REACHES) - front - BASE_CLEAR) / 0.05 + 1e-6) * 0.05
-        arm = (
-            f"the arm reaches {max(REACHES):.2f} m from its base, about {edge:.2f} m in "
-            "from the edge of a top the robot stands square to"
-        )
+        arm = self._arm_reach()
         if reach is None:
             return (
                 f"the {what} is out of the robot's reach: no free spot on its map lets the "
@@ -929,6 +924,16 @@ class Skills:
             f"the {what} is out of the robot's reach: the nearest the robot can stand "
             f"facing it (clear of what is around it on its map) leaves it {reach:.2f} m "
             f"from the arm's base, {reach - max(REACHES):.2f} m too far; {arm}"
+        )
+
+    def _arm_reach(self) -> str:
+        """How far the arm reaches, in a buyer's words: from its base, and so in from the
+        edge of a top."""
+        front = self.footprint.length / 2 - self.arm_offset  # the arm's base behind the front
+        edge = np.floor((max(REACHES) - front - BASE_CLEAR) / 0.05 + 1e-6) * 0.05
+        return (
+            f"the arm reaches {max(REACHES):.2f} m from its base, about {edge:.2f} m in "
+            "from the edge of a top the robot stands square to"
         )
 
     def _reaches(
@@ -1084,10 +1089,11 @@ class Skills:
             yield from self.drive_in(base)
             return target
         gave_up = f"; the navigator gave up on the way to {len(failed)}" if failed else ""
+        arm = "" if reached else f" ({self._arm_reach()})"
         raise SkillFailed(
             "no_base_pose",
             f"the arm reaches the {kind.name} from {reached or 'none'} of the "
-            f"{checked} free base poses tried around it{gave_up}",
+            f"{checked} free base poses tried around it{arm}{gave_up}",
         )
 
     def _find(self, look: Look, target: Sighting) -> Sighting | None:

@@ -14,7 +14,14 @@ from scipy import ndimage
 
 from robotrial.benchmarks.reach import EDGE_GAP, skills_at_stow, takes_and_sets_down
 from robotrial.onboard.catalogue import ObjectKind
-from robotrial.onboard.skills import REACHES, Sighting, SkillFailed, Skills
+from robotrial.onboard.skills import (
+    BASE_CLEAR,
+    REACHES,
+    Sighting,
+    SkillFailed,
+    Skills,
+    site_clearance,
+)
 
 CAN = ObjectKind("can", "box", (0.07, 0.07, 0.07), (0.8, 0.1, 0.1))
 BOOK = ObjectKind("book", "box", (0.06, 0.06, 0.06), (0.1, 0.3, 0.8))
@@ -94,14 +101,15 @@ def _on_true_map(skills: Skills, home: int):
     skills.map_blocked = skills.map_walls = np.asarray(grid.occupied, dtype=bool)
     skills.map_origin, skills.map_res = np.asarray(grid.origin, dtype=float), grid.resolution
     skills.clearance = ndimage.distance_transform_edt(~skills.map_blocked) * grid.resolution
+    skills.site_clearance = skills.clearance
     return world
 
 
 def test_a_book_on_a_round_table_in_a_corner_is_said_to_be_out_of_reach(skills: Skills) -> None:
     # home 17: a book 0.30 m in from a round table's rim, the rim towards it 5-7 cm off
     # two walls; from every side the robot can come to, its square front meets the rim
-    # with the book 0.69 m or more from the arm's base (0.80 m facing it straight, 4 cm
-    # off the table), and the arm reaches 0.65 m
+    # with the book 0.69 m or more from the arm's base (0.73 m with the footprint 4 cm
+    # off the table and room behind for the stage), and the arm reaches 0.65 m
     world = _on_true_map(skills, 17)
     book = np.array(next(o for o in world.objects if o.name == "book").pose.xyz[:2])
     # the book's room only: from the next room, through the wall, the plan's map has a
@@ -113,14 +121,56 @@ def test_a_book_on_a_round_table_in_a_corner_is_said_to_be_out_of_reach(skills: 
     inside = ((y >= y0) & (y <= y1))[:, None] & ((x >= x0) & (x <= x1))[None, :]
     skills.map_blocked = skills.map_blocked | ~inside
     skills.clearance = ndimage.distance_transform_edt(~skills.map_blocked) * skills.map_res
+    skills.site_clearance = skills.clearance
     assert not skills.base_candidates(book)
     with pytest.raises(SkillFailed) as failed:
         next(skills.approach(Sighting(BOOK, np.array([*book, 0.78]), None)))  # type: ignore[arg-type]
     assert failed.value.cause == "no_base_pose"
     words = failed.value.reason
     assert "the book is out of the robot's reach" in words
-    assert "leaves it 0.80 m from the arm's base, 0.15 m too far" in words
+    assert "leaves it 0.75 m from the arm's base, 0.10 m too far" in words
     assert "the arm reaches 0.65 m from its base, about 0.45 m in from the edge" in words
+
+
+def test_a_book_on_a_sofa_between_a_wall_and_a_round_table_gets_a_work_site(
+    skills: Skills,
+) -> None:
+    # home 48: a book 0.25 m in from a sofa's free side, 0.12 m off a wall behind it; in
+    # front of the sofa a round table leaves 1.07 m, too little for a base facing the
+    # book square with its stage behind it: sites turned from the book fit (headings
+    # every 10 degrees, the book straight ahead: none)
+    world = _on_true_map(skills, 48)
+    book = np.array(next(o for o in world.objects if o.name == "book").pose.xyz[:2])
+    sites = skills.base_candidates(book)
+    assert sites
+    reaches = []
+    for base, _ in sites:
+        arm = base[:2] + skills.arm_offset * np.array([np.cos(base[2]), np.sin(base[2])])
+        reaches.append(np.hypot(*(book - arm)))
+        assert skills._footprint_clearance(base, site=True) >= BASE_CLEAR
+    assert max(reaches) <= max(REACHES) + 1e-9
+    # a site at the edge of the arm's reach comes last: the book seen again a little
+    # further from there is out of reach
+    assert reaches[0] < max(REACHES) - 0.01
+
+
+def test_a_work_site_keeps_its_margin_from_the_cells_the_map_is_sure_of() -> None:
+    # a wall the scans hit often (sure), a cell in front of it hit less (the scans'
+    # noise at its face), and alone a cell hit as little (an obstacle of its own)
+    res = 0.025
+    values = np.zeros((40, 40), dtype=np.int8)
+    p = np.full((40, 40), 0.1)
+    values[:, 30:] = 100
+    p[:, 30:] = 0.97
+    values[:, 29] = 100
+    p[:, 29] = 0.7
+    values[5, 5] = 100
+    p[5, 5] = 0.7
+    blocked = values == 100
+    clearance = site_clearance(values, p, res, blocked)
+    assert clearance[20, 25] == pytest.approx(5 * res)  # from the sure wall, not its face
+    assert clearance[5, 7] == pytest.approx(2 * res)  # the lone cell still counts
+    assert clearance[20, 29] > 0
 
 
 def _can_voxels(skills: Skills, centre: np.ndarray) -> None:

@@ -65,9 +65,20 @@ log = logging.getLogger(__name__)
 
 STANDOFF = 0.35  # m driven straight in to a work site and back out
 BASE_CLEAR = 0.04  # m a work site's footprint keeps clear of the map's occupied cells
+# occupancy probability from which the built map is sure of a cell: the occupied cells
+# next to a sure one and less sure than it are the scans' noise and the pose's error at
+# the surface's face (a 2.5 cm cell in front of it, in 4 of 10 such cells by the plan's
+# truth), not more of the surface, and a work site keeps its margin from the sure cells
+SURE = 0.9
 # m, arm base to the object, in the plane, in this order: the side grasp and its lift
 # reach 0.65 m over tops 0.75-0.9 m high (the mobile manipulator's shoulder at 0.9 m)
 REACHES = (0.5, 0.45, 0.55, 0.6, 0.65)
+# deg between the headings of the work sites tried
+HEADING_STEP = 5
+# rad the object may lie off a work site's heading, in turn (the arm turns to it)
+ASIDE = tuple(np.deg2rad((0.0, 15.0, -15.0, 30.0, -30.0)))
+# work sites the arm's checks are asked about before the approach gives up
+SITE_CHECKS = 40
 # m, tried to say how far the nearest free pose is
 FAR_REACHES = np.arange(max(REACHES) + 0.05, 1.3, 0.05)
 GRASP_BACKOFF = 0.1  # m, pre-grasp distance along the approach
@@ -299,6 +310,9 @@ class Skills:
         self.map_walls = values == 100
         self.map_origin, self.map_res = np.asarray(grid.origin, dtype=float), grid.resolution
         self.clearance = ndimage.distance_transform_edt(~self.map_blocked) * self.map_res
+        self.site_clearance = site_clearance(
+            values, grid.probability(), self.map_res, self.map_blocked
+        )
 
     def navigate(self, goal: np.ndarray) -> Generator[None, None, str]:
         """Drive to `goal` (map x, y, yaw) with the navigator; its status or reason."""
@@ -832,9 +846,10 @@ class Skills:
 
     # --- going to a work site ----------------------------------------------------------
 
-    def _footprint_clearance(self, pose: np.ndarray) -> float:
+    def _footprint_clearance(self, pose: np.ndarray, site: bool = False) -> float:
         """How far (m) the footprint's outline at `pose` (map x, y, yaw) stands from the
-        built map's blocked cells; -1 when it leaves the map."""
+        built map's blocked cells (with `site`, as a work site keeps clear of them:
+        `site_clearance`); -1 when it leaves the map."""
         half_l, half_w = self.footprint.length / 2, self.footprint.width / 2
         u = np.linspace(-1, 1, 9)
         outline = np.concatenate(
@@ -850,34 +865,48 @@ class Skills:
         py = pose[1] + s * outline[:, 0] + c * outline[:, 1]
         col = np.floor((px - self.map_origin[0]) / self.map_res).astype(int)
         row = np.floor((py - self.map_origin[1]) / self.map_res).astype(int)
-        rows, cols = self.clearance.shape
+        clearance = self.site_clearance if site else self.clearance
+        rows, cols = clearance.shape
         inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
         if not inside.all():
             return -1.0
-        return float(self.clearance[row, col].min())
+        return float(clearance[row, col].min())
 
     def base_candidates(
         self, xy: np.ndarray, reaches: Sequence[float] = REACHES
     ) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Base poses (and their staging poses STANDOFF behind) that face `xy` from one of
-        `reaches` (arm base to `xy`), free on the built map: those whose stage has room to
-        turn first, then by reach in the order given, the most clearance first."""
+        """Base poses (and their staging poses STANDOFF behind) from which the arm's base
+        is one of `reaches` from `xy`, the object straight ahead or up to ASIDE off the
+        heading (between furniture, a base turned from the object often fits where one
+        facing it does not), free on the built map (`site_clearance`): those at the edge
+        of the arm's reach (max REACHES: the object seen again 2 cm further from there is
+        out of reach) after every other, then those whose stage has room to turn first,
+        then by reach in the order given, the object nearest straight ahead, the most
+        clearance first."""
         clearance = self._footprint_clearance
         turn = self.footprint.circumscribed_radius + 0.1  # room to turn at a stage
         out = []
+        headings = np.deg2rad(np.arange(0, 360, HEADING_STEP))
         for k, reach in enumerate(reaches):
-            for th in np.deg2rad(np.arange(0, 360, 10)):
-                d = np.array([np.cos(th), np.sin(th)])
-                centre = xy - (self.arm_offset + reach) * d
-                base = np.array([centre[0], centre[1], th])
-                stage = np.array([*(centre - STANDOFF * d), th])
-                c1, c2 = clearance(base), clearance(stage)
-                if c1 >= BASE_CLEAR and c2 >= 0.15:
-                    # a stage without room to turn on the spot comes after every other:
-                    # the navigator gets there and away by arcs, where the room allows
-                    cramped = self._clear_at(stage[:2]) < turn
-                    out.append((cramped, k, -min(c1, 0.2) - 0.5 * min(c2, 0.5), base, stage))
-        out.sort(key=lambda r: r[:3])
+            for aside in ASIDE:
+                for th in headings:
+                    d = np.array([np.cos(th), np.sin(th)])
+                    towards = np.array([np.cos(th + aside), np.sin(th + aside)])
+                    centre = xy - reach * towards - self.arm_offset * d
+                    base = np.array([centre[0], centre[1], th])
+                    stage = np.array([*(centre - STANDOFF * d), th])
+                    c1 = clearance(base, site=True)
+                    if c1 < BASE_CLEAR:
+                        continue
+                    c2 = clearance(stage)
+                    if c2 >= 0.15:
+                        # a stage without room to turn on the spot comes after every other:
+                        # the navigator gets there and away by arcs, where the room allows
+                        cramped = self._clear_at(stage[:2]) < turn
+                        rank = -min(c1, 0.2) - 0.5 * min(c2, 0.5)
+                        edge = reach >= max(REACHES)
+                        out.append((edge, cramped, k, abs(aside), rank, base, stage))
+        out.sort(key=lambda r: r[:5])
         return [(b, s) for *_, b, s in out]
 
     def _out_of_reach(self, xy: np.ndarray, what: str) -> str:
@@ -885,12 +914,7 @@ class Skills:
         base the nearest free pose facing it would leave it, how far the arm reaches and
         so how far in from a top's edge it takes things."""
         reach = next((r for r in FAR_REACHES if self.base_candidates(xy, (float(r),))), None)
-        front = self.footprint.length / 2 - self.arm_offset  # the arm's base behind the front
-        edge = np.floor((max(REACHES) - front - BASE_CLEAR) / 0.05 + 1e-6) * 0.05
-        arm = (
-            f"the arm reaches {max(REACHES):.2f} m from its base, about {edge:.2f} m in "
-            "from the edge of a top the robot stands square to"
-        )
+        arm = self._arm_reach()
         if reach is None:
             return (
                 f"the {what} is out of the robot's reach: no free spot on its map lets the "
@@ -900,6 +924,16 @@ class Skills:
             f"the {what} is out of the robot's reach: the nearest the robot can stand "
             f"facing it (clear of what is around it on its map) leaves it {reach:.2f} m "
             f"from the arm's base, {reach - max(REACHES):.2f} m too far; {arm}"
+        )
+
+    def _arm_reach(self) -> str:
+        """How far the arm reaches, in a buyer's words: from its base, and so in from the
+        edge of a top."""
+        front = self.footprint.length / 2 - self.arm_offset  # the arm's base behind the front
+        edge = np.floor((max(REACHES) - front - BASE_CLEAR) / 0.05 + 1e-6) * 0.05
+        return (
+            f"the arm reaches {max(REACHES):.2f} m from its base, about {edge:.2f} m in "
+            "from the edge of a top the robot stands square to"
         )
 
     def _reaches(
@@ -1037,12 +1071,14 @@ class Skills:
         if not candidates:
             raise SkillFailed("no_base_pose", self._out_of_reach(target.position[:2], kind.name))
         failed: list[np.ndarray] = []
-        reached = 0
+        reached = checked = 0
         for base, stage in candidates:
-            if (
-                self._near_failed(stage, failed)
-                or self._reaches(base, target.position, kind, target.face) is None
-            ):
+            if self._near_failed(stage, failed):
+                continue
+            if checked == SITE_CHECKS:
+                break
+            checked += 1
+            if self._reaches(base, target.position, kind, target.face) is None:
                 continue
             reached += 1
             if not (yield from self.reach_stage(stage, f"the pose before the {kind.name}", failed)):
@@ -1053,10 +1089,11 @@ class Skills:
             yield from self.drive_in(base)
             return target
         gave_up = f"; the navigator gave up on the way to {len(failed)}" if failed else ""
+        arm = "" if reached else f" ({self._arm_reach()})"
         raise SkillFailed(
             "no_base_pose",
             f"the arm reaches the {kind.name} from {reached or 'none'} of the "
-            f"{len(candidates)} free base poses around it{gave_up}",
+            f"{checked} free base poses tried around it{arm}{gave_up}",
         )
 
     def _find(self, look: Look, target: Sighting) -> Sighting | None:
@@ -1417,11 +1454,23 @@ class Skills:
             moved = compose(base, np.array([shift, 0.0, 0.0]))
             # a move nearer must leave the footprint clear of the top it faces: the arm's
             # reach alone would put the bumper on a counter
-            if shift > 0 and self._footprint_clearance(moved) < BASE_CLEAR:
+            if shift > 0 and self._footprint_clearance(moved, site=True) < BASE_CLEAR:
                 continue
             if self._reaches(moved, point, kind, face) is not None:
                 yield from self.straight(shift, speed=0.06)
                 return
+
+
+def site_clearance(
+    values: np.ndarray, probability: np.ndarray, res: float, blocked: np.ndarray
+) -> np.ndarray:
+    """How far (m) each cell of the built map stands from what a work site keeps clear
+    of: the `blocked` cells (occupied, 100 in `values`, or unknown) but for the occupied
+    ones less sure than SURE next to one the map is sure of (`probability`)."""
+    occupied = values == 100
+    sure = occupied & (probability >= SURE)
+    fringe = occupied & ~sure & ndimage.binary_dilation(sure, structure=np.ones((3, 3), bool))
+    return ndimage.distance_transform_edt(~(blocked & ~fringe)) * res
 
 
 def furniture_tops(

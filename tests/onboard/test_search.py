@@ -95,3 +95,6 @@ def test_an_object_of_the_kind_seen_in_another_room_is_not_the_one_sought() -> N
     assert best_in_room([through_the_door, in_the_room], can, room) is in_the_room
     better = seen(can, 0.5, 2.5, 0.2)
     assert best_in_room([in_the_room, better, through_the_door], can, room) is better
+    # a second can, can_2, looks the same: the detector names it "can"
+    can_2 = ObjectKind("can_2", "box", (0.07, 0.07, 0.07), (0.75, 0.72, 0.68))
+    assert best_in_room([through_the_door, in_the_room], can_2, room) is in_the_room

@@ -1453,14 +1453,15 @@ def best_in_room(
     kind: ObjectKind,
     bounds: tuple[tuple[float, float], tuple[float, float]],
 ) -> Sighting | None:
-    """The sighting of `kind` that best matches it among those whose centre lies in the
-    room (`bounds`, map frame), or None: an object of the same kind seen through a
-    doorway in another room is not the one the order names."""
+    """The sighting of an object that looks like `kind` (the detector names one of twins
+    for both) that best matches it among those whose centre lies in the room (`bounds`,
+    map frame), or None: an object alike seen through a doorway in another room is not
+    the one the order names."""
     (x0, y0), (x1, y1) = bounds
     inside = [
         s
         for s in sightings
-        if s.kind.name == kind.name and x0 <= s.position[0] <= x1 and y0 <= s.position[1] <= y1
+        if s.kind.looks_like(kind) and x0 <= s.position[0] <= x1 and y0 <= s.position[1] <= y1
     ]
     return min(inside, key=lambda s: s.detection.error) if inside else None
 

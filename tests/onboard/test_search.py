@@ -10,7 +10,16 @@ from scipy import ndimage
 
 from robotrial.benchmarks.chores import chore_homes
 from robotrial.model.gridmap import world_map
-from robotrial.onboard.skills import LOOK_AT, furniture_tops, look_pose, overlaps
+from robotrial.onboard.catalogue import ObjectKind
+from robotrial.onboard.perception import Detection
+from robotrial.onboard.skills import (
+    LOOK_AT,
+    Sighting,
+    best_in_room,
+    furniture_tops,
+    look_pose,
+    overlaps,
+)
 from robotrial.trials.nav_goals import _footprint
 
 MARGIN = _footprint().circumscribed_radius + 0.1
@@ -67,3 +76,25 @@ def test_the_piece_the_order_names_is_told_from_the_others() -> None:
             x, y = f.pose.xyz[:2]
             outline = ((x - 0.05, y - 0.05), (x + 0.05, y + 0.05))
             assert sum(overlaps(p, outline) for p in pieces) == 1, f.name
+
+
+def test_an_object_of_the_kind_seen_in_another_room_is_not_the_one_sought() -> None:
+    can = ObjectKind("can", "box", (0.07, 0.07, 0.07), (0.75, 0.72, 0.68))
+    book = ObjectKind("book", "box", (0.06, 0.06, 0.06), (0.75, 0.72, 0.68))
+
+    def seen(kind: ObjectKind, x: float, y: float, error: float) -> Sighting:
+        at = (x, y, 0.8)
+        return Sighting(
+            kind, np.array(at), Detection(kind.name, at, 0.0, 0.07, 0.07, kind.rgb, 50, 0.8, error)
+        )
+
+    room = ((0.0, 0.0), (3.0, 3.0))
+    through_the_door = seen(can, 4.2, 1.5, 0.1)  # the can's twin, in the next room
+    in_the_room = seen(can, 2.5, 1.0, 0.4)
+    assert best_in_room([through_the_door, seen(book, 1.0, 1.0, 0.0)], can, room) is None
+    assert best_in_room([through_the_door, in_the_room], can, room) is in_the_room
+    better = seen(can, 0.5, 2.5, 0.2)
+    assert best_in_room([in_the_room, better, through_the_door], can, room) is better
+    # a second can, can_2, looks the same: the detector names it "can"
+    can_2 = ObjectKind("can_2", "box", (0.07, 0.07, 0.07), (0.75, 0.72, 0.68))
+    assert best_in_room([through_the_door, in_the_room], can_2, room) is in_the_room

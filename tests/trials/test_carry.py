@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -20,6 +21,7 @@ from robotrial.trials.carry import (
     PHASES,
     PLACE_TOLERANCE,
     CarrySetup,
+    CarryTrial,
     catalogue_of,
     run_carry,
 )
@@ -133,3 +135,15 @@ def test_rooms_in_a_world_file_are_checked() -> None:
         world_from_dict(bad)
     with pytest.raises(ModelError, match=r"rooms\[0\].min must be below and left of max"):
         world_from_dict({"rooms": [{"name": "den", "min": [2, 2], "max": [0, 0]}]})
+
+
+def test_a_contact_names_the_robot_s_body_that_touched_and_what_it_touched() -> None:
+    trial = CarryTrial(CarrySetup(), 0, None)
+    world = trial.sim.world
+    x = world.data.qpos[world._base_q[0]]
+    world.data.qpos[world._base_q[0]] = x - 2.7  # the base pushed into the west wall
+    mujoco.mj_forward(world.model, world.data)
+    trial._observe()
+    assert trial.task.outcome.cause == "touched"
+    assert trial.task.outcome.reason == "the robot's base_link touched wall/outer_west"
+    assert trial.result.collision == "wall/outer_west"

@@ -115,6 +115,40 @@ def test_chore_homes_have_small_rooms_a_dock_anywhere_and_chores_between_rooms()
     assert len(docks) > 1  # not always the first room
 
 
+def test_an_object_whose_twin_stands_in_another_room_gets_chores_after_the_others() -> None:
+    from robotrial.benchmarks.chores import chore_homes
+
+    # home 25: a can and a book in Room 1, the book's twin (book_2) in Room 3
+    ((seed, world, chores),) = chore_homes(1, first=25)
+    assert seed == 25
+    assert chores == [("can", "Room 3"), ("book", "Room 3"), ("book_2", "Room 1")]
+    rooms = {
+        o.name: next(r.name for r in world.rooms if r.contains(*o.pose.xyz[:2]))
+        for o in world.objects
+    }
+    assert rooms["book"] != rooms["book_2"]
+
+
+def test_a_run_split_from_its_kth_chore_runs_each_home_s_later_chores_only(capsys) -> None:
+    from robotrial.benchmarks.chores import chore_jobs
+
+    homes = [(1, "w1", [("a", "R1")]), (2, "w2", [("b", "R2"), ("c", "R1"), ("d", "R3")])]
+    homes.append((3, "w3", [("e", "R1"), ("f", "R2")]))
+    every = [(s, c, k) for s, _, c, k in chore_jobs(homes)]
+    assert every == [
+        (1, ("a", "R1"), 1),
+        (2, ("b", "R2"), 1),
+        (3, ("e", "R1"), 1),
+        (2, ("c", "R1"), 2),
+        (3, ("f", "R2"), 2),
+        (2, ("d", "R3"), 3),
+    ]
+    assert [(s, k) for s, _, _, k in chore_jobs(homes, 2)] == [(2, 2), (3, 2), (2, 3)]
+    assert [(s, k) for s, _, _, k in chore_jobs(homes, 4)] == []
+    with pytest.raises(SystemExit, match="--from-chore must be 1 to --chores"):
+        main(["bench", "chores", "--chores", "2", "--from-chore", "3"])
+
+
 def test_a_chores_time_is_split_into_exploring_navigating_searching_manipulating() -> None:
     phases = [
         {"phase": "mapping", "start": 0.0, "time": 60.0},

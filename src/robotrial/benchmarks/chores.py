@@ -7,8 +7,11 @@ from `--first-home` on that offer a chore (`trials.chores.home_chores`: an objec
 another room with a place, the object one the robot's gripper closes across: the
 generator's 8 cm cups are as wide as the mobile manipulator's gripper opens, so only its
 books and cans are carried; nor an object with a twin of the same shape, size and
-colour in the home, which the camera cannot tell apart); each gets up to `--chores`
-chores (every home's first chore runs before any home's second), each run as the carry
+colour in its own room, which the camera cannot tell apart: the search looks only in the
+object's room, so a twin in another room is no confusion; a home is taken for a chore of
+an object with no twin at all, and chores of objects with twins in other rooms come after
+its others); each gets up to `--chores` chores (every home's first chore runs before any
+home's second; `--from-chore K` runs only the K-th on, to split a run), each run as the carry
 trial with no route (the robot maps by frontiers, `CarrySetup.mapping='auto'`). First, in
 the same run, the apartment's trial along its given route (cup to the bedroom), unless
 `--no-apartment`. Each row: success, the phase and cause of a failure, the simulated
@@ -40,13 +43,22 @@ CHORE_HOMES = HomeSpec(
 )
 ROBOT = "mobile_manipulator"
 SEARCHED_SEEDS = 200  # home seeds tried for homes that offer a chore
-APARTMENT = ("apartment", "apartment", ("cup", "bedroom"))  # the given-route trial, beside
+APARTMENT = ("apartment", "apartment", ("cup", "bedroom"), 1)  # the given-route trial, beside
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--homes", type=int, default=20, help="homes to run chores in")
     parser.add_argument("--first-home", type=int, default=0, help="the first home seed tried")
     parser.add_argument("--chores", type=int, default=3, help="chores a home")
+    parser.add_argument(
+        "--from-chore",
+        type=int,
+        default=1,
+        metavar="K",
+        help="run only each home's chores from its K-th on (e.g. --from-chore 2 --chores 2: "
+        "the second chores alone), so a long run can be split; homes with fewer chores "
+        "are left out",
+    )
     parser.add_argument("--seed", type=int, default=0, help="simulation seed")
     parser.add_argument("--time-limit", type=float, default=600.0, help="simulated seconds a chore")
     parser.add_argument(
@@ -62,8 +74,10 @@ def chore_homes(
     homes: int, first: int = 0, per_home: int = 3, grip: float = np.inf
 ) -> list[tuple[int, Any, list]]:
     """The first `homes` home seeds from `first` on whose home offers a chore with an
-    object the gripper holds (narrower than `grip`, m) and no twin of it in the home:
-    (seed, the World, its chores)."""
+    object the gripper holds (narrower than `grip`, m) and no twin of it (the same look)
+    in the home: (seed, the World, its chores). After those chores come the chores of
+    objects whose twins stand only in other rooms (the search looks in the object's room
+    alone)."""
     from robotrial.model.homegen import generate_home
     from robotrial.trials.carry import catalogue_of
     from robotrial.trials.chores import home_chores
@@ -74,19 +88,46 @@ def chore_homes(
             break
         world = generate_home(seed, spec=CHORE_HOMES)
         kinds = catalogue_of(world)
-        looks = [_look(kinds.kind(o.name)) for o in world.objects]
-        chores = [
-            (obj, room)
-            for obj, room in home_chores(world, 99)
-            if kinds.kind(obj).grip_width < grip and looks.count(_look(kinds.kind(obj))) == 1
-        ][:per_home]
-        if chores:
+        rooms = {o.name: _room_of(world, o) for o in world.objects}
+        twins = {
+            o.name: [
+                rooms[t.name]
+                for t in world.objects
+                if t.name != o.name and _look(kinds.kind(t.name)) == _look(kinds.kind(o.name))
+            ]
+            for o in world.objects
+        }
+        held = [c for c in home_chores(world, 99) if kinds.kind(c[0]).grip_width < grip]
+        alone = [c for c in held if not twins[c[0]]]
+        apart = [c for c in held if twins[c[0]] and rooms[c[0]] not in twins[c[0]]]
+        chores = (alone + apart)[:per_home]
+        if alone:
             out.append((seed, world, chores))
     return out
 
 
+def chore_jobs(
+    homes: list[tuple[int, Any, list]], from_chore: int = 1
+) -> list[tuple[int, Any, tuple[str, str], int]]:
+    """The chores to run, (seed, World, chore, its number in the home from 1): each
+    home's chores from its `from_chore`-th on, every home's K-th chore before any home's
+    (K+1)-th, so a run stopped early covers the homes; a home with fewer adds none."""
+    rounds = max((len(chores) for _, _, chores in homes), default=0)
+    return [
+        (seed, world, chores[k], k + 1)
+        for k in range(from_chore - 1, rounds)
+        for seed, world, chores in homes
+        if k < len(chores)
+    ]
+
+
 def _look(kind: Any) -> tuple:
     return (kind.shape, kind.size, kind.rgb)
+
+
+def _room_of(world: Any, obj: Any) -> str:
+    x, y = obj.pose.xyz[:2]
+    return next((r.name for r in world.rooms if r.contains(x, y)), "")
 
 
 def gripper_opening(robot: str) -> float:
@@ -104,6 +145,11 @@ def run(args: argparse.Namespace) -> int:
 
     if args.homes < 1 or args.chores < 1:
         raise SystemExit("robotrial bench chores: --homes and --chores must be at least 1")
+    if not 1 <= args.from_chore <= args.chores:
+        raise SystemExit(
+            f"robotrial bench chores: --from-chore must be 1 to --chores ({args.chores}), "
+            f"got {args.from_chore}"
+        )
     result: dict = {
         "machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
         "date": time.strftime("%Y-%m-%d"),
@@ -112,17 +158,16 @@ def run(args: argparse.Namespace) -> int:
         "rows": [],
     }
     homes = chore_homes(args.homes, args.first_home, args.chores, gripper_opening(ROBOT))
-    # every home's first chore before any home's second: a run stopped early covers the homes
-    rounds = max(len(chores) for _, _, chores in homes) if homes else 0
-    jobs: list[tuple[Any, Any, tuple[str, str]]] = [] if args.no_apartment else [APARTMENT]
-    jobs += [(s, w, chores[k]) for k in range(rounds) for s, w, chores in homes if k < len(chores)]
+    jobs: list[tuple[Any, Any, tuple[str, str], int]] = [] if args.no_apartment else [APARTMENT]
+    jobs += chore_jobs(homes, args.from_chore)
     with progress("bench chores", total=len(jobs), enabled=not args.json) as advance:
-        for seed, world, (obj, room) in jobs:
+        for seed, world, (obj, room), number in jobs:
             row: dict[str, Any] = {
                 "home": seed,
                 "rooms": 5 if isinstance(world, str) else len(world.rooms),
                 "mapping": "route" if isinstance(world, str) else "frontier",
                 "chore": f"{obj}:{room}",
+                "chore_number": number,
             }
             setup = CarrySetup(world=world, object=obj, to=room, time_limit=args.time_limit)
             try:
@@ -146,6 +191,7 @@ def run(args: argparse.Namespace) -> int:
             result["rows"].append(row)
             write_result(result, args.output)
             advance()
+    result["from_chore"] = args.from_chore
     rows = result["rows"]
     homes_rows = [r for r in rows if r["home"] != "apartment"]
     result["successes"] = sum(r["success"] for r in homes_rows)
@@ -156,10 +202,11 @@ def run(args: argparse.Namespace) -> int:
     print_table(
         f"bench chores ({result['successes']} of {result['chores']} in {result['homes']} homes, "
         f"seed {args.seed}, load {result['load_average'][0]:.1f})",
-        ["home", "chore", "result", "time s", "explore/nav/search/manip s", "wall s"],
+        ["home", "#", "chore", "result", "time s", "explore/nav/search/manip s", "wall s"],
         [
             [
                 r["home"],
+                r["chore_number"],
                 r["chore"],
                 "success" if r["success"] else f"{r['failed_phase']}: {r['cause']}",
                 r.get("sim_time", ""),

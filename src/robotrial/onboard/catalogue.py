@@ -39,6 +39,11 @@ class ObjectKind:
         """The larger horizontal extent (m)."""
         return float(max(self.size[0], self.size[1]))
 
+    def looks_like(self, other: ObjectKind) -> bool:
+        """Whether the camera cannot tell the two apart: the same shape, size and colour
+        (two objects of a home can be alike under different names)."""
+        return (self.shape, self.size, self.rgb) == (other.shape, other.size, other.rgb)
+
     @property
     def grip_width(self) -> float:
         """How wide the fingers must open to close across it from the side (m): the

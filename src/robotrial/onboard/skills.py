@@ -498,7 +498,7 @@ class Skills:
             here = self.robot.pose()[:2]
             looks += 1
             places += 1
-            best = self._look_for(kind, pieces, room, on)
+            best = self._look_for(kind, pieces, room, bounds, on)
             if best is not None:
                 return best
         if named and on is not None:
@@ -521,7 +521,7 @@ class Skills:
                 if k:
                     yield from self.turn_to(yaw + 2 * np.pi * k / HEADINGS)
                 looks += 1
-                best = self._look_for(kind, pieces, room, on)
+                best = self._look_for(kind, pieces, room, bounds, on)
                 if best is not None:
                     return best
         raise SkillFailed(
@@ -532,13 +532,13 @@ class Skills:
         )
 
     def _look_for(
-        self, kind: ObjectKind, pieces: list[np.ndarray], room: str, on
+        self, kind: ObjectKind, pieces: list[np.ndarray], room: str, bounds, on
     ) -> Sighting | None:
-        """One look for an object of `kind`: the best match, noted where found, or None."""
-        seen = [s for s in self.look().sightings if s.kind.name == kind.name]
-        if not seen:
+        """One look for an object of `kind` in the room: the best match, noted where
+        found, or None."""
+        best = best_in_room(self.look().sightings, kind, bounds)
+        if best is None:
             return None
-        best = min(seen, key=lambda s: s.detection.error)
         self._found(best, pieces, room, on)
         return best
 
@@ -1495,6 +1495,24 @@ def furniture_tops(
             xy = np.column_stack([cols + c0 + 0.5, rows + r0 + 0.5]) * res + origin
             pieces.append(xy)
     return pieces
+
+
+def best_in_room(
+    sightings: Sequence[Sighting],
+    kind: ObjectKind,
+    bounds: tuple[tuple[float, float], tuple[float, float]],
+) -> Sighting | None:
+    """The sighting of an object that looks like `kind` (the detector names one of twins
+    for both) that best matches it among those whose centre lies in the room (`bounds`,
+    map frame), or None: an object alike seen through a doorway in another room is not
+    the one the order names."""
+    (x0, y0), (x1, y1) = bounds
+    inside = [
+        s
+        for s in sightings
+        if s.kind.looks_like(kind) and x0 <= s.position[0] <= x1 and y0 <= s.position[1] <= y1
+    ]
+    return min(inside, key=lambda s: s.detection.error) if inside else None
 
 
 def overlaps(piece: np.ndarray, rect: tuple[tuple[float, float], tuple[float, float]]) -> bool:

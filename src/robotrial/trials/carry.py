@@ -412,10 +412,11 @@ class CarryTrial(Node):
     def _observe(self) -> None:
         """After each control period: contacts, paths, joint curves, object poses."""
         self._steps += 1
-        hit = self._touching()
-        if hit is not None and not self.result.collision:
+        touch = self._touching()
+        if touch is not None and not self.result.collision:
+            part, hit = touch
             self.result.collision = hit
-            self.task.fail("touched", f"the robot touched {hit}")
+            self.task.fail("touched", f"the robot's {part} touched {hit}")
         if self._steps % 5:
             return
         t = self.sim.world.time
@@ -428,9 +429,9 @@ class CarryTrial(Node):
         if self._steps % 10 == 0:
             self._publish_objects(t)
 
-    def _touching(self) -> str | None:
-        """The name of what the robot touches now (the hand may touch the object it is
-        to carry), or None."""
+    def _touching(self) -> tuple[str, str] | None:
+        """The robot's body that touches something now and the name of what it touches
+        (the hand may touch the object it is to carry), or None."""
         data = self.sim.world.data
         w = self.watch
         for i in range(data.ncon):
@@ -441,7 +442,9 @@ class CarryTrial(Node):
                 if w.robot[a] and w.env[b]:
                     if a in self.hand_geoms and b in self.target_geoms:
                         continue
-                    return w.names[b]
+                    m = self.sim.world.model
+                    body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.geom_bodyid[a]))
+                    return body or "body", w.names[b]
         return None
 
     def _publish_objects(self, t: float) -> None:

@@ -234,10 +234,8 @@ def _collides(x, y, th, blocked, dist, free_dist, ox, oy, res, starts, cells, ha
     si = min(SUB - 1, int((fr - r) * SUB))
     kbin = int(np.round(th / (np.pi / YAW_BINS))) % CHECK_BINS
     i = (kbin * SUB + si) * SUB + sj
-    a, b = half[0], half[1]
-    co, sn = np.cos(th), np.sin(th)
-    ac, as_ = abs(co), abs(sn)
-    h = 0.5 * res
+    co = sn = ta = tb = tx = ty = 0.0
+    tested = False
     for j in range(starts[i], starts[i + 1]):
         rr = r + cells[j, 0]
         cc = c + cells[j, 1]
@@ -245,13 +243,24 @@ def _collides(x, y, th, blocked, dist, free_dist, ox, oy, res, starts, cells, ha
             continue
         if cells[j, 2]:
             return True
+        if not tested:
+            # separating axes of the cell square and the rectangle: the rectangle's
+            # own, then the map's
+            co, sn = np.cos(th), np.sin(th)
+            ac, as_ = abs(co), abs(sn)
+            h = 0.5 * res
+            ta = half[0] + h * (ac + as_)
+            tb = half[1] + h * (ac + as_)
+            tx = h + half[0] * ac + half[1] * as_
+            ty = h + half[0] * as_ + half[1] * ac
+            tested = True
         px = ox + (cc + 0.5) * res - x
         py = oy + (rr + 0.5) * res - y
         if (
-            abs(px) < h + a * ac + b * as_
-            and abs(py) < h + a * as_ + b * ac
-            and abs(px * co + py * sn) < a + h * (ac + as_)
-            and abs(-px * sn + py * co) < b + h * (ac + as_)
+            abs(px * co + py * sn) < ta
+            and abs(py * co - px * sn) < tb
+            and abs(px) < tx
+            and abs(py) < ty
         ):
             return True
     return False

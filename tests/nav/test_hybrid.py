@@ -346,6 +346,19 @@ def test_a_goal_just_past_a_doorway_is_not_turned_to_where_the_rear_sweeps_the_j
     assert rectangle_clearance(cm, poses).min() > 0.0
 
 
+def _askew_in_the_doorway(cm: Costmap) -> np.ndarray:
+    """In the 0.8 m doorway of `two_rooms`, 18 deg off square facing the first room, its
+    rear in the doorway, slid north until the rectangle keeps 5 mm from the jamb."""
+    yaw, low, high = np.pi - 0.31, 1.5, 1.9
+    for _ in range(40):
+        mid = 0.5 * (low + high)
+        if rectangle_clearance(cm, np.array([[2.83, mid, yaw]]))[0] > 0.005:
+            low = mid
+        else:
+            high = mid
+    return np.array([2.83, low, yaw])
+
+
 def test_a_base_askew_in_a_doorway_a_few_mm_off_a_jamb_drives_on_out_of_it():
     """After exploring, the search's first drive may leave the base in a 0.8 m doorway
     18 deg off square, its rectangle 5 mm clear of a jamb as mapped (a generated home's
@@ -361,15 +374,7 @@ def test_a_base_askew_in_a_doorway_a_few_mm_off_a_jamb_drives_on_out_of_it():
     m = world_map(load_world_text(two_rooms(0.8)))
     fp = Footprint(0.99, 0.67)
     cm = Costmap(m.occupied, m.origin, m.resolution, fp)
-    yaw = np.pi - 0.31  # facing the first room, its rear in the doorway
-    low, high = 1.5, 1.9  # slid north towards the northern jamb until 5 mm are left
-    for _ in range(40):
-        mid = 0.5 * (low + high)
-        if rectangle_clearance(cm, np.array([[2.83, mid, yaw]]))[0] > 0.005:
-            low = mid
-        else:
-            high = mid
-    start = np.array([2.83, low, yaw])
+    start = _askew_in_the_doorway(cm)
     config = navigator_config(0.3, 2.0, 1.0, "hybrid", 3.0)
     hybrid = replace(config.hybrid, margin=0.01)
     config = replace(config, costmap_resolution=None, hybrid=hybrid)
@@ -413,16 +418,7 @@ def test_a_pose_a_few_mm_off_a_jamb_is_free_alike_for_the_planner_and_the_contro
         assert np.array_equal(hits[sure], room[sure] < margin), f"margin {margin}"
         assert 0 < hits.sum() < len(poses)
 
-    # in the doorway 18 deg off square, 5 mm off the northern jamb: masks that round the
-    # yaw to 2.5 deg called this pose touching
-    yaw, low, high = np.pi - 0.31, 1.5, 1.9
-    for _ in range(40):
-        mid = 0.5 * (low + high)
-        if rectangle_clearance(cm, np.array([[2.83, mid, yaw]]))[0] > 0.005:
-            low = mid
-        else:
-            high = mid
-    start = np.array([2.83, low, yaw])
+    start = _askew_in_the_doorway(cm)  # masks rounding the yaw called it touching
     assert not footprint_hits(cm, start[None], 0.0)[0]
     assert footprint_hits(cm, start[None], 0.006)[0], "5 mm clear, not more"
     planner = HybridAStar(HybridConfig(margin=0.0))

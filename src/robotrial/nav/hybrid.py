@@ -7,12 +7,16 @@ instead. Its motions are short straight steps and arcs of the base's turning rad
 turns on the spot for a base that can make them (`turning_radius` 0, as a skid-steer
 Husky-class base); the yaw stays on 72 bins, so each motion is precomputed per bin.
 Each pose along a motion is checked with the oriented rectangle against the costmap's
-lethal (and unknown) cells: per yaw (2.5 deg) and per quarter-cell position of the centre,
-the cells a rectangle grown by `margin` could touch are listed once (a separating-axis
-test of each cell square), so a check is a walk over that list (along a motion only
-over the cells near the rectangle's edge: nothing reaches the inside without crossing
-it), and none at all when the distance field already shows the circumscribed circle
-clear.
+lethal (and unknown) cells: per yaw bin (2.5 deg) and per quarter-cell position of the
+centre, the cells a rectangle grown by `margin` could touch at any yaw of the bin are
+listed once, so a check is a walk over that list (along a motion only over the cells
+near the rectangle's edge: nothing reaches the inside without crossing it), and none at
+all when the distance field already shows the circumscribed circle clear. A blocked cell
+of the list is then tested exactly (separating axes of the cell square and the rectangle
+at the pose's own yaw): the same answer for the planner's search, its start and every
+controller and goal check (`footprint_hits`), with no rounding of the yaw, which would
+move the corners of a 0.99 m base up to 1.4 cm and call a pose a few mm clear of a jamb
+touching.
 
 The search keeps one pose per (0.1 m cell, yaw bin); a step costs its length times
 `1 + cost_weight * cost / 252` (as the grid planners do), a turn on the spot
@@ -103,15 +107,21 @@ class HybridConfig:
 def footprint_cells(
     footprint: Footprint, resolution: float, margin: float, band: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Cells the rectangle (grown by `margin`) may touch, per check yaw bin and quarter-cell
-    position of its centre: CSR start indices ((CHECK_BINS * SUB * SUB) + 1,) and
-    (n, 2) (row, col) offsets from the centre's cell. With `band` (m) > 0 only the cells
-    within `band` of the rectangle's edge: enough along a motion from a clear pose
-    whose every point moves less than `band` from one check to the next. Cached: a
-    navigator's planners (with the margin and without) ask for eight of these by turns,
-    and making one takes a few tenths of a second."""
-    a = 0.5 * footprint.length + margin
-    b = 0.5 * footprint.width + margin
+    """Cells the rectangle (grown by `margin`) may touch at any yaw within half a check
+    bin of the bin's and any centre in a quarter cell, per check yaw bin and quarter-cell
+    position: CSR start indices ((CHECK_BINS * SUB * SUB) + 1,) and (n, 3) rows of (row,
+    col) offsets from the centre's cell and 1 where the rectangle surely overlaps that
+    cell (those first), else 0. With `band` (m) > 0 only the cells within `band` of
+    the edge of the rectangle at the bin's yaw: enough along a motion from a clear pose
+    whose every point moves less than `band`, less the half bin's swing of the corners
+    (1.4 cm), from one check to the next. Cached: a navigator's planners
+    (with the margin and without) ask for eight of these by turns, and making one takes
+    a few tenths of a second."""
+    a0 = 0.5 * footprint.length + margin
+    b0 = 0.5 * footprint.width + margin
+    # turned by up to half a bin about its centre, no point moves further than this
+    swing = np.hypot(a0, b0) * np.pi / CHECK_BINS
+    a, b = a0 + swing, b0 + swing
     h = 0.5 * resolution + 0.5 * resolution / SUB  # cell square grown by the sub-cell
     reach = int(np.ceil((np.hypot(a, b) + 2 * resolution) / resolution))
     rr, cc = np.mgrid[-reach : reach + 1, -reach : reach + 1]
@@ -133,10 +143,18 @@ def footprint_cells(
                 )
                 if band > 0:
                     hit &= ~(
-                        (np.abs(px * c + py * s) + h * (ac + as_) <= a - band)
-                        & (np.abs(-px * s + py * c) + h * (ac + as_) <= b - band)
+                        (np.abs(px * c + py * s) + h * (ac + as_) <= a0 - band)
+                        & (np.abs(-px * s + py * c) + h * (ac + as_) <= b0 - band)
                     )
-                cells.append(np.stack([rr[hit], cc[hit]], axis=1))
+                # a cell whose centre lies inside the rectangle wherever the centre is
+                # in the quarter cell and whatever the yaw in the bin: no test needed
+                q = 0.5 * resolution / SUB * (ac + as_)
+                sure = (np.abs(px * c + py * s) + q < a0 - swing) & (
+                    np.abs(-px * s + py * c) + q < b0 - swing
+                )
+                order = np.argsort(~sure[hit], kind="stable")  # sure cells first
+                found = np.stack([rr[hit], cc[hit], sure[hit]], axis=1)[order]
+                cells.append(found)
                 starts.append(starts[-1] + int(hit.sum()))
     return np.array(starts, dtype=np.int64), np.concatenate(cells).astype(np.int64)
 
@@ -199,8 +217,10 @@ def _cost_to_go(weight, goal):
 
 
 @numba.njit(cache=True)
-def _collides(x, y, kbin, blocked, dist, free_dist, ox, oy, res, starts, cells):
-    """Whether the rectangle at (x, y) with check yaw bin `kbin` touches a blocked cell."""
+def _collides(x, y, th, blocked, dist, free_dist, ox, oy, res, starts, cells, half):
+    """Whether the rectangle of half sides `half` (a, b) at (x, y) facing `th` overlaps a
+    blocked cell's square (cells outside the map count as blocked): the cells the check
+    bin's list names, each tested exactly unless the list marks it sure."""
     rows, cols = blocked.shape
     fc = (x - ox) / res
     fr = (y - oy) / res
@@ -212,30 +232,51 @@ def _collides(x, y, kbin, blocked, dist, free_dist, ox, oy, res, starts, cells):
         return False
     sj = min(SUB - 1, int((fc - c) * SUB))
     si = min(SUB - 1, int((fr - r) * SUB))
+    kbin = int(np.round(th / (np.pi / YAW_BINS))) % CHECK_BINS
     i = (kbin * SUB + si) * SUB + sj
+    co = sn = ta = tb = tx = ty = 0.0
+    tested = False
     for j in range(starts[i], starts[i + 1]):
         rr = r + cells[j, 0]
         cc = c + cells[j, 1]
-        if rr < 0 or rr >= rows or cc < 0 or cc >= cols:
+        if 0 <= rr < rows and 0 <= cc < cols and not blocked[rr, cc]:
+            continue
+        if cells[j, 2]:
             return True
-        if blocked[rr, cc]:
+        if not tested:
+            # separating axes of the cell square and the rectangle: the rectangle's
+            # own, then the map's
+            co, sn = np.cos(th), np.sin(th)
+            ac, as_ = abs(co), abs(sn)
+            h = 0.5 * res
+            ta = half[0] + h * (ac + as_)
+            tb = half[1] + h * (ac + as_)
+            tx = h + half[0] * ac + half[1] * as_
+            ty = h + half[0] * as_ + half[1] * ac
+            tested = True
+        px = ox + (cc + 0.5) * res - x
+        py = oy + (rr + 0.5) * res - y
+        if (
+            abs(px * co + py * sn) < ta
+            and abs(py * co - px * sn) < tb
+            and abs(px) < tx
+            and abs(py) < ty
+        ):
             return True
     return False
 
 
 @numba.njit(cache=True)
-def _motion_free(x, y, b, kind, turn, length, blocked, dist, free_dist, ox, oy, res, st, ce):
+def _motion_free(x, y, b, kind, turn, length, blocked, dist, free_dist, ox, oy, res, st, ce, half):
     """Whether a motion from (x, y, yaw bin b) stays clear; returns (free, x1, y1, b1)."""
     d = 2 * np.pi / YAW_BINS
     th0 = b * d
     b1 = (b + turn) % YAW_BINS
     if kind == 2:
-        k0 = 2 * b
         sgn = 1 if turn > 0 else -1
         for i in range(1, 2 * abs(turn) + 1):
-            if _collides(
-                x, y, (k0 + sgn * i) % CHECK_BINS, blocked, dist, free_dist, ox, oy, res, st, ce
-            ):
+            th = th0 + sgn * i * 0.5 * d
+            if _collides(x, y, th, blocked, dist, free_dist, ox, oy, res, st, ce, half):
                 return False, x, y, b1
         return True, x, y, b1
     direction = 1.0 if kind == 0 else -1.0
@@ -256,14 +297,13 @@ def _motion_free(x, y, b, kind, turn, length, blocked, dist, free_dist, ox, oy, 
             th = th0 + dth
             x1 = x + direction * rad * (np.sin(th) - np.sin(th0))
             y1 = y - direction * rad * (np.cos(th) - np.cos(th0))
-        k = int(np.round(th / (0.5 * d))) % CHECK_BINS
-        if _collides(x1, y1, k, blocked, dist, free_dist, ox, oy, res, st, ce):
+        if _collides(x1, y1, th, blocked, dist, free_dist, ox, oy, res, st, ce, half):
             return False, x1, y1, b1
     return True, x1, y1, b1
 
 
 @numba.njit(cache=True)
-def _turn_free(x, y, k, kt, blocked, dist, free_dist, ox, oy, res, st, ce):
+def _turn_free(x, y, k, kt, blocked, dist, free_dist, ox, oy, res, st, ce, half):
     """Whether turning on the spot at (x, y) from check bin `k` to `kt` (the shorter
     way) keeps the rectangle clear."""
     diff = (kt - k) % CHECK_BINS
@@ -272,32 +312,42 @@ def _turn_free(x, y, k, kt, blocked, dist, free_dist, ox, oy, res, st, ce):
         diff = CHECK_BINS - diff
         sgn = -1
     for i in range(1, diff + 1):
-        if _collides(
-            x, y, (k + sgn * i) % CHECK_BINS, blocked, dist, free_dist, ox, oy, res, st, ce
-        ):
+        th = (k + sgn * i) * np.pi / YAW_BINS
+        if _collides(x, y, th, blocked, dist, free_dist, ox, oy, res, st, ce, half):
             return False
     return True
 
 
 @numba.njit(cache=True)
-def _shot(x, y, b, gx, gy, gk, reverse, blocked, dist, free_dist, ox, oy, res, st, ce):
+def _shot(x, y, b, gx, gy, gk, reverse, blocked, dist, free_dist, ox, oy, res, st, ce, half):
     """Turn on the spot towards (gx, gy) (away from it with `reverse`), drive straight to
     it (backwards with `reverse`), then turn on the spot to check bin `gk` (-1: any
     heading): whether all of it is clear."""
     d = 0.5 * 2 * np.pi / YAW_BINS
     heading = np.arctan2(gy - y, gx - x) + (np.pi if reverse else 0.0)
     kt = int(np.round(heading / d)) % CHECK_BINS
-    if not _turn_free(x, y, 2 * b, kt, blocked, dist, free_dist, ox, oy, res, st, ce):
+    if not _turn_free(x, y, 2 * b, kt, blocked, dist, free_dist, ox, oy, res, st, ce, half):
         return False
     length = np.hypot(gx - x, gy - y)
     n = int(np.ceil(length / (0.5 * res)))
     for i in range(1, n + 1):
         t = i / n
         if _collides(
-            x + t * (gx - x), y + t * (gy - y), kt, blocked, dist, free_dist, ox, oy, res, st, ce
+            x + t * (gx - x),
+            y + t * (gy - y),
+            heading,
+            blocked,
+            dist,
+            free_dist,
+            ox,
+            oy,
+            res,
+            st,
+            ce,
+            half,
         ):
             return False
-    return gk < 0 or _turn_free(gx, gy, kt, gk, blocked, dist, free_dist, ox, oy, res, st, ce)
+    return gk < 0 or _turn_free(gx, gy, kt, gk, blocked, dist, free_dist, ox, oy, res, st, ce, half)
 
 
 @numba.njit(cache=True)
@@ -320,13 +370,16 @@ def _search(
     cell,
     st,
     ce,
+    half,
     tight_dist,
     st2,
     ce2,
+    half2,
     tight_penalty,
     snug_dist,
     st3,
     ce3,
+    half3,
     snug_penalty,
     prims,
     rot_cost,
@@ -376,7 +429,8 @@ def _search(
             return xs[:n], ys[:n], bs[:n], par[:n], -2, 0
         dgoal = np.hypot(gx - x, gy - y)
         if dgoal <= tol and (
-            gk < 0 or _turn_free(gx, gy, 2 * b, gk, blocked, dist, free_dist, ox, oy, res, st, ce)
+            gk < 0
+            or _turn_free(gx, gy, 2 * b, gk, blocked, dist, free_dist, ox, oy, res, st, ce, half)
         ):
             return xs[:n], ys[:n], bs[:n], par[:n], cur, 0
         if spin and dgoal <= shot_range and (expansions % 4 == 1 or dgoal < 1.0):
@@ -387,11 +441,26 @@ def _search(
                 if rev and not reverse_shot:
                     continue
                 if _shot(
-                    x, y, b, gx, gy, gk, rev, blocked, dist, tight_dist, ox, oy, res, st2, ce2
+                    x,
+                    y,
+                    b,
+                    gx,
+                    gy,
+                    gk,
+                    rev,
+                    blocked,
+                    dist,
+                    tight_dist,
+                    ox,
+                    oy,
+                    res,
+                    st2,
+                    ce2,
+                    half2,
                 ):
                     return xs[:n], ys[:n], bs[:n], par[:n], cur, 2 if rev else 1
                 if near and _shot(
-                    x, y, b, gx, gy, gk, rev, blocked, dist, free_dist, ox, oy, res, st, ce
+                    x, y, b, gx, gy, gk, rev, blocked, dist, free_dist, ox, oy, res, st, ce, half
                 ):
                     return xs[:n], ys[:n], bs[:n], par[:n], cur, 2 if rev else 1
         for p in range(prims.shape[0]):
@@ -399,7 +468,7 @@ def _search(
             turn = int(prims[p, 1])
             length = prims[p, 2]
             ok, x1, y1, b1 = _motion_free(
-                x, y, b, kind, turn, length, blocked, dist, free_dist, ox, oy, res, st, ce
+                x, y, b, kind, turn, length, blocked, dist, free_dist, ox, oy, res, st, ce, half
             )
             if not ok:
                 continue
@@ -415,12 +484,13 @@ def _search(
                 step_cost = rot_cost * abs(turn) * 2 * np.pi / YAW_BINS
             else:
                 step_cost = length * prims[p, 3] * weight[r1, c1]
+            th1 = b1 * 2 * np.pi / YAW_BINS
             if tight_penalty > 1.0 and _collides(
-                x1, y1, 2 * b1, blocked, dist, tight_dist, ox, oy, res, st2, ce2
+                x1, y1, th1, blocked, dist, tight_dist, ox, oy, res, st2, ce2, half2
             ):
                 step_cost *= tight_penalty
                 if snug_penalty > 1.0 and _collides(
-                    x1, y1, 2 * b1, blocked, dist, snug_dist, ox, oy, res, st3, ce3
+                    x1, y1, th1, blocked, dist, snug_dist, ox, oy, res, st3, ce3, half3
                 ):
                     step_cost *= snug_penalty
             g1 = gs[cur] + step_cost
@@ -474,7 +544,7 @@ class HybridAStar:
 
     def collides(self, costmap: Costmap, poses: np.ndarray) -> np.ndarray:
         """Whether the rectangle (grown by `margin`) touches a blocked cell at each pose
-        (N, 3); the yaw is taken to the nearest 2.5 deg."""
+        (N, 3), as the search and its start check test it."""
         return footprint_hits(
             costmap, np.asarray(poses, dtype=float), self.config.margin, self.blocked(costmap)
         )
@@ -548,21 +618,32 @@ class HybridAStar:
         blocked = self.blocked(costmap)
         fp = costmap.footprint
         free_dist = fp.circumscribed_radius + c.margin + 2 * res
-        sb = int(np.round(s[2] / (2 * np.pi / YAW_BINS))) % YAW_BINS
         ox, oy = costmap.origin
-        args = (blocked, costmap.distance, free_dist, ox, oy, res, starts, cells)
-        if _collides(s[0], s[1], 2 * sb, *args):
+        half, half2, half3 = (
+            np.array([0.5 * fp.length + m, 0.5 * fp.width + m])
+            for m in (c.margin, max(c.tight_margin, c.margin), max(c.snug_margin, c.margin))
+        )
+        args = (blocked, costmap.distance, free_dist, ox, oy, res, starts, cells, half)
+        if _collides(s[0], s[1], s[2], *args):
             raise StartBlocked(f"the footprint at the start {_fmt(s)} touches an obstacle")
+        sb = _start_bin(s, args)
+        if sb < 0:
+            raise StartBlocked(
+                f"the footprint at the start {_fmt(s)} touches an obstacle turned to the "
+                f"nearest {360 // YAW_BINS} deg heading either way"
+            )
         gk = -1
         if len(g_full) >= 3:
             gk = int(np.round(g_full[2] / (np.pi / YAW_BINS))) % CHECK_BINS
-            if _collides(g[0], g[1], gk, *args):
+            if _collides(g[0], g[1], g_full[2], *args):
                 raise NoPath(
                     f"the goal {_fmt(g)}: the footprint facing {np.degrees(g_full[2]):.0f} deg "
                     "touches an obstacle there"
                 )
         # a goal position is open if some yaw fits there
-        elif all(_collides(g[0], g[1], k, *args) for k in range(0, CHECK_BINS, 2)):
+        elif all(
+            _collides(g[0], g[1], k * np.pi / YAW_BINS, *args) for k in range(0, CHECK_BINS, 2)
+        ):
             raise NoPath(
                 f"the goal {_fmt(g)}: the footprint touches an obstacle there in every heading"
             )
@@ -597,13 +678,16 @@ class HybridAStar:
             2 * res,
             edge[0],
             edge[1],
+            half,
             fp.circumscribed_radius + max(c.tight_margin, c.margin) + 2 * res,
             tight[0],
             tight[1],
+            half2,
             c.tight_penalty,
             fp.circumscribed_radius + max(c.snug_margin, c.margin) + 2 * res,
             snug[0],
             snug[1],
+            half3,
             c.snug_penalty,
             motions(c),
             c.rotation_cost,
@@ -640,6 +724,20 @@ class HybridAStar:
         return poses
 
 
+def _start_bin(s: np.ndarray, args: tuple) -> int:
+    """The yaw bin the search starts from at the start `s` (x, y, yaw): of the two the
+    yaw lies between, the nearer that a turn on the spot from the yaw itself reaches
+    clear, else the other; -1 where neither does."""
+    d = 2 * np.pi / YAW_BINS
+    lo = int(np.floor(s[2] / d))
+    near_first = sorted((lo, lo + 1), key=lambda b: abs(b * d - s[2]))
+    for b in near_first:
+        turn = s[2] + np.linspace(0.0, b * d - s[2], 3)[1:]
+        if not any(_collides(s[0], s[1], th, *args) for th in turn):
+            return b % YAW_BINS
+    return -1
+
+
 def wall_marks(costmap: Costmap, tolerance: float) -> np.ndarray:
     """Obstacle-layer cells within `tolerance` (m) of the static map's: the walls seen
     from a pose a little off (localization error), not new obstacles."""
@@ -652,17 +750,18 @@ def wall_marks(costmap: Costmap, tolerance: float) -> np.ndarray:
 def footprint_hits(
     costmap: Costmap, poses: np.ndarray, margin: float, blocked: np.ndarray | None = None
 ) -> np.ndarray:
-    """Whether the costmap's footprint, grown by `margin` (m), touches a blocked cell
-    (default: lethal) at each of the poses (..., 3); yaw to the nearest 2.5 deg."""
-    starts, cells = footprint_cells(costmap.footprint, costmap.resolution, margin)
+    """Whether the costmap's footprint, grown by `margin` (m), overlaps a blocked cell
+    (default: lethal; cells outside the map count as blocked) at each of the poses
+    (..., 3): the rectangle at the pose's own yaw, as the footprint planner checks it."""
+    fp = costmap.footprint
+    starts, cells = footprint_cells(fp, costmap.resolution, margin)
     p = np.asarray(poses, dtype=float)
     flat = p.reshape(-1, 3)
-    k = np.round(flat[:, 2] / (np.pi / YAW_BINS)).astype(np.int64) % CHECK_BINS
-    free_dist = costmap.footprint.circumscribed_radius + margin + 2 * costmap.resolution
+    free_dist = fp.circumscribed_radius + margin + 2 * costmap.resolution
     out = _hits(
         flat[:, 0].copy(),
         flat[:, 1].copy(),
-        k,
+        flat[:, 2].copy(),
         costmap.lethal if blocked is None else blocked,
         costmap.distance,
         free_dist,
@@ -671,16 +770,17 @@ def footprint_hits(
         costmap.resolution,
         starts,
         cells,
+        np.array([0.5 * fp.length + margin, 0.5 * fp.width + margin]),
     )
     return out.reshape(p.shape[:-1])
 
 
 @numba.njit(cache=True)
-def _hits(xs, ys, ks, blocked, dist, free_dist, ox, oy, res, starts, cells):
+def _hits(xs, ys, ths, blocked, dist, free_dist, ox, oy, res, starts, cells, half):
     out = np.zeros(xs.shape[0], dtype=np.bool_)
     for i in range(xs.shape[0]):
         out[i] = _collides(
-            xs[i], ys[i], ks[i], blocked, dist, free_dist, ox, oy, res, starts, cells
+            xs[i], ys[i], ths[i], blocked, dist, free_dist, ox, oy, res, starts, cells, half
         )
     return out
 

@@ -43,9 +43,9 @@ from robotrial.nav import DEFAULT_PLANNER, default_controller
 from robotrial.nav.costmap import Costmap, Footprint, Inflation, coarsen
 from robotrial.nav.dwa import DWAConfig, DWAPlanner, DWAResult, footprint_clearance, rollout
 from robotrial.nav.goals import escape_move
-from robotrial.nav.hybrid import HybridAStar, HybridConfig, resample
+from robotrial.nav.hybrid import HybridAStar, HybridConfig, footprint_hits, resample
 from robotrial.nav.planners import PLANNERS, NoPath, StartBlocked, make_planner, smooth
-from robotrial.nav.profile import ProfileConfig, ProfileController, rectangle_clearance, touches
+from robotrial.nav.profile import ProfileConfig, ProfileController, rectangle_clearance
 from robotrial.nav.pursuit import PursuitConfig, PursuitController
 
 GLOBAL_PLANNERS = (*PLANNERS, "hybrid", "auto")
@@ -611,7 +611,7 @@ class Navigator:
         """Whether the footprint touches an obstacle at any of the poses: the rectangle
         itself where the controller checks it so, else its covering circles."""
         if self.config.dwa.exact_footprint:
-            return bool(touches(costmap, poses).any())
+            return bool(footprint_hits(costmap, poses, 0.0).any())
         return bool(footprint_clearance(costmap, self.footprint, poses).min() < 0.0)
 
     def _clearance(self, costmap: Costmap, poses: np.ndarray) -> np.ndarray:

@@ -213,19 +213,6 @@ def rectangle_clearance(
     )
 
 
-def touches(costmap: Costmap, poses: np.ndarray, blocked: np.ndarray | None = None) -> np.ndarray:
-    """Whether the exact rectangle overlaps a blocked cell (default: lethal) at each pose
-    (N, 3). The footprint's cell masks (`footprint_hits`, the yaw to the nearest 2.5
-    degrees) answer first; a pose they call touching is measured exactly, since at the
-    corners of a 0.99 m base that rounding is up to 1 cm: a base a few mm clear of a
-    doorway's jamb, askew, would be held still by it with every motion refused."""
-    p = np.asarray(poses, dtype=float).reshape(-1, 3)
-    hits = footprint_hits(costmap, p, 0.0, blocked)
-    if hits.any():
-        hits[hits] = rectangle_clearance(costmap, p[hits], blocked) < 0.0
-    return hits
-
-
 # --- the speed profile -----------------------------------------------------------------
 
 
@@ -698,7 +685,7 @@ class ProfileController:
         )
         check = near[window]
         if len(check):
-            hit = touches(costmap, rest[check], blocked)
+            hit = footprint_hits(costmap, rest[check], 0.0, blocked)
             if hit.any():
                 stop_at = int(check[int(np.argmax(hit))])
         # the rate now: the base's speed along this piece
@@ -758,13 +745,13 @@ class ProfileController:
             turn = w if abs(w) > 0.05 else 0.3 * float(np.sign(w_ff + eth) or 1.0)
             turn = float(np.clip(turn, w0 - dw, w0 + dw))
             candidates += [(c.creep_speed, turn), (-c.creep_speed, turn)]
-        here_clear = not touches(costmap, pose_a[None], blocked).any()
+        here_clear = not footprint_hits(costmap, pose_a[None], 0.0, blocked).any()
         for k, (cv, cw) in enumerate(candidates):
             if cv == 0.0 and cw == 0.0:
                 continue
             steps = max(2, int(np.ceil((abs(cv) / c.max_accel + 0.2) / 0.05)))
             traj = rollout(tuple(pose_a), np.array([cv]), np.array([cw]), steps, 0.05)[0]
-            hits = touches(costmap, traj, blocked)
+            hits = footprint_hits(costmap, traj, 0.0, blocked)
             if not hits.any() or (not here_clear and not hits[-1]):
                 if k >= 3:
                     # a turn on the spot of the plan would touch (the base stopped off

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Iterable
 from functools import cache
 from typing import Any
 
@@ -157,16 +158,8 @@ class _Timed(JointTrajectory):
         traj = self.timed
         if not math.isfinite(float(traj.q.sum() + traj.qd.sum() + traj.qdd.sum())):
             return None  # the generic encoder writes a non-finite number as null
-        pos, vel, acc, eff, when = _spelling(JointTrajectoryPoint, dialect)
-        sec, nanosec = _spelling(Duration, dialect)
-        return [
-            {
-                pos: q,
-                vel: qd,
-                acc: qdd,
-                eff: [],
-                when: {sec: ns // 1_000_000_000, nanosec: ns % 1_000_000_000},
-            }
+        rows = (
+            (ns // 1_000_000_000, ns % 1_000_000_000, q, qd, qdd, [])
             for ns, q, qd, qdd in zip(
                 _nanoseconds(traj),
                 traj.q.tolist(),
@@ -174,7 +167,8 @@ class _Timed(JointTrajectory):
                 traj.qdd.tolist(),
                 strict=True,
             )
-        ]
+        )
+        return _point_objects(rows, dialect)
 
 
 class _Answer(PlanTaskResponse):
@@ -194,23 +188,34 @@ class _Answer(PlanTaskResponse):
 def _points(points: list[JointTrajectoryPoint], dialect: Dialect) -> list[dict] | None:
     """Trajectory point messages as rosbridge JSON objects, or None when a number is not
     finite."""
-    pos, vel, acc, eff, when = _spelling(JointTrajectoryPoint, dialect)
-    sec, nanosec = _spelling(Duration, dialect)
-    out = []
     total = 0.0  # finite only when every number is (an overflow just takes the slow path)
     for p in points:
-        t = p.time_from_start
-        out.append(
-            {
-                pos: p.positions,
-                vel: p.velocities,
-                acc: p.accelerations,
-                eff: p.effort,
-                when: {sec: t.sec, nanosec: t.nanosec},
-            }
-        )
         total += sum(p.positions) + sum(p.velocities) + sum(p.accelerations) + sum(p.effort)
-    return out if math.isfinite(total) else None
+    if not math.isfinite(total):
+        return None
+    rows = (
+        (
+            p.time_from_start.sec,
+            p.time_from_start.nanosec,
+            p.positions,
+            p.velocities,
+            p.accelerations,
+            p.effort,
+        )
+        for p in points
+    )
+    return _point_objects(rows, dialect)
+
+
+def _point_objects(rows: Iterable[tuple], dialect: Dialect) -> list[dict]:
+    """Trajectory points as rosbridge JSON objects, from rows of (sec, nanosec,
+    positions, velocities, accelerations, effort)."""
+    pos, vel, acc, eff, when = _spelling(JointTrajectoryPoint, dialect)
+    sec, nanosec = _spelling(Duration, dialect)
+    return [
+        {pos: q, vel: qd, acc: qdd, eff: e, when: {sec: s, nanosec: ns}}
+        for s, ns, q, qd, qdd, e in rows
+    ]
 
 
 @cache

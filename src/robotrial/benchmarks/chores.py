@@ -80,7 +80,7 @@ def chore_homes(
     alone)."""
     from robotrial.model.homegen import generate_home
     from robotrial.trials.carry import catalogue_of
-    from robotrial.trials.chores import home_chores
+    from robotrial.trials.chores import home_chores, room_of
 
     out = []
     for seed in range(first, first + SEARCHED_SEEDS):
@@ -88,7 +88,7 @@ def chore_homes(
             break
         world = generate_home(seed, spec=CHORE_HOMES)
         kinds = catalogue_of(world)
-        rooms = {o.name: _room_of(world, o) for o in world.objects}
+        rooms = {o.name: room_of(world, o) for o in world.objects}
         twins = {
             o.name: [
                 rooms[t.name]
@@ -123,11 +123,6 @@ def chore_jobs(
 
 def _look(kind: Any) -> tuple:
     return (kind.shape, kind.size, kind.rgb)
-
-
-def _room_of(world: Any, obj: Any) -> str:
-    x, y = obj.pose.xyz[:2]
-    return next((r.name for r in world.rooms if r.contains(x, y)), "")
 
 
 def gripper_opening(robot: str) -> float:

@@ -49,16 +49,21 @@ def split_object(obj: str, chore: str = "") -> tuple[str, str]:
     return name.strip(), on.strip()
 
 
+def room_of(world: World, obj: Any) -> str:
+    """The name of the first room of `world` that holds `obj`'s centre, or "" when none."""
+    x, y = obj.pose.xyz[:2]
+    return next((r.name for r in world.rooms if r.contains(x, y)), "")
+
+
 def home_chores(world: World, n: int = 3) -> list[tuple[str, str]]:
     """Up to `n` chores a world offers: each movable object standing in a room, to
     another room with a place to set it down; one chore per object before any object
     gets a second (objects and rooms in the world's order)."""
     options: list[list[tuple[str, str]]] = []
     for ob in world.objects:
-        x, y = ob.pose.xyz[:2]
-        inside = [r.name for r in world.rooms if r.contains(x, y)]
+        inside = room_of(world, ob)
         if inside:
-            to = [r.name for r in world.rooms if r.place is not None and r.name != inside[0]]
+            to = [r.name for r in world.rooms if r.place is not None and r.name != inside]
             options.append([(ob.name, room) for room in to])
     out: list[tuple[str, str]] = []
     for k in range(max((len(o) for o in options), default=0)):

@@ -112,24 +112,30 @@ def test_a_book_on_a_round_table_in_a_corner_is_said_to_be_out_of_reach(skills: 
     # off the table and room behind for the stage), and the arm reaches 0.65 m
     world = _on_true_map(skills, 17)
     book = np.array(next(o for o in world.objects if o.name == "book").pose.xyz[:2])
-    # the book's room only: from the next room, through the wall, the plan's map has a
-    # pose 0.65 m off (not a way in; the robot's own map had none there)
-    (x0, y0), (x1, y1) = world.room("Room 1").bounds
-    rows, cols = skills.clearance.shape
-    x = skills.map_origin[0] + (np.arange(cols) + 0.5) * skills.map_res
-    y = skills.map_origin[1] + (np.arange(rows) + 0.5) * skills.map_res
-    inside = ((y >= y0) & (y <= y1))[:, None] & ((x >= x0) & (x <= x1))[None, :]
-    skills.map_blocked = skills.map_blocked | ~inside
-    skills.clearance = ndimage.distance_transform_edt(~skills.map_blocked) * skills.map_res
-    skills.site_clearance = skills.clearance
-    assert not skills.base_candidates(book)
+    room = world.room("Room 1").bounds
+    assert not skills.base_candidates(book, room=room)
     with pytest.raises(SkillFailed) as failed:
-        next(skills.approach(Sighting(BOOK, np.array([*book, 0.78]), None)))  # type: ignore[arg-type]
+        next(skills.approach(Sighting(BOOK, np.array([*book, 0.78]), None), room))  # type: ignore[arg-type]
     assert failed.value.cause == "no_base_pose"
     words = failed.value.reason
     assert "the book is out of the robot's reach" in words
     assert "leaves it 0.75 m from the arm's base, 0.10 m too far" in words
     assert "the arm reaches 0.65 m from its base, about 0.45 m in from the edge" in words
+
+
+def test_no_work_site_stands_behind_the_wall_a_table_is_next_to(skills: Skills) -> None:
+    # home 33: a book on a table 4 cm off a wall, 0.27 m in from the wall's side and
+    # 0.53 m from its only free side; behind the wall, in the next room, a pose has the
+    # arm 0.58 m from the book and free on the map: the arm would reach across the wall
+    world = _on_true_map(skills, 33)
+    book = np.array(next(o for o in world.objects if o.name == "book").pose.xyz[:2])
+    room = world.room("Room 3").bounds
+    behind = skills.base_candidates(book)
+    assert behind and all(base[0] < room[0][0] for base, _ in behind)
+    assert not skills.base_candidates(book, room=room)
+    with pytest.raises(SkillFailed) as failed:
+        next(skills.approach(Sighting(BOOK, np.array([*book, 0.78]), None), room))  # type: ignore[arg-type]
+    assert "the book is out of the robot's reach" in failed.value.reason
 
 
 def test_a_book_on_a_sofa_between_a_wall_and_a_round_table_gets_a_work_site(

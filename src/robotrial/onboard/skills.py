@@ -154,6 +154,10 @@ SHOULDER_OVER_TOP = 0.0
 SIDE_GRASP = Rotation.from_matrix([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])
 
 
+# a room's rectangle on the map: (x min, y min), (x max, y max)
+Room = tuple[tuple[float, float], tuple[float, float]]
+
+
 class SkillFailed(RuntimeError):
     """A skill could not do its job: `cause` (one of the table above) and why."""
 
@@ -873,12 +877,15 @@ class Skills:
         return float(clearance[row, col].min())
 
     def base_candidates(
-        self, xy: np.ndarray, reaches: Sequence[float] = REACHES
+        self, xy: np.ndarray, reaches: Sequence[float] = REACHES, room: Room | None = None
     ) -> list[tuple[np.ndarray, np.ndarray]]:
         """Base poses (and their staging poses STANDOFF behind) from which the arm's base
         is one of `reaches` from `xy`, the object straight ahead or up to ASIDE off the
         heading (between furniture, a base turned from the object often fits where one
-        facing it does not), free on the built map (`site_clearance`): those at the edge
+        facing it does not), free on the built map (`site_clearance`), with `room` (a
+        rectangle, map frame) only those whose base stands in it (a table 5 cm off a wall
+        leaves a free pose behind the wall, in the next room, from which the arm would
+        reach across the wall): those at the edge
         of the arm's reach (max REACHES: the object seen again 2 cm further from there is
         out of reach) after every other, then those whose stage has room to turn first,
         then by reach in the order given, the object nearest straight ahead, the most
@@ -893,6 +900,8 @@ class Skills:
                     d = np.array([np.cos(th), np.sin(th)])
                     towards = np.array([np.cos(th + aside), np.sin(th + aside)])
                     centre = xy - reach * towards - self.arm_offset * d
+                    if room is not None and not in_rect(centre, room):
+                        continue
                     base = np.array([centre[0], centre[1], th])
                     stage = np.array([*(centre - STANDOFF * d), th])
                     c1 = clearance(base, site=True)
@@ -909,11 +918,11 @@ class Skills:
         out.sort(key=lambda r: r[:5])
         return [(b, s) for *_, b, s in out]
 
-    def _out_of_reach(self, xy: np.ndarray, what: str) -> str:
-        """Why no base pose serves `xy` (map), in a buyer's words: how far from the arm's
-        base the nearest free pose facing it would leave it, how far the arm reaches and
-        so how far in from a top's edge it takes things."""
-        reach = next((r for r in FAR_REACHES if self.base_candidates(xy, (float(r),))), None)
+    def _out_of_reach(self, xy: np.ndarray, what: str, room: Room | None = None) -> str:
+        """Why no base pose (in `room`, if given) serves `xy` (map), in a buyer's words:
+        how far from the arm's base the nearest free pose facing it would leave it, how
+        far the arm reaches and so how far in from a top's edge it takes things."""
+        reach = next((r for r in FAR_REACHES if self.base_candidates(xy, (float(r),), room)), None)
         arm = self._arm_reach()
         if reach is None:
             return (
@@ -1057,9 +1066,12 @@ class Skills:
         half = np.hypot(*kind.size[:2]) / 2 if kind.shape == "box" else kind.width / 2
         return float(half + self.voxels.resolution + SEEN_ERROR)
 
-    def approach(self, target: Sighting) -> Generator[None, None, Sighting]:
-        """Drive to a work site from which the arm reaches the object, looking at it
-        again from the staging pose on the way; the sighting, refreshed."""
+    def approach(
+        self, target: Sighting, room: Room | None = None
+    ) -> Generator[None, None, Sighting]:
+        """Drive to a work site (in `room`, the object's, when given) from which the arm
+        reaches the object, looking at it again from the staging pose on the way; the
+        sighting, refreshed."""
         kind = target.kind
         if kind.grip_width > 2 * abs(self.finger_open - self.finger_closed) - 0.005:
             raise SkillFailed(
@@ -1067,9 +1079,10 @@ class Skills:
                 f"the {kind.name} is {100 * kind.grip_width:.1f} cm across; the gripper "
                 f"opens {200 * abs(self.finger_open - self.finger_closed):.1f} cm",
             )
-        candidates = self.base_candidates(target.position[:2])
+        candidates = self.base_candidates(target.position[:2], room=room)
         if not candidates:
-            raise SkillFailed("no_base_pose", self._out_of_reach(target.position[:2], kind.name))
+            reason = self._out_of_reach(target.position[:2], kind.name, room)
+            raise SkillFailed("no_base_pose", reason)
         failed: list[np.ndarray] = []
         reached = checked = 0
         for base, stage in candidates:
@@ -1242,13 +1255,14 @@ class Skills:
 
     # --- place -------------------------------------------------------------------------
 
-    def carry_to(self, point: np.ndarray) -> Generator[None, None, float]:
-        """Drive to a work site from which the held object can be set down at `point`
-        (map x, y): look at the point from each staging pose to find the surface there
-        and drive in when the arm reaches; the surface's height."""
+    def carry_to(self, point: np.ndarray, room: Room | None = None) -> Generator[None, None, float]:
+        """Drive to a work site (in `room`, the place's, when given) from which the held
+        object can be set down at `point` (map x, y): look at the point from each staging
+        pose to find the surface there and drive in when the arm reaches; the surface's
+        height."""
         assert self.held is not None
         kind = self.held.kind
-        candidates = self.base_candidates(point)
+        candidates = self.base_candidates(point, room=room)
         if not candidates:
             raise SkillFailed("no_base_pose", "no free base pose on the map near the place")
         height = None
@@ -1497,6 +1511,12 @@ def furniture_tops(
     return pieces
 
 
+def in_rect(xy: np.ndarray, rect: Room) -> bool:
+    """Whether the point `xy` (x, y first) lies in the rectangle `rect`."""
+    (x0, y0), (x1, y1) = rect
+    return bool(x0 <= xy[0] <= x1 and y0 <= xy[1] <= y1)
+
+
 def best_in_room(
     sightings: Sequence[Sighting],
     kind: ObjectKind,
@@ -1506,12 +1526,7 @@ def best_in_room(
     for both) that best matches it among those whose centre lies in the room (`bounds`,
     map frame), or None: an object alike seen through a doorway in another room is not
     the one the order names."""
-    (x0, y0), (x1, y1) = bounds
-    inside = [
-        s
-        for s in sightings
-        if s.kind.looks_like(kind) and x0 <= s.position[0] <= x1 and y0 <= s.position[1] <= y1
-    ]
+    inside = [s for s in sightings if s.kind.looks_like(kind) and in_rect(s.position, bounds)]
     return min(inside, key=lambda s: s.detection.error) if inside else None
 
 

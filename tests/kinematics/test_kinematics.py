@@ -8,7 +8,7 @@ import pytest
 
 from robotrial.benchmarks.planning import panda_path
 from robotrial.geometry import Box, Pose
-from robotrial.kinematics.chain import Kinematics, fk, sincos
+from robotrial.kinematics.chain import Kinematics, fk, fk_batch, jacobian_from_poses, sincos
 from robotrial.kinematics.ik import solve_ik
 from robotrial.kinematics.reference import link_poses
 from robotrial.model import load_robot
@@ -111,6 +111,23 @@ def test_fk_matches_mujoco(name: str) -> None:
                 continue
             np.testing.assert_allclose(poses[i, :3, 3], data.xpos[bid], atol=1e-6)
             np.testing.assert_allclose(poses[i, :3, :3], data.xmat[bid].reshape(3, 3), atol=1e-6)
+
+
+@pytest.mark.parametrize("name", [*ROBOTS, "tilted"])
+def test_tip_chain_places_the_end_effector_as_the_whole_tree(name: str) -> None:
+    """IK's chain (the moving frames to the end effector, the end effector fixed on the
+    last) puts the end effector where the full tree does, with the same Jacobian."""
+    robot = tilted_arm() if name == "tilted" else _robot(name)
+    kin = Kinematics(robot)
+    chain, ancestors, tip = kin.tip_chain()
+    assert len(chain.parent) <= len(kin.link_names)
+    for q in kin.random(np.random.default_rng(1), 10):
+        poses = fk_batch(q[None], *chain)[0]
+        np.testing.assert_allclose(poses[tip], kin.link_pose(q), atol=1e-12)
+        jac = jacobian_from_poses(
+            poses, tip, poses[tip, :3, 3].copy(), ancestors, *chain[2:6], kin.d
+        )
+        np.testing.assert_allclose(jac, kin.jacobian(q), atol=1e-12)
 
 
 @pytest.mark.parametrize("name", ["desk_arm", "tilted"])

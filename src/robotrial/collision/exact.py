@@ -54,6 +54,7 @@ class ExactChecker:
         self._held = held
         self._robot_pairs = None if robot_pairs is None else tuple(robot_pairs)
         self._built = False
+        self._half_step = np.ascontiguousarray(checker.resolution / 2, dtype=float)
 
     def _build(self) -> None:
         """The MJCF and MuJoCo model of the scene, made on the first query: most answers
@@ -180,11 +181,11 @@ class ExactChecker:
         shapes and its contacts count from 10 um, so a sample it calls free is free for
         MuJoCo too), only the samples it does not clear go to MuJoCo: those near a
         contact."""
-        path = np.atleast_2d(np.asarray(path, dtype=float))
+        path = np.ascontiguousarray(np.atleast_2d(path), dtype=float)
         if not len(path):
             return True, -1
-        res = self.checker.resolution / 2 if step is None else np.full(path.shape[1], step)
-        qs = _samples(np.ascontiguousarray(path), np.ascontiguousarray(res, dtype=float))
+        res = self._half_step if step is None else np.full(path.shape[1], float(step))
+        qs = _samples(path, res)
         near = np.arange(len(qs)) if screen is None else np.nonzero(~screen.valid(qs))[0]
         if not len(near):
             return True, -1

@@ -951,6 +951,10 @@ class CollisionChecker:
         kernels.valid_batch(q, out, *self._packed)
         return out
 
+    def free(self, q: np.ndarray) -> bool:
+        """Is the one configuration `q` (d,) free? (`valid` without a batch's arrays.)"""
+        return kernels.config_free(*self._packed, np.ascontiguousarray(q, dtype=float))
+
     def kernel_args(self) -> kernels.Packed:
         """What the compiled checks take (`kernels.Packed`): compiled planners call
         `kernels.motion_free` and `kernels.config_free` with it."""

@@ -294,6 +294,7 @@ class Kinematics:
             [bool(np.any((self.src >= 0) & self.ancestors[k])) for k in range(n_links)]
         )
         self.tip = self.link_index[self.tip_name]
+        self._tip_chain: tuple[TreeArrays, np.ndarray, int] | None = None
 
     def _args(self) -> TreeArrays:
         return TreeArrays(
@@ -340,6 +341,37 @@ class Kinematics:
             self.const[idx].copy(),
         )
         return args, node, rel
+
+    def tip_chain(self) -> tuple[TreeArrays, np.ndarray, int]:
+        """The frames IK needs: the root, the moving frames that carry the end effector
+        (`collapsed`), and the end effector as a fixed frame on the last of them. Returns
+        the kernel arguments of that chain, its `ancestors` matrix and the end effector's
+        index in it (the last). Made once: on an arm with fingers a forward kinematics
+        pass over it skips the links IK never reads."""
+        if self._tip_chain is None:
+            args, node, rel = self.collapsed()
+            keep = []
+            k = int(node[self.tip])
+            while k >= 0:
+                keep.append(k)
+                k = int(args.parent[k])
+            keep.reverse()
+            at = {k: i for i, k in enumerate(keep)}
+            n = len(keep) + 1
+            parent = np.array([-1] + [at[int(args.parent[k])] for k in keep[1:]] + [n - 2])
+            chain = TreeArrays(
+                parent.astype(np.int64),
+                np.concatenate([args.origin[keep], rel[self.tip][None]]),
+                np.append(args.jtype[keep], FIXED).astype(np.int64),
+                np.concatenate([args.axis[keep], np.zeros((1, 3))]),
+                np.append(args.src[keep], -1).astype(np.int64),
+                np.append(args.mult[keep], 1.0),
+                np.append(args.offset[keep], 0.0),
+                np.append(args.const[keep], 0.0),
+            )
+            ancestors = np.tril(np.ones((n, n), dtype=np.bool_))  # a chain: every earlier frame
+            self._tip_chain = (chain, ancestors, n - 1)
+        return self._tip_chain
 
     def check_q(self, q: np.ndarray) -> np.ndarray:
         a = np.ascontiguousarray(np.asarray(q, dtype=float))

@@ -273,15 +273,16 @@ def search(
         t = np.ascontiguousarray(tgt)
     else:
         t[:3, 3] = tgt
+    chain, ancestors, tip = kin.tip_chain()
     free, direct, best, perr, rerr, converged, tried, past, colliding = _found(
         fixed_seeds,
         t,
         rotation,
         kin.lower,
         kin.upper,
-        *kin._args(),
-        kin.ancestors,
-        kin.tip,
+        *chain,
+        ancestors,
+        tip,
         tol_pos,
         tol_rot,
         start,

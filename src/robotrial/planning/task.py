@@ -143,8 +143,13 @@ class _Scene:
 def _scene_key(obstacles: Obstacles, held: HeldObject | None, start: np.ndarray) -> tuple:
     """What a scene's checkers depend on: the obstacles, and the held object with the
     configuration it is picked up in (which links may touch it)."""
-    parts: list[Any] = [
-        (name, type(shape).__name__, repr(shape), pose.xyz, pose.quat)
+    parts: list[Any] = [  # a box (what requests send) is its own key; other shapes by repr
+        (
+            name,
+            shape if type(shape) is Box else (type(shape).__name__, repr(shape)),
+            pose.xyz,
+            pose.quat,
+        )
         for name, shape, pose in obstacles
     ]
     if held is not None:
@@ -412,9 +417,9 @@ class TaskPlanner:
 
         # the first sphere cover is the fast path; where it refuses an end, the fine one
         # decides (`CollisionChecker.finer`), and the whole request goes on with it
-        if not checker.valid(start[None])[0]:
+        if not checker.free(start):
             finer = checker.finer(start)
-            if finer is None or not finer.valid(start[None])[0]:
+            if finer is None or not finer.free(start):
                 touching = sorted((finer or checker).contacts(start))
                 self._fail(
                     result, "start_in_collision", "start in collision: " + _describe(touching)
@@ -427,7 +432,7 @@ class TaskPlanner:
             goal = np.asarray(request.goal_joints, dtype=float)
             if goal.shape != (self.kin.d,) or not np.all(np.isfinite(goal)):
                 raise TaskError(f"goal_joints must be {self.kin.d} finite joint values")
-            if not checker.valid(goal[None])[0]:
+            if not checker.free(goal):
                 touching = sorted(checker.contacts(goal))
                 self._fail(result, "goal_in_collision", "goal in collision: " + _describe(touching))
                 return
@@ -537,7 +542,7 @@ class TaskPlanner:
         reach, past a wall, or every solution colliding)."""
         self._remaining("inverse kinematics")
         target = np.asarray(request.goal_position, dtype=float)
-        if target.shape != (3,) or not np.all(np.isfinite(target)):
+        if target.shape != (3,) or not all(map(math.isfinite, target.tolist())):
             raise TaskError(f"ee_goal.position must be three finite numbers, got {target}")
         goal_pose = None
         if request.goal_orientation is not None:

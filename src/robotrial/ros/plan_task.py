@@ -130,7 +130,8 @@ def _point_messages(traj: Trajectory) -> list[JointTrajectoryPoint]:
 
 
 def _nanoseconds(traj: Trajectory) -> list[int]:
-    return np.round(traj.t * 1e9).astype(np.int64).tolist()
+    """The samples' times in whole nanoseconds (halves to even, as NumPy rounds)."""
+    return [round(t * 1e9) for t in traj.t.tolist()]
 
 
 class _Timed(JointTrajectory):

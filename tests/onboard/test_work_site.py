@@ -312,3 +312,61 @@ def test_the_hand_keeps_to_the_line_of_its_approach_to_a_grasp(skills: Skills) -
     assert direct.success and line is not None
     assert _off_line(skills, direct.trajectory.tracked(0.01), pre, grasp) > 0.003
     assert _off_line(skills, line.trajectory.tracked(0.01), pre, grasp) < 0.001
+
+
+def test_a_can_set_down_2_cm_beyond_the_point_is_taken_again_and_moved_onto_it(
+    skills: Skills,
+) -> None:
+    # homes 40 and 28: held 30 degrees down, the can crept 1.3-2.1 cm out along the
+    # fingers while carried, unseen (the camera shows no face that says how far out it
+    # sits), and was set down that much beyond the point; seen on the top, it is taken
+    # where it stands, lifted 5 mm off and set down on the point, the hand on straight
+    # lines all the way (`Skills._set_again`)
+    from robotrial.benchmarks.reach import top_seen
+    from robotrial.onboard.skills import RESET_LIFT, Held
+
+    reach, inward, height = 0.5, 0.2, 0.8
+    x = skills.arm_offset + reach
+    top_seen(skills, height, x - inward)
+    point = np.array([x, 0.0, height + CAN.height / 2])
+    seen = point + np.array([0.02, 0.0, 0.0])
+    pitch = np.deg2rad(30.0)
+    orientation = skills.orientation(seen, pitch)
+    pre, grasp = skills._grasp_points(seen, CAN, pitch)
+    keep_out = skills._keep_out(seen, CAN)
+    with skills._lift_at(0.05):
+        at = skills.plan(
+            skills.arm_q(),
+            skills._obstacles(np.zeros(3), keep_out),
+            pre,
+            orientation,
+            check_only=True,
+        )
+        assert at.success, at.message
+        stow = dict(skills.robot.joints)
+        skills.robot.joints = dict(zip(skills.arm_names, at.trajectory.q[-1].tolist(), strict=True))
+        try:
+            obstacles = skills._obstacles(np.zeros(3), keep_out)
+            taken = skills._line_motion(grasp, orientation, obstacles)
+            assert taken is not None
+            q = taken.trajectory.q[-1]
+            skills.robot.joints = dict(zip(skills.arm_names, q.tolist(), strict=True))
+            tcp = skills.planner.kin.link_pose(q)
+            in_hand = (np.linalg.inv(tcp) @ np.append(seen, 1.0))[:3]
+            in_hand[1] = 0.0
+            skills.held = Held(CAN, in_hand, CAN.grip_width, pitch)
+            hand = skills._set_down_at(point, orientation)
+            up = np.array([0.0, 0.0, RESET_LIFT])
+            support = skills._keep_out(seen, CAN, True) + skills._keep_out(point, CAN, True)
+            for goal in (grasp + up, hand + up):
+                line = skills._line_motion(
+                    goal, orientation, skills._obstacles(np.zeros(3), support)
+                )
+                assert line is not None
+                q = line.trajectory.q[-1]
+                skills.robot.joints = dict(zip(skills.arm_names, q.tolist(), strict=True))
+            centre = skills._held_pose(q)[:3, 3]
+            assert np.hypot(*(centre[:2] - point[:2])) < 0.003
+        finally:
+            skills.held = None
+            skills.robot.joints = stow

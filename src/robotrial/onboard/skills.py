@@ -95,6 +95,10 @@ LIFT = 0.06  # m
 LIFT_BACK = 0.1
 SETTLE = 0.3  # s after each arm motion
 RELEASE_HEIGHTS = (0.005, 0.015, 0.025)  # m above the surface the object is let go, in turn
+# m: an object the camera sees farther than this off the place point once set down is
+# taken again and set down on it (the camera sees a set-down object's centre to ~5 mm)
+PLACE_CHECK = 0.01
+RESET_LIFT = 0.005  # m the object is lifted off the top to be set down again
 MAPPING_SPEED = 0.3  # m/s, the top speed while the map is being built
 DOCK_SCANS = 5  # scans matched to the map for the pose at a work site
 KEYFRAME_RADIUS = 4.0  # m, nodes whose scans a work site's scans are matched to
@@ -233,6 +237,8 @@ class SkillLog:
     # the map shows none under it), the object (map), the top's height
     found: dict[str, Any] | None = None
     not_on: str = ""  # the furniture named in the order, looked at without the object
+    set_off: float | None = None  # m the camera saw the object off the point once set down
+    set_again: bool = False  # taken again and set down on the point
 
 
 class Skills:
@@ -1411,7 +1417,82 @@ class Skills:
             )
         if res.success:
             yield from self.follow(res)
+        yield from self._set_again(held, target, base)
         yield from self.straight(-STANDOFF)
+
+    def _set_again(self, held: Held, target: np.ndarray, base: np.ndarray) -> Iterator[None]:
+        """Look at the object just set down (the arm folded out of view) and, when the
+        camera sees it more than PLACE_CHECK off the point (`target`, its centre on the
+        surface, map frame), grasp it where it stands and set it down again on the point,
+        once. While held the object creeps along the fingers unseen (a cube shows the
+        camera no face that says how far out it sits); on the top, the camera sees its
+        centre to about 5 mm. The base's own pose error is the same in both, so it stays.
+        When a motion of it is not found, the object stays where it was set down."""
+        kind = held.kind
+        try:
+            yield from self.arm_to_pose("carry")
+        except SkillFailed:
+            return
+        look = self.look(base, NEAR_LOOK)
+        near = [
+            s
+            for s in look.sightings
+            if s.kind.looks_like(kind) and np.hypot(*(s.position[:2] - target[:2])) < SAME_OBJECT
+        ]
+        if not near:
+            return
+        seen = min(near, key=lambda s: float(np.hypot(*(s.position[:2] - target[:2]))))
+        off = float(np.hypot(*(seen.position[:2] - target[:2])))
+        self.log.set_off = off
+        if off <= PLACE_CHECK:
+            return
+        log.info("the %s stands %.1f cm off the place: set down again", kind.name, 100 * off)
+        local = to_base(base, seen.position)
+        face = None if seen.face is None else seen.face - float(base[2])
+        pre, grasp = self._grasp_points(local, kind, held.pitch, face)
+        orientation = self.orientation(local, held.pitch, face)
+        try:
+            yield from self.move_arm(
+                base, "arm_planning", pre, orientation, keep_out=self._keep_out(local, kind)
+            )
+            yield from self.move_arm(
+                base,
+                "arm_planning",
+                grasp,
+                orientation,
+                keep_out=self._keep_out(local, kind),
+                straight=True,
+            )
+            width = yield from self.close()
+            if width < kind.grip_width - GRIP_SLACK:
+                raise SkillFailed("grasp_missed", "the fingers closed on nothing")
+            tcp = self.planner.kin.link_pose(self.arm_q())
+            in_hand = (np.linalg.inv(tcp) @ np.append(local, 1.0))[:3]
+            in_hand[1] = 0.0
+            self.held = Held(kind, in_hand, width, held.pitch)
+            goal = to_base(base, target)
+            hand = self._set_down_at(goal, orientation)
+            # slid across the top 5 mm up: the object lifted off it, not dragged
+            up = np.array([0.0, 0.0, RESET_LIFT])
+            support = self._keep_out(local, kind, True) + self._keep_out(goal, kind, True)
+            for point in (grasp + up, hand + up):
+                yield from self.move_arm(
+                    base, "arm_planning", point, orientation, keep_out=support, straight=True
+                )
+            self.log.set_again = True
+        except SkillFailed as failed:
+            log.info("the %s stays where it was set down: %s", kind.name, failed.reason)
+        self.held = None
+        self.robot.grip(self.finger_open, self.robot.setup.grip_force)
+        yield from self.wait(0.6)
+        back = self.planner.kin.link_pose(self.arm_q())[:3, 3] - GRASP_BACKOFF * orientation.apply(
+            [0.0, 0.0, 1.0]
+        )
+        res = self.plan(
+            self.arm_q(), self._obstacles(base, self._keep_out(local, kind)), back, orientation
+        )
+        if res.success:
+            yield from self.follow(res)
 
     def _release_plan(self, obstacles: Obstacles, hand: np.ndarray, orientation: Rotation):
         """The arm's motion from where it is to let the held object go with the tool point

@@ -108,6 +108,25 @@ def test_compiled_and_python_rrt_connect_agree_on_validity(desk) -> None:
     assert res.success and exact.path_valid(res.path)[0]
 
 
+def test_a_start_or_goal_in_contact_is_named_wherever_it_stands_among_the_ends(desk) -> None:
+    """The start and the first goals are checked together: a goal in contact is left
+    out, a start in contact or no free goal is named, and goals past the first block
+    count too."""
+    checker = desk.checker()
+    rng = np.random.default_rng(0)
+    qs = rng.uniform(checker.lower, checker.upper, (400, checker.d))
+    blocked = qs[~checker.valid(qs)][:3]
+    planner = PLANNERS["rrt_connect"]()
+    goals = np.vstack([blocked[0], desk.goal, blocked[1]])
+    res = planner.solve(Problem(desk.start, goals, 5.0, 0), checker)
+    assert res.success and np.allclose(res.path[-1], desk.goal)
+    assert planner.solve(Problem(blocked[2], goals, 5.0, 0), checker).status == "invalid_start"
+    assert planner.solve(Problem(desk.start, blocked, 5.0, 0), checker).status == "invalid_goal"
+    many = np.vstack([blocked, blocked, blocked, desk.goal])  # the free goal is the tenth
+    res = planner.solve(Problem(desk.start, many, 5.0, 0), checker)
+    assert res.success and np.allclose(res.path[-1], desk.goal)
+
+
 def test_a_goal_inside_a_shelf_takes_fewer_nodes_with_balanced_trees() -> None:
     """The goal tree, boxed in by the shelf, keeps its turns: half the nodes (and checks)
     of OMPL's strict alternation, and every path still free under MuJoCo."""

@@ -943,6 +943,26 @@ def config_free(floats, ints, work, work_ints, q) -> bool:
 
 
 @nb.njit(cache=True, _nrt=False, nogil=True)
+def configs_free(floats, ints, work, work_ints, qs, n) -> bool:
+    """True when the first n rows of `qs` (n <= LANES) are all free of contacts: one
+    block for them all (a query's start and goals), where `config_free` takes one each."""
+    block = _stack(MAX_NODES, LANES)
+    caps = _stack(1, LANES)
+    out = _stack(1, LANES)
+    for lane in range(LANES):
+        row = lane if lane < n else 0
+        for j in range(qs.shape[1]):
+            block[j, lane] = qs[row, j]
+        caps[0, lane] = 0.0
+    lists = _i(ints, _LISTS)
+    it, _ = _block(
+        floats, ints, work, work_ints, block, caps, out, lists[0], lists[1], -1, 0.0, True,
+        False, caps,
+    )  # fmt: skip
+    return it < 0
+
+
+@nb.njit(cache=True, _nrt=False, nogil=True)
 def valid_batch(qs, out, floats, ints, work, work_ints) -> None:
     """out[i]: is configuration qs[i] free? (`qs` (N, d))"""
     n, d = qs.shape

@@ -41,7 +41,7 @@ from typing import Any
 import numba as nb
 import numpy as np
 
-from robotrial.collision.kernels import config_free, model, motion_free
+from robotrial.collision.kernels import LANES, config_free, configs_free, model, motion_free
 from robotrial.planning.base import (
     Checker,
     Planner,
@@ -179,12 +179,19 @@ def _grow(first, start, goals, seed, work, digits, trees, t_is_start, params, it
     d = lower.shape[0]
     if first:
         np.random.seed(seed)  # noqa: NPY002 (numba has only the legacy generator)
-        if not config_free(floats, ints, scratch, items, start):
+        # the start and the first goals in one block; each alone only if one is in contact
+        n0 = min(goals.shape[0], LANES - 1)
+        for j in range(d):
+            path[0, j] = start[j]
+            for g in range(n0):
+                path[1 + g, j] = goals[g, j]
+        together = configs_free(floats, ints, scratch, items, path, 1 + n0)
+        if not together and not config_free(floats, ints, scratch, items, start):
             return -2, 0.0, t_is_start
         _add(tq, tpar, trad, tstp, 0, start, -1, step)
         ng = 0
         for g in range(goals.shape[0]):
-            if config_free(floats, ints, scratch, items, goals[g]):
+            if (together and g < n0) or config_free(floats, ints, scratch, items, goals[g]):
                 _add(uq, upar, urad, ustp, ng, goals[g], -1, step)
                 ng += 1
         counts[0], counts[1], counts[2], counts[3], counts[4] = 1, ng, 0, 0, 0

@@ -1,22 +1,27 @@
 """`robotrial bench chores`: chores in generated homes, mapped by exploration (layer 5).
 
 Homes from the home generator with rooms of about 3 x 3 m (`CHORE_HOMES`: 2-4 rooms of
-8.5-9.5 m2, no side under 2.7 m), furniture along the walls, an object on every table and
-the robot's dock at a free spot of a random room. The homes are the first `--homes` seeds
-from `--first-home` on that offer a chore (`trials.chores.home_chores`: an object to
-another room with a place, the object one the robot's gripper closes across: the
-generator's 8 cm cups are as wide as the mobile manipulator's gripper opens, so only its
-books and cans are carried; nor an object with a twin of the same shape, size and
-colour in its own room, which the camera cannot tell apart: the search looks only in the
-object's room, so a twin in another room is no confusion; a home is taken for a chore of
-an object with no twin at all, and chores of objects with twins in other rooms come after
-its others); each gets up to `--chores` chores (every home's first chore runs before any
-home's second; `--from-chore K` runs only the K-th on, to split a run), each run as the carry
-trial with no route (the robot maps by frontiers, `CarrySetup.mapping='auto'`). First, in
-the same run, the apartment's trial along its given route (cup to the bedroom), unless
-`--no-apartment`. Each row: success, the phase and cause of a failure, the simulated
-time and its share exploring, navigating, searching and manipulating. The JSON is
-rewritten after every chore, so a long run that is stopped keeps what it measured.
+8.5-9.5 m2, no side under 2.7 m), furniture along the walls, an object on every table,
+the robot's dock at a free spot of a random room, and the extras (`HomeSpec.extras`: a
+side table in each room with no top, a 5 cm jar on a top of each room). The homes are
+the first `--homes` seeds from `--first-home` on that offer, as drawn without the
+extras, a chore (`trials.chores.home_chores`: an object to another room with a place,
+the object one the robot's gripper closes across: the generator's 8 cm cups are as wide
+as the mobile manipulator's gripper opens, so only its books, cans and jars are carried;
+nor an object with a twin of the same shape, size and colour in its own room, which the
+camera cannot tell apart: the search looks only in the object's room, so a twin in
+another room is no confusion; a home is taken for a chore of an object with no twin at
+all, and chores of objects with twins in other rooms come after its others); each gets
+up to `--chores` chores, those it offered without the extras first, then those the
+extras add (rooms with a side table to carry to, jars to carry), so the homes and the
+chores measured before the extras keep their numbers (every home's first chore runs
+before any home's second; `--from-chore K` runs only the K-th on, to split a run), each
+run as the carry trial with no route (the robot maps by frontiers,
+`CarrySetup.mapping='auto'`). First, in the same run, the apartment's trial along its
+given route (cup to the bedroom), unless `--no-apartment`. Each row: success, the phase
+and cause of a failure, the simulated time and its share exploring, navigating,
+searching and manipulating. The JSON is rewritten after every chore, so a long run that
+is stopped keeps what it measured.
 """
 
 from __future__ import annotations

@@ -16,7 +16,10 @@ shared stretch. Furniture (the editor's presets: tables, counters, shelves, beds
 round tables) stands along the walls, 3-10 cm off them, never in front of a doorway
 (`door_clear` m deep), never closer than `furniture_gap` to another piece, and never on
 the middle of the first room, where the robot starts. Objects (cups, books, cans) lie on
-some of the tables. The World YAML is written as the page's home editor writes it
+some of the tables. With `HomeSpec.extras`, last and from a random stream of their own
+(the rest of the home stays the one drawn without them): a side table in each room with
+no top at table height, and a jar on a top of each room (docs/worlds.md says why). The
+World YAML is written as the page's home editor writes it
 (`robotrial.model.home.world_yaml`), so a generated home opens in the editor and runs
 everywhere a drawn one does.
 """

@@ -129,6 +129,35 @@ def test_an_object_whose_twin_stands_in_another_room_gets_chores_after_the_other
     assert rooms["book"] != rooms["book_2"]
 
 
+def test_each_of_the_twenty_chore_homes_offers_three_chores_its_first_ones_kept() -> None:
+    from dataclasses import replace
+
+    from robotrial.benchmarks.chores import (
+        CHORE_HOMES,
+        ROBOT,
+        _offered,
+        chore_homes,
+        gripper_opening,
+    )
+    from robotrial.model.homegen import generate_home
+
+    grip = gripper_opening(ROBOT)
+    homes = chore_homes(20, grip=grip)
+    assert [seed for seed, _, _ in homes] == [
+        3, 12, 15, 17, 19, 23, 25, 28, 31, 32, 33, 38, 39, 40, 47, 48, 49, 52, 53, 55
+    ]  # fmt: skip
+    assert all(len(chores) == 3 for _, _, chores in homes)
+    bare = replace(CHORE_HOMES, extras=False)
+    kept = 0
+    for seed, world, chores in homes:
+        alone, apart = _offered(generate_home(seed, spec=bare), grip)
+        before = (alone + apart)[:3]
+        assert chores[: len(before)] == before, seed  # the chores measured before the extras
+        kept += len(before)
+        assert all(world.room(to).place is not None for _, to in chores)
+    assert kept == 37
+
+
 def test_a_run_split_from_its_kth_chore_runs_each_home_s_later_chores_only(capsys) -> None:
     from robotrial.benchmarks.chores import chore_jobs
 

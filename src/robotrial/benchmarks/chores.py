@@ -1,22 +1,27 @@
 """`robotrial bench chores`: chores in generated homes, mapped by exploration (layer 5).
 
 Homes from the home generator with rooms of about 3 x 3 m (`CHORE_HOMES`: 2-4 rooms of
-8.5-9.5 m2, no side under 2.7 m), furniture along the walls, an object on every table and
-the robot's dock at a free spot of a random room. The homes are the first `--homes` seeds
-from `--first-home` on that offer a chore (`trials.chores.home_chores`: an object to
-another room with a place, the object one the robot's gripper closes across: the
-generator's 8 cm cups are as wide as the mobile manipulator's gripper opens, so only its
-books and cans are carried; nor an object with a twin of the same shape, size and
-colour in its own room, which the camera cannot tell apart: the search looks only in the
-object's room, so a twin in another room is no confusion; a home is taken for a chore of
-an object with no twin at all, and chores of objects with twins in other rooms come after
-its others); each gets up to `--chores` chores (every home's first chore runs before any
-home's second; `--from-chore K` runs only the K-th on, to split a run), each run as the carry
-trial with no route (the robot maps by frontiers, `CarrySetup.mapping='auto'`). First, in
-the same run, the apartment's trial along its given route (cup to the bedroom), unless
-`--no-apartment`. Each row: success, the phase and cause of a failure, the simulated
-time and its share exploring, navigating, searching and manipulating. The JSON is
-rewritten after every chore, so a long run that is stopped keeps what it measured.
+8.5-9.5 m2, no side under 2.7 m), furniture along the walls, an object on every table,
+the robot's dock at a free spot of a random room, and the extras (`HomeSpec.extras`: a
+side table in each room with no top, a 5 cm jar on a top of each room). The homes are
+the first `--homes` seeds from `--first-home` on that offer, as drawn without the
+extras, a chore (`trials.chores.home_chores`: an object to another room with a place,
+the object one the robot's gripper closes across: the generator's 8 cm cups are as wide
+as the mobile manipulator's gripper opens, so only its books, cans and jars are carried;
+nor an object with a twin of the same shape, size and colour in its own room, which the
+camera cannot tell apart: the search looks only in the object's room, so a twin in
+another room is no confusion; a home is taken for a chore of an object with no twin at
+all, and chores of objects with twins in other rooms come after its others); each gets
+up to `--chores` chores, those it offered without the extras first, then those the
+extras add (rooms with a side table to carry to, jars to carry), so the homes and the
+chores measured before the extras keep their numbers (every home's first chore runs
+before any home's second; `--from-chore K` runs only the K-th on, to split a run), each
+run as the carry trial with no route (the robot maps by frontiers,
+`CarrySetup.mapping='auto'`). First, in the same run, the apartment's trial along its
+given route (cup to the bedroom), unless `--no-apartment`. Each row: success, the phase
+and cause of a failure, the simulated time and its share exploring, navigating,
+searching and manipulating. The JSON is rewritten after every chore, so a long run that
+is stopped keeps what it measured.
 """
 
 from __future__ import annotations
@@ -40,6 +45,7 @@ CHORE_HOMES = HomeSpec(
     min_side=2.7,
     dock_anywhere=True,
     object_chance=1.0,
+    extras=True,
 )
 ROBOT = "mobile_manipulator"
 SEARCHED_SEEDS = 200  # home seeds tried for homes that offer a chore
@@ -73,37 +79,55 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def chore_homes(
     homes: int, first: int = 0, per_home: int = 3, grip: float = np.inf
 ) -> list[tuple[int, Any, list]]:
-    """The first `homes` home seeds from `first` on whose home offers a chore with an
-    object the gripper holds (narrower than `grip`, m) and no twin of it (the same look)
-    in the home: (seed, the World, its chores). After those chores come the chores of
-    objects whose twins stand only in other rooms (the search looks in the object's room
-    alone)."""
-    from robotrial.model.homegen import generate_home
-    from robotrial.trials.carry import catalogue_of
-    from robotrial.trials.chores import home_chores, room_of
+    """The first `homes` home seeds from `first` on whose home, as drawn without its
+    extras (`HomeSpec.extras`), offers a chore with an object the gripper holds (narrower
+    than `grip`, m) and no twin of it (the same look) in the home: (seed, the World with
+    its extras, its chores). A home's chores are those it offered without the extras
+    (after the chores of objects with no twin, those of objects whose twins stand only in
+    other rooms: the search looks in the object's room alone), then those the extras add,
+    up to `per_home`; so the homes and their first chores stay those measured before the
+    extras."""
+    from dataclasses import replace
 
+    from robotrial.model.homegen import generate_home
+
+    bare = replace(CHORE_HOMES, extras=False)
     out = []
     for seed in range(first, first + SEARCHED_SEEDS):
         if len(out) >= homes:
             break
+        alone, apart = _offered(generate_home(seed, spec=bare), grip)
+        if not alone:
+            continue
         world = generate_home(seed, spec=CHORE_HOMES)
-        kinds = catalogue_of(world)
-        rooms = {o.name: room_of(world, o) for o in world.objects}
-        twins = {
-            o.name: [
-                rooms[t.name]
-                for t in world.objects
-                if t.name != o.name and _look(kinds.kind(t.name)) == _look(kinds.kind(o.name))
-            ]
-            for o in world.objects
-        }
-        held = [c for c in home_chores(world, 99) if kinds.kind(c[0]).grip_width < grip]
-        alone = [c for c in held if not twins[c[0]]]
-        apart = [c for c in held if twins[c[0]] and rooms[c[0]] not in twins[c[0]]]
-        chores = (alone + apart)[:per_home]
-        if alone:
-            out.append((seed, world, chores))
+        before = alone + apart
+        alone, apart = _offered(world, grip)
+        added = [c for c in alone + apart if c not in before]
+        out.append((seed, world, (before + added)[:per_home]))
     return out
+
+
+def _offered(world: Any, grip: float) -> tuple[list, list]:
+    """The chores a home offers with objects the gripper holds (narrower than `grip`, m):
+    those of objects with no twin (the same look) in the home, and those of objects whose
+    twins stand only in other rooms."""
+    from robotrial.trials.carry import catalogue_of
+    from robotrial.trials.chores import home_chores, room_of
+
+    kinds = catalogue_of(world)
+    rooms = {o.name: room_of(world, o) for o in world.objects}
+    twins = {
+        o.name: [
+            rooms[t.name]
+            for t in world.objects
+            if t.name != o.name and _look(kinds.kind(t.name)) == _look(kinds.kind(o.name))
+        ]
+        for o in world.objects
+    }
+    held = [c for c in home_chores(world, 99) if kinds.kind(c[0]).grip_width < grip]
+    alone = [c for c in held if not twins[c[0]]]
+    apart = [c for c in held if twins[c[0]] and rooms[c[0]] not in twins[c[0]]]
+    return alone, apart
 
 
 def chore_jobs(

@@ -16,7 +16,10 @@ shared stretch. Furniture (the editor's presets: tables, counters, shelves, beds
 round tables) stands along the walls, 3-10 cm off them, never in front of a doorway
 (`door_clear` m deep), never closer than `furniture_gap` to another piece, and never on
 the middle of the first room, where the robot starts. Objects (cups, books, cans) lie on
-some of the tables. The World YAML is written as the page's home editor writes it
+some of the tables. With `HomeSpec.extras`, last and from a random stream of their own
+(the rest of the home stays the one drawn without them): a side table in each room with
+no top at table height, and a jar on a top of each room (docs/worlds.md says why). The
+World YAML is written as the page's home editor writes it
 (`robotrial.model.home.world_yaml`), so a generated home opens in the editor and runs
 everywhere a drawn one does.
 """
@@ -27,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robotrial.model.home import check_home, world_yaml
+from robotrial.model.home import check_home, place_in, world_yaml
 from robotrial.model.world import World, load_world_text
 
 # name, width along the wall, depth, height (m); "round table" is a cylinder
@@ -40,6 +43,10 @@ FURNITURE = (
     ("round table", 1.0, 1.0, 0.75),
 )
 OBJECTS = (("cup", 0.08), ("book", 0.06), ("can", 0.07))
+SIDE_TABLE = ("side table", 0.6, 0.45, 0.6)  # as FURNITURE
+JAR = ("jar", 0.05)  # a spice jar or a small pot, as OBJECTS
+OBJECT_GAP = 0.15  # m an added object keeps from every other object and its room's place
+EXTRAS_STREAM = 1  # the extras' random stream: default_rng([seed, 35, EXTRAS_STREAM])
 DOCK_WALL = 0.7  # m a dock drawn anywhere keeps from its room's walls
 DOCK_CLEAR = 0.75  # m and from every piece of furniture
 
@@ -54,7 +61,10 @@ class HomeSpec:
     `thickness` thick and `height` high. The robot's dock (the `default` spawn) is the
     middle of the first room, kept free of furniture, or with `dock_anywhere` a free spot
     of a random room, drawn after the furniture. Each piece at table height carries an
-    object with probability `object_chance`."""
+    object with probability `object_chance`. With `extras`, drawn last from a random
+    stream of their own (so the rest of the home is the one drawn without them): a side
+    table in each room with no top at table height, and a jar on a top of each room (see
+    `_extras`)."""
 
     rooms: tuple[int, int] = (2, 6)
     room_area: tuple[float, float] = (9.0, 18.0)
@@ -69,6 +79,7 @@ class HomeSpec:
     height: float = 2.0
     dock_anywhere: bool = False
     object_chance: float = 0.5
+    extras: bool = False
 
     def __post_init__(self) -> None:
         lo, hi = self.rooms
@@ -182,6 +193,44 @@ def _furnish(
     rng: np.random.Generator, rects: list[list[float]], doors: list[dict], spec: HomeSpec
 ) -> tuple[list[dict], list[dict]]:
     half = spec.thickness / 2
+    keep_out = _keep_out(rects, doors, spec)
+    furniture: list[dict] = []
+    placed: list[tuple[float, ...]] = []
+    counts: dict[str, int] = {}
+    for r in rects:
+        wanted = int(rng.integers(0, spec.furniture_per_room + 1))
+        for _ in range(12 * wanted):
+            if wanted == 0:
+                break
+            name, width, depth, height = FURNITURE[int(rng.integers(len(FURNITURE)))]
+            spot = _wall_spot(rng, r, width, depth, half)
+            if spot is None or not _free(spot[2], keep_out, placed, spec.furniture_gap):
+                continue
+            c, size, box = spot
+            counts[name] = counts.get(name, 0) + 1
+            label = name if counts[name] == 1 else f"{name} {counts[name]}"
+            shape = "cylinder" if name == "round table" else "box"
+            furniture.append(
+                {"name": label, "shape": shape, "at": list(c), "size": list(size), "height": height}
+            )
+            placed.append(box)
+            wanted -= 1
+    objects: list[dict] = []
+    seen: dict[str, int] = {}
+    for f in furniture:
+        if not 0.4 <= f["height"] <= 1.0 or rng.random() < 1.0 - spec.object_chance:
+            continue
+        name, size = OBJECTS[int(rng.integers(len(OBJECTS)))]
+        at = _on_top(rng, f)
+        seen[name] = seen.get(name, 0) + 1
+        label = name if seen[name] == 1 else f"{name} {seen[name]}"
+        objects.append({"name": label, "at": at, "size": size})
+    return furniture, objects
+
+
+def _keep_out(rects: list[list[float]], doors: list[dict], spec: HomeSpec) -> list[tuple]:
+    """Where no furniture stands: `door_clear` deep in front of each doorway (its swing and
+    the way through it), and the middle of the first room when the robot starts there."""
     keep_out = []
     for d in doors:
         (x, y), w = d["at"], d["width"]
@@ -197,60 +246,50 @@ def _furnish(
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
     if not spec.dock_anywhere:
         keep_out.append((cx - 0.9, cy - 0.7, cx + 0.9, cy + 0.7))  # where the robot starts
-    furniture: list[dict] = []
-    placed: list[tuple[float, ...]] = []
-    counts: dict[str, int] = {}
-    for r in rects:
-        wanted = int(rng.integers(0, spec.furniture_per_room + 1))
-        for _ in range(12 * wanted):
-            if wanted == 0:
-                break
-            name, width, depth, height = FURNITURE[int(rng.integers(len(FURNITURE)))]
-            side = int(rng.integers(4))  # south, east, north, west
-            along = (r[2] - r[0]) if side in (0, 2) else (r[3] - r[1])
-            across = (r[3] - r[1]) if side in (0, 2) else (r[2] - r[0])
-            if width > along - 0.2 or depth > 0.35 * across:
-                continue
-            off = half + float(rng.uniform(0.03, 0.10))
-            s = float(rng.uniform(half + 0.05 + width / 2, along - half - 0.05 - width / 2))
-            if side == 0:
-                c, size = (r[0] + s, r[1] + off + depth / 2), (width, depth)
-            elif side == 2:
-                c, size = (r[0] + s, r[3] - off - depth / 2), (width, depth)
-            elif side == 1:
-                c, size = (r[2] - off - depth / 2, r[1] + s), (depth, width)
-            else:
-                c, size = (r[0] + off + depth / 2, r[1] + s), (depth, width)
-            c = (_snap(c[0], 0.01), _snap(c[1], 0.01))
-            box = (c[0] - size[0] / 2, c[1] - size[1] / 2, c[0] + size[0] / 2, c[1] + size[1] / 2)
-            if not all(_boxes_apart(box, k, 0.0) and not _overlaps(box, k) for k in keep_out):
-                continue
-            if not all(_boxes_apart(box, p, spec.furniture_gap) for p in placed):
-                continue
-            counts[name] = counts.get(name, 0) + 1
-            label = name if counts[name] == 1 else f"{name} {counts[name]}"
-            shape = "cylinder" if name == "round table" else "box"
-            furniture.append(
-                {"name": label, "shape": shape, "at": list(c), "size": list(size), "height": height}
-            )
-            placed.append(box)
-            wanted -= 1
-    objects: list[dict] = []
-    seen: dict[str, int] = {}
-    for f in furniture:
-        if not 0.4 <= f["height"] <= 1.0 or rng.random() < 1.0 - spec.object_chance:
-            continue
-        name, size = OBJECTS[int(rng.integers(len(OBJECTS)))]
-        inset = np.array(f["size"]) / 2 - 0.15
-        at = np.array(f["at"]) + rng.uniform(-1, 1, 2) * np.maximum(inset, 0.0) * (
-            0.7 if f["shape"] == "cylinder" else 1.0
-        )
-        seen[name] = seen.get(name, 0) + 1
-        label = name if seen[name] == 1 else f"{name} {seen[name]}"
-        objects.append(
-            {"name": label, "at": [_snap(at[0], 0.01), _snap(at[1], 0.01)], "size": size}
-        )
-    return furniture, objects
+    return keep_out
+
+
+def _wall_spot(
+    rng: np.random.Generator, r: list[float], width: float, depth: float, half: float
+) -> tuple[tuple[float, float], tuple[float, float], tuple[float, ...]] | None:
+    """A random spot for a piece `width` along a wall of room `r` and `depth` deep, 3-10 cm
+    off the wall: (centre, footprint size, box), or None when it does not fit that wall
+    (longer than the wall, or deeper than 35 % of the room across)."""
+    side = int(rng.integers(4))  # south, east, north, west
+    along = (r[2] - r[0]) if side in (0, 2) else (r[3] - r[1])
+    across = (r[3] - r[1]) if side in (0, 2) else (r[2] - r[0])
+    if width > along - 0.2 or depth > 0.35 * across:
+        return None
+    off = half + float(rng.uniform(0.03, 0.10))
+    s = float(rng.uniform(half + 0.05 + width / 2, along - half - 0.05 - width / 2))
+    if side == 0:
+        c, size = (r[0] + s, r[1] + off + depth / 2), (width, depth)
+    elif side == 2:
+        c, size = (r[0] + s, r[3] - off - depth / 2), (width, depth)
+    elif side == 1:
+        c, size = (r[2] - off - depth / 2, r[1] + s), (depth, width)
+    else:
+        c, size = (r[0] + off + depth / 2, r[1] + s), (depth, width)
+    c = (_snap(c[0], 0.01), _snap(c[1], 0.01))
+    box = (c[0] - size[0] / 2, c[1] - size[1] / 2, c[0] + size[0] / 2, c[1] + size[1] / 2)
+    return c, size, box
+
+
+def _free(box: tuple[float, ...], keep_out: list[tuple], placed: list[tuple], gap: float) -> bool:
+    """Whether a piece's `box` stays out of every keep-out area and `gap` m from every
+    placed piece."""
+    if not all(_boxes_apart(box, k, 0.0) and not _overlaps(box, k) for k in keep_out):
+        return False
+    return all(_boxes_apart(box, p, gap) for p in placed)
+
+
+def _on_top(rng: np.random.Generator, f: dict) -> list[float]:
+    """A random spot on furniture `f`'s top, 0.15 m or more in from its edges."""
+    inset = np.array(f["size"]) / 2 - 0.15
+    at = np.array(f["at"]) + rng.uniform(-1, 1, 2) * np.maximum(inset, 0.0) * (
+        0.7 if f["shape"] == "cylinder" else 1.0
+    )
+    return [_snap(at[0], 0.01), _snap(at[1], 0.01)]
 
 
 def _dock(
@@ -276,6 +315,82 @@ def _dock(
     return ((x0 + x1) / 2, (y0 + y1) / 2)
 
 
+def _extras(
+    seed: int,
+    rects: list[list[float]],
+    doors: list[dict],
+    furniture: list[dict],
+    objects: list[dict],
+    spawn: tuple[float, float] | None,
+    spec: HomeSpec,
+) -> tuple[list[dict], list[dict]]:
+    """The home's furniture and objects with the extras added after them, drawn from
+    their own random stream: a side table (SIDE_TABLE) against a wall of each room with no
+    top at table height, kept as the generator keeps any piece (out of the doorways'
+    keep-out, `furniture_gap` from every piece, and DOCK_CLEAR from the dock when it is
+    drawn anywhere); then a jar (JAR) on a random top at table height of each room,
+    0.15 m or more in from the top's edges and OBJECT_GAP from every other object and
+    from the room's place. A room where none fits in 50 draws gets none."""
+    rng = np.random.default_rng([int(seed), 35, EXTRAS_STREAM])
+    furniture, objects = list(furniture), list(objects)
+    keep_out = _keep_out(rects, doors, spec)
+    placed = []
+    for f in furniture:
+        (x, y), (w, d) = f["at"], f["size"]
+        placed.append((x - w / 2, y - d / 2, x + w / 2, y + d / 2))
+    dock = None if spawn is None else (spawn[0], spawn[1], spawn[0], spawn[1])
+
+    def tops(r: list[float]) -> list[dict]:
+        return [
+            f
+            for f in furniture
+            if r[0] <= f["at"][0] <= r[2] and r[1] <= f["at"][1] <= r[3]
+            if 0.4 <= f["height"] <= 1.0
+        ]
+
+    name, width, depth, height = SIDE_TABLE
+    tables = 0
+    for r in rects:
+        if tops(r):
+            continue
+        for _ in range(50):
+            spot = _wall_spot(rng, r, width, depth, spec.thickness / 2)
+            if spot is None or not _free(spot[2], keep_out, placed, spec.furniture_gap):
+                continue
+            if dock is not None and not _boxes_apart(spot[2], dock, DOCK_CLEAR):
+                continue
+            tables += 1
+            label = name if tables == 1 else f"{name} {tables}"
+            furniture.append(
+                {
+                    "name": label,
+                    "shape": "box",
+                    "at": list(spot[0]),
+                    "size": list(spot[1]),
+                    "height": height,
+                }
+            )
+            placed.append(spot[2])
+            break
+    name, size = JAR
+    jars = 0
+    for r in rects:
+        on = tops(r)
+        if not on:
+            continue
+        corners = [[r[0], r[1]], [r[2], r[1]], [r[2], r[3]], [r[0], r[3]]]
+        place = place_in({"furniture": furniture}, {"corners": corners})
+        taken = [o["at"] for o in objects] + ([list(place[1])] if place else [])
+        for _ in range(50):
+            at = _on_top(rng, on[int(rng.integers(len(on)))])
+            if all(np.hypot(at[0] - t[0], at[1] - t[1]) >= OBJECT_GAP for t in taken):
+                jars += 1
+                label = name if jars == 1 else f"{name} {jars}"
+                objects.append({"name": label, "at": at, "size": size})
+                break
+    return furniture, objects
+
+
 def _overlaps(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
@@ -290,6 +405,9 @@ def home_plan(seed: int, rooms: int | None = None, spec: HomeSpec = HomeSpec()) 
     rects = _split(rng, n, spec)
     doors = _doorways(rng, rects, spec)
     furniture, objects = _furnish(rng, rects, doors, spec)
+    spawn = _dock(rng, rects, furniture) if spec.dock_anywhere else None
+    if spec.extras:
+        furniture, objects = _extras(seed, rects, doors, furniture, objects, spawn, spec)
     home = {
         "version": 1,
         "thickness": spec.thickness,
@@ -301,7 +419,7 @@ def home_plan(seed: int, rooms: int | None = None, spec: HomeSpec = HomeSpec()) 
         "doorways": doors,
         "furniture": furniture,
         "objects": objects,
-        "spawn": list(_dock(rng, rects, furniture)) if spec.dock_anywhere else None,
+        "spawn": None if spawn is None else list(spawn),
     }
     check_home(home)
     return home

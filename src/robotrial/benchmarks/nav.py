@@ -28,7 +28,8 @@ time along its plan; and how many drawn goals the planner refused (unreachable).
 
 Then the footprint planner's own time: Hybrid-A* (the default configuration) from the
 spawn to `--plan-goals` reachable goals drawn in each of those worlds as the random
-goals are (`--goal-seed`), on the ground-truth map: the CPU time of a plan (the least of
+goals are (`--goal-seed`), on the ground-truth map with cells of `--plan-resolution`
+(2.5 cm, as SLAM maps the chores' homes): the CPU time of a plan (the least of
 `--plan-repeats`), its median and 95th percentile over the goals, and the search
 states it made (median, most). With `--baseline-src` (the `src` folder of another
 checkout) that code plans the same goals too, each world in turns with this code's, so
@@ -128,6 +129,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--plan-repeats", type=int, default=3, help="plans per goal timed (the least counts)"
+    )
+    parser.add_argument(
+        "--plan-resolution",
+        type=float,
+        default=0.025,
+        help="cell size (m) of the maps the footprint planner is timed on (default: "
+        "%(default)s, as SLAM maps the chores' homes)",
     )
     parser.add_argument(
         "--baseline-src",
@@ -235,6 +243,7 @@ def run(args: argparse.Namespace) -> int:
             args.plan_goals,
             args.goal_seed,
             args.plan_repeats,
+            args.plan_resolution,
             args.baseline_src,
             show=not args.json,
         )
@@ -391,10 +400,12 @@ import numpy as np
 from robotrial.nav.costmap import Costmap
 from robotrial.nav.hybrid import HybridAStar
 from robotrial.nav.planners import NoPath
+from robotrial.model.gridmap import world_map
 from robotrial.trials.nav import footprint_of_robot, start_pose
-from robotrial.trials.nav_goals import goal_world
+from robotrial.trials.nav_goals import named_world
 job = json.loads(sys.stdin.read())
-w, m = goal_world(job["world"])
+w = named_world(job["world"])
+m = world_map(w, job["resolution"])
 cm = Costmap(
     m.occupied, m.origin, m.resolution, footprint_of_robot(job["robot"]), unknown=m.unknown
 )
@@ -415,7 +426,8 @@ for i, goal in enumerate(job["goals"]):
     rows.append([1e3 * best, planner.expansions, found])
 print(json.dumps(rows))
 """
-"""Times Hybrid-A*'s plans from a world's spawn to goals on its ground-truth map, in
+"""Times Hybrid-A*'s plans from a world's spawn to goals on its ground-truth map (cells of
+`resolution` m), in
 whatever code is first on the path (another checkout's, for `--baseline-src`): per goal
 the least CPU time (ms) of `repeats` plans, the search states and whether it found one."""
 
@@ -425,11 +437,13 @@ def footprint_plan_times(
     goals: int,
     seed: int,
     repeats: int,
+    resolution: float = 0.025,
     baseline: Path | None = None,
     show: bool = True,
 ) -> dict:
     """Hybrid-A*'s CPU time and search states from each world's spawn to its first
-    `goals` random reachable goals (`draw_goals` with `seed`), in a fresh process of
+    `goals` random reachable goals (`draw_goals` with `seed`) on its ground-truth map
+    with cells of `resolution` m, in a fresh process of
     this code and, with `baseline` (another checkout's `src` folder), of that code in
     turns: per variant and world the goals' rows and their summary."""
     from robotrial.benchmarks.planning import _own_numba_cache
@@ -439,7 +453,7 @@ def footprint_plan_times(
     if baseline is not None:
         env = _own_numba_cache(os.environ)
         variants["baseline"] = {**env, "PYTHONPATH": str(baseline.resolve())}
-    out: dict = {"goals": goals, "repeats": repeats, "seed": seed}
+    out: dict = {"goals": goals, "repeats": repeats, "seed": seed, "resolution": resolution}
     for name in variants:
         out[name] = {"worlds": {}}
     total = len(worlds) * len(variants)
@@ -450,6 +464,7 @@ def footprint_plan_times(
                 "goals": draw_goals(world, goals, seed).goals.tolist(),
                 "robot": ROBOT,
                 "repeats": repeats,
+                "resolution": resolution,
             }
             for name, env in variants.items():
                 done = subprocess.run(
@@ -501,8 +516,8 @@ def _print_plan_times(times: dict) -> None:
                 )
             )
     print_table(
-        f"Hybrid-A* from the spawn to {times['goals']} random goals a world "
-        f"(CPU ms, least of {times['repeats']})",
+        f"Hybrid-A* from the spawn to {times['goals']} random goals a world, "
+        f"{100 * times['resolution']:g} cm cells (CPU ms, least of {times['repeats']})",
         ["world", "code", "found", "median", "p95", "total", "states (median)", "states (most)"],
         rows,
     )

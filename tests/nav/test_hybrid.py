@@ -319,6 +319,38 @@ def test_a_base_in_a_pocket_too_narrow_to_turn_in_backs_out_to_its_goal():
     assert rectangle_clearance(cm, poses).min() > 0.0
 
 
+def test_a_base_touching_a_pocket_wall_as_mapped_gets_clear_and_backs_out_to_its_goal():
+    """Exploring may end with the base in a pocket too narrow to turn in (home 25: between
+    a round table and a wall), a few mm from the pocket's end as mapped, nearer than the
+    planner's margin. The goal behind it is judged as the navigator reaches it:
+    from where the base stands clear, a plan that backs out; and the base drives there,
+    touching nothing."""
+    from robotrial.nav.goals import check_goal
+    from robotrial.trials.nav import navigator_config
+
+    res = 0.025
+    occ = np.zeros((160, 240), dtype=bool)
+    occ[[0, -1], :] = occ[:, [0, -1]] = True
+    occ[:, 180:] = True  # x >= 4.5 is solid but for a pocket 1.0 m wide, 1.5 m deep
+    occ[60:100, 180:239] = False
+    fp = Footprint(0.99, 0.67)
+    cm = Costmap(occ, (0.0, 0.0), res, fp)
+    # its front 5 mm from the pocket's end (x 5.975 as mapped)
+    start, goal = np.array([5.975 - 0.005 - 0.495, 2.0, 0.0]), (1.5, 2.0, np.pi)
+    config = navigator_config(0.3, 2.0, 1.0, "hybrid", 3.0)
+    config = replace(config, costmap_resolution=None, hybrid=replace(config.hybrid, margin=0.01))
+    planner = HybridAStar(config.hybrid)
+    assert planner.collides(cm, start[None])[0], "within the margin of the pocket's end"
+    verdict = check_goal(cm, goal, tuple(start), planner)
+    assert verdict.ok, verdict.reason
+    nav = Navigator(occ, (0.0, 0.0), res, fp, config)
+    nav.set_goal(*goal)
+    poses = _drive(nav, start, occ, (0.0, 0.0), res, lambda p: p[0] < 3.8, 900)
+    pose = poses[-1]
+    assert pose[0] < 3.8, f"{nav.status.value} at {pose.round(2)}: {nav.message}"
+    assert rectangle_clearance(cm, poses).min() > 0.0
+
+
 def test_a_goal_just_past_a_doorway_is_not_turned_to_where_the_rear_sweeps_the_jamb():
     """Exploring's goal may lie a few cm past a 0.8 m doorway, facing back at it: the
     base comes within the goal's tolerance with its rear still in the doorway, where a
@@ -430,3 +462,71 @@ def test_a_pose_a_few_mm_off_a_jamb_is_free_alike_for_the_planner_and_the_contro
     assert controller.set_path(plan, cm, tuple(start))
     command = controller.compute(tuple(start), (0.0, 0.0), plan[:, :2], cm)
     assert command.ok and abs(command.v) + abs(command.w) > 0.0
+
+
+def _exact_hits(cm: Costmap, poses: np.ndarray, margin: float, blocked: np.ndarray) -> np.ndarray:
+    """The rectangle grown by `margin` against every blocked cell's square (cells outside
+    the map blocked), by separating axes: the test the footprint check's bounds skip."""
+    fp, res = cm.footprint, cm.resolution
+    a, b, h = 0.5 * fp.length + margin, 0.5 * fp.width + margin, 0.5 * res
+    pad = 30
+    rr, cc = np.nonzero(np.pad(blocked, pad, constant_values=True))
+    cx = cm.origin[0] + (cc - pad + 0.5) * res
+    cy = cm.origin[1] + (rr - pad + 0.5) * res
+    out = np.zeros(len(poses), dtype=bool)
+    for i, (x, y, th) in enumerate(poses):
+        co, sn = np.cos(th), np.sin(th)
+        ac, as_ = abs(co), abs(sn)
+        px, py = cx - x, cy - y
+        out[i] = np.any(
+            (np.abs(px * co + py * sn) < a + h * (ac + as_))
+            & (np.abs(py * co - px * sn) < b + h * (ac + as_))
+            & (np.abs(px) < h + a * ac + b * as_)
+            & (np.abs(py) < h + a * as_ + b * ac)
+        )
+    return out
+
+
+def test_the_footprint_test_answers_as_the_exact_rectangle_on_random_poses():
+    """The footprint test skips the cell walk where the distance field bounds the answer
+    (every covering circle clear, or a blocked cell inside the rectangle): on random
+    poses about a doorway, the map's edge, unknown cells and scan marks near the walls
+    (which the planner does not count as blocked) its answers are the exact ones."""
+    from robotrial.model.gridmap import world_map
+    from robotrial.model.world import load_world_text
+    from tests.trials.test_verdict import two_rooms
+
+    m = world_map(load_world_text(two_rooms(0.8)))
+    rng = np.random.default_rng(3)
+    unknown = np.zeros_like(m.occupied)
+    free = np.argwhere(~m.occupied)
+    speckle = free[rng.choice(len(free), 40, replace=False)]
+    unknown[speckle[:, 0], speckle[:, 1]] = True
+    cm = Costmap(m.occupied, m.origin, m.resolution, Footprint(0.99, 0.67), unknown=unknown)
+    walls = np.argwhere(m.occupied)[::7]
+    cm.mark(cm.cell_to_world(walls) + rng.normal(0.0, 0.04, (len(walls), 2)))
+    cm.update()
+    rows, cols = cm.shape
+    x0, y0 = cm.origin
+    n = 1500
+    poses = np.column_stack(
+        [
+            rng.uniform(x0 - 0.3, x0 + cols * cm.resolution + 0.3, n),
+            rng.uniform(y0 - 0.3, y0 + rows * cm.resolution + 0.3, n),
+            rng.uniform(-np.pi, np.pi, n),
+        ]
+    )
+    near_door = np.column_stack(
+        [rng.uniform(2.0, 4.0, n), rng.uniform(0.8, 2.2, n), rng.uniform(-np.pi, np.pi, n)]
+    )
+    poses = np.vstack([poses, near_door])
+    planner = HybridAStar()
+    for margin in (0.0, 0.03):
+        for blocked in (None, planner.blocked(cm)):
+            hits = footprint_hits(cm, poses, margin, blocked)
+            exact = _exact_hits(cm, poses, margin, cm.lethal if blocked is None else blocked)
+            assert np.array_equal(hits, exact), f"margin {margin}: {np.sum(hits != exact)} differ"
+            assert 0.2 < exact[n:].mean() < 0.9
+    assert np.array_equal(
+        planner.collides(cm, poses), _exact_hits(cm, poses, 0.03, planner.blocked(cm))
+    )

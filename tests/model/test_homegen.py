@@ -14,12 +14,10 @@ import numpy as np
 import pytest
 
 from robotrial.benchmarks.chores import CHORE_HOMES
-from robotrial.model.gridmap import world_map
 from robotrial.model.home import place_in
 from robotrial.model.homegen import DOCK_CLEAR, JAR, OBJECT_GAP, SIDE_TABLE, home_plan, home_yaml
 from robotrial.model.world import load_world_text
-from robotrial.nav.costmap import Costmap, Footprint
-from robotrial.nav.goals import check_goal, sample_goals
+from tests.nav.test_goals import assert_every_room_reached
 
 # The plans as generated before the extras existed (sha256 of the sorted JSON, first 16
 # hex digits): the 20 homes of `robotrial bench chores`, and four homes of the default
@@ -146,14 +144,4 @@ def test_the_added_pieces_overlap_nothing(seed) -> None:
 def test_the_base_still_reaches_every_room_of_a_home_with_side_tables(seed) -> None:
     # homes 12 and 47 get two side tables each
     assert len(_split(home_plan(seed, spec=CHORE_HOMES))[1]["furniture"]) == 2
-    world = load_world_text(home_yaml(seed, spec=CHORE_HOMES))
-    grid = world_map(world)
-    cm = Costmap(grid.occupied, grid.origin, grid.resolution, Footprint(0.99, 0.67))
-    spawn = world.spawn("default")
-    start = (float(spawn.xyz[0]), float(spawn.xyz[1]), float(spawn.yaw))
-    rng = np.random.default_rng(seed)
-    for room in world.rooms:
-        (x0, y0), (x1, y1) = room.bounds
-        (goal,) = sample_goals(cm, 1, rng, region=((x0 + 0.5, y0 + 0.5), (x1 - 0.5, y1 - 0.5)))
-        verdict = check_goal(cm, tuple(goal), start)
-        assert verdict.kind in ("ok", "here"), (room.name, verdict.reason)
+    assert_every_room_reached(load_world_text(home_yaml(seed, spec=CHORE_HOMES)), seed)

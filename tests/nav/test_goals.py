@@ -33,11 +33,15 @@ def test_a_generated_home_has_doorways_furniture_and_every_room_reached(seed) ->
     assert len(plan["doorways"]) >= len(plan["rooms"]) - 1
     assert all(0.8 - 1e-9 <= d["width"] <= 1.0 + 1e-9 for d in plan["doorways"])
     assert plan["furniture"]
-    world = generate_home(seed)
+    assert_every_room_reached(generate_home(seed), seed)
+
+
+def assert_every_room_reached(world, seed: int) -> None:
+    """A goal drawn in every room of `world` is reached by the footprint planner from the
+    spawn, on the true map."""
     cm = costmap_of(world)
     spawn = world.spawn("default")
     start = (float(spawn.xyz[0]), float(spawn.xyz[1]), float(spawn.yaw))
-    # a goal drawn in every room is reached by the footprint planner from the spawn
     rng = np.random.default_rng(seed)
     for room in world.rooms:
         (x0, y0), (x1, y1) = room.bounds

@@ -289,6 +289,28 @@ def test_a_base_the_map_shows_nearly_touching_a_jamb_gets_clear_and_drives_on():
     assert room.min() >= room[0] - 1e-3, "it went nearer the jamb than it started"
 
 
+def _pocket(res: float) -> tuple[np.ndarray, Costmap]:
+    """A 6 x 4 m room whose east side, from x 4.5 m, is solid but for a pocket 1.0 m wide
+    and 1.5 m deep, as a grid of `res` cells and the base's costmap on it."""
+    n = round(0.05 / res)
+    occ = np.zeros((80 * n, 120 * n), dtype=bool)
+    occ[[0, -1], :] = occ[:, [0, -1]] = True
+    occ[:, 90 * n :] = True
+    occ[30 * n : 50 * n, 90 * n : -1] = False
+    return occ, Costmap(occ, (0.0, 0.0), res, Footprint(0.99, 0.67))
+
+
+def _backs_out(occ: np.ndarray, cm: Costmap, config, start: np.ndarray, goal: tuple) -> None:
+    """The navigator drives the base from `start` in the pocket out to `goal`, touching
+    nothing."""
+    nav = Navigator(occ, cm.origin, cm.resolution, cm.footprint, config)
+    nav.set_goal(*goal)
+    poses = _drive(nav, start, occ, cm.origin, cm.resolution, lambda p: p[0] < 3.8, 900)
+    pose = poses[-1]
+    assert pose[0] < 3.8, f"{nav.status.value} at {pose.round(2)}: {nav.message}"
+    assert rectangle_clearance(cm, poses).min() > 0.0
+
+
 def test_a_base_in_a_pocket_too_narrow_to_turn_in_backs_out_to_its_goal():
     """Exploring may drive the base forwards into a pocket as wide as a doorway and too
     narrow to turn in (between a sofa and a round table). No forward plan leaves it; the
@@ -297,13 +319,7 @@ def test_a_base_in_a_pocket_too_narrow_to_turn_in_backs_out_to_its_goal():
     from robotrial.nav.goals import check_goal
     from robotrial.trials.nav import navigator_config
 
-    res = 0.05
-    occ = np.zeros((80, 120), dtype=bool)
-    occ[[0, -1], :] = occ[:, [0, -1]] = True
-    occ[:, 90:] = True  # x >= 4.5 is solid but for a pocket 1.0 m wide, 1.5 m deep
-    occ[30:50, 90:119] = False
-    fp = Footprint(0.99, 0.67)
-    cm = Costmap(occ, (0.0, 0.0), res, fp)
+    occ, cm = _pocket(0.05)
     start, goal = np.array([5.3, 2.0, 0.0]), (1.5, 2.0, np.pi)
     config = navigator_config(0.3, 2.0, 1.0, "hybrid", 3.0)
     config = replace(config, costmap_resolution=None)
@@ -311,12 +327,7 @@ def test_a_base_in_a_pocket_too_narrow_to_turn_in_backs_out_to_its_goal():
         HybridAStar(config.hybrid).plan_poses(cm, tuple(start), goal)
     verdict = check_goal(cm, goal, tuple(start), HybridAStar(config.hybrid))
     assert verdict.ok, verdict.reason
-    nav = Navigator(occ, (0.0, 0.0), res, fp, config)
-    nav.set_goal(*goal)
-    poses = _drive(nav, start, occ, (0.0, 0.0), res, lambda p: p[0] < 3.8, 900)
-    pose = poses[-1]
-    assert pose[0] < 3.8, f"{nav.status.value} at {pose.round(2)}: {nav.message}"
-    assert rectangle_clearance(cm, poses).min() > 0.0
+    _backs_out(occ, cm, config, start, goal)
 
 
 def test_a_base_touching_a_pocket_wall_as_mapped_gets_clear_and_backs_out_to_its_goal():
@@ -328,13 +339,7 @@ def test_a_base_touching_a_pocket_wall_as_mapped_gets_clear_and_backs_out_to_its
     from robotrial.nav.goals import check_goal
     from robotrial.trials.nav import navigator_config
 
-    res = 0.025
-    occ = np.zeros((160, 240), dtype=bool)
-    occ[[0, -1], :] = occ[:, [0, -1]] = True
-    occ[:, 180:] = True  # x >= 4.5 is solid but for a pocket 1.0 m wide, 1.5 m deep
-    occ[60:100, 180:239] = False
-    fp = Footprint(0.99, 0.67)
-    cm = Costmap(occ, (0.0, 0.0), res, fp)
+    occ, cm = _pocket(0.025)
     # its front 5 mm from the pocket's end (x 5.975 as mapped)
     start, goal = np.array([5.975 - 0.005 - 0.495, 2.0, 0.0]), (1.5, 2.0, np.pi)
     config = navigator_config(0.3, 2.0, 1.0, "hybrid", 3.0)
@@ -343,12 +348,7 @@ def test_a_base_touching_a_pocket_wall_as_mapped_gets_clear_and_backs_out_to_its
     assert planner.collides(cm, start[None])[0], "within the margin of the pocket's end"
     verdict = check_goal(cm, goal, tuple(start), planner)
     assert verdict.ok, verdict.reason
-    nav = Navigator(occ, (0.0, 0.0), res, fp, config)
-    nav.set_goal(*goal)
-    poses = _drive(nav, start, occ, (0.0, 0.0), res, lambda p: p[0] < 3.8, 900)
-    pose = poses[-1]
-    assert pose[0] < 3.8, f"{nav.status.value} at {pose.round(2)}: {nav.message}"
-    assert rectangle_clearance(cm, poses).min() > 0.0
+    _backs_out(occ, cm, config, start, goal)
 
 
 def test_a_goal_just_past_a_doorway_is_not_turned_to_where_the_rear_sweeps_the_jamb():

@@ -289,28 +289,6 @@ def test_a_base_the_map_shows_nearly_touching_a_jamb_gets_clear_and_drives_on():
     assert room.min() >= room[0] - 1e-3, "it went nearer the jamb than it started"
 
 
-def _pocket(res: float) -> tuple[np.ndarray, Costmap]:
-    """A 6 x 4 m room whose east side, from x 4.5 m, is solid but for a pocket 1.0 m wide
-    and 1.5 m deep, as a grid of `res` cells and the base's costmap on it."""
-    n = round(0.05 / res)
-    occ = np.zeros((80 * n, 120 * n), dtype=bool)
-    occ[[0, -1], :] = occ[:, [0, -1]] = True
-    occ[:, 90 * n :] = True
-    occ[30 * n : 50 * n, 90 * n : -1] = False
-    return occ, Costmap(occ, (0.0, 0.0), res, Footprint(0.99, 0.67))
-
-
-def _backs_out(occ: np.ndarray, cm: Costmap, config, start: np.ndarray, goal: tuple) -> None:
-    """The navigator drives the base from `start` in the pocket out to `goal`, touching
-    nothing."""
-    nav = Navigator(occ, cm.origin, cm.resolution, cm.footprint, config)
-    nav.set_goal(*goal)
-    poses = _drive(nav, start, occ, cm.origin, cm.resolution, lambda p: p[0] < 3.8, 900)
-    pose = poses[-1]
-    assert pose[0] < 3.8, f"{nav.status.value} at {pose.round(2)}: {nav.message}"
-    assert rectangle_clearance(cm, poses).min() > 0.0
-
-
 def test_a_base_in_a_pocket_too_narrow_to_turn_in_backs_out_to_its_goal():
     """Exploring may drive the base forwards into a pocket as wide as a doorway and too
     narrow to turn in (between a sofa and a round table). No forward plan leaves it; the
@@ -319,7 +297,13 @@ def test_a_base_in_a_pocket_too_narrow_to_turn_in_backs_out_to_its_goal():
     from robotrial.nav.goals import check_goal
     from robotrial.trials.nav import navigator_config
 
-    occ, cm = _pocket(0.05)
+    res = 0.05
+    occ = np.zeros((80, 120), dtype=bool)
+    occ[[0, -1], :] = occ[:, [0, -1]] = True
+    occ[:, 90:] = True  # x >= 4.5 is solid but for a pocket 1.0 m wide, 1.5 m deep
+    occ[30:50, 90:119] = False
+    fp = Footprint(0.99, 0.67)
+    cm = Costmap(occ, (0.0, 0.0), res, fp)
     start, goal = np.array([5.3, 2.0, 0.0]), (1.5, 2.0, np.pi)
     config = navigator_config(0.3, 2.0, 1.0, "hybrid", 3.0)
     config = replace(config, costmap_resolution=None)
@@ -327,28 +311,12 @@ def test_a_base_in_a_pocket_too_narrow_to_turn_in_backs_out_to_its_goal():
         HybridAStar(config.hybrid).plan_poses(cm, tuple(start), goal)
     verdict = check_goal(cm, goal, tuple(start), HybridAStar(config.hybrid))
     assert verdict.ok, verdict.reason
-    _backs_out(occ, cm, config, start, goal)
-
-
-def test_a_base_touching_a_pocket_wall_as_mapped_gets_clear_and_backs_out_to_its_goal():
-    """Exploring may end with the base in a pocket too narrow to turn in (home 25: between
-    a round table and a wall), a few mm from the pocket's end as mapped, nearer than the
-    planner's margin. The goal behind it is judged as the navigator reaches it:
-    from where the base stands clear, a plan that backs out; and the base drives there,
-    touching nothing."""
-    from robotrial.nav.goals import check_goal
-    from robotrial.trials.nav import navigator_config
-
-    occ, cm = _pocket(0.025)
-    # its front 5 mm from the pocket's end (x 5.975 as mapped)
-    start, goal = np.array([5.975 - 0.005 - 0.495, 2.0, 0.0]), (1.5, 2.0, np.pi)
-    config = navigator_config(0.3, 2.0, 1.0, "hybrid", 3.0)
-    config = replace(config, costmap_resolution=None, hybrid=replace(config.hybrid, margin=0.01))
-    planner = HybridAStar(config.hybrid)
-    assert planner.collides(cm, start[None])[0], "within the margin of the pocket's end"
-    verdict = check_goal(cm, goal, tuple(start), planner)
-    assert verdict.ok, verdict.reason
-    _backs_out(occ, cm, config, start, goal)
+    nav = Navigator(occ, (0.0, 0.0), res, fp, config)
+    nav.set_goal(*goal)
+    poses = _drive(nav, start, occ, (0.0, 0.0), res, lambda p: p[0] < 3.8, 900)
+    pose = poses[-1]
+    assert pose[0] < 3.8, f"{nav.status.value} at {pose.round(2)}: {nav.message}"
+    assert rectangle_clearance(cm, poses).min() > 0.0
 
 
 def test_a_goal_just_past_a_doorway_is_not_turned_to_where_the_rear_sweeps_the_jamb():
@@ -462,71 +430,3 @@ def test_a_pose_a_few_mm_off_a_jamb_is_free_alike_for_the_planner_and_the_contro
     assert controller.set_path(plan, cm, tuple(start))
     command = controller.compute(tuple(start), (0.0, 0.0), plan[:, :2], cm)
     assert command.ok and abs(command.v) + abs(command.w) > 0.0
-
-
-def _exact_hits(cm: Costmap, poses: np.ndarray, margin: float, blocked: np.ndarray) -> np.ndarray:
-    """The rectangle grown by `margin` against every blocked cell's square (cells outside
-    the map blocked), by separating axes: the test the footprint check's bounds skip."""
-    fp, res = cm.footprint, cm.resolution
-    a, b, h = 0.5 * fp.length + margin, 0.5 * fp.width + margin, 0.5 * res
-    pad = 30
-    rr, cc = np.nonzero(np.pad(blocked, pad, constant_values=True))
-    cx = cm.origin[0] + (cc - pad + 0.5) * res
-    cy = cm.origin[1] + (rr - pad + 0.5) * res
-    out = np.zeros(len(poses), dtype=bool)
-    for i, (x, y, th) in enumerate(poses):
-        co, sn = np.cos(th), np.sin(th)
-        ac, as_ = abs(co), abs(sn)
-        px, py = cx - x, cy - y
-        out[i] = np.any(
-            (np.abs(px * co + py * sn) < a + h * (ac + as_))
-            & (np.abs(py * co - px * sn) < b + h * (ac + as_))
-            & (np.abs(px) < h + a * ac + b * as_)
-            & (np.abs(py) < h + a * as_ + b * ac)
-        )
-    return out
-
-
-def test_the_footprint_test_answers_as_the_exact_rectangle_on_random_poses():
-    """The footprint test skips the cell walk where the distance field bounds the answer
-    (every covering circle clear, or a blocked cell inside the rectangle): on random
-    poses about a doorway, the map's edge, unknown cells and scan marks near the walls
-    (which the planner does not count as blocked) its answers are the exact ones."""
-    from robotrial.model.gridmap import world_map
-    from robotrial.model.world import load_world_text
-    from tests.trials.test_verdict import two_rooms
-
-    m = world_map(load_world_text(two_rooms(0.8)))
-    rng = np.random.default_rng(3)
-    unknown = np.zeros_like(m.occupied)
-    free = np.argwhere(~m.occupied)
-    speckle = free[rng.choice(len(free), 40, replace=False)]
-    unknown[speckle[:, 0], speckle[:, 1]] = True
-    cm = Costmap(m.occupied, m.origin, m.resolution, Footprint(0.99, 0.67), unknown=unknown)
-    walls = np.argwhere(m.occupied)[::7]
-    cm.mark(cm.cell_to_world(walls) + rng.normal(0.0, 0.04, (len(walls), 2)))
-    cm.update()
-    rows, cols = cm.shape
-    x0, y0 = cm.origin
-    n = 1500
-    poses = np.column_stack(
-        [
-            rng.uniform(x0 - 0.3, x0 + cols * cm.resolution + 0.3, n),
-            rng.uniform(y0 - 0.3, y0 + rows * cm.resolution + 0.3, n),
-            rng.uniform(-np.pi, np.pi, n),
-        ]
-    )
-    near_door = np.column_stack(
-        [rng.uniform(2.0, 4.0, n), rng.uniform(0.8, 2.2, n), rng.uniform(-np.pi, np.pi, n)]
-    )
-    poses = np.vstack([poses, near_door])
-    planner = HybridAStar()
-    for margin in (0.0, 0.03):
-        for blocked in (None, planner.blocked(cm)):
-            hits = footprint_hits(cm, poses, margin, blocked)
-            exact = _exact_hits(cm, poses, margin, cm.lethal if blocked is None else blocked)
-            assert np.array_equal(hits, exact), f"margin {margin}: {np.sum(hits != exact)} differ"
-            assert 0.2 < exact[n:].mean() < 0.9
-    assert np.array_equal(
-        planner.collides(cm, poses), _exact_hits(cm, poses, 0.03, planner.blocked(cm))
-    )

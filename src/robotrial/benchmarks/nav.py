@@ -25,25 +25,13 @@ first `--baseline-goals` of each world also with the old default (Dijkstra + DWA
 the same run: reached within 0.15 m without contact, contacts, runs stuck after every
 recovery, the median time and the median of each goal's time over the footprint's least
 time along its plan; and how many drawn goals the planner refused (unreachable).
-
-Then the footprint planner's own time: Hybrid-A* (the default configuration) from the
-spawn to `--plan-goals` reachable goals drawn in each of those worlds as the random
-goals are (`--goal-seed`), on the ground-truth map with cells of `--plan-resolution`
-(2.5 cm, as SLAM maps the chores' homes): the CPU time of a plan (the least of
-`--plan-repeats`), its median and 95th percentile over the goals, and the search
-states it made (median, most). With `--baseline-src` (the `src` folder of another
-checkout) that code plans the same goals too, each world in turns with this code's, so
-that both see the same load.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -120,30 +108,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "(default: %(default)s)",
     )
     parser.add_argument("--jobs", type=int, default=1, help="processes driving random goals")
-    parser.add_argument(
-        "--plan-goals",
-        type=int,
-        default=20,
-        help="goals per world the footprint planner's time is measured on (0: none) "
-        "(default: %(default)s)",
-    )
-    parser.add_argument(
-        "--plan-repeats", type=int, default=3, help="plans per goal timed (the least counts)"
-    )
-    parser.add_argument(
-        "--plan-resolution",
-        type=float,
-        default=0.025,
-        help="cell size (m) of the maps the footprint planner is timed on (default: "
-        "%(default)s, as SLAM maps the chores' homes)",
-    )
-    parser.add_argument(
-        "--baseline-src",
-        type=Path,
-        metavar="DIR",
-        help="the src folder of another checkout: its footprint planner plans the same goals, "
-        "in turns with this one's",
-    )
     parser.add_argument("-o", "--output", metavar="JSON", help="also write the results here")
     parser.add_argument("--plot", metavar="DIR", help="write a PNG of the paths per row here")
     add_json_flag(parser)
@@ -193,19 +157,8 @@ def run(args: argparse.Namespace) -> int:
     from robotrial.sim.controllers import DriveLimits
     from robotrial.trials.nav import PAPER_TABLE1, footprint_of_robot
 
-    if (
-        min(args.runs, args.jobs, args.plan_repeats) < 1
-        or min(args.goals, args.homes, args.plan_goals) < 0
-    ):
-        print(
-            "robotrial bench nav: --runs, --jobs and --plan-repeats must be at least 1, "
-            "--goals, --homes and --plan-goals >= 0"
-        )
-        return 2
-    if args.baseline_src is not None and not (args.baseline_src / "robotrial").is_dir():
-        print(
-            f"robotrial bench nav: --baseline-src {args.baseline_src}: no robotrial package there"
-        )
+    if args.runs < 1 or args.goals < 0 or args.homes < 0 or args.jobs < 1:
+        print("robotrial bench nav: --runs and --jobs must be at least 1, --goals and --homes >= 0")
         return 2
     methods = [
         m.split("/") if "/" in m else [m, default_controller(m)]
@@ -237,24 +190,12 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.goals:
         result["goals"] = _random_goals(args)
-    if args.plan_goals:
-        result["footprint_planner"] = footprint_plan_times(
-            _worlds(args),
-            args.plan_goals,
-            args.goal_seed,
-            args.plan_repeats,
-            args.plan_resolution,
-            args.baseline_src,
-            show=not args.json,
-        )
     if emit(result, args, load_after=True):
         return 0
     if "rows" in result:
         _print_table(result["rows"], result["planning"])
     if "goals" in result:
         _print_goals(result["goals"])
-    if "footprint_planner" in result:
-        _print_plan_times(result["footprint_planner"])
     return 0
 
 
@@ -387,142 +328,6 @@ def _print_table(rows: list[dict], timing: dict) -> None:
     )
 
 
-def _worlds(args) -> list[str]:
-    """The worlds of the random goals: the apartment (unless left out), then the homes."""
-    return ["apartment"] * (not args.no_apartment) + [
-        f"home:{s}" for s in range(args.home_seed, args.home_seed + args.homes)
-    ]
-
-
-_PLAN_TIMER = """
-import json, sys, time
-import numpy as np
-from robotrial.nav.costmap import Costmap
-from robotrial.nav.hybrid import HybridAStar
-from robotrial.nav.planners import NoPath
-from robotrial.model.gridmap import world_map
-from robotrial.trials.nav import footprint_of_robot, start_pose
-from robotrial.trials.nav_goals import named_world
-job = json.loads(sys.stdin.read())
-w = named_world(job["world"])
-m = world_map(w, job["resolution"])
-cm = Costmap(
-    m.occupied, m.origin, m.resolution, footprint_of_robot(job["robot"]), unknown=m.unknown
-)
-start = start_pose(w, "default")
-planner = HybridAStar()
-rows = []
-for i, goal in enumerate(job["goals"]):
-    best = np.inf
-    for k in range(job["repeats"] + (i == 0)):  # the first plan loads the kernels
-        t0 = time.thread_time()
-        try:
-            planner.plan_poses(cm, start, tuple(goal))
-            found = True
-        except NoPath:
-            found = False
-        if i or k:
-            best = min(best, time.thread_time() - t0)
-    rows.append([1e3 * best, planner.expansions, found])
-print(json.dumps(rows))
-"""
-"""Times Hybrid-A*'s plans from a world's spawn to goals on its ground-truth map (cells of
-`resolution` m), in
-whatever code is first on the path (another checkout's, for `--baseline-src`): per goal
-the least CPU time (ms) of `repeats` plans, the search states and whether it found one."""
-
-
-def footprint_plan_times(
-    worlds: list[str],
-    goals: int,
-    seed: int,
-    repeats: int,
-    resolution: float = 0.025,
-    baseline: Path | None = None,
-    show: bool = True,
-) -> dict:
-    """Hybrid-A*'s CPU time and search states from each world's spawn to its first
-    `goals` random reachable goals (`draw_goals` with `seed`) on its ground-truth map
-    with cells of `resolution` m, in a fresh process of
-    this code and, with `baseline` (another checkout's `src` folder), of that code in
-    turns: per variant and world the goals' rows and their summary."""
-    from robotrial.benchmarks.planning import _own_numba_cache
-    from robotrial.trials.nav_goals import ROBOT, draw_goals
-
-    variants = {"current": dict(os.environ)}
-    if baseline is not None:
-        env = _own_numba_cache(os.environ)
-        variants["baseline"] = {**env, "PYTHONPATH": str(baseline.resolve())}
-    out: dict = {"goals": goals, "repeats": repeats, "seed": seed, "resolution": resolution}
-    for name in variants:
-        out[name] = {"worlds": {}}
-    total = len(worlds) * len(variants)
-    with progress("bench nav: footprint planner", total=total, enabled=show) as advance:
-        for world in worlds:
-            job = {
-                "world": world,
-                "goals": draw_goals(world, goals, seed).goals.tolist(),
-                "robot": ROBOT,
-                "repeats": repeats,
-                "resolution": resolution,
-            }
-            for name, env in variants.items():
-                done = subprocess.run(
-                    [sys.executable, "-c", _PLAN_TIMER],
-                    input=json.dumps(job),
-                    env=env,
-                    capture_output=True,
-                    text=True,
-                    check=True,
-                )
-                out[name]["worlds"][world] = _plan_summary(json.loads(done.stdout))
-                advance()
-    for name in variants:
-        rows = [r for w in out[name]["worlds"].values() for r in w["rows"]]
-        out[name]["all"] = _plan_summary(rows)
-    return out
-
-
-def _plan_summary(rows: list) -> dict:
-    ms = np.array([r[0] for r in rows])
-    states = np.array([r[1] for r in rows])
-    return {
-        "rows": rows,
-        "found": int(sum(r[2] for r in rows)),
-        "median_ms": float(np.median(ms)),
-        "p95_ms": float(np.percentile(ms, 95)),
-        "total_ms": float(ms.sum()),
-        "median_states": float(np.median(states)),
-        "max_states": int(states.max()),
-    }
-
-
-def _print_plan_times(times: dict) -> None:
-    variants = [v for v in ("current", "baseline") if v in times]
-    rows = []
-    for world in [*times["current"]["worlds"], "all"]:
-        for v in variants:
-            t = times[v]["all"] if world == "all" else times[v]["worlds"][world]
-            rows.append(
-                (
-                    world,
-                    v,
-                    f"{t['found']}/{len(t['rows'])}",
-                    f"{t['median_ms']:.1f}",
-                    f"{t['p95_ms']:.1f}",
-                    f"{t['total_ms']:.0f}",
-                    f"{t['median_states']:.0f}",
-                    t["max_states"],
-                )
-            )
-    print_table(
-        f"Hybrid-A* from the spawn to {times['goals']} random goals a world, "
-        f"{100 * times['resolution']:g} cm cells (CPU ms, least of {times['repeats']})",
-        ["world", "code", "found", "median", "p95", "total", "states (median)", "states (most)"],
-        rows,
-    )
-
-
 def _drive_one(job: tuple) -> dict:
     from robotrial.trials.nav_goals import drive_goal
 
@@ -537,7 +342,9 @@ def _random_goals(args) -> dict:
     from robotrial.nav import DEFAULT_PLANNER, OLD_DEFAULT_PLANNER
     from robotrial.trials.nav_goals import draw_goals, goal_table
 
-    worlds = _worlds(args)
+    worlds = ["apartment"] * (not args.no_apartment) + [
+        f"home:{s}" for s in range(args.home_seed, args.home_seed + args.homes)
+    ]
     draws = [draw_goals(w, args.goals, args.goal_seed) for w in worlds]
     jobs = []
     for d in draws:

@@ -9,8 +9,7 @@ the rectangle at that heading, already reached, or out of reach for the footprin
 the start (Hybrid-A*, the footprint planner, asked for the whole pose; from a start
 where the map shows the base touching something, from where the least turn and straight
 drive that gets it clear, `escape_move`, takes it, as the navigator does; and where no
-forward plan gets there, a plan from that same start that may back out of a pocket too
-narrow to turn in).
+forward plan gets there, a plan that may back out of a pocket too narrow to turn in).
 The command line, the live server and the benchmark all ask it, so a goal is refused
 the same way everywhere.
 """
@@ -140,15 +139,14 @@ def check_goal(
     if dist <= xy_tolerance and turn <= 0.15:
         return GoalCheck("here", f"the base already stands on the goal ({dist:.2f} m away)")
     planner = planner or HybridAStar()
-    here = (sx, sy, syaw)
     try:
         try:
-            poses = planner.plan_poses(costmap, here, (gx, gy, gyaw))
+            poses = planner.plan_poses(costmap, (sx, sy, syaw), (gx, gy, gyaw))
         except StartBlocked:
             # the base stands where the map shows it touching something: the navigator
             # first gets it clear (`escape_move`), so the goal is judged from there
             blocked = planner.blocked(costmap)
-            move = escape_move(costmap, here, planner.config.margin, blocked)
+            move = escape_move(costmap, (sx, sy, syaw), planner.config.margin, blocked)
             if move is None:
                 return GoalCheck(
                     "unreachable",
@@ -158,15 +156,14 @@ def check_goal(
                     "gets it clear",
                 )
             heading, run = move
-            here = (sx + run * np.cos(heading), sy + run * np.sin(heading), heading)
-            poses = planner.plan_poses(costmap, here, (gx, gy, gyaw))
+            clear = (sx + run * np.cos(heading), sy + run * np.sin(heading), heading)
+            poses = planner.plan_poses(costmap, clear, (gx, gy, gyaw))
     except NoPath as err:
         try:
             # a base in a pocket it drove into forwards, too narrow to turn in, backs
-            # out first (the navigator does, as far as a plan that may reverse says),
-            # from where it stands clear (from where it touches, no plan starts)
+            # out first (the navigator does, as far as a plan that may reverse says)
             back = planner.reversing()
-            return GoalCheck("ok", plan=back.plan_poses(costmap, here, (gx, gy, gyaw)))
+            return GoalCheck("ok", plan=back.plan_poses(costmap, (sx, sy, syaw), (gx, gy, gyaw)))
         except NoPath:
             pass
         text = str(err)  # the planner's words name the goal already, mostly

@@ -47,8 +47,6 @@ REVERSE_PENALTY = 3.0  # cost factor on backward steps of a plan that backs out 
 CHECK_BINS = 2 * YAW_BINS
 SUB = 4
 SHOT_NEAR = 0.6  # m: within this of the goal a straight shot needs only the margin
-COVER = 3  # circles along its long side that cover the rectangle in the footprint test
-CHAMFER = 1.0825  # the most 8-connected steps' length exceeds the straight distance by
 
 
 @dataclass(frozen=True)
@@ -219,27 +217,10 @@ def _cost_to_go(weight, goal):
 
 
 @numba.njit(cache=True)
-def _cell_clear(x, y, clear, ox, oy, res):
-    """`clear` at the cell holding (x, y); 0 outside the map."""
-    rows, cols = clear.shape
-    c = int(np.floor((x - ox) / res))
-    r = int(np.floor((y - oy) / res))
-    if r < 0 or r >= rows or c < 0 or c >= cols:
-        return 0.0
-    return clear[r, c]
-
-
-@numba.njit(cache=True)
-def _collides(x, y, th, blocked, clear, ox, oy, res, starts, cells, half):
+def _collides(x, y, th, blocked, dist, free_dist, ox, oy, res, starts, cells, half):
     """Whether the rectangle of half sides `half` (a, b) at (x, y) facing `th` overlaps a
-    blocked cell's square (cells outside the map count as blocked). `clear` (m) bounds
-    the distance from each cell's centre to the nearest blocked cell's (`clearance`:
-    not less, at most CHAMFER times more). A point lies within 0.71 cell of its cell's
-    centre, a cell's square within 0.71 cell of its centre: where circles that cover
-    the rectangle all keep more than their radius and 1.42 cells from blocked centres
-    it is clear, and where a disc inside it holds a blocked centre it is not. Only
-    between the two are the cells of the check bin's list walked, each tested exactly
-    unless the list marks it sure."""
+    blocked cell's square (cells outside the map count as blocked): the cells the check
+    bin's list names, each tested exactly unless the list marks it sure."""
     rows, cols = blocked.shape
     fc = (x - ox) / res
     fr = (y - oy) / res
@@ -247,47 +228,14 @@ def _collides(x, y, th, blocked, clear, ox, oy, res, starts, cells, half):
     r = int(np.floor(fr))
     if r < 0 or r >= rows or c < 0 or c >= cols:
         return True
-    co, sn = np.cos(th), np.sin(th)
-    # the long axis (ux, uy), its half `la` and the half width `lb`
-    if half[0] >= half[1]:
-        la, lb, ux, uy = half[0], half[1], co, sn
-    else:
-        la, lb, ux, uy = half[1], half[0], -sn, co
-    e = 0.7072 * res
-    here = clear[r, c]
-    if here + e < lb:
-        return True
-    if here / CHAMFER - 2 * e > np.hypot(la, lb):
-        return False
-    # discs of radius lb at the ends of the medial segment lie inside the rectangle
-    m = la - lb
-    if (
-        _cell_clear(x + m * ux, y + m * uy, clear, ox, oy, res) + e < lb
-        or _cell_clear(x - m * ux, y - m * uy, clear, ox, oy, res) + e < lb
-    ):
-        return True
-    # COVER circles along the long axis cover the rectangle
-    rc = np.hypot(la / COVER, lb) + 2 * e
-    covered = True
-    for k in range(COVER):
-        t = la * ((2 * k + 1) / COVER - 1.0)
-        if _cell_clear(x + t * ux, y + t * uy, clear, ox, oy, res) / CHAMFER <= rc:
-            covered = False
-            break
-    if covered:
+    if dist[r, c] > free_dist:
         return False
     sj = min(SUB - 1, int((fc - c) * SUB))
     si = min(SUB - 1, int((fr - r) * SUB))
     kbin = int(np.round(th / (np.pi / YAW_BINS))) % CHECK_BINS
     i = (kbin * SUB + si) * SUB + sj
-    # separating axes of the cell square and the rectangle: the rectangle's own, then
-    # the map's
-    ac, as_ = abs(co), abs(sn)
-    h = 0.5 * res
-    ta = half[0] + h * (ac + as_)
-    tb = half[1] + h * (ac + as_)
-    tx = h + half[0] * ac + half[1] * as_
-    ty = h + half[0] * as_ + half[1] * ac
+    co = sn = ta = tb = tx = ty = 0.0
+    tested = False
     for j in range(starts[i], starts[i + 1]):
         rr = r + cells[j, 0]
         cc = c + cells[j, 1]
@@ -295,6 +243,17 @@ def _collides(x, y, th, blocked, clear, ox, oy, res, starts, cells, half):
             continue
         if cells[j, 2]:
             return True
+        if not tested:
+            # separating axes of the cell square and the rectangle: the rectangle's
+            # own, then the map's
+            co, sn = np.cos(th), np.sin(th)
+            ac, as_ = abs(co), abs(sn)
+            h = 0.5 * res
+            ta = half[0] + h * (ac + as_)
+            tb = half[1] + h * (ac + as_)
+            tx = h + half[0] * ac + half[1] * as_
+            ty = h + half[0] * as_ + half[1] * ac
+            tested = True
         px = ox + (cc + 0.5) * res - x
         py = oy + (rr + 0.5) * res - y
         if (
@@ -308,7 +267,7 @@ def _collides(x, y, th, blocked, clear, ox, oy, res, starts, cells, half):
 
 
 @numba.njit(cache=True)
-def _motion_free(x, y, b, kind, turn, length, blocked, clear, ox, oy, res, st, ce, half):
+def _motion_free(x, y, b, kind, turn, length, blocked, dist, free_dist, ox, oy, res, st, ce, half):
     """Whether a motion from (x, y, yaw bin b) stays clear; returns (free, x1, y1, b1)."""
     d = 2 * np.pi / YAW_BINS
     th0 = b * d
@@ -317,7 +276,7 @@ def _motion_free(x, y, b, kind, turn, length, blocked, clear, ox, oy, res, st, c
         sgn = 1 if turn > 0 else -1
         for i in range(1, 2 * abs(turn) + 1):
             th = th0 + sgn * i * 0.5 * d
-            if _collides(x, y, th, blocked, clear, ox, oy, res, st, ce, half):
+            if _collides(x, y, th, blocked, dist, free_dist, ox, oy, res, st, ce, half):
                 return False, x, y, b1
         return True, x, y, b1
     direction = 1.0 if kind == 0 else -1.0
@@ -338,13 +297,13 @@ def _motion_free(x, y, b, kind, turn, length, blocked, clear, ox, oy, res, st, c
             th = th0 + dth
             x1 = x + direction * rad * (np.sin(th) - np.sin(th0))
             y1 = y - direction * rad * (np.cos(th) - np.cos(th0))
-        if _collides(x1, y1, th, blocked, clear, ox, oy, res, st, ce, half):
+        if _collides(x1, y1, th, blocked, dist, free_dist, ox, oy, res, st, ce, half):
             return False, x1, y1, b1
     return True, x1, y1, b1
 
 
 @numba.njit(cache=True)
-def _turn_free(x, y, k, kt, blocked, clear, ox, oy, res, st, ce, half):
+def _turn_free(x, y, k, kt, blocked, dist, free_dist, ox, oy, res, st, ce, half):
     """Whether turning on the spot at (x, y) from check bin `k` to `kt` (the shorter
     way) keeps the rectangle clear."""
     diff = (kt - k) % CHECK_BINS
@@ -354,20 +313,20 @@ def _turn_free(x, y, k, kt, blocked, clear, ox, oy, res, st, ce, half):
         sgn = -1
     for i in range(1, diff + 1):
         th = (k + sgn * i) * np.pi / YAW_BINS
-        if _collides(x, y, th, blocked, clear, ox, oy, res, st, ce, half):
+        if _collides(x, y, th, blocked, dist, free_dist, ox, oy, res, st, ce, half):
             return False
     return True
 
 
 @numba.njit(cache=True)
-def _shot(x, y, b, gx, gy, gk, reverse, blocked, clear, ox, oy, res, st, ce, half):
+def _shot(x, y, b, gx, gy, gk, reverse, blocked, dist, free_dist, ox, oy, res, st, ce, half):
     """Turn on the spot towards (gx, gy) (away from it with `reverse`), drive straight to
     it (backwards with `reverse`), then turn on the spot to check bin `gk` (-1: any
     heading): whether all of it is clear."""
     d = 0.5 * 2 * np.pi / YAW_BINS
     heading = np.arctan2(gy - y, gx - x) + (np.pi if reverse else 0.0)
     kt = int(np.round(heading / d)) % CHECK_BINS
-    if not _turn_free(x, y, 2 * b, kt, blocked, clear, ox, oy, res, st, ce, half):
+    if not _turn_free(x, y, 2 * b, kt, blocked, dist, free_dist, ox, oy, res, st, ce, half):
         return False
     length = np.hypot(gx - x, gy - y)
     n = int(np.ceil(length / (0.5 * res)))
@@ -378,7 +337,8 @@ def _shot(x, y, b, gx, gy, gk, reverse, blocked, clear, ox, oy, res, st, ce, hal
             y + t * (gy - y),
             heading,
             blocked,
-            clear,
+            dist,
+            free_dist,
             ox,
             oy,
             res,
@@ -387,7 +347,7 @@ def _shot(x, y, b, gx, gy, gk, reverse, blocked, clear, ox, oy, res, st, ce, hal
             half,
         ):
             return False
-    return gk < 0 or _turn_free(gx, gy, kt, gk, blocked, clear, ox, oy, res, st, ce, half)
+    return gk < 0 or _turn_free(gx, gy, kt, gk, blocked, dist, free_dist, ox, oy, res, st, ce, half)
 
 
 @numba.njit(cache=True)
@@ -400,7 +360,8 @@ def _search(
     gk,
     reverse_shot,
     blocked,
-    clear,
+    dist,
+    free_dist,
     weight,
     h,
     ox,
@@ -410,10 +371,12 @@ def _search(
     st,
     ce,
     half,
+    tight_dist,
     st2,
     ce2,
     half2,
     tight_penalty,
+    snug_dist,
     st3,
     ce3,
     half3,
@@ -466,7 +429,8 @@ def _search(
             return xs[:n], ys[:n], bs[:n], par[:n], -2, 0
         dgoal = np.hypot(gx - x, gy - y)
         if dgoal <= tol and (
-            gk < 0 or _turn_free(gx, gy, 2 * b, gk, blocked, clear, ox, oy, res, st, ce, half)
+            gk < 0
+            or _turn_free(gx, gy, 2 * b, gk, blocked, dist, free_dist, ox, oy, res, st, ce, half)
         ):
             return xs[:n], ys[:n], bs[:n], par[:n], cur, 0
         if spin and dgoal <= shot_range and (expansions % 4 == 1 or dgoal < 1.0):
@@ -485,7 +449,8 @@ def _search(
                     gk,
                     rev,
                     blocked,
-                    clear,
+                    dist,
+                    tight_dist,
                     ox,
                     oy,
                     res,
@@ -495,7 +460,7 @@ def _search(
                 ):
                     return xs[:n], ys[:n], bs[:n], par[:n], cur, 2 if rev else 1
                 if near and _shot(
-                    x, y, b, gx, gy, gk, rev, blocked, clear, ox, oy, res, st, ce, half
+                    x, y, b, gx, gy, gk, rev, blocked, dist, free_dist, ox, oy, res, st, ce, half
                 ):
                     return xs[:n], ys[:n], bs[:n], par[:n], cur, 2 if rev else 1
         for p in range(prims.shape[0]):
@@ -503,7 +468,7 @@ def _search(
             turn = int(prims[p, 1])
             length = prims[p, 2]
             ok, x1, y1, b1 = _motion_free(
-                x, y, b, kind, turn, length, blocked, clear, ox, oy, res, st, ce, half
+                x, y, b, kind, turn, length, blocked, dist, free_dist, ox, oy, res, st, ce, half
             )
             if not ok:
                 continue
@@ -521,11 +486,11 @@ def _search(
                 step_cost = length * prims[p, 3] * weight[r1, c1]
             th1 = b1 * 2 * np.pi / YAW_BINS
             if tight_penalty > 1.0 and _collides(
-                x1, y1, th1, blocked, clear, ox, oy, res, st2, ce2, half2
+                x1, y1, th1, blocked, dist, tight_dist, ox, oy, res, st2, ce2, half2
             ):
                 step_cost *= tight_penalty
                 if snug_penalty > 1.0 and _collides(
-                    x1, y1, th1, blocked, clear, ox, oy, res, st3, ce3, half3
+                    x1, y1, th1, blocked, dist, snug_dist, ox, oy, res, st3, ce3, half3
                 ):
                     step_cost *= snug_penalty
             g1 = gs[cur] + step_cost
@@ -651,14 +616,14 @@ class HybridAStar:
             for m in (c.tight_margin, c.snug_margin)
         )
         blocked = self.blocked(costmap)
-        clear = clearance(blocked, res)
         fp = costmap.footprint
+        free_dist = fp.circumscribed_radius + c.margin + 2 * res
         ox, oy = costmap.origin
         half, half2, half3 = (
             np.array([0.5 * fp.length + m, 0.5 * fp.width + m])
             for m in (c.margin, max(c.tight_margin, c.margin), max(c.snug_margin, c.margin))
         )
-        args = (blocked, clear, ox, oy, res, starts, cells, half)
+        args = (blocked, costmap.distance, free_dist, ox, oy, res, starts, cells, half)
         if _collides(s[0], s[1], s[2], *args):
             raise StartBlocked(f"the footprint at the start {_fmt(s)} touches an obstacle")
         sb = _start_bin(s, args)
@@ -703,7 +668,8 @@ class HybridAStar:
             gk,
             c.reverse_shot and c.turning_radius == 0,
             blocked,
-            clear,
+            costmap.distance,
+            free_dist,
             weight,
             h,
             ox,
@@ -713,10 +679,12 @@ class HybridAStar:
             edge[0],
             edge[1],
             half,
+            fp.circumscribed_radius + max(c.tight_margin, c.margin) + 2 * res,
             tight[0],
             tight[1],
             half2,
             c.tight_penalty,
+            fp.circumscribed_radius + max(c.snug_margin, c.margin) + 2 * res,
             snug[0],
             snug[1],
             half3,
@@ -779,46 +747,6 @@ def wall_marks(costmap: Costmap, tolerance: float) -> np.ndarray:
     return costmap.obstacles & near & ~costmap.static
 
 
-@numba.njit(cache=True)
-def clearance(blocked, res):
-    """Distance (m) from each cell's centre to the nearest blocked cell's centre along
-    8-connected steps (1 and sqrt(2) cells; at most CHAMFER times the straight one),
-    the cells around the grid counting as blocked: the footprint test's bounds."""
-    rows, cols = blocked.shape
-    d = np.empty((rows, cols))
-    sq2 = np.sqrt(2.0)
-    for r in range(rows):
-        for c in range(cols):
-            if blocked[r, c]:
-                d[r, c] = 0.0
-                continue
-            best = 1.0 if r == 0 or c == 0 or c == cols - 1 else np.inf
-            if r > 0:
-                best = min(best, d[r - 1, c] + 1.0)
-                if c > 0:
-                    best = min(best, d[r - 1, c - 1] + sq2)
-                if c < cols - 1:
-                    best = min(best, d[r - 1, c + 1] + sq2)
-            if c > 0:
-                best = min(best, d[r, c - 1] + 1.0)
-            d[r, c] = best
-    for r in range(rows - 1, -1, -1):
-        for c in range(cols - 1, -1, -1):
-            best = d[r, c]
-            if r == rows - 1:
-                best = min(best, 1.0)
-            else:
-                best = min(best, d[r + 1, c] + 1.0)
-                if c > 0:
-                    best = min(best, d[r + 1, c - 1] + sq2)
-                if c < cols - 1:
-                    best = min(best, d[r + 1, c + 1] + sq2)
-            if c < cols - 1:
-                best = min(best, d[r, c + 1] + 1.0)
-            d[r, c] = best
-    return d * res
-
-
 def footprint_hits(
     costmap: Costmap, poses: np.ndarray, margin: float, blocked: np.ndarray | None = None
 ) -> np.ndarray:
@@ -829,27 +757,17 @@ def footprint_hits(
     starts, cells = footprint_cells(fp, costmap.resolution, margin)
     p = np.asarray(poses, dtype=float)
     flat = p.reshape(-1, 3)
-    if len(flat) == 0:
-        return np.zeros(p.shape[:-1], dtype=bool)
-    blocked = costmap.lethal if blocked is None else blocked
-    # the cells around the poses, as far as the lists reach: the bounds' field from
-    # these alone (the cells beyond count as blocked, too far off to call a pose hit)
-    res = costmap.resolution
-    reach = int(np.abs(cells[:, :2]).max()) + 2
-    rc = costmap.world_to_cell(flat[:, :2])
-    r0, c0 = np.maximum(rc.min(axis=0) - reach, 0)
-    r1, c1 = np.minimum(rc.max(axis=0) + reach + 1, costmap.shape)
-    r0, c0 = min(r0, r1), min(c0, c1)
-    window = np.ascontiguousarray(blocked[r0:r1, c0:c1])
+    free_dist = fp.circumscribed_radius + margin + 2 * costmap.resolution
     out = _hits(
         flat[:, 0].copy(),
         flat[:, 1].copy(),
         flat[:, 2].copy(),
-        window,
-        clearance(window, res),
-        costmap.origin[0] + c0 * res,
-        costmap.origin[1] + r0 * res,
-        res,
+        costmap.lethal if blocked is None else blocked,
+        costmap.distance,
+        free_dist,
+        costmap.origin[0],
+        costmap.origin[1],
+        costmap.resolution,
         starts,
         cells,
         np.array([0.5 * fp.length + margin, 0.5 * fp.width + margin]),
@@ -858,10 +776,12 @@ def footprint_hits(
 
 
 @numba.njit(cache=True)
-def _hits(xs, ys, ths, blocked, clear, ox, oy, res, starts, cells, half):
+def _hits(xs, ys, ths, blocked, dist, free_dist, ox, oy, res, starts, cells, half):
     out = np.zeros(xs.shape[0], dtype=np.bool_)
     for i in range(xs.shape[0]):
-        out[i] = _collides(xs[i], ys[i], ths[i], blocked, clear, ox, oy, res, starts, cells, half)
+        out[i] = _collides(
+            xs[i], ys[i], ths[i], blocked, dist, free_dist, ox, oy, res, starts, cells, half
+        )
     return out
 
 
